@@ -1,0 +1,1 @@
+"""logcal physics models, simulators, least squares, estimators and discovery (no I/O)."""

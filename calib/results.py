@@ -1,0 +1,237 @@
+"""Result types shared by calib's estimators, the CLI reports and viz.
+
+Every result is a frozen dataclass with ``to_dict()`` (JSON-safe: NaN -> None) and, where it is
+shown to people, ``report()``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any
+
+__all__ = [
+    "AnalysisResult",
+    "CalibrationResult",
+    "CommandType",
+    "Estimate",
+    "MethodResult",
+    "Segment",
+    "json_safe",
+]
+
+
+class CommandType(StrEnum):
+    """Curvature command shapes (patent: H harmonic, C curve/tanh, L linear) plus our own."""
+
+    HARMONIC = "harmonic"
+    CURVE = "curve"
+    LINEAR = "linear"
+    CONSTANT = "constant"
+    STEP = "step"
+    OTHER = "other"
+
+
+def json_safe(value: Any) -> Any:
+    """Recursively convert to JSON-safe builtins: NaN/inf -> None, tuples -> lists, enums -> str."""
+    if isinstance(value, StrEnum):
+        return str(value)
+    if isinstance(value, float | int) and not isinstance(value, bool):
+        f = float(value)
+        if isinstance(value, int):
+            return value
+        return f if math.isfinite(f) else None
+    if hasattr(value, "item") and callable(value.item) and getattr(value, "ndim", 1) == 0:
+        return json_safe(value.item())
+    if hasattr(value, "tolist"):
+        return json_safe(value.tolist())
+    if isinstance(value, Mapping):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    if hasattr(value, "to_dict"):
+        return value.to_dict()
+    return value
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A stretch of the log with one curvature command type.
+
+    Times in seconds from the first sample of the aligned log; ``start_index``/``end_index``
+    are row indices into the aligned frame (end exclusive). ``parameters`` are the fitted
+    template's parameters (e.g. amplitude ``M`` in 1/m, ``omega`` in rad/s).
+    """
+
+    start_s: float
+    end_s: float
+    command_type: CommandType
+    start_index: int = 0
+    end_index: int = 0
+    parameters: Mapping[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe(
+            {
+                "start_s": self.start_s,
+                "end_s": self.end_s,
+                "command_type": str(self.command_type),
+                "start_index": self.start_index,
+                "end_index": self.end_index,
+                "parameters": dict(self.parameters),
+            }
+        )
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """One estimated quantity: value +/- standard error, 95 % interval, identifiability.
+
+    ``identifiable`` is False when the data cannot determine the quantity; ``note`` says why.
+    """
+
+    name: str
+    value: float
+    std: float
+    ci95: tuple[float, float]
+    identifiable: bool = True
+    unit: str = "m"
+    note: str = ""
+
+    def report(self) -> str:
+        lo, hi = self.ci95
+        tag = "" if self.identifiable else "  (not determined by this log)"
+        return (
+            f"{self.name} = {self.value:.4g} +/- {self.std:.2g} {self.unit} "
+            f"[95 %: {lo:.4g}, {hi:.4g}]{tag}"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe(
+            {
+                "name": self.name,
+                "value": self.value,
+                "std": self.std,
+                "ci95": list(self.ci95),
+                "identifiable": self.identifiable,
+                "unit": self.unit,
+                "note": self.note,
+            }
+        )
+
+
+@dataclass(frozen=True)
+class MethodResult:
+    """One least-squares method on one segment type, over repeats.
+
+    ``L1``/``L2`` (m) are means over repeats, ``L1_std``/``L2_std`` their standard deviations
+    (0 for one repeat). ``condition_number`` is NaN where the method has none. ``extra`` holds
+    method-specific numbers (PM slope ``a`` and intercept ``b``, ``mu1``, per-model condition
+    numbers of TLS, each with ``_std``).
+    """
+
+    name: str
+    family: str  # "EMLS" | "PMLS" | "CLS" | "EIV" | "TRANSIENT"
+    segment: str  # "all" or a CommandType value
+    L1: float
+    L2: float
+    L1_std: float
+    L2_std: float
+    condition_number: float
+    condition_number_std: float = math.nan
+    n_repeats: int = 1
+    extra: Mapping[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe(
+            {
+                "name": self.name,
+                "family": self.family,
+                "segment": self.segment,
+                "L1": self.L1,
+                "L2": self.L2,
+                "L1_std": self.L1_std,
+                "L2_std": self.L2_std,
+                "condition_number": self.condition_number,
+                "condition_number_std": self.condition_number_std,
+                "n_repeats": self.n_repeats,
+                "extra": dict(self.extra),
+            }
+        )
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """The recommended link-length estimate with its interval and identifiability verdict.
+
+    ``parameters`` maps "L1" and "L2" to an ``Estimate``; ``sum_L1_L2`` is the sum, usually far
+    better determined than the split. ``verdict`` is a plain-language sentence for people.
+    """
+
+    method: str
+    parameters: Mapping[str, Estimate]
+    sum_L1_L2: Estimate
+    verdict: str
+    covariance: tuple[tuple[float, float], tuple[float, float]] | None = None
+    converged: bool = True
+    aic: float = math.nan
+    bic: float = math.nan
+    details: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def identifiable(self) -> bool:
+        return all(e.identifiable for e in self.parameters.values())
+
+    def report(self) -> str:
+        lines = [f"Recommended estimate ({self.method}):"]
+        lines += ["  " + e.report() for e in self.parameters.values()]
+        lines.append("  " + self.sum_L1_L2.report())
+        lines.append("  " + self.verdict)
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {name: est.to_dict() for name, est in self.parameters.items()}
+        d["sum_L1_L2"] = self.sum_L1_L2.to_dict()
+        d["method"] = self.method
+        d["verdict"] = self.verdict
+        d["identifiable"] = self.identifiable
+        d["covariance"] = self.covariance
+        d["converged"] = self.converged
+        d["aic"] = self.aic
+        d["bic"] = self.bic
+        d["details"] = dict(self.details)
+        return json_safe(d)
+
+
+@dataclass(frozen=True)
+class AnalysisResult:
+    """Everything ``logcal analyze`` found in one log; ``to_dict()`` is the ``--json`` document.
+
+    ``discovery`` is the model-mismatch result (any object with ``to_dict()``), ``truth`` the
+    true parameters when the log carries them (simulated logs), ``source`` facts about the file.
+    """
+
+    robot: str
+    segments: list[Segment]
+    methods: list[MethodResult]
+    estimate: CalibrationResult | None
+    discovery: Any = None
+    truth: Mapping[str, float] = field(default_factory=dict)
+    source: Mapping[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe(
+            {
+                "robot": self.robot,
+                "source": dict(self.source),
+                "segments": [s.to_dict() for s in self.segments],
+                "methods": [m.to_dict() for m in self.methods],
+                "estimate": None if self.estimate is None else self.estimate.to_dict(),
+                "discovery": None if self.discovery is None else self.discovery.to_dict(),
+                "truth": dict(self.truth),
+                "warnings": list(self.warnings),
+            }
+        )

@@ -1,0 +1,1 @@
+"""logcal ingest, alignment, segmentation, CLI and reports: reads logs and orchestrates."""

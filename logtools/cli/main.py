@@ -1,0 +1,74 @@
+"""The ``logcal`` command line: one small module per command, errors turned into exit code 2."""
+
+from __future__ import annotations
+
+import sys
+import traceback
+from collections.abc import Sequence
+
+import typer
+
+from calib.errors import CalibError
+from logtools.errors import LogcalError
+
+__all__ = ["app", "main", "run"]
+
+app = typer.Typer(
+    name="logcal",
+    help="Calibrate robot parameters from drive logs (MCAP, CSV) and explain model mismatch.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+_state = {"debug": False}
+
+
+@app.callback()
+def _root(
+    debug: bool = typer.Option(False, "--debug", help="Show the full traceback of errors."),
+) -> None:
+    _state["debug"] = debug
+
+
+def _register() -> None:
+    from logtools.cli import analyze, info, reproduce, simulate, view
+
+    for module in (info, simulate, analyze, reproduce, view):
+        module.register(app)
+
+
+_register()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI in-process with ``argv`` (without the program name); return the exit code."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    _state["debug"] = "--debug" in args
+    try:
+        app(args=args, prog_name="logcal", standalone_mode=False)
+    except (LogcalError, CalibError) as err:
+        if _state["debug"]:
+            traceback.print_exc()
+        print(f"logcal: error: {err}", file=sys.stderr)
+        return 2
+    except typer.Exit as ex:
+        return int(ex.exit_code or 0)
+    except SystemExit as ex:  # click's own exits (usage errors give 2)
+        return int(ex.code or 0) if isinstance(ex.code, int) else 1
+    except Exception as ex:  # click usage errors arrive as ClickException subclasses
+        import click
+
+        if isinstance(ex, click.ClickException):
+            ex.show()
+            return ex.exit_code
+        if isinstance(ex, click.exceptions.Abort):
+            print("Aborted.", file=sys.stderr)
+            return 1
+        raise
+    return 0
+
+
+def run() -> None:
+    """Console-script entry point."""
+    raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""logcal visualisation: rerun recordings, blueprints and static report plots."""
