@@ -5,9 +5,11 @@ from __future__ import annotations
 __all__ = [
     "ChannelMapError",
     "LogFileNotFoundError",
+    "LogWriteError",
     "LogcalError",
     "LogcalInputError",
     "MissingSignalsError",
+    "NoDriveSignalsError",
     "NotAnMcapError",
     "SignalValueError",
     "TimestampError",
@@ -68,3 +70,23 @@ class TimestampError(LogcalInputError):
 
 class ChannelMapError(LogcalInputError):
     """A channel-map TOML that is malformed or names a topic/field the log does not have."""
+
+
+class NoDriveSignalsError(MissingSignalsError):
+    """A log with none of the drive signals from which logcal tells the robot type."""
+
+    def __init__(self, path: str, available: list[str]) -> None:
+        have = ", ".join(available) if available else "(none)"
+        LogcalInputError.__init__(
+            self,
+            f"{path}: no drive signals found, so the robot type is unknown. Expected a 'logcal' "
+            "metadata record or one of: psi (/hitch/angle, tractor_trailer), wheel_left and "
+            "wheel_right (/wheels, diff_drive), q (/joint_states, manipulator_2link). "
+            f"Topics in the log: {have}. Map yours with --channel-map FILE.toml.",
+        )
+        self.path, self.available = path, available
+        self.missing = ["psi", "wheel_left", "wheel_right", "q"]
+
+
+class LogWriteError(LogcalInputError):
+    """A log that cannot be written: unwritable path, or frames lacking a field to write."""

@@ -1,1 +1,20 @@
+"""Reproductions of published results: the patent's Figs. 8–13 (``reproduce_patent``)."""
 
+from calib.reproduce.patent import (
+    FigureCell,
+    FigureTable,
+    PatentReproduction,
+    SplitRow,
+    reproduce_patent,
+)
+from calib.reproduce.scenario import PATENT_SCENARIO, PatentScenario
+
+__all__ = [
+    "PATENT_SCENARIO",
+    "FigureCell",
+    "FigureTable",
+    "PatentReproduction",
+    "PatentScenario",
+    "SplitRow",
+    "reproduce_patent",
+]

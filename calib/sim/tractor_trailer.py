@@ -4,7 +4,8 @@ Physics: the commanded curvature passes through the actuator (optional dead time
 lag, understeer), C1 moves at speed v along that curvature, and the joint angle follows the
 transient off-axle kinematics d psi/dt = v kappa - (v sin psi - L1 v kappa cos psi)/L2
 (or, with ``hitch_model="steady"``, the patent's steady-state relation). Sensors sample the
-truth per group at their own rates, with Gaussian noise, optional bias/scale and clock offsets.
+truth per group at their own rates, with Gaussian noise, optional bias/scale, clock offsets
+and timestamp jitter.
 
 Sensor groups and the logical signals they carry (see LOG_FORMAT.md):
 ``cmd`` (kappa_cmd, v_cmd), ``odom`` (v, omega), ``pose`` (x, y, yaw), ``hitch`` (psi).
@@ -12,14 +13,16 @@ Sensor groups and the logical signals they carry (see LOG_FORMAT.md):
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 import polars as pl
+from scipy.signal import lfilter
 
-from calib.models.tractor_trailer import psi_rate, steady_state_psi
+from calib.models.tractor_trailer import steady_state_psi
 from calib.results import Segment
 from calib.sim.commands import CommandSequence
 
@@ -114,6 +117,9 @@ class TractorTrailerSim:
         rate_hz: integration and base sampling rate (Hz).
         rates_hz: per sensor group sampling rate (Hz); must divide ``rate_hz``.
         start_time_ns: absolute time of t = 0 (ns since the Unix epoch).
+        timestamp_jitter_s: standard deviation of white Gaussian jitter on each sample's
+            timestamp (s), clipped to +/- 0.45 of the group's sample period; the value stays
+            the one at the nominal time (the sensor stamps late or early). 0: none.
     """
 
     L1: float = 1.25
@@ -128,6 +134,7 @@ class TractorTrailerSim:
         default_factory=lambda: {"cmd": 100.0, "odom": 100.0, "pose": 50.0, "hitch": 100.0}
     )
     start_time_ns: int = 1_750_000_000_000_000_000
+    timestamp_jitter_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -136,7 +143,8 @@ class SimulatedRun:
 
     ``frames[group]`` has ``t_ns`` (int64, as the sensor stamped it) and the group's signals.
     ``truth`` has ``t_ns`` and kappa_cmd, kappa (actual), v, omega, x, y, yaw, psi at the base
-    rate. ``params`` holds the true parameters (L1, L2 and every injected effect).
+    rate. ``params`` holds the true parameters (L1, L2 and every injected effect). ``seed`` is
+    the noise seed.
     """
 
     frames: Mapping[str, pl.DataFrame]
@@ -144,59 +152,106 @@ class SimulatedRun:
     params: Mapping[str, float]
     segments: list[Segment]
     config: TractorTrailerSim
+    seed: int = 0
 
 
-def _actual_kappa_cmd(cfg: TractorTrailerSim, t: np.ndarray) -> np.ndarray:
-    """Command as the actuator sees it after the dead time (1/m)."""
-    return cfg.commands(t - cfg.effects.actuator_delay_s)
+def _first_order_lag(u_half: np.ndarray, dt: float, tau_s: float) -> np.ndarray:
+    """Response of tau y' = u - y, starting at rest at ``u[0]``, to ``u`` given on the half-step
+    grid (length 2 n - 1): solved exactly for the quadratic through each step's three samples."""
+    u0, uh, u1 = u_half[:-2:2], u_half[1:-1:2], u_half[2::2]
+    c2 = 2.0 * (u0 - 2.0 * uh + u1) / (dt * dt)
+    c1 = (u1 - u0) / dt - c2 * dt
+
+    def particular(s: float) -> np.ndarray:
+        return u0 + c1 * (s - tau_s) + c2 * (s * s - 2.0 * tau_s * s + 2.0 * tau_s * tau_s)
+
+    a, a_half = math.exp(-dt / tau_s), math.exp(-dt / (2.0 * tau_s))
+    p0 = particular(0.0)
+    y0 = float(u_half[0])
+    y_next = lfilter([1.0], [1.0, -a], particular(dt) - a * p0, zi=[a * y0])[0]
+    y_full = np.concatenate([[y0], y_next])
+    out = np.empty_like(u_half)
+    out[::2] = y_full
+    out[1::2] = particular(dt / 2.0) + a_half * (y_full[:-1] - p0)
+    return out
+
+
+def _psi_rk4(v: list[float], k: list[float], dt: float, L1: float, L2: float) -> np.ndarray:
+    """RK4 of d psi/dt = v (k (1 + L1/L2 cos psi) - sin(psi)/L2) from psi = 0.
+
+    ``v`` and ``k`` are given on the half-step grid (length 2 n - 1); returns psi at the n full
+    steps. Scalar math in the loop: the only state-dependent part of the dynamics.
+    """
+    n = (len(v) + 1) // 2
+    r, i_l2 = L1 / L2, 1.0 / L2
+    h, h6 = dt / 2.0, dt / 6.0
+    cos, sin = math.cos, math.sin
+    out = [0.0] * n
+    p = 0.0
+    for i in range(n - 1):
+        j = 2 * i
+        v0, vh, v1 = v[j], v[j + 1], v[j + 2]
+        k0, kh, k1 = k[j], k[j + 1], k[j + 2]
+        a1 = v0 * (k0 * (1.0 + r * cos(p)) - sin(p) * i_l2)
+        q = p + h * a1
+        a2 = vh * (kh * (1.0 + r * cos(q)) - sin(q) * i_l2)
+        q = p + h * a2
+        a3 = vh * (kh * (1.0 + r * cos(q)) - sin(q) * i_l2)
+        q = p + dt * a3
+        a4 = v1 * (k1 * (1.0 + r * cos(q)) - sin(q) * i_l2)
+        p = p + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        out[i + 1] = p
+    return np.asarray(out)
+
+
+def _simpson_steps(f_half: np.ndarray, dt: float) -> np.ndarray:
+    """Cumulative integral at the full steps of ``f`` given on the half-step grid (Simpson)."""
+    inc = dt / 6.0 * (f_half[:-2:2] + 4.0 * f_half[1:-1:2] + f_half[2::2])
+    return np.concatenate([[0.0], np.cumsum(inc)])
+
+
+def _yaw_half_grid(omega_half: np.ndarray, dt: float) -> np.ndarray:
+    """Heading (rad) on the half-step grid from the yaw rate there: Simpson at the full steps,
+    the quadratic through each step's three points for the midpoints."""
+    yaw = np.empty_like(omega_half)
+    yaw[::2] = _simpson_steps(omega_half, dt)
+    w0, wh, w1 = omega_half[:-2:2], omega_half[1:-1:2], omega_half[2::2]
+    yaw[1::2] = yaw[:-2:2] + dt / 24.0 * (5.0 * w0 + 8.0 * wh - w1)
+    return yaw
 
 
 def _integrate(cfg: TractorTrailerSim, t: np.ndarray) -> dict[str, np.ndarray]:
-    """RK4 on the state [x, y, yaw, psi, kappa_lagged] at the base rate."""
+    """Integrate the kinematics at the base rate (state at t = 0: origin, heading 0, psi = 0).
+
+    Command and speed are evaluated vectorised on the half-step grid; the lag is solved exactly
+    for the input's quadratic interpolant, yaw by cumulative Simpson (4th order), x and y by
+    Simpson over v cos(yaw), v sin(yaw), and psi by scalar RK4: the accuracy of RK4 on the full
+    state.
+    """
     eff = cfg.effects
-    tau = eff.actuator_lag_s
     dt = 1.0 / cfg.rate_hz
-
-    def kappa_of(t_s: float, k_lag: float) -> tuple[float, float]:
-        k_in = float(_actual_kappa_cmd(cfg, np.array([t_s]))[0])
-        v = float(cfg.speed(np.array([t_s]))[0])
-        k_act = k_lag if tau > 0 else k_in
-        return k_act / (1.0 + eff.understeer_K * v * v), v
-
-    def rhs(t_s: float, s: np.ndarray) -> np.ndarray:
-        k, v = kappa_of(t_s, s[4])
-        k_in = float(_actual_kappa_cmd(cfg, np.array([t_s]))[0])
-        dk = (k_in - s[4]) / tau if tau > 0 else 0.0
-        dpsi = 0.0 if cfg.hitch_model == "steady" else float(psi_rate(v, k, s[3], cfg.L1, cfg.L2))
-        return np.array([v * np.cos(s[2]), v * np.sin(s[2]), v * k, dpsi, dk])
-
     n = t.size
-    out = np.zeros((n, 5))
-    s = np.zeros(5)
-    s[4] = float(_actual_kappa_cmd(cfg, t[:1])[0])
-    for i in range(n):
-        out[i] = s
-        if i == n - 1:
-            break
-        ti = t[i]
-        k1 = rhs(ti, s)
-        k2 = rhs(ti + dt / 2, s + dt / 2 * k1)
-        k3 = rhs(ti + dt / 2, s + dt / 2 * k2)
-        k4 = rhs(ti + dt, s + dt * k3)
-        s = s + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    kappa = np.empty(n)
-    v = cfg.speed(t)
-    for i in range(n):
-        kappa[i] = kappa_of(t[i], out[i, 4])[0]
-    psi = steady_state_psi(kappa, cfg.L1, cfg.L2) if cfg.hitch_model == "steady" else out[:, 3]
+    th = np.arange(2 * n - 1) * (dt / 2.0)
+    k_in = cfg.commands(th - eff.actuator_delay_s)
+    v = cfg.speed(th)
+    k_act = _first_order_lag(k_in, dt, eff.actuator_lag_s) if eff.actuator_lag_s > 0 else k_in
+    kappa = k_act / (1.0 + eff.understeer_K * v * v)
+    omega = v * kappa
+    yaw_h = _yaw_half_grid(omega, dt)
+    x = _simpson_steps(v * np.cos(yaw_h), dt)
+    y = _simpson_steps(v * np.sin(yaw_h), dt)
+    if cfg.hitch_model == "steady":
+        psi = steady_state_psi(kappa[::2], cfg.L1, cfg.L2)
+    else:
+        psi = _psi_rk4(v.tolist(), kappa.tolist(), dt, cfg.L1, cfg.L2)
     return {
         "kappa_cmd": cfg.commands(t),
-        "kappa": kappa,
-        "v": v,
-        "omega": v * kappa,
-        "x": out[:, 0],
-        "y": out[:, 1],
-        "yaw": out[:, 2],
+        "kappa": kappa[::2],
+        "v": v[::2],
+        "omega": omega[::2],
+        "x": x,
+        "y": y,
+        "yaw": yaw_h[::2],
         "psi": psi,
     }
 
@@ -225,6 +280,8 @@ def simulate_tractor_trailer(cfg: TractorTrailerSim, seed: int = 0) -> Simulated
             sd = cfg.noise.std.get(name, 0.0)
             cols[name] = val + (rng.normal(0.0, sd, idx.size) if sd > 0 else 0.0)
         frames[group] = pl.DataFrame(cols)
+    if cfg.timestamp_jitter_s > 0:
+        frames = {g: _jitter(f, cfg, g, rng) for g, f in frames.items()}
     params: dict[str, float] = {"L1": cfg.L1, "L2": cfg.L2}
     if eff.actuator_delay_s:
         params["actuator_delay_s"] = eff.actuator_delay_s
@@ -236,4 +293,14 @@ def simulate_tractor_trailer(cfg: TractorTrailerSim, seed: int = 0) -> Simulated
     params.update({f"sensor_scale.{k}": v for k, v in eff.sensor_scale.items()})
     params.update({f"clock_offset_s.{k}": v for k, v in eff.clock_offset_s.items()})
     truth_df = pl.DataFrame({"t_ns": t_ns, **dict(truth.items())})
-    return SimulatedRun(frames, truth_df, params, cfg.commands.segments(), cfg)
+    return SimulatedRun(frames, truth_df, params, cfg.commands.segments(), cfg, seed)
+
+
+def _jitter(
+    frame: pl.DataFrame, cfg: TractorTrailerSim, group: str, rng: np.random.Generator
+) -> pl.DataFrame:
+    """``frame`` with Gaussian jitter on ``t_ns`` (clipped so the order is kept)."""
+    period_s = 1.0 / cfg.rates_hz.get(group, cfg.rate_hz)
+    lim = 0.45 * period_s
+    jit = np.clip(rng.normal(0.0, cfg.timestamp_jitter_s, frame.height), -lim, lim)
+    return frame.with_columns(pl.col("t_ns") + pl.Series(np.round(jit * 1e9).astype(np.int64)))

@@ -1,6 +1,9 @@
-"""`logcal info`: placeholder until its issue lands."""
+"""`logcal info LOG [--json]`: topics, types, counts, rates, time span, signals found, robot."""
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import typer
 
@@ -11,6 +14,20 @@ def register(app: typer.Typer) -> None:
     """Add the `info` command to ``app``."""
 
     @app.command("info")
-    def _cmd() -> None:
-        """Not yet available."""
-        raise typer.Exit(code=1)
+    def _cmd(
+        log: Path = typer.Argument(..., help="MCAP or CSV drive log."),
+        as_json: bool = typer.Option(False, "--json", help="Print a JSON document instead."),
+        channel_map: Path | None = typer.Option(
+            None, "--channel-map", help="TOML mapping topics/fields to logical signals."
+        ),
+    ) -> None:
+        """Show what a log holds: topics, types, counts, rates, signals found, robot, problems."""
+        from logtools.channel_map import load_channel_map
+        from logtools.loginfo import summarize_log
+
+        mapping = load_channel_map(channel_map) if channel_map is not None else None
+        summary = summarize_log(log, mapping)
+        if as_json:
+            typer.echo(json.dumps(summary.to_dict(), indent=2))
+        else:
+            typer.echo(summary.report())

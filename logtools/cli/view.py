@@ -1,6 +1,8 @@
-"""`logcal view`: placeholder until its issue lands."""
+"""``logcal view LOG``: analyse LOG, save a rerun recording and open the viewer if one can start."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import typer
 
@@ -8,9 +10,40 @@ __all__ = ["register"]
 
 
 def register(app: typer.Typer) -> None:
-    """Add the `view` command to ``app``."""
+    """Add the ``view`` command to ``app``."""
 
     @app.command("view")
-    def _cmd() -> None:
-        """Not yet available."""
-        raise typer.Exit(code=1)
+    def view(
+        log: Path = typer.Argument(..., help="Drive log: MCAP (.mcap) or CSV (.csv)."),
+        rrd: Path | None = typer.Option(
+            None, "--rrd", help="Where to save the recording (default: LOG with suffix .rrd)."
+        ),
+        method: str | None = typer.Option(
+            None, "--method", help="Also show psi predicted by this method (e.g. EMLS/EM1)."
+        ),
+        no_viewer: bool = typer.Option(False, "--no-viewer", help="Only save the recording."),
+        repeats: int = typer.Option(10, "--repeats", min=1, help="Bootstrap repeats per method."),
+        channel_map: Path | None = typer.Option(
+            None, "--channel-map", help="TOML mapping topics/fields to logical signals."
+        ),
+    ) -> None:
+        """Show LOG in the rerun viewer (or save the .rrd and say where when none can start)."""
+        from logtools.analyze import AnalysisConfig, analyze_log
+        from logtools.channel_map import load_channel_map
+        from logtools.errors import LogcalInputError
+        from viz.recording import write_recording
+        from viz.viewer import open_viewer
+
+        cmap = load_channel_map(channel_map) if channel_map else None
+        loaded, result = analyze_log(log, channel_map=cmap, config=AnalysisConfig(repeats=repeats))
+        try:
+            out = write_recording(
+                rrd or log.with_suffix(".rrd"), loaded.frame, result, method_for_psi=method
+            )
+        except KeyError as err:
+            raise LogcalInputError(f"--method {method!r}: {err.args[0]}") from err
+        proc = None if no_viewer else open_viewer(out)
+        if proc is None:
+            typer.echo(f"rerun recording saved: {out} (open it with: rerun {out})")
+        else:
+            typer.echo(f"rerun recording saved: {out}; viewer started (pid {proc.pid})")

@@ -1,1 +1,80 @@
+"""Read drive logs (MCAP or CSV) into per-topic polars frames.
 
+``read_log(path)`` picks the reader from the file's first bytes: MCAP (magic ``0x89 MCAP0``) or
+CSV. Every frame has the int64 nanosecond time column ``t_ns`` (MCAP ``log_time``) and the message
+fields flattened by path (``twist.twist.linear.x``; arrays as ``position.0``). Damage is repaired
+where possible and described in ``LogData.problems``; input that cannot be read at all raises a
+:class:`logtools.errors.LogcalInputError`.
+"""
+
+from __future__ import annotations
+
+import mmap
+import os
+from collections.abc import Iterable
+from pathlib import Path
+
+from logtools.errors import LogFileNotFoundError, NotAnMcapError
+from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
+from logtools.readers.csv_reader import CSV_TOPIC, read_csv
+from logtools.readers.decoders import known_encodings, register_decoder
+from logtools.readers.mcap_reader import read_mcap
+from logtools.readers.mcap_scan import MAGIC
+
+__all__ = [
+    "CSV_TOPIC",
+    "TIME_COLUMN",
+    "LogData",
+    "TopicInfo",
+    "known_encodings",
+    "read_log",
+    "register_decoder",
+]
+
+
+def read_log(path: str | os.PathLike[str], *, topics: Iterable[str] | None = None) -> LogData:
+    """Read an MCAP or CSV drive log.
+
+    Args:
+        path: the log file.
+        topics: MCAP only: decode just these topics (``info`` still lists all); None: all.
+
+    Returns:
+        The log's frames, topic summaries, metadata records and the problems repaired.
+
+    Raises:
+        LogFileNotFoundError: ``path`` does not exist.
+        NotAnMcapError: the file is neither a readable MCAP nor a CSV log.
+        UnknownEncodingError: no topic is in an encoding logcal can decode.
+    """
+    name = os.fspath(path)
+    p = Path(name)
+    if not p.exists():
+        raise LogFileNotFoundError(name)
+    if p.is_dir():
+        raise NotAnMcapError(name, "it is a directory")
+    try:
+        with p.open("rb") as fh:
+            head = fh.read(len(MAGIC))
+            if head == MAGIC:  # mapped, not read: the scan touches each byte about once
+                with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mapped:
+                    return read_mcap(name, mapped, topics)
+            buf = head + fh.read()
+    except OSError as err:
+        raise NotAnMcapError(name, f"cannot read it: {err.strerror or err}") from err
+    if not buf:
+        raise NotAnMcapError(name, "the file is empty")
+    if MAGIC.startswith(buf):
+        raise NotAnMcapError(name, f"only {len(buf)} bytes of an MCAP header: truncated")
+    if p.suffix.lower() == ".csv" or _looks_like_csv(buf):
+        return read_csv(name, buf)
+    raise NotAnMcapError(name, f"it starts with the bytes {buf[:8]!r}")
+
+
+def _looks_like_csv(buf: bytes) -> bool:
+    head = buf[:4096].split(b"\n", 1)[0]
+    try:
+        text = head.decode("utf-8").strip()
+    except UnicodeDecodeError:
+        return False
+    return "," in text and "t" in [c.strip().strip('"') for c in text.split(",")]

@@ -1,0 +1,138 @@
+"""The interface every physical effect of the discovery catalogue implements.
+
+An effect is a model extension: it owns a few parameters (with units, bounds and the value at
+which it does nothing) and changes the model at one stage: the inputs (commanded curvature and
+speed as the vehicle feels them), the hitch dynamics (relaxation length) or the outputs (what
+the sensors record).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.interpolate import CubicSpline
+
+__all__ = ["Effect", "FloatArray", "ParamSpec", "hold_interp", "jump_intervals", "shift"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One effect parameter.
+
+    Args:
+        name: parameter name (unique within the effect).
+        unit: unit string for reports.
+        init: starting value of the fit.
+        lower, upper: bounds of the fit.
+        null: value at which the effect does nothing (tested against for significance).
+        starts: extra starting values tried (for parameters with several local minima).
+        time_shift: the parameter shifts a signal in time; its interval then includes the
+            sampling resolution (a jump is only known to lie within one sample period).
+    """
+
+    name: str
+    unit: str
+    init: float
+    lower: float
+    upper: float
+    null: float
+    starts: tuple[float, ...] = ()
+    time_shift: bool = False
+
+
+class Effect:
+    """Base class: one physical effect as a model extension (defaults change nothing).
+
+    Subclasses set ``id``, ``stage`` (0 inputs, 1 hitch dynamics, 2 outputs), ``order`` within
+    the stage, ``params`` and ``channels`` (the modelled outputs it changes), and override the
+    hooks they need.
+    """
+
+    id: str = ""
+    stage: int = 0
+    order: int = 0
+
+    def __init__(self, target: str | None = None) -> None:
+        self.target = target
+
+    @property
+    def key(self) -> str:
+        """Unique name of this catalogue entry, e.g. ``sensor_offset(psi)``."""
+        return self.id if self.target is None else f"{self.id}({self.target})"
+
+    @property
+    def params(self) -> tuple[ParamSpec, ...]:
+        raise NotImplementedError
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        """Modelled outputs ("omega", "psi") this effect changes."""
+        raise NotImplementedError
+
+    def explanation(self, values: Mapping[str, float]) -> str:
+        """Plain-language account of the effect with its fitted ``values``."""
+        raise NotImplementedError
+
+    def modify_inputs(
+        self, t_s: FloatArray, kappa: FloatArray, v: FloatArray, p: Mapping[str, float]
+    ) -> tuple[FloatArray, FloatArray]:
+        """Curvature (1/m) and speed (m/s) as the vehicle feels them, on the full-rate grid."""
+        return kappa, v
+
+    def input_delay(self, p: Mapping[str, float]) -> float:
+        """Dead time (s) between the recorded command and the curvature it produces."""
+        return 0.0
+
+    def relaxation_length(self, p: Mapping[str, float]) -> float | None:
+        """Relaxation length (m) of the joint angle, or None to leave the baseline's."""
+        return None
+
+    def modify_output(
+        self, name: str, t_s: FloatArray, y: FloatArray, p: Mapping[str, float]
+    ) -> FloatArray:
+        """What the sensor of output ``name`` records, given the modelled truth ``y``."""
+        return y
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.key})"
+
+
+def jump_intervals(y: FloatArray, factor: float = 5.0) -> NDArray[np.bool_]:
+    """Flags per interval (length n - 1): True where y jumps, i.e. its change exceeds
+    ``factor`` times the larger change of the two neighbouring intervals (and 1e-9)."""
+    d = np.abs(np.diff(y))
+    if d.size == 0:
+        return np.zeros(0, dtype=bool)
+    pad = np.concatenate([[0.0], d, [0.0]])
+    neighbours = np.maximum(pad[:-2], pad[2:])
+    return (d > factor * neighbours) & (d > 1e-9)
+
+
+def hold_interp(t_s: FloatArray, y: FloatArray, tq: FloatArray) -> FloatArray:
+    """Interpolate ``y`` at ``tq``: linear, but held (zero-order) across jumps so that a step
+    stays a step at the later sample instead of a one-sample ramp; held at the ends."""
+    tq = np.clip(tq, t_s[0], t_s[-1])
+    i = np.clip(np.searchsorted(t_s, tq, side="right") - 1, 0, t_s.size - 2)
+    dt = t_s[i + 1] - t_s[i]
+    frac = np.where(dt > 0, (tq - t_s[i]) / np.where(dt > 0, dt, 1.0), 0.0)
+    dy = y[i + 1] - y[i]
+    jumps = jump_intervals(y)
+    out = y[i] + np.where(jumps[i], 0.0, frac) * dy
+    return np.where(tq >= t_s[-1], y[-1], out)
+
+
+def shift(t_s: FloatArray, y: FloatArray, delay_s: float, *, smooth: bool = False) -> FloatArray:
+    """``y`` delayed by ``delay_s`` seconds: y(t - delay), held at the ends.
+
+    ``hold_interp`` (linear, steps kept as steps), or with ``smooth`` a cubic spline (smooth in
+    ``delay_s``, for coarse grids where a fitted shift must not stick to the sample times).
+    """
+    if not smooth:
+        return hold_interp(t_s, y, t_s - delay_s)
+    tq = np.clip(t_s - delay_s, t_s[0], t_s[-1])
+    return np.asarray(CubicSpline(t_s, y)(tq), dtype=float)

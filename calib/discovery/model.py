@@ -1,0 +1,201 @@
+"""The tractor-trailer model run on recorded inputs, with a baseline and optional effects.
+
+Outputs: yaw rate omega = v kappa_actual and the joint angle psi (steady-state relation of the
+patent, or the transient off-axle kinematics d psi/ds = [kappa (L2 + L1 cos psi) - sin psi] /
+lambda, lambda = L2 unless an effect sets it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from calib.discovery.data import DiscoveryData, block_mean
+from calib.discovery.effects import Effect, ParamSpec
+
+__all__ = [
+    "BASE_PARAMS",
+    "ModelSpec",
+    "integrate_hitch",
+    "integrate_hitch_half",
+    "predict",
+    "steady_psi",
+]
+
+FloatArray = NDArray[np.float64]
+
+BASE_PARAMS: tuple[ParamSpec, ...] = (
+    ParamSpec("L1", "m", 1.0, 0.02, 20.0, math.nan),
+    ParamSpec("L2", "m", 2.0, 0.05, 30.0, math.nan),
+)
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A baseline ("steady" or "transient" hitch) plus a tuple of effects."""
+
+    baseline: Literal["steady", "transient"]
+    effects: tuple[Effect, ...] = ()
+
+    @property
+    def param_names(self) -> list[str]:
+        """Flat names: "L1", "L2", then "<effect key>.<param>"."""
+        return [p.name for p in BASE_PARAMS] + [
+            f"{e.key}.{p.name}" for e in self.effects for p in e.params
+        ]
+
+    @property
+    def param_specs(self) -> list[ParamSpec]:
+        return list(BASE_PARAMS) + [p for e in self.effects for p in e.params]
+
+    def with_effect(self, effect: Effect) -> ModelSpec:
+        return ModelSpec(self.baseline, (*self.effects, effect))
+
+    def split(self, theta: Sequence[float]) -> tuple[float, float, list[dict[str, float]]]:
+        """(L1, L2, per-effect parameter dicts) from a flat vector."""
+        L1, L2 = float(theta[0]), float(theta[1])
+        out, i = [], 2
+        for e in self.effects:
+            d = {}
+            for p in e.params:
+                d[p.name] = float(theta[i])
+                i += 1
+            out.append(d)
+        return L1, L2, out
+
+
+def steady_psi(kappa: FloatArray, L1: float, L2: float) -> FloatArray:
+    """Steady-state joint angle (rad); the asin argument is clipped so the result stays finite."""
+    r = np.sqrt(1.0 + (kappa * L1) ** 2)
+    return np.arctan(kappa * L1) + np.arcsin(np.clip(kappa * L2 / r, -1.0, 1.0))
+
+
+def integrate_hitch(
+    t_s: FloatArray,
+    kappa: FloatArray,
+    v: FloatArray,
+    L1: float,
+    L2: float,
+    lam: float,
+    psi0: float | None = None,
+) -> FloatArray:
+    """RK4 of d psi/dt = v [kappa (L2 + L1 cos psi) - sin psi] / lam from ``psi0`` (rad;
+    default the steady state of the first curvature). Inputs are linear between samples.
+    Units: s, 1/m, m/s, m; returns psi (rad).
+    """
+    n = t_s.size
+    tl, kl, vl = t_s.tolist(), kappa.tolist(), v.tolist()
+    sin, cos = math.sin, math.cos
+    p = float(steady_psi(np.array([kl[0]]), L1, L2)[0]) if psi0 is None else psi0
+    out = [0.0] * n
+    out[0] = p
+    inv = 1.0 / lam
+    for i in range(n - 1):
+        h = tl[i + 1] - tl[i]
+        k0, k1, v0, v1 = kl[i], kl[i + 1], vl[i], vl[i + 1]
+        km, vm = 0.5 * (k0 + k1), 0.5 * (v0 + v1)
+        f1 = v0 * (k0 * (L2 + L1 * cos(p)) - sin(p)) * inv
+        q = p + 0.5 * h * f1
+        f2 = vm * (km * (L2 + L1 * cos(q)) - sin(q)) * inv
+        q = p + 0.5 * h * f2
+        f3 = vm * (km * (L2 + L1 * cos(q)) - sin(q)) * inv
+        q = p + h * f3
+        f4 = v1 * (k1 * (L2 + L1 * cos(q)) - sin(q)) * inv
+        p = p + h / 6.0 * (f1 + 2.0 * f2 + 2.0 * f3 + f4)
+        out[i + 1] = p
+    return np.asarray(out)
+
+
+def integrate_hitch_half(
+    th_s: FloatArray,
+    kappa_h: FloatArray,
+    v_h: FloatArray,
+    L1: float,
+    L2: float,
+    lam: float,
+    psi0: float | None = None,
+) -> FloatArray:
+    """RK4 as ``integrate_hitch`` on a half-step grid (samples at even, midpoints at odd
+    indices); returns psi (rad) at the samples."""
+    tl, kl, vl = th_s.tolist(), kappa_h.tolist(), v_h.tolist()
+    sin, cos = math.sin, math.cos
+    p = float(steady_psi(np.array([kl[0]]), L1, L2)[0]) if psi0 is None else psi0
+    n = (len(tl) + 1) // 2
+    out = [0.0] * n
+    out[0] = p
+    inv = 1.0 / lam
+    for i in range(n - 1):
+        j = 2 * i
+        h = tl[j + 2] - tl[j]
+        k0, km, k1 = kl[j], kl[j + 1], kl[j + 2]
+        v0, vm, v1 = vl[j], vl[j + 1], vl[j + 2]
+        f1 = v0 * (k0 * (L2 + L1 * cos(p)) - sin(p)) * inv
+        q = p + 0.5 * h * f1
+        f2 = vm * (km * (L2 + L1 * cos(q)) - sin(q)) * inv
+        q = p + 0.5 * h * f2
+        f3 = vm * (km * (L2 + L1 * cos(q)) - sin(q)) * inv
+        q = p + h * f3
+        f4 = v1 * (k1 * (L2 + L1 * cos(q)) - sin(q)) * inv
+        p = p + h / 6.0 * (f1 + 2.0 * f2 + 2.0 * f3 + f4)
+        out[i + 1] = p
+    return np.asarray(out)
+
+
+def predict(
+    spec: ModelSpec,
+    theta: Sequence[float],
+    data: DiscoveryData,
+    *,
+    full_rate: bool = False,
+    fine: bool = False,
+) -> dict[str, FloatArray]:
+    """Modelled recordings of each output on the fitting grid (or with ``full_rate`` the
+    aligned grid). ``fine`` computes on the aligned grid and block-averages to the fitting
+    grid: slower (the hitch ODE runs at the full rate), free of the coarse grid's
+    discretisation error; used for the final fit and its intervals."""
+    if fine and not full_rate:
+        full = predict(spec, theta, data, full_rate=True)
+        return {c: block_mean(y, data.m) for c, y in full.items()}
+    L1, L2, eff_params = spec.split(theta)
+    pairs = list(zip(spec.effects, eff_params, strict=True))
+    delay = sum(e.input_delay(p) for e, p in pairs)
+    kh = data.command.at(data.th_s - delay) if delay else data.kappa_h
+    vh = data.v_h
+    # clock offsets of a sensor group move its inputs back onto the true clock first
+    for e, p in (x for x in pairs if x[0].stage == 2):
+        kh, vh = e.modify_inputs(data.th_s, kh, vh, p)
+    for e, p in sorted((x for x in pairs if x[0].stage == 0), key=lambda x: x[0].order):
+        kh, vh = e.modify_inputs(data.th_s, kh, vh, p)
+    kappa, v = kh[0::2], vh[0::2]
+    m = 1 if full_rate else data.m
+    stage2 = [x for x in pairs if x[0].stage == 2]
+    t = data.t_s if full_rate else data.tc_s
+    out: dict[str, FloatArray] = {}
+    if "omega" in data.outputs:
+        # the yaw rate is modelled at the full rate (it follows command jumps), its sensor
+        # effects applied there, then averaged onto the output grid
+        om = v * kappa
+        for e, p in sorted(stage2, key=lambda x: x[0].order):
+            om = e.modify_output("omega", data.t_s, om, p)
+        out["omega"] = block_mean(om, m)
+    if "psi" in data.outputs:
+        lam = L2 if spec.baseline == "transient" else None
+        for e, p in pairs:
+            lam_e = e.relaxation_length(p)
+            lam = lam_e if lam_e is not None else lam
+        if lam is None:
+            out["psi"] = block_mean(steady_psi(kappa, L1, L2), m)
+        elif full_rate:
+            out["psi"] = integrate_hitch_half(data.th_s, kh, vh, L1, L2, lam, data.psi0)
+        else:
+            k_d, v_d = block_mean(kappa, m), block_mean(v, m)
+            out["psi"] = integrate_hitch(t, k_d, v_d, L1, L2, lam, data.psi0)
+    if "psi" in out:
+        for e, p in sorted(stage2, key=lambda x: x[0].order):
+            out["psi"] = e.modify_output("psi", t, out["psi"], p)
+    return out

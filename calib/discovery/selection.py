@@ -1,0 +1,208 @@
+"""Greedy forward selection of catalogue effects on held-out data and BIC.
+
+Each round fits every remaining candidate added to the current model (training blocks, link
+lengths refitted jointly), measures the RMS on the held-out blocks and the BIC change, and
+accepts the candidate with the lowest BIC among those that pass all three rules:
+
+* material: the held-out RMS of an output the effect acts on falls by at least
+  ``min_gain`` (10 %) and the noise-weighted held-out error of all outputs does not grow;
+* strong evidence: delta BIC <= ``max_delta_bic`` (-10), with effective sample sizes taken
+  from the residual autocorrelation of a reference model that holds every candidate;
+* significant: every parameter of the effect lies >= ``min_z`` (3) standard errors from the
+  value at which the effect does nothing;
+* interior: no effect parameter of the augmented model sits on a bound of its fit (a
+  bounded optimum is no estimate; it means the effects at hand are confounded);
+* constant: refitted separately on the slow and the fast half of the samples, and on the
+  gentle and the sharp half (|kappa_cmd| below/above its median), its parameters agree: they
+  differ by no more than ``max_split_z`` (3) combined standard errors or by no more than
+  ``max_split_rel`` (25 %) of their distance from the null value. A physical effect has one
+  value; a catalogue effect that only mimics something else drifts with the conditions.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from calib.discovery.data import DiscoveryData, block_mean
+from calib.discovery.effects import Effect
+from calib.discovery.fit import ModelFit, bic, covariance, fit_model, holdout_rms, neff_factors
+from calib.discovery.model import BASE_PARAMS, ModelSpec
+
+__all__ = ["SelectionRules", "SelectionStep", "Trial", "accepted_effects", "select_effects"]
+
+
+@dataclass(frozen=True)
+class SelectionRules:
+    """Thresholds of the acceptance rules (see the module docstring)."""
+
+    min_gain: float = 0.10
+    max_delta_bic: float = -10.0
+    min_z: float = 3.0
+    max_split_z: float = 3.0
+    max_split_rel: float = 0.25
+    max_effects: int = 4
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One candidate tried in one round."""
+
+    effect: Effect
+    fit: ModelFit
+    holdout: dict[str, float]
+    delta_bic: float
+    z: dict[str, float]
+    material: bool
+    accepted: bool = False
+    split: dict[str, list[float]] | None = None
+    stable: bool | None = None
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "effect": self.effect.key,
+            "holdout_rms": dict(self.holdout),
+            "delta_bic": self.delta_bic,
+            "z": dict(self.z),
+            "material": self.material,
+            "accepted": self.accepted,
+            "split": self.split,
+            "stable": self.stable,
+        }
+
+
+@dataclass(frozen=True)
+class SelectionStep:
+    """One round: the model before it, its held-out RMS, the trials, the accepted effect."""
+
+    before: ModelFit
+    holdout_before: dict[str, float]
+    trials: list[Trial] = field(default_factory=list)
+    accepted: Trial | None = None
+
+
+def _z_scores(fit: ModelFit, effect: Effect, data: DiscoveryData) -> dict[str, float]:
+    """Distance of the effect's parameters from their null values, in standard errors."""
+    cov = covariance(fit, data)
+    names = fit.names
+    out = {}
+    for p in effect.params:
+        i = names.index(f"{effect.key}.{p.name}")
+        sd = math.sqrt(cov[i, i]) if cov[i, i] > 0 else math.nan
+        out[p.name] = abs(fit.theta[i] - p.null) / sd if sd > 0 else math.inf
+    return out
+
+
+def _split_masks(data: DiscoveryData) -> list[tuple[NDArray[np.bool_], NDArray[np.bool_]]]:
+    """(low, high) halves of the valid rows by speed and by |kappa_cmd|."""
+    out = []
+    for x in (np.abs(block_mean(data.v, data.m)), np.abs(block_mean(data.kappa_cmd, data.m))):
+        med = float(np.median(x[data.valid]))
+        out.append((data.valid & (x <= med), data.valid & (x > med)))
+    return out
+
+
+def _stability(
+    trial: Trial, data: DiscoveryData, rules: SelectionRules
+) -> tuple[bool, dict[str, list[float]]]:
+    """Refit the trial's model on each half of each split; True if the effect is constant."""
+    e, f = trial.effect, trial.fit
+    names = f.names
+    idx = [names.index(f"{e.key}.{p.name}") for p in e.params]
+    split: dict[str, list[float]] = {p.name: [] for p in e.params}
+    stable = True
+    for lo, hi in _split_masks(data):
+        vals, sds = [], []
+        for mk in (lo, hi):
+            g = fit_model(f.spec, data, f.theta, mk, tol=1e-6)
+            cov = covariance(g, data)
+            vals.append([float(g.theta[i]) for i in idx])
+            sds.append([math.sqrt(max(float(cov[i, i]), 0.0)) for i in idx])
+        for j, p in enumerate(e.params):
+            a, b = vals[0][j], vals[1][j]
+            split[p.name] += [a, b]
+            res2 = (float(np.median(np.diff(data.t_s))) ** 2 / 6.0) if p.time_shift else 0.0
+            sd = math.sqrt(sds[0][j] ** 2 + sds[1][j] ** 2 + res2)
+            scale = max(abs(a - p.null), abs(b - p.null))
+            if abs(a - b) > rules.max_split_z * sd and abs(a - b) > rules.max_split_rel * scale:
+                stable = False
+    return stable, split
+
+
+def _interior(fit: ModelFit, rel: float = 1e-3) -> bool:
+    """True if no effect parameter is within ``rel`` of its range from a bound."""
+    specs = fit.spec.param_specs[len(BASE_PARAMS) :]
+    vals = fit.theta[len(BASE_PARAMS) :]
+    return all(
+        p.lower + rel * (p.upper - p.lower) < v < p.upper - rel * (p.upper - p.lower)
+        for p, v in zip(specs, vals, strict=True)
+    )
+
+
+def _weighted(hold: dict[str, float], data: DiscoveryData) -> float:
+    return sum((r / data.sigma_d[c]) ** 2 for c, r in hold.items())
+
+
+def select_effects(
+    data: DiscoveryData,
+    baseline: ModelSpec,
+    theta0: Sequence[float],
+    candidates: Sequence[Effect],
+    rules: SelectionRules | None = None,
+) -> tuple[list[SelectionStep], dict[str, float]]:
+    """Greedy forward selection; returns the rounds and the effective-sample factors used."""
+    rules = rules or SelectionRules()
+    train, test = data.train_mask(), data.test_mask()
+    ref_spec = ModelSpec(baseline.baseline, (*baseline.effects, *candidates))
+    ref_theta0 = list(theta0) + [p.init for e in candidates for p in e.params]
+    ref = fit_model(ref_spec, data, ref_theta0, train, tol=1e-4, max_nfev=20 * len(ref_theta0))
+    factors = neff_factors(ref)
+    current = fit_model(baseline, data, theta0, train)
+    hold_cur = holdout_rms(baseline, current.theta, data, test)
+    remaining = list(candidates)
+    steps: list[SelectionStep] = []
+    while remaining and len(steps) < rules.max_effects:
+        trials = []
+        bic_cur = bic(current, factors)
+        for e in remaining:
+            spec = current.spec.with_effect(e)
+            th0 = list(current.theta) + [p.init for p in e.params]
+            f = fit_model(spec, data, th0, train, tol=1e-6)
+            hold = holdout_rms(spec, f.theta, data, test)
+            material = any(
+                c in hold and hold[c] <= (1.0 - rules.min_gain) * hold_cur[c] for c in e.channels
+            ) and _weighted(hold, data) <= _weighted(hold_cur, data)
+            trials.append(
+                Trial(e, f, hold, bic(f, factors) - bic_cur, _z_scores(f, e, data), material)
+            )
+        passing = [
+            t
+            for t in trials
+            if t.material
+            and t.delta_bic <= rules.max_delta_bic
+            and all(z >= rules.min_z for z in t.z.values())
+            and _interior(t.fit)
+        ]
+        best = None
+        for t in sorted(passing, key=lambda t: t.delta_bic):
+            stable, split = _stability(t, data, rules)
+            checked = replace(t, split=split, stable=stable, accepted=stable)
+            trials[trials.index(t)] = checked
+            if stable:
+                best = checked
+                break
+        steps.append(SelectionStep(current, hold_cur, trials, best))
+        if best is None:
+            break
+        current, hold_cur = best.fit, best.holdout
+        remaining = [e for e in remaining if e is not best.effect]
+    return steps, factors
+
+
+def accepted_effects(steps: Sequence[SelectionStep]) -> list[Effect]:
+    """Effects accepted over the rounds, in order."""
+    return [s.accepted.effect for s in steps if s.accepted is not None]

@@ -1,0 +1,87 @@
+"""Shared statistics for the estimators: high-frequency noise level and HAC covariances."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["bartlett_bandwidth", "hac_covariance", "hf_noise_std"]
+
+FloatArray = NDArray[np.float64]
+
+_MAD_TO_STD = 1.482602218505602
+
+
+def hf_noise_std(x: np.ndarray) -> float:
+    """White-noise standard deviation of a smooth signal sampled densely, from its second
+    differences: x[i+1] - 2 x[i] + x[i-1] has variance 6 sigma^2 (robust MAD estimate).
+
+    Args:
+        x: samples (any unit), evenly spaced, NaN-free.
+
+    Returns:
+        sigma in the unit of ``x``; 0 for fewer than 5 samples.
+    """
+    x = np.asarray(x, dtype=float)
+    if x.size < 5:
+        return 0.0
+    d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    mad = float(np.median(np.abs(d2 - np.median(d2))))
+    return _MAD_TO_STD * mad / math.sqrt(6.0)
+
+
+def _acf(r: np.ndarray, max_lag: int) -> FloatArray:
+    """Sample autocorrelation of ``r`` at lags 0..max_lag (via FFT)."""
+    r = r - r.mean()
+    n = r.size
+    m = 1 << (2 * n - 1).bit_length()
+    f = np.fft.rfft(r, m)
+    ac = np.fft.irfft(f * np.conj(f), m)[: max_lag + 1]
+    return ac / ac[0] if ac[0] > 0 else np.zeros(max_lag + 1)
+
+
+def bartlett_bandwidth(r: np.ndarray, factor: float = 3.0) -> int:
+    """Bartlett-kernel lag window for residuals ``r``.
+
+    The larger of the Newey-West rule 4 (n/100)^(2/9) and ``factor`` times the first lag at
+    which the residual autocorrelation drops below 0.05, capped at n/4.
+    """
+    r = np.asarray(r, dtype=float)
+    n = r.size
+    nw = math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0))
+    cap = max(1, n // 4)
+    rho = _acf(r, cap)
+    below = np.nonzero(rho < 0.05)[0]
+    first = int(below[0]) if below.size else cap
+    return int(min(cap, max(nw, math.ceil(factor * first))))
+
+
+def hac_covariance(jac: np.ndarray, resid: np.ndarray, bandwidth: int) -> FloatArray:
+    """Sandwich covariance of a least-squares estimate with autocorrelated residuals.
+
+    cov = H^-1 S H^-1 with H = J^T J and S the Bartlett-weighted (Newey-West) long-run
+    covariance of the score contributions s_i = J_i r_i, with the n/(n-p)
+    small-sample factor.
+
+    Args:
+        jac: Jacobian of the residuals w.r.t. the parameters, shape (n, p).
+        resid: residuals at the estimate, shape (n,).
+        bandwidth: Bartlett lag window (samples); 0 gives the White (heteroscedastic) form.
+
+    Returns:
+        (p, p) covariance in the parameters' units squared.
+    """
+    jac = np.asarray(jac, dtype=float)
+    s = jac * np.asarray(resid, dtype=float)[:, None]
+    n = s.shape[0]
+    S = s.T @ s
+    for lag in range(1, min(bandwidth, n - 1) + 1):
+        w = 1.0 - lag / (bandwidth + 1.0)
+        g = s[lag:].T @ s[:-lag]
+        S += w * (g + g.T)
+    S *= n / max(n - s.shape[1], 1)
+    H_inv = np.linalg.pinv(jac.T @ jac)
+    cov = H_inv @ S @ H_inv
+    return 0.5 * (cov + cov.T)

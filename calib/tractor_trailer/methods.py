@@ -1,0 +1,290 @@
+"""The patent's 36 link-length methods: EMLS (6), PMLS (6) and CLS M1–M24 (Table 3).
+
+Names (``METHOD_NAMES``):
+
+- EMLS: ``OLS1(EM1)``, ``OLS1(EM2)``, ``OLS1(EM3)``, ``TLS(EM1)``, ``TLS(EM2)``, ``TLS(EM3)``.
+  TLS is invariant to which column of [A y] is the output, so the three TLS rows carry the
+  same (L1, L2) (the patent's "TLS(EM1,2,3)") but each its own condition number (Fig. 8).
+- PMLS: ``OLS1(PM1)``, ``OLS2(PM1)``, ``TLS(PM1)``, ``OLS1(PM2)``, ``OLS2(PM2)``, ``TLS(PM2)``.
+  No link lengths (L1, L2 are NaN); ``extra`` has the slope ``a`` (m, ≈ L1 + L2), the
+  intercept ``b`` (rad, PM2) and, for OLS on PM1, the singular value ``mu1`` (the patent prints
+  it instead of a condition number, which is then NaN).
+- CLS ``M1``..``M24`` exactly as patent Table 3: fit the PM, replace the data by the PM's
+  predictions, fit the EM on them. Predictions: Ψp = a κm + b paired with κm, and
+  κp = (Ψm − b)/a paired with Ψm; both sets (2p points, all on the fitted line) go into the
+  EM step. ``condition_number`` is the EM step's (EM1's for TLS(EM1,2,3), all three in
+  ``extra`` as ``cn_EM1``..``cn_EM3``); ``extra`` also has the PM step's ``a`` and ``b``.
+
+Speed: the p-long data are reduced once by a QR to a 3 x 3 factor per base matrix
+([sin Ψ, κ cos Ψ, κ] for EM, [κ, 1, Ψ] for PM; see ``calib.lsq.base``); every model is a
+signed column selection of that factor, so the 12 EMLS/PMLS fits cost two QRs, and each of the
+6 PM fits is reused by its 4 CLS methods (one QR of the predicted data each).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from calib.errors import SolverError
+from calib.lsq import OLS1, OLS2, TLS, LeastSquares, triangular_factor
+from calib.results import json_safe
+from calib.tractor_trailer.models import (
+    EXACT_MODELS,
+    PREDICTION_MODELS,
+    ExactModel,
+    PredictionModel,
+    check_excitation,
+    em_columns,
+    lengths_from_beta,
+    pm_columns,
+)
+
+__all__ = [
+    "CLS_TABLE",
+    "METHOD_NAMES",
+    "Family",
+    "MethodEstimate",
+    "MethodSpec",
+    "evaluate_methods",
+    "family_of",
+    "method_spec",
+]
+
+_SOLVERS: dict[str, type[LeastSquares]] = {"OLS1": OLS1, "OLS2": OLS2, "TLS": TLS}
+
+
+class Family(StrEnum):
+    """Method families of the patent."""
+
+    EMLS = "EMLS"
+    PMLS = "PMLS"
+    CLS = "CLS"
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    """What a method name means.
+
+    Attributes:
+        name: e.g. "OLS1(EM2)", "TLS(PM1)", "M17".
+        family: EMLS, PMLS or CLS.
+        pm_solver, pm: the prediction-model step (PMLS, CLS), else None.
+        em_solver, em: the exact-model step (EMLS, CLS); ``em`` None means TLS(EM1,2,3).
+    """
+
+    name: str
+    family: Family
+    pm_solver: str | None = None
+    pm: PredictionModel | None = None
+    em_solver: str | None = None
+    em: ExactModel | None = None
+
+    @property
+    def description(self) -> str:
+        """Human-readable composition, e.g. "OLS2(PM1) + OLS1(EM1)"."""
+        em = "" if self.em_solver is None else f"{self.em_solver}({self.em or 'EM1,2,3'})"
+        pm = "" if self.pm_solver is None else f"{self.pm_solver}({self.pm})"
+        return " + ".join(s for s in (pm, em) if s)
+
+
+def _cls_table() -> dict[str, MethodSpec]:
+    """Patent Table 3: M1–M12 use PM2, M13–M24 PM1; PM solver OLS1, OLS2, TLS in blocks of 4."""
+    table: dict[str, MethodSpec] = {}
+    em_steps: list[tuple[str, ExactModel | None]] = [
+        ("OLS1", ExactModel.EM1),
+        ("OLS1", ExactModel.EM2),
+        ("OLS1", ExactModel.EM3),
+        ("TLS", None),
+    ]
+    i = 1
+    for pm in (PredictionModel.PM2, PredictionModel.PM1):
+        for pm_solver in ("OLS1", "OLS2", "TLS"):
+            for em_solver, em in em_steps:
+                name = f"M{i}"
+                table[name] = MethodSpec(name, Family.CLS, pm_solver, pm, em_solver, em)
+                i += 1
+    return table
+
+
+CLS_TABLE: dict[str, MethodSpec] = _cls_table()
+
+_SPECS: dict[str, MethodSpec] = {}
+for _solver in ("OLS1", "TLS"):
+    for _em in ExactModel:
+        _n = f"{_solver}({_em})"
+        _SPECS[_n] = MethodSpec(_n, Family.EMLS, em_solver=_solver, em=_em)
+for _pm in (PredictionModel.PM1, PredictionModel.PM2):
+    for _solver in ("OLS1", "OLS2", "TLS"):
+        _n = f"{_solver}({_pm})"
+        _SPECS[_n] = MethodSpec(_n, Family.PMLS, pm_solver=_solver, pm=_pm)
+_SPECS.update(CLS_TABLE)
+
+METHOD_NAMES: tuple[str, ...] = tuple(_SPECS)
+
+
+def method_spec(name: str) -> MethodSpec:
+    """The ``MethodSpec`` of a method name.
+
+    Raises:
+        ValueError: unknown name (the message lists the valid ones).
+    """
+    try:
+        return _SPECS[name]
+    except KeyError:
+        raise ValueError(
+            f"unknown method {name!r}; expected one of {', '.join(METHOD_NAMES)}"
+        ) from None
+
+
+def family_of(name: str) -> str:
+    """ "EMLS" | "PMLS" | "CLS" for a method name."""
+    return str(method_spec(name).family)
+
+
+@dataclass(frozen=True)
+class MethodEstimate:
+    """One method on one data set.
+
+    Attributes:
+        name, family: see ``METHOD_NAMES``.
+        L1, L2: link lengths (m); NaN for PMLS or when the solve failed.
+        condition_number: the method's (NaN where the patent prints "-").
+        extra: ``a`` (m), ``b`` (rad), ``mu1``, ``cn_EM1``..``cn_EM3``, ``failed`` (1.0).
+    """
+
+    name: str
+    family: str
+    L1: float
+    L2: float
+    condition_number: float
+    extra: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe dict."""
+        return json_safe(
+            {
+                "name": self.name,
+                "family": self.family,
+                "L1": self.L1,
+                "L2": self.L2,
+                "condition_number": self.condition_number,
+                "extra": dict(self.extra),
+            }
+        )
+
+
+_NAN = math.nan
+
+
+class _Evaluator:
+    """Caches the factors and PM fits shared between methods on one data set."""
+
+    def __init__(self, kappa: np.ndarray, psi: np.ndarray) -> None:
+        self.kappa, self.psi = kappa, psi
+        self.n = kappa.size
+        self._em_factor: np.ndarray | None = None
+        self._pm_factor: np.ndarray | None = None
+        self._pm_fits: dict[tuple[str, PredictionModel], LeastSquares] = {}
+        self._cls_factors: dict[tuple[str, PredictionModel], tuple[np.ndarray, int]] = {}
+
+    def em_factor(self) -> np.ndarray:
+        if self._em_factor is None:
+            self._em_factor = triangular_factor(em_columns(self.kappa, self.psi))
+        return self._em_factor
+
+    def pm_fit(self, solver: str, pm: PredictionModel) -> LeastSquares:
+        key = (solver, pm)
+        if key not in self._pm_fits:
+            if self._pm_factor is None:
+                self._pm_factor = triangular_factor(pm_columns(self.kappa, self.psi))
+            M = PREDICTION_MODELS[pm].select(self._pm_factor)
+            self._pm_fits[key] = _SOLVERS[solver]().fit_factor(M, self.n)
+        return self._pm_fits[key]
+
+    def cls_factor(self, solver: str, pm: PredictionModel) -> tuple[np.ndarray, int]:
+        key = (solver, pm)
+        if key not in self._cls_factors:
+            a, b = _line(self.pm_fit(solver, pm), pm)
+            if not (math.isfinite(a) and a != 0.0 and math.isfinite(b)):
+                raise SolverError(f"{solver}({pm}): slope a = {a} cannot predict curvature")
+            k = np.concatenate([self.kappa, (self.psi - b) / a])
+            p = np.concatenate([a * self.kappa + b, self.psi])
+            self._cls_factors[key] = (triangular_factor(em_columns(k, p)), k.size)
+        return self._cls_factors[key]
+
+
+def _line(fit: LeastSquares, pm: PredictionModel) -> tuple[float, float]:
+    beta = fit.beta_
+    return float(beta[0]), float(beta[1]) if pm is PredictionModel.PM2 else 0.0
+
+
+def _em_step(
+    factor: np.ndarray, n: int, solver: str, em: ExactModel | None
+) -> tuple[float, float, float, dict[str, float]]:
+    """(L1, L2, condition number, extra) of an EM fit from the factor of D."""
+    if em is not None:
+        fit = _SOLVERS[solver]().fit_factor(EXACT_MODELS[em].select(factor), n)
+        L1, L2 = lengths_from_beta(em, fit.beta_)
+        return L1, L2, fit.condition_number_, {}
+    fits = {m: TLS().fit_factor(EXACT_MODELS[m].select(factor), n) for m in ExactModel}
+    L1, L2 = lengths_from_beta(ExactModel.EM1, fits[ExactModel.EM1].beta_)
+    extra = {f"cn_{m}": f.condition_number_ for m, f in fits.items()}
+    return L1, L2, fits[ExactModel.EM1].condition_number_, extra
+
+
+def _evaluate_one(ev: _Evaluator, spec: MethodSpec) -> MethodEstimate:
+    fam = str(spec.family)
+    if spec.family is Family.EMLS:
+        L1, L2, cn, extra = _em_step(ev.em_factor(), ev.n, spec.em_solver, spec.em)
+        return MethodEstimate(spec.name, fam, L1, L2, cn, extra)
+    fit = ev.pm_fit(spec.pm_solver, spec.pm)
+    a, b = _line(fit, spec.pm)
+    pm_extra = {"a": a, "b": b} if spec.pm is PredictionModel.PM2 else {"a": a}
+    if spec.family is Family.PMLS:
+        cn = fit.condition_number_
+        if spec.pm is PredictionModel.PM1 and spec.pm_solver != "TLS":
+            pm_extra["mu1"] = cn
+            cn = _NAN
+        return MethodEstimate(spec.name, fam, _NAN, _NAN, cn, pm_extra)
+    factor, n = ev.cls_factor(spec.pm_solver, spec.pm)
+    L1, L2, cn, extra = _em_step(factor, n, spec.em_solver, spec.em)
+    return MethodEstimate(spec.name, fam, L1, L2, cn, {**pm_extra, **extra})
+
+
+def evaluate_methods(
+    kappa: ArrayLike, psi: ArrayLike, names: Iterable[str] | None = None
+) -> dict[str, MethodEstimate]:
+    """Run the patent's methods on one data set.
+
+    Args:
+        kappa: path curvature at the front wheel, 1/m, shape (p,).
+        psi: joint angle, rad, shape (p,).
+        names: methods to run (default all of ``METHOD_NAMES``), in the order returned.
+
+    Returns:
+        name -> ``MethodEstimate``. A method whose solve fails numerically (e.g. a singular TLS
+        problem) gets NaN values and ``extra["failed"] = 1.0``.
+
+    Raises:
+        InsufficientDataError: fewer than 3 samples, non-finite data, or no excitation.
+        ValueError: an unknown method name.
+    """
+    k, p = check_excitation(kappa, psi)
+    specs = [method_spec(n) for n in (METHOD_NAMES if names is None else names)]
+    ev = _Evaluator(k, p)
+    out: dict[str, MethodEstimate] = {}
+    for spec in specs:
+        try:
+            out[spec.name] = _evaluate_one(ev, spec)
+        except SolverError:
+            out[spec.name] = MethodEstimate(
+                spec.name, str(spec.family), _NAN, _NAN, _NAN, {"failed": 1.0}
+            )
+    return out

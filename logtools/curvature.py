@@ -1,0 +1,129 @@
+"""Measured path curvature ``kappa`` (1/m) from an aligned frame.
+
+Two sources, chosen per row (column ``kappa_source``):
+
+* ``"omega/v"``: kappa = omega / v where both are present and |v| > ``v_min``. This is the
+  curvature in the vehicle's sense (positive = turning left when driving forward; it keeps its
+  sign when reversing).
+* ``"path"``: elsewhere, from the geometry of the (x, y) path, kappa = d(theta)/ds with
+  theta = atan2(y', x') the direction of travel and ds/dt = |(x', y')|. Every time derivative
+  is a Savitzky-Golay differentiator (cubic, window ``window_s``, default 2.0 s, rounded to an
+  odd number of samples, at least 5) run on each stretch of rows without nulls. On the
+  simulator's pose (1 cm noise at 50 Hz, 1 m/s) the error of kappa has a standard deviation of
+  about 0.05 1/m with a 1 s window, 0.009 with 2 s and 0.002 with 4 s; longer windows smear
+  fast curvature changes over the window. (This equals
+  (x' y'' - y' x'') / (x'^2 + y'^2)^(3/2), but is exact on circles: the smoothing shrinks x'
+  and y' alike and leaves theta linear in time.) The sign is turned
+  into the vehicle's sense with the heading ``yaw`` when present (travel against the heading =
+  reversing); without ``yaw`` the path is assumed driven forward. Rows where the path speed is
+  at most ``v_min`` (the curvature is undefined there) stay null.
+
+Rows where neither source applies have a null ``kappa`` and ``kappa_source``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import polars as pl
+from scipy.signal import savgol_filter
+
+from logtools.errors import LogcalInputError
+
+__all__ = ["KAPPA_SOURCES", "derive_kappa", "path_curvature"]
+
+KAPPA_SOURCES = ("omega/v", "path")
+
+
+def _col(frame: pl.DataFrame, name: str) -> np.ndarray | None:
+    if name not in frame.columns:
+        return None
+    return frame[name].cast(pl.Float64).fill_null(np.nan).to_numpy()
+
+
+def _runs(ok: np.ndarray) -> list[tuple[int, int]]:
+    """[start, end) index ranges of consecutive True values."""
+    d = np.diff(np.concatenate([[0], ok.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True))
+
+
+def path_curvature(
+    x: np.ndarray,
+    y: np.ndarray,
+    dt_s: float,
+    *,
+    yaw: np.ndarray | None = None,
+    window_s: float = 2.0,
+    v_min: float = 0.05,
+) -> np.ndarray:
+    """Signed curvature (1/m) of a uniformly sampled path; NaN where undefined.
+
+    Args:
+        x, y: positions (m), sampled every ``dt_s`` seconds; NaN marks missing rows.
+        dt_s: sample period (s).
+        yaw: heading (rad) to sign the curvature in the vehicle's sense; None: forward.
+        window_s: Savitzky-Golay window (s).
+        v_min: path speed (m/s) at or below which the curvature is left NaN.
+    """
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    out = np.full(x.shape, np.nan)
+    win = max(5, round(window_s / dt_s) | 1)
+    for a, b in _runs(np.isfinite(x) & np.isfinite(y)):
+        if b - a < win:
+            continue
+        d1x = savgol_filter(x[a:b], win, 3, deriv=1, delta=dt_s)
+        d1y = savgol_filter(y[a:b], win, 3, deriv=1, delta=dt_s)
+        speed = np.hypot(d1x, d1y)
+        heading = np.unwrap(np.arctan2(d1y, d1x))
+        turn_rate = savgol_filter(heading, win, 3, deriv=1, delta=dt_s)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k = turn_rate / speed
+        if yaw is not None:
+            h = yaw[a:b]
+            forward = d1x * np.cos(h) + d1y * np.sin(h)
+            k = np.where(forward < 0, -k, k)
+            k[~np.isfinite(h)] = np.nan
+        k[speed <= v_min] = np.nan
+        out[a:b] = k
+    return out
+
+
+def derive_kappa(
+    frame: pl.DataFrame, *, v_min: float = 0.05, window_s: float = 2.0
+) -> pl.DataFrame:
+    """Add ``kappa`` (1/m) and ``kappa_source`` ("omega/v" | "path" | null) to an aligned frame.
+
+    Args:
+        frame: output of ``align_signals`` (uniform ``t_ns``; ``v``, ``omega``, ``x``, ``y``,
+            ``yaw`` used where present).
+        v_min: speed (m/s) below which omega/v is not used and the path is not trusted.
+        window_s: Savitzky-Golay window (s) of the path differentiator.
+
+    Raises:
+        LogcalInputError: the frame has neither (v, omega) nor (x, y).
+    """
+    n = frame.height
+    v, omega = _col(frame, "v"), _col(frame, "omega")
+    x, y = _col(frame, "x"), _col(frame, "y")
+    if (v is None or omega is None) and (x is None or y is None):
+        raise LogcalInputError(
+            "cannot derive the measured curvature kappa: the log needs (v, omega) or (x, y); "
+            f"aligned signals are {[c for c in frame.columns if c != 't_ns']}"
+        )
+    kappa = np.full(n, np.nan)
+    source = np.full(n, None, dtype=object)
+    if v is not None and omega is not None:
+        ok = np.isfinite(v) & np.isfinite(omega) & (np.abs(v) > v_min)
+        kappa[ok] = omega[ok] / v[ok]
+        source[ok] = KAPPA_SOURCES[0]
+    need = ~np.isfinite(kappa)
+    if x is not None and y is not None and np.any(need) and n >= 2:
+        t = frame["t_ns"].to_numpy()
+        dt_s = float(np.median(np.diff(t))) / 1e9
+        kp = path_curvature(x, y, dt_s, yaw=_col(frame, "yaw"), window_s=window_s, v_min=v_min)
+        use = need & np.isfinite(kp)
+        kappa[use] = kp[use]
+        source[use] = KAPPA_SOURCES[1]
+    return frame.with_columns(
+        pl.Series("kappa", kappa, dtype=pl.Float64).fill_nan(None),
+        pl.Series("kappa_source", source.tolist(), dtype=pl.String),
+    )

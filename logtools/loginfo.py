@@ -1,0 +1,169 @@
+"""What a log holds, for ``logcal info``: topics, signals found and where from, robot, problems."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from calib.results import json_safe
+from logtools.channel_map import resolve_signals
+from logtools.errors import NoDriveSignalsError
+from logtools.readers import TopicInfo, read_log
+from logtools.robot import explain_robot
+from logtools.signals import SignalSource
+
+__all__ = ["LogSummary", "SignalSummary", "summarize_log"]
+
+
+@dataclass(frozen=True)
+class SignalSummary:
+    """One logical signal found: source, sample count, time span (ns) and value range."""
+
+    name: str
+    topic: str
+    field: str
+    transform: str | None
+    samples: int
+    first_ns: int
+    last_ns: int
+    min: float
+    max: float
+
+
+@dataclass(frozen=True)
+class LogSummary:
+    """The answer of ``logcal info``.
+
+    Attributes:
+        path: the log.
+        topics: per topic: schema, encodings, message count, time span (ns).
+        signals: logical signals found, by name.
+        missing: logical signals not found.
+        robot: robot type, None when neither metadata nor signals tell it.
+        robot_reason: where the robot type came from, or why it is unknown.
+        metadata: MCAP metadata records.
+        problems: what was lost or repaired while reading and resolving signals.
+    """
+
+    path: str
+    topics: list[TopicInfo]
+    signals: dict[str, SignalSummary]
+    missing: list[str]
+    robot: str | None
+    robot_reason: str
+    metadata: dict[str, dict[str, str]]
+    problems: list[str]
+
+    @property
+    def span_ns(self) -> tuple[int, int] | None:
+        """First and last log_time over all topics (ns), None without messages."""
+        firsts = [t.first_ns for t in self.topics if t.first_ns is not None]
+        lasts = [t.last_ns for t in self.topics if t.last_ns is not None]
+        return (min(firsts), max(lasts)) if firsts else None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe dictionary (the ``--json`` document)."""
+        span = self.span_ns
+        return json_safe(
+            {
+                "path": self.path,
+                "start_ns": span[0] if span else None,
+                "end_ns": span[1] if span else None,
+                "duration_s": (span[1] - span[0]) * 1e-9 if span else None,
+                "topics": [
+                    {
+                        "topic": t.topic,
+                        "schema_name": t.schema_name,
+                        "schema_encoding": t.schema_encoding,
+                        "message_encoding": t.message_encoding,
+                        "message_count": t.message_count,
+                        "first_ns": t.first_ns,
+                        "last_ns": t.last_ns,
+                        "rate_hz": t.rate_hz,
+                    }
+                    for t in self.topics
+                ],
+                "signals": {n: vars(s) for n, s in self.signals.items()},
+                "missing": self.missing,
+                "robot": self.robot,
+                "robot_reason": self.robot_reason,
+                "metadata": self.metadata,
+                "problems": self.problems,
+            }
+        )
+
+    def report(self) -> str:
+        """A plain-text report for the terminal."""
+        span = self.span_ns
+        lines = [f"log: {self.path}"]
+        if span:
+            dur = (span[1] - span[0]) * 1e-9
+            lines.append(f"time span: {dur:.3f} s (log_time {span[0]} .. {span[1]} ns)")
+        lines.append(f"robot: {self.robot or 'unknown'} ({self.robot_reason})")
+        lines.append(f"topics ({len(self.topics)}):")
+        for t in self.topics:
+            rate = f"{t.rate_hz:.1f} Hz" if t.rate_hz else "-"
+            lines.append(
+                f"  {t.topic}  {t.schema_name or '-'}  [{t.message_encoding}/"
+                f"{t.schema_encoding or '-'}]  {t.message_count} msgs  {rate}"
+            )
+        lines.append(f"signals found ({len(self.signals)}):")
+        for s in self.signals.values():
+            how = f" via {s.transform}" if s.transform else ""
+            lines.append(
+                f"  {s.name:<11} <- {s.topic} : {s.field}{how}  {s.samples} samples  "
+                f"[{s.min:.4g}, {s.max:.4g}]"
+            )
+        if not self.signals:
+            lines.append("  (no drive signals; see the topics above)")
+        lines.append(f"signals missing: {', '.join(self.missing) or '(none)'}")
+        if self.metadata:
+            lines.append("metadata: " + ", ".join(sorted(self.metadata)))
+        if self.problems:
+            lines.append(f"problems ({len(self.problems)}):")
+            lines += [f"  - {p}" for p in self.problems]
+        return "\n".join(lines)
+
+
+def summarize_log(
+    path: str | os.PathLike[str], channel_map: Mapping[str, SignalSource] | None = None
+) -> LogSummary:
+    """Read ``path`` and summarise it (see :class:`LogSummary`).
+
+    Raises:
+        LogcalInputError: the log cannot be read or a signal cannot be repaired.
+    """
+    log = read_log(path)
+    resolved = resolve_signals(log, channel_map)
+    try:
+        robot, reason = explain_robot(log, resolved)
+        robot_name: str | None = robot.value
+    except NoDriveSignalsError:
+        robot_name, reason = None, "no logcal metadata and no drive signals"
+    signals = {}
+    for name, frame in resolved.signals.items():
+        src = resolved.sources[name]
+        values, times = frame["value"], frame["t_ns"]
+        signals[name] = SignalSummary(
+            name=name,
+            topic=src.topic,
+            field=src.field,
+            transform=src.transform,
+            samples=frame.height,
+            first_ns=int(times.min()),  # type: ignore[arg-type]
+            last_ns=int(times.max()),  # type: ignore[arg-type]
+            min=float(values.min()),  # type: ignore[arg-type]
+            max=float(values.max()),  # type: ignore[arg-type]
+        )
+    return LogSummary(
+        path=log.path,
+        topics=[log.info[t] for t in log.topic_names()],
+        signals=signals,
+        missing=resolved.missing,
+        robot=robot_name,
+        robot_reason=reason,
+        metadata=log.metadata,
+        problems=[*log.problems, *resolved.problems],
+    )

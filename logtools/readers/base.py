@@ -1,0 +1,67 @@
+"""The reader result types: one frame per topic, its summary, metadata and what was repaired."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import polars as pl
+
+__all__ = ["TIME_COLUMN", "LogData", "TopicInfo"]
+
+TIME_COLUMN = "t_ns"
+"""The one time column of every frame: int64 nanoseconds (MCAP log_time; CSV t * 1e9)."""
+
+
+@dataclass(frozen=True)
+class TopicInfo:
+    """What a log says about one topic (counts and times are of the messages actually read).
+
+    Attributes:
+        topic: topic name (CSV: ``"csv"``).
+        schema_name: schema (message type) name, e.g. ``nav_msgs/msg/Odometry``; "" if none.
+        schema_encoding: ``jsonschema``, ``ros2msg``, ``protobuf``, ``ros1msg``, ``csv``, or "".
+        message_encoding: ``json``, ``cdr``, ``protobuf``, ``ros1`` or ``csv``.
+        message_count: messages read from the file.
+        first_ns: earliest log_time read (ns), None without messages.
+        last_ns: latest log_time read (ns), None without messages.
+    """
+
+    topic: str
+    schema_name: str
+    schema_encoding: str
+    message_encoding: str
+    message_count: int
+    first_ns: int | None
+    last_ns: int | None
+
+    @property
+    def rate_hz(self) -> float | None:
+        """Mean message rate (1/s) over the topic's span, None with fewer than two messages."""
+        if self.first_ns is None or self.last_ns is None or self.message_count < 2:
+            return None
+        span = self.last_ns - self.first_ns
+        return (self.message_count - 1) / (span * 1e-9) if span > 0 else None
+
+
+@dataclass(frozen=True)
+class LogData:
+    """A drive log as frames.
+
+    Attributes:
+        path: the file read.
+        topics: topic -> frame with ``t_ns`` (int64 ns, sorted) and the flattened message fields.
+            Topics whose encoding could not be decoded are absent here but listed in ``info``.
+        info: topic -> :class:`TopicInfo`, for every topic of the file.
+        metadata: MCAP metadata records by name (CSV: ``{}``).
+        problems: what was lost or repaired while reading, human-readable.
+    """
+
+    path: str
+    topics: dict[str, pl.DataFrame]
+    info: dict[str, TopicInfo]
+    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
+    problems: list[str] = field(default_factory=list)
+
+    def topic_names(self) -> list[str]:
+        """All topic names of the file, sorted."""
+        return sorted(self.info)

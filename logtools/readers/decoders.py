@@ -1,0 +1,253 @@
+"""Message decoders, registered per MCAP message encoding: a channel's payloads -> one frame.
+
+A decoder takes all raw payloads of one channel at once and returns a polars frame with one row
+per payload it could decode (fields flattened by path: ``twist.twist.linear.x``; arrays as numbered
+columns: ``position.0``) and the indices of those payloads. JSON is decoded in bulk by polars'
+NDJSON reader; ROS 2 (``cdr``), ROS 1 and protobuf go message by message through the ``mcap``
+support packages' decoder factories. Register another encoding with :func:`register_decoder`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from io import BytesIO
+from typing import Any, Protocol
+
+import polars as pl
+from mcap.records import Channel, Schema
+
+__all__ = [
+    "MAX_ARRAY_ITEMS",
+    "Decoded",
+    "MessageDecoder",
+    "decoder_for",
+    "flatten_frame",
+    "flatten_object",
+    "frame_from_rows",
+    "known_encodings",
+    "register_decoder",
+]
+
+MAX_ARRAY_ITEMS = 256
+"""Arrays longer than this keep only their first MAX_ARRAY_ITEMS entries as numbered columns."""
+
+
+@dataclass(frozen=True)
+class Decoded:
+    """Result of decoding one channel.
+
+    Attributes:
+        frame: one row per decoded payload, flattened fields as columns.
+        kept: indices of the decoded payloads in the input order (None: all of them).
+        error: the first decoding error, when some payloads were dropped.
+    """
+
+    frame: pl.DataFrame
+    kept: list[int] | None = None
+    error: str | None = None
+
+
+class MessageDecoder(Protocol):
+    """Decodes all payloads of one channel."""
+
+    def __call__(self, schema: Schema | None, channel: Channel, payloads: list[bytes]) -> Decoded:
+        """Decode ``payloads`` (raw message data of ``channel``)."""
+        ...
+
+
+_REGISTRY: dict[str, MessageDecoder] = {}
+
+
+def register_decoder(message_encoding: str, decoder: MessageDecoder) -> None:
+    """Use ``decoder`` for channels whose MCAP message encoding is ``message_encoding``."""
+    _REGISTRY[message_encoding] = decoder
+
+
+def decoder_for(message_encoding: str) -> MessageDecoder | None:
+    """The decoder registered for ``message_encoding``, or None."""
+    return _REGISTRY.get(message_encoding)
+
+
+def known_encodings() -> list[str]:
+    """Message encodings with a registered decoder."""
+    return sorted(_REGISTRY)
+
+
+# ---------------------------------------------------------------- flattening
+
+
+def flatten_frame(frame: pl.DataFrame) -> pl.DataFrame:
+    """Flatten struct columns to ``parent.child`` and list columns to ``name.0``, ``name.1``, …"""
+    while True:
+        nested = [
+            name
+            for name, dtype in frame.schema.items()
+            if isinstance(dtype, (pl.Struct, pl.List, pl.Array))
+        ]
+        if not nested:
+            return frame
+        exprs: list[pl.Expr] = []
+        for name, dtype in frame.schema.items():
+            if isinstance(dtype, pl.Struct):
+                col = pl.col(name).struct
+                exprs += [col.field(f.name).alias(f"{name}.{f.name}") for f in dtype.fields]
+            elif isinstance(dtype, (pl.List, pl.Array)):
+                col = pl.col(name) if isinstance(dtype, pl.List) else pl.col(name).arr.to_list()
+                longest = frame.select(col.list.len().max()).item() or 0
+                exprs += [
+                    col.list.get(i, null_on_oob=True).alias(f"{name}.{i}")
+                    for i in range(min(longest, MAX_ARRAY_ITEMS))
+                ]
+            else:
+                exprs.append(pl.col(name))
+        frame = frame.select(exprs)
+
+
+def flatten_object(obj: Any, prefix: str = "", out: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Flatten a decoded message (ROS 1/2 object, protobuf message, dict, list) by field path."""
+    out = {} if out is None else out
+    if obj is None or isinstance(obj, (bool, int, float, str)):
+        out[prefix or "value"] = obj
+    elif isinstance(obj, (bytes, bytearray, memoryview)):
+        out[prefix or "value"] = bytes(obj)
+    elif isinstance(obj, Mapping):
+        for key, value in obj.items():
+            flatten_object(value, _join(prefix, str(key)), out)
+    elif hasattr(obj, "DESCRIPTOR") and hasattr(obj, "ListFields"):  # protobuf message
+        for fd in obj.DESCRIPTOR.fields:
+            flatten_object(getattr(obj, fd.name), _join(prefix, fd.name), out)
+    elif _is_sequence(obj):
+        for i, value in enumerate(obj):
+            if i >= MAX_ARRAY_ITEMS:
+                break
+            flatten_object(value, _join(prefix, str(i)), out)
+    else:
+        slots = _slots(type(obj))
+        if slots:
+            for name in slots:
+                flatten_object(getattr(obj, name, None), _join(prefix, name), out)
+        else:
+            out[prefix or "value"] = str(obj)
+    return out
+
+
+def _join(prefix: str, name: str) -> str:
+    return f"{prefix}.{name}" if prefix else name
+
+
+def _is_sequence(obj: Any) -> bool:
+    if isinstance(obj, Sequence):
+        return True
+    return hasattr(obj, "__len__") and hasattr(obj, "__getitem__") and not hasattr(obj, "keys")
+
+
+_SLOTS_CACHE: dict[type, tuple[str, ...]] = {}
+
+
+def _slots(cls: type) -> tuple[str, ...]:
+    cached = _SLOTS_CACHE.get(cls)
+    if cached is None:
+        names: list[str] = []
+        for klass in reversed(cls.__mro__):
+            slots = klass.__dict__.get("__slots__", ())
+            names += [slots] if isinstance(slots, str) else list(slots)
+        cached = _SLOTS_CACHE[cls] = tuple(n for n in names if not n.startswith("_"))
+    return cached
+
+
+def frame_from_rows(rows: list[dict[str, Any]]) -> pl.DataFrame:
+    """Build a frame from flattened rows; fields missing from a row become null."""
+    keys = dict.fromkeys(key for row in rows for key in row)
+    return pl.DataFrame([pl.Series(k, [row.get(k) for row in rows], strict=False) for k in keys])
+
+
+# ---------------------------------------------------------------- decoders
+
+
+_JSON_INFER_ROWS = 1000
+
+
+def decode_json(schema: Schema | None, channel: Channel, payloads: list[bytes]) -> Decoded:
+    """Decode JSON payloads in one go with polars' NDJSON reader; fall back per message."""
+    if not payloads:
+        return Decoded(pl.DataFrame())
+    joined = b"\n".join(payloads)
+    if joined.count(b"\n") != len(payloads) - 1 or joined.count(b"\r"):
+        joined = b"\n".join(p.replace(b"\n", b" ").replace(b"\r", b" ") for p in payloads)
+    # Infer the schema from the first messages (fast); if a later message disagrees (an int field
+    # that turns float), polars raises and the whole channel is inferred instead.
+    for infer in (_JSON_INFER_ROWS, None):
+        try:
+            frame = pl.read_ndjson(BytesIO(joined), infer_schema_length=infer)
+        except Exception:  # polars raises ComputeError/SchemaError/...: try the next way
+            continue
+        if frame.height == len(payloads):
+            return Decoded(flatten_frame(frame))
+        break
+    return _decode_each(payloads, _json_object)
+
+
+def _json_object(payload: bytes) -> Any:
+    value = json.loads(payload)
+    if not isinstance(value, dict):
+        raise ValueError(f"a JSON {type(value).__name__}, not an object")
+    return value
+
+
+def _decode_each(payloads: list[bytes], decode: Callable[[bytes], Any]) -> Decoded:
+    """Decode message by message, dropping (and counting) those that fail."""
+    rows: list[dict[str, Any]] = []
+    kept: list[int] = []
+    error: str | None = None
+    for i, payload in enumerate(payloads):
+        try:
+            rows.append(flatten_object(decode(payload)))
+        except Exception as err:  # any decoder failure drops just this message
+            error = error or f"{type(err).__name__}: {err}"
+            continue
+        kept.append(i)
+    return Decoded(frame_from_rows(rows), kept if len(kept) != len(payloads) else None, error)
+
+
+class _FactoryDecoder:
+    """Per-message decoding through an ``mcap`` support package's DecoderFactory."""
+
+    def __init__(self, make_factory: Callable[[], Any]) -> None:
+        self._make_factory = make_factory
+
+    def __call__(self, schema: Schema | None, channel: Channel, payloads: list[bytes]) -> Decoded:
+        factory = self._make_factory()
+        try:
+            decode = factory.decoder_for(channel.message_encoding, schema)
+        except Exception as err:  # a schema the support package cannot parse
+            raise ValueError(f"its schema does not parse ({type(err).__name__}: {err})") from err
+        if decode is None:
+            enc = schema.encoding if schema is not None else "(no schema)"
+            raise ValueError(f"no decoder for schema encoding {enc!r}")
+        return _decode_each(payloads, decode)
+
+
+def _ros2_factory() -> Any:
+    from mcap_ros2.decoder import DecoderFactory
+
+    return DecoderFactory()
+
+
+def _ros1_factory() -> Any:
+    from mcap_ros1.decoder import DecoderFactory
+
+    return DecoderFactory()
+
+
+def _protobuf_factory() -> Any:
+    from mcap_protobuf.decoder import DecoderFactory
+
+    return DecoderFactory()
+
+
+register_decoder("json", decode_json)
+register_decoder("cdr", _FactoryDecoder(_ros2_factory))
+register_decoder("ros1", _FactoryDecoder(_ros1_factory))
+register_decoder("protobuf", _FactoryDecoder(_protobuf_factory))

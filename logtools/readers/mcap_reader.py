@@ -1,0 +1,182 @@
+"""Read an MCAP file into per-topic polars frames, saying what was lost."""
+
+from __future__ import annotations
+
+import mmap
+from collections.abc import Iterable
+
+import numpy as np
+import polars as pl
+from mcap.records import Channel
+
+from logtools.errors import NotAnMcapError, UnknownEncodingError
+from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
+from logtools.readers.decoders import decoder_for, known_encodings
+from logtools.readers.mcap_scan import ChannelMessages, ScanResult, scan_mcap
+
+__all__ = ["read_mcap"]
+
+
+def read_mcap(path: str, buf: bytes | mmap.mmap, topics: Iterable[str] | None = None) -> LogData:
+    """Decode the MCAP file ``buf`` (read from ``path``).
+
+    Args:
+        path: file name, for messages.
+        buf: the file's bytes (starting with the MCAP magic), e.g. memory-mapped.
+        topics: decode only these topics (all are still listed in ``info``); None: all.
+
+    Raises:
+        NotAnMcapError: nothing could be read (e.g. cut right after the header).
+        UnknownEncodingError: no topic with messages has an encoding logcal can decode.
+    """
+    scan = scan_mcap(buf)
+    if not scan.channels and scan.damage.any:
+        raise NotAnMcapError(
+            path,
+            f"MCAP magic found, but no channel could be read: {len(buf)} bytes, "
+            f"{scan.damage.unreadable_tail_bytes} of them unreadable (truncated or corrupt)",
+        )
+    by_topic = _channels_by_topic(scan)
+    info = {topic: _topic_info(scan, chans) for topic, chans in by_topic.items()}
+    origin = min((i.first_ns for i in info.values() if i.first_ns is not None), default=0)
+    problems = _damage_problems(path, scan, info, origin)
+    wanted = set(by_topic) if topics is None else set(topics)
+    frames: dict[str, pl.DataFrame] = {}
+    undecodable: list[tuple[str, str]] = []
+    for topic, chans in sorted(by_topic.items()):
+        if topic not in wanted:
+            continue
+        parts = []
+        for ch in chans:
+            frame, note = _decode_channel(scan, ch)
+            if note:
+                problems.append(f"{path}: topic {topic!r}: {note}")
+            if frame is None and decoder_for(ch.message_encoding) is None:
+                undecodable.append((topic, ch.message_encoding))
+            if frame is not None:
+                parts.append(frame)
+        if parts:
+            frames[topic] = _sorted(pl.concat(parts, how="diagonal_relaxed"), path, topic, problems)
+    if undecodable and not frames and any(info[t].message_count for t, _ in undecodable):
+        topic, encoding = undecodable[0]
+        raise UnknownEncodingError(path, topic, encoding, known_encodings())
+    return LogData(path, frames, info, dict(scan.metadata), problems)
+
+
+def _channels_by_topic(scan: ScanResult) -> dict[str, list[Channel]]:
+    out: dict[str, list[Channel]] = {}
+    for cid in sorted(scan.channels):
+        ch = scan.channels[cid]
+        out.setdefault(ch.topic, []).append(ch)
+    return out
+
+
+def _topic_info(scan: ScanResult, chans: list[Channel]) -> TopicInfo:
+    schema = scan.schemas.get(chans[0].schema_id)
+    times = [m.log_times for ch in chans if (m := scan.messages.get(ch.id)) and m.log_times]
+    return TopicInfo(
+        topic=chans[0].topic,
+        schema_name=schema.name if schema else "",
+        schema_encoding=schema.encoding if schema else "",
+        message_encoding=chans[0].message_encoding,
+        message_count=sum(len(t) for t in times),
+        first_ns=min(min(t) for t in times) if times else None,
+        last_ns=max(max(t) for t in times) if times else None,
+    )
+
+
+def _decode_channel(scan: ScanResult, ch: Channel) -> tuple[pl.DataFrame | None, str | None]:
+    """Decode one channel; return (frame or None when undecodable, a note on what was lost)."""
+    msgs = scan.messages.get(ch.id, ChannelMessages())
+    t_ns = pl.Series(TIME_COLUMN, msgs.log_times, dtype=pl.Int64)
+    decode = decoder_for(ch.message_encoding)
+    if decode is None:
+        return None, (
+            f"message encoding {ch.message_encoding!r} is unknown (known: "
+            f"{', '.join(known_encodings())}); its {len(msgs.log_times)} messages were not decoded"
+        )
+    if not msgs.payloads:
+        return pl.DataFrame([t_ns]), None
+    try:
+        decoded = decode(scan.schemas.get(ch.schema_id), ch, msgs.payloads)
+    except ValueError as err:
+        return None, f"{len(msgs.payloads)} messages not decoded: {err}"
+    note = None
+    if decoded.kept is not None:
+        t_ns = t_ns.gather(decoded.kept)
+        lost = len(msgs.payloads) - len(decoded.kept)
+        note = f"{lost} of {len(msgs.payloads)} messages did not decode and were dropped"
+        note += f" (first error: {decoded.error})" if decoded.error else ""
+    frame = decoded.frame
+    if TIME_COLUMN in frame.columns:  # a field named like our time column keeps its value
+        frame = frame.rename({TIME_COLUMN: f"{TIME_COLUMN}.field"})
+    return frame.insert_column(0, t_ns) if frame.width else pl.DataFrame([t_ns]), note
+
+
+def _sorted(frame: pl.DataFrame, path: str, topic: str, problems: list[str]) -> pl.DataFrame:
+    t = frame[TIME_COLUMN].to_numpy()
+    backwards = int(np.count_nonzero(np.diff(t) < 0))
+    if backwards:
+        problems.append(
+            f"{path}: topic {topic!r}: log_time went backwards {backwards} times; "
+            "messages were sorted by log_time"
+        )
+        frame = frame.sort(TIME_COLUMN, maintain_order=True)
+    return frame
+
+
+def _fmt_s(t_ns: int, origin: int) -> str:
+    return f"{(t_ns - origin) * 1e-9:.3f} s"
+
+
+def _damage_problems(
+    path: str, scan: ScanResult, info: dict[str, TopicInfo], origin: int
+) -> list[str]:
+    """Human-readable account of what the scan lost, with counts and time spans."""
+    out: list[str] = []
+    damage = scan.damage
+    stats = scan.statistics
+    if stats is not None:
+        for cid, expected in sorted(stats.channel_message_counts.items()):
+            ch = scan.channels.get(cid)
+            got = len(scan.messages.get(cid, ChannelMessages()).log_times)
+            if ch is not None and got < expected:
+                out.append(
+                    f"{path}: topic {ch.topic!r}: read {got} of the {expected} messages the "
+                    f"summary lists; {expected - got} lost"
+                )
+    for t0, t1 in damage.lost_chunks:
+        out.append(
+            f"{path}: a damaged chunk was skipped: messages logged from {_fmt_s(t0, origin)} "
+            f"to {_fmt_s(t1, origin)} (relative to the first message read) are missing there"
+        )
+    for start, end in damage.skipped:
+        out.append(
+            f"{path}: bytes {start}..{end} are corrupt and were skipped (reading resumed at the "
+            "next chunk listed in the summary)"
+        )
+    if damage.unreadable_tail_bytes:
+        last = max((i.last_ns for i in info.values() if i.last_ns is not None), default=None)
+        end = f"; the messages read end at {_fmt_s(last, origin)}" if last is not None else ""
+        expected_end = ""
+        if stats is not None and last is not None and stats.message_end_time > last:
+            expected_end = (
+                f"; the summary says the log runs to {_fmt_s(stats.message_end_time, origin)}"
+            )
+        salvaged = ""
+        if damage.salvaged_messages:
+            salvaged = f" ({damage.salvaged_messages} messages were recovered from that chunk)"
+        out.append(
+            f"{path}: {damage.unreadable_tail_bytes} bytes after the last good record (offset "
+            f"{damage.last_good_offset} of {scan.size}) were unreadable{salvaged}: the file is "
+            f"truncated or corrupt{end}{expected_end}"
+        )
+    elif not scan.reached_footer:
+        out.append(f"{path}: the file ends without an MCAP footer: it was probably cut short")
+    if damage.bad_messages:
+        out.append(f"{path}: {damage.bad_messages} messages had an impossible log_time; dropped")
+    orphans = sum(len(m.log_times) for cid, m in scan.messages.items() if cid not in scan.channels)
+    if orphans:
+        out.append(f"{path}: {orphans} messages name a channel the file does not define; dropped")
+    out += [f"{path}: {note}" for note in damage.notes]
+    return out

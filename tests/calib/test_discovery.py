@@ -1,0 +1,187 @@
+"""Unit checks of discovery's parts against closed forms and the simulator, plus the small
+null study (the full one is bench/discovery_null_study.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import polars as pl
+import pytest
+
+from calib.discovery import catalogue, discover
+from calib.discovery.data import CommandSignal, prepare_data
+from calib.discovery.diagnostics import ljung_box
+from calib.discovery.effects.actuator_lag import first_order_lag
+from calib.discovery.model import ModelSpec, integrate_hitch_half, predict
+from calib.discovery.simframe import aligned_frame_from_run
+from calib.discovery.sparse import stlsq
+from calib.discovery.study import null_study
+from calib.errors import InsufficientDataError
+from calib.models.tractor_trailer import steady_state_psi
+from calib.results import CommandType
+from calib.sim.commands import CommandSequence, CommandSpec
+from calib.sim.tractor_trailer import (
+    Effects,
+    NoiseSpec,
+    SpeedProfile,
+    TractorTrailerSim,
+    simulate_tractor_trailer,
+)
+
+
+def test_stlsq_recovers_the_sparse_terms() -> None:
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(600, 6))
+    y = 2.0 * x[:, 0] - 0.5 * x[:, 3] + rng.normal(0, 0.05, 600)
+    coef = stlsq(x, y, threshold=0.05)
+    assert np.count_nonzero(coef) == 2
+    assert coef[0] == pytest.approx(2.0, abs=0.02)
+    assert coef[3] == pytest.approx(-0.5, abs=0.02)
+
+
+def test_ljung_box_white_and_correlated() -> None:
+    rng = np.random.default_rng(2)
+    e = rng.normal(size=2000)
+    _, p_white = ljung_box(e)
+    ar = np.zeros_like(e)
+    for i in range(1, e.size):
+        ar[i] = 0.5 * ar[i - 1] + e[i]
+    q, p_ar = ljung_box(ar, lags=1)
+    # lag-1 only: Q = n (n + 2) rho^2 / (n - 1), rho ~ 0.5
+    assert p_white > 1e-3
+    assert p_ar < 1e-12
+    assert q == pytest.approx(2000 * 2002 * 0.25 / 1999, rel=0.15)
+
+
+def test_command_signal_is_linear_but_keeps_steps() -> None:
+    t = np.arange(0, 1.0001, 0.01)
+    ramp = CommandSignal.from_samples(t, 0.3 * t)
+    tq = np.array([0.123, 0.5, 0.777])
+    assert np.allclose(ramp.integral(tq), 0.15 * tq**2)
+    step = CommandSignal.from_samples(t, np.where(t >= 0.5, 0.2, 0.0))
+    # zero-order hold across the jump: the new value appears at its sample, not before
+    assert step.at(np.array([0.495, 0.4999]))[0] == 0.0
+    assert step.at(np.array([0.5]))[0] == pytest.approx(0.2)
+    # the integral is exact: 0.2 * (0.8 - 0.5)
+    assert step.integral(np.array([0.8]))[0] == pytest.approx(0.06)
+
+
+def test_first_order_lag_step_response() -> None:
+    t = np.arange(0, 5.0, 0.01)
+    x = np.ones_like(t)
+    x[0] = 0.0
+    y = first_order_lag(t, x, 0.4)
+    # the input rises over the first interval (trapezoid): response of a step at dt / 2
+    expected = 1.0 - np.exp(-(t - 0.005) / 0.4)
+    assert np.max(np.abs(y[1:] - expected[1:])) < 2e-3
+
+
+def _smooth_run(**kw: object) -> object:
+    cmds = CommandSequence([CommandSpec(CommandType.HARMONIC, 60.0, 0.2, 0.2)])
+    cfg = TractorTrailerSim(commands=cmds, speed=SpeedProfile(1.0), **kw)  # type: ignore[arg-type]
+    return simulate_tractor_trailer(cfg, seed=3)
+
+
+def test_hitch_dynamics_match_the_simulator() -> None:
+    """Independent truth: the simulator's RK4 of the transient kinematics, noise-free."""
+    run = _smooth_run(noise=NoiseSpec.none())
+    data = prepare_data(aligned_frame_from_run(run))
+    psi = integrate_hitch_half(data.th_s, data.kappa_h, data.v_h, 1.25, 2.48, 2.48, data.psi0)
+    truth = run.truth["psi"].to_numpy()
+    # the command is averaged over [t, t + dt/50]: a 0.1 ms lead, |dpsi/dt| < 0.2 rad/s
+    assert np.max(np.abs(psi - truth[: psi.size])) < 2e-5
+
+
+def test_steady_baseline_is_the_patent_relation() -> None:
+    run = _smooth_run(noise=NoiseSpec.none(), hitch_model="steady")
+    data = prepare_data(aligned_frame_from_run(run))
+    pred = predict(ModelSpec("steady"), [1.25, 2.48], data, full_rate=True)
+    kappa = run.truth["kappa"].to_numpy()[: data.t_s.size]
+    # the command is averaged over [t, t + dt/50] (0.1 ms lead): |dpsi/dt| < 0.2 rad/s
+    assert np.allclose(pred["psi"], steady_state_psi(kappa, 1.25, 2.48), atol=2e-5)
+    assert np.allclose(pred["omega"], data.outputs["omega"], atol=1e-5)
+
+
+def test_missing_columns_and_short_logs_are_reported() -> None:
+    frame = pl.DataFrame({"t_ns": np.arange(10) * 10_000_000, "kappa_cmd": np.zeros(10)})
+    with pytest.raises(InsufficientDataError, match="lacks column"):
+        prepare_data(frame)
+    frame = frame.with_columns(v=pl.lit(1.0), psi=pl.lit(0.0))
+    with pytest.raises(InsufficientDataError, match="fitting samples"):
+        prepare_data(frame)
+
+
+def test_catalogue_is_one_interface() -> None:
+    steady = catalogue("steady")
+    assert {e.id for e in steady} == {
+        "hitch_transient",
+        "sensor_offset",
+        "sensor_scale",
+        "actuator_delay",
+        "actuator_lag",
+        "understeer",
+        "clock_offset",
+    }
+    assert "hitch_transient" not in {e.id for e in catalogue("transient")}
+    assert {e.key for e in catalogue("steady", ("omega",))}.isdisjoint(
+        {"hitch_transient", "sensor_offset(psi)", "clock_offset(hitch)"}
+    )
+    for e in steady:
+        values = {p.name: p.init for p in e.params}
+        assert e.params
+        assert e.explanation(values)
+        assert set(e.channels) <= {"omega", "psi"}
+
+
+def test_yaw_rate_from_kappa_column() -> None:
+    run = _smooth_run()
+    frame = aligned_frame_from_run(run).drop("omega")
+    data = prepare_data(frame.filter(pl.col("kappa").is_not_nan()))
+    assert "omega" in data.outputs
+
+
+def test_null_study_small() -> None:
+    """8 logs with nothing beyond the baseline's physics (4 steady, 4 transient): at most one
+    false report (the 40-log study in bench/ asks >= 38 of 40)."""
+    res = null_study(8, seed=11, duration_s=70.0)
+    assert res.n_quiet >= 7, res.reported
+
+
+def test_near_steady_run_is_quiet_against_the_steady_baseline() -> None:
+    """Transient physics, but curvature that changes so slowly per metre that the joint angle
+    stays within a third of the sensor noise of the steady state: nothing to report."""
+    cmds = CommandSequence(
+        [
+            CommandSpec(CommandType.CONSTANT, 30.0, 0.1),
+            CommandSpec(CommandType.LINEAR, 60.0, -0.1, 0.005),
+        ]
+    )
+    cfg = TractorTrailerSim(commands=cmds, speed=SpeedProfile(1.5, ramp_s=0.5))
+    run = simulate_tractor_trailer(cfg, seed=5)
+    truth = run.truth
+    lag = truth["psi"].to_numpy() - steady_state_psi(truth["kappa"].to_numpy(), 1.25, 2.48)
+    assert np.max(np.abs(lag[1000:])) < 0.005 / 3  # precondition: near steady state
+    res = discover(aligned_frame_from_run(run), 1.25, 2.48, baseline="steady")
+    assert res.effect("hitch_transient") is None
+    assert res.effects == [], [e.label for e in res.effects]
+
+
+def test_yaw_rate_only_log() -> None:
+    """Without a joint-angle sensor the catalogue shrinks to effects on the yaw rate."""
+    cmds = CommandSequence(
+        [
+            CommandSpec(CommandType.HARMONIC, 40.0, 0.2, 0.25),
+            CommandSpec(CommandType.STEP, 30.0, 0.15),
+        ]
+    )
+    cfg = TractorTrailerSim(
+        commands=cmds,
+        speed=SpeedProfile(1.0, variation=0.3),  # else a gain and understeer look the same
+        effects=Effects(sensor_scale={"omega": 0.95}),
+    )
+    run = simulate_tractor_trailer(cfg, seed=8)
+    frame = aligned_frame_from_run(run).drop("psi")
+    res = discover(frame, 1.25, 2.48)
+    assert [e.label for e in res.effects] == ["sensor_scale(omega)"]
+    lo, hi = res.effects[0].ci95["scale"]
+    assert lo <= 0.95 <= hi
+    assert set(res.rms_baseline) == {"omega"}

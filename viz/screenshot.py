@@ -1,0 +1,267 @@
+"""Screenshot of a recording as a user sees it: rerun's web viewer in headless Chromium.
+
+``rerun FILE --web-viewer --bind 127.0.0.1`` serves the viewer and the recording on free
+loopback ports; Chromium (software rasteriser: SwiftShader) opens it and is driven over the
+DevTools protocol until the plotted colours appear, then one screenshot is saved. Every process
+started here is stopped (its whole process group) before returning.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+from collections.abc import Sequence
+from pathlib import Path
+from urllib.parse import quote
+
+import numpy as np
+from numpy.typing import NDArray
+
+from viz._cdp import CdpClient
+from viz.style import COLORS
+
+__all__ = [
+    "CHROMIUM",
+    "ViewerScreenshotError",
+    "color_pixel_counts",
+    "find_chromium",
+    "screenshot_rrd",
+]
+
+CHROMIUM = "/usr/bin/chromium"
+
+#: Colours that only appear once the viewer has drawn the data (not in its own UI).
+READY_COLORS: tuple[str, ...] = ("C1", "C2", "kappa", "psi")
+
+
+class ViewerScreenshotError(RuntimeError):
+    """The viewer or the browser did not start or did not show the recording in time."""
+
+
+def find_chromium() -> str | None:
+    """Path of a Chromium executable (Debian's ``/usr/bin/chromium`` first), or None."""
+    if os.access(CHROMIUM, os.X_OK):
+        return CHROMIUM
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        found = shutil.which(name)
+        if found:
+            return found
+    return None
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _read_png(data: bytes) -> NDArray[np.uint8]:
+    from matplotlib import image as mpimg
+
+    img = mpimg.imread(io.BytesIO(data), format="png")
+    if img.dtype != np.uint8:
+        img = np.round(img * 255).astype(np.uint8)
+    return img[..., :3]
+
+
+def color_pixel_counts(
+    png: bytes | NDArray[np.uint8], names: Sequence[str] = READY_COLORS, tol: int = 10
+) -> dict[str, int]:
+    """Pixels within ``tol`` (per channel, 0-255) of each named colour of ``viz.style.COLORS``."""
+    img = _read_png(png) if isinstance(png, bytes) else png
+    px = img.reshape(-1, 3).astype(np.int16)
+    return {
+        n: int((np.abs(px - np.array(COLORS[n], dtype=np.int16)).max(axis=1) <= tol).sum())
+        for n in names
+    }
+
+
+def _wait_http(url: str, deadline: float) -> None:
+    while time.monotonic() < deadline:
+        try:
+            with urllib.request.urlopen(url, timeout=2) as r:
+                if r.status == 200:
+                    return
+        except OSError:
+            time.sleep(0.2)
+    raise ViewerScreenshotError(f"{url} did not answer in time")
+
+
+def _wait_file(path: Path, deadline: float) -> str:
+    while time.monotonic() < deadline:
+        if path.exists() and path.read_text().strip():
+            return path.read_text()
+        time.sleep(0.1)
+    raise ViewerScreenshotError(f"Chromium did not write {path} in time")
+
+
+def _group_alive(pgid: int) -> bool:
+    """True while a non-zombie process of process group ``pgid`` exists (Linux /proc)."""
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == pgid and fields[0] != "Z":
+            return True
+    return False
+
+
+def _stop(proc: subprocess.Popen[bytes] | None) -> None:
+    """Stop ``proc`` and its process group (it was started in a new session): SIGTERM, then
+    SIGKILL after 5 s."""
+    if proc is None:
+        return
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        proc.poll()
+        if not _group_alive(proc.pid):
+            break
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            break
+        end = time.monotonic() + 5.0
+        while time.monotonic() < end and (proc.poll() is None or _group_alive(proc.pid)):
+            time.sleep(0.05)
+    proc.poll()
+
+
+def _page_ws_url(devtools_port: int, deadline: float) -> str:
+    url = f"http://127.0.0.1:{devtools_port}/json/list"
+    while time.monotonic() < deadline:
+        try:
+            with urllib.request.urlopen(url, timeout=2) as r:
+                pages = [t for t in json.load(r) if t.get("type") == "page"]
+            if pages:
+                return str(pages[0]["webSocketDebuggerUrl"])
+        except OSError:
+            pass
+        time.sleep(0.2)
+    raise ViewerScreenshotError("Chromium's DevTools endpoint did not list a page in time")
+
+
+def _capture_when_ready(
+    cdp: CdpClient, deadline: float, min_pixels: int, settle_s: float, ready: Sequence[str]
+) -> bytes:
+    """Screenshots every second until each ready colour covers ``min_pixels``; then wait
+    ``settle_s`` and take the final one."""
+    last: dict[str, int] = {}
+    while time.monotonic() < deadline:
+        shot = base64.b64decode(cdp.call("Page.captureScreenshot", format="png")["data"])
+        last = color_pixel_counts(shot, ready)
+        if min(last.values()) >= min_pixels:
+            time.sleep(settle_s)
+            return base64.b64decode(cdp.call("Page.captureScreenshot", format="png")["data"])
+        time.sleep(1.0)
+    raise ViewerScreenshotError(
+        f"the viewer did not show the recording in time (colour pixel counts: {last})"
+    )
+
+
+def screenshot_rrd(
+    rrd: str | Path,
+    out_png: str | Path,
+    *,
+    width: int = 1600,
+    height: int = 1000,
+    timeout_s: float = 120.0,
+    min_pixels: int = 20,
+    settle_s: float = 3.0,
+    chromium: str | None = None,
+    pids: list[int] | None = None,
+    ready_colors: Sequence[str] = READY_COLORS,
+) -> Path:
+    """Serve ``rrd`` with rerun's web viewer, open it in headless Chromium, save a PNG.
+
+    Args:
+        rrd: recording to show (its default blueprint is used).
+        out_png: where to save the screenshot.
+        width, height: browser window size (px).
+        timeout_s: overall time limit (s); the viewer compiles its shaders on the CPU.
+        min_pixels: pixels each of ``ready_colors`` must cover before the final capture.
+        settle_s: wait (s) between "ready" and the final capture.
+        chromium: browser executable (default: :func:`find_chromium`).
+        pids: if given, the ids of the started processes (each leads its own process group)
+            are appended, so a caller can check that they are gone.
+        ready_colors: names in ``viz.style.COLORS`` whose presence means "drawn" (default:
+            the C1 and C2 paths, measured kappa and psi: the world view and two plots).
+
+    Raises:
+        ViewerScreenshotError: no browser, or the viewer did not come up in time.
+    """
+    browser = chromium or find_chromium()
+    if browser is None:
+        raise ViewerScreenshotError("no Chromium found (Debian: apt-get install chromium)")
+    deadline = time.monotonic() + timeout_s
+    web_port, grpc_port = _free_port(), _free_port()
+    viewer = chrome = cdp = None
+    with tempfile.TemporaryDirectory(prefix="logcal-chromium-") as profile:
+        try:
+            viewer = subprocess.Popen(
+                [
+                    sys.executable,
+                    "-m",
+                    "rerun",
+                    str(rrd),
+                    "--web-viewer",
+                    "--bind",
+                    "127.0.0.1",
+                    "--web-viewer-port",
+                    str(web_port),
+                    "--port",
+                    str(grpc_port),
+                ],
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                start_new_session=True,
+                env={**os.environ, "BROWSER": "true"},
+            )
+            if pids is not None:
+                pids.append(viewer.pid)
+            _wait_http(f"http://127.0.0.1:{web_port}/", deadline)
+            proxy = quote(f"rerun+http://127.0.0.1:{grpc_port}/proxy", safe="")
+            chrome = subprocess.Popen(
+                [
+                    browser,
+                    "--headless",
+                    "--no-sandbox",
+                    "--enable-unsafe-swiftshader",
+                    "--use-angle=swiftshader",
+                    "--no-first-run",
+                    "--no-default-browser-check",
+                    f"--user-data-dir={profile}",
+                    "--remote-debugging-port=0",
+                    "--remote-allow-origins=*",
+                    f"--window-size={width},{height}",
+                    f"http://127.0.0.1:{web_port}/?url={proxy}",
+                ],
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                start_new_session=True,
+            )
+            if pids is not None:
+                pids.append(chrome.pid)
+            port = int(_wait_file(Path(profile) / "DevToolsActivePort", deadline).split()[0])
+            cdp = CdpClient(_page_ws_url(port, deadline))
+            png = _capture_when_ready(cdp, deadline, min_pixels, settle_s, ready_colors)
+        finally:
+            if cdp is not None:
+                cdp.close()
+            _stop(chrome)
+            _stop(viewer)
+    out = Path(out_png)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_bytes(png)
+    return out

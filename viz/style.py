@@ -1,0 +1,36 @@
+"""Colours and names shared by the rerun recording, the PNG report and the screenshot test."""
+
+from __future__ import annotations
+
+__all__ = ["COLORS", "TIMELINE", "hex_color"]
+
+#: Name of the rerun timeline: log time (absolute, ns) as ``datetime64[ns]``.
+TIMELINE = "log_time"
+
+#: RGB colours (0-255) of the plotted things; saturated so a screenshot test can find them.
+COLORS: dict[str, tuple[int, int, int]] = {
+    "C1": (230, 25, 75),  # red: front wheel centre
+    "P": (255, 165, 0),  # orange: joint
+    "C2": (0, 130, 200),  # blue: rear wheel centre
+    "links": (240, 240, 240),
+    "O": (60, 180, 75),  # green: instantaneous centre
+    "Q": (145, 30, 180),  # purple
+    "triangle_OQC2": (70, 240, 240),
+    "triangle_QC1P": (240, 50, 230),
+    "radius": (60, 180, 75),
+    "kappa_cmd": (255, 225, 25),  # yellow
+    "kappa": (255, 110, 40),  # orange-red
+    "psi": (40, 80, 255),  # blue-violet
+    "psi_estimate": (0, 210, 140),
+    "psi_method": (200, 120, 255),
+    "residual": (220, 190, 255),
+    "truth": (250, 250, 250),
+    "L1": (230, 25, 75),
+    "L2": (0, 130, 200),
+}
+
+
+def hex_color(name: str) -> str:
+    """The colour ``name`` as ``#rrggbb`` (for matplotlib)."""
+    r, g, b = COLORS[name]
+    return f"#{r:02x}{g:02x}{b:02x}"

@@ -1,0 +1,182 @@
+"""World view of the recording: paths of C1, P, C2, the robot's links and the ICR construction.
+
+Time-varying data goes through ``rr.send_columns`` on the log's own timeline. Each time step
+costs one row per entity, so the robot (points C1, P, C2 and the two links) is one entity and
+the ICR construction (points O, Q; triangles O Q C2, Q C1 P; radius O C1) another, each
+carrying a Points2D and a LineStrips2D archetype.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import polars as pl
+import pyarrow as pa
+import rerun as rr
+from numpy.typing import NDArray
+from rerun.encodings import Vec2DBatch
+
+from calib.models.icr import KAPPA_MIN, ICRConstruction, icr_construction
+from viz._frame import column, has, kappa_measured, times_ns
+from viz.style import COLORS, TIMELINE
+
+__all__ = ["ICR", "ICR_STRIPS", "ROBOT", "ROBOT_POINTS", "WORLD", "log_world"]
+
+WORLD = "world"
+ROBOT = f"{WORLD}/robot"
+ICR = f"{WORLD}/icr"
+#: Instances of the robot's points, in order.
+ROBOT_POINTS = ("C1", "P", "C2")
+#: Instances of the ICR's line strips, in order (its points are O then Q).
+ICR_STRIPS = ("triangle_OQC2", "triangle_QC1P", "radius")
+
+
+def _time(t_ns: NDArray[np.int64]) -> list[rr.TimeColumn]:
+    return [rr.TimeColumn(TIMELINE, timestamp=t_ns.astype("datetime64[ns]"))]
+
+
+def _strips_arrow(rows: list[NDArray[np.float64]]) -> pa.Array:
+    """Arrow array of line strips built in one go (rerun's converter loops in Python).
+
+    ``rows[j]`` has shape (n, m_j, 2): strip j of each of n rows, m_j points; the result holds
+    n * len(rows) strips, row by row.
+    """
+    n = rows[0].shape[0]
+    pts = np.concatenate(rows, axis=1).reshape(-1, 2).astype(np.float32)
+    lengths = np.tile([r.shape[1] for r in rows], n)
+    offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int32)
+    return pa.ListArray.from_arrays(
+        pa.array(offsets, type=pa.int32()),
+        Vec2DBatch(pts).as_arrow_array(),
+        type=rr.components.LineStrip2DBatch._ARROW_DATATYPE,
+    )
+
+
+def _send_points_and_strips(
+    rec: rr.RecordingStream,
+    path: str,
+    t_ns: NDArray[np.int64],
+    points: NDArray[np.float64],
+    strips: list[NDArray[np.float64]],
+    ok: NDArray[np.bool_],
+    point_labels: list[str] | None = None,
+) -> None:
+    """Per row the ``points`` (n, p, 2) and one strip per ``strips`` entry (n, m_j, 2); rows
+    with ``ok`` False are logged empty (hidden). ``point_labels``: p labels per ok row."""
+    p = points.shape[1]
+    part = ok.astype(np.int32)
+    cols = [
+        *rr.Points2D.columns(
+            positions=points[ok].reshape(-1, 2).astype(np.float32), labels=point_labels
+        ).partition(part * p),
+        *rr.LineStrips2D.columns(strips=_strips_arrow([s[ok] for s in strips])).partition(
+            part * len(strips)
+        ),
+    ]
+    rec.send_columns(path, indexes=_time(t_ns), columns=cols)
+
+
+def _log_paths(rec: rr.RecordingStream, points: dict[str, NDArray[np.float64]]) -> None:
+    """The full world-frame paths as static line strips (m)."""
+    for name, pts in points.items():
+        ok = np.isfinite(pts).all(axis=1)
+        rec.log(
+            f"{WORLD}/paths/{name}",
+            rr.LineStrips2D([pts[ok]], colors=[COLORS[name]], radii=[0.03], labels=[name]),
+            static=True,
+        )
+
+
+def _log_c1_only(rec: rr.RecordingStream, t: NDArray[np.int64], c1: NDArray[np.float64]) -> None:
+    _log_paths(rec, {"C1": c1})
+    ok = np.isfinite(c1).all(axis=1)
+    rec.log(
+        ROBOT,
+        rr.Points2D.from_fields(colors=[COLORS["C1"]], radii=[0.12], labels=["C1"]),
+        static=True,
+    )
+    rec.send_columns(
+        ROBOT,
+        indexes=_time(t),
+        columns=rr.Points2D.columns(positions=c1[ok]).partition(ok.astype(np.int32)),
+    )
+
+
+def log_world(
+    rec: rr.RecordingStream,
+    frame: pl.DataFrame,
+    lengths: tuple[float, float] | None,
+    *,
+    kappa_min: float = KAPPA_MIN,
+) -> None:
+    """Log paths, robot and ICR under ``world/`` (m, world frame, drawn y up).
+
+    Args:
+        rec: the recording.
+        frame: aligned log with ``t_ns``, ``x``, ``y`` (m); ``yaw``, ``psi`` (rad) and a
+            curvature (``kappa`` or ``omega``/``v``) enable P, C2 and the ICR.
+        lengths: calibrated (L1, L2) in m, or None (then only C1 is drawn).
+        kappa_min: |kappa| (1/m) below which the ICR is hidden.
+    """
+    if not has(frame, "t_ns", "x", "y"):
+        return
+    # Rerun's 2D views draw y down: mirror the world once so that left turns look left.
+    rec.log(WORLD, rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
+    t = times_ns(frame)
+    c1 = np.stack([column(frame, "x"), column(frame, "y")], axis=-1)
+    kappa = kappa_measured(frame)
+    if lengths is None or not has(frame, "yaw", "psi") or kappa is None:
+        _log_c1_only(rec, t, c1)
+        return
+    L1, L2 = lengths
+    c = icr_construction(
+        c1[:, 0],
+        c1[:, 1],
+        column(frame, "yaw"),
+        column(frame, "psi"),
+        kappa,
+        L1,
+        L2,
+        kappa_min=kappa_min,
+    )
+    _log_paths(rec, {"C1": c.C1, "P": c.P, "C2": c.C2})
+    _log_robot(rec, t, c)
+    _log_icr(rec, t, c)
+
+
+def _log_robot(rec: rr.RecordingStream, t: NDArray[np.int64], c: ICRConstruction) -> None:
+    """C1, P, C2 as points and C1-P-C2 as one strip at every time step."""
+    rec.log(
+        ROBOT,
+        rr.Points2D.from_fields(
+            colors=[COLORS[n] for n in ROBOT_POINTS], radii=[0.12], labels=list(ROBOT_POINTS)
+        ),
+        rr.LineStrips2D.from_fields(colors=[COLORS["links"]], radii=[0.05]),
+        static=True,
+    )
+    pts = np.stack([c.C1, c.P, c.C2], axis=1)
+    ok = np.isfinite(pts).reshape(len(t), -1).all(axis=1)
+    _send_points_and_strips(rec, ROBOT, t, pts, [pts], ok)
+
+
+def _log_icr(rec: rr.RecordingStream, t: NDArray[np.int64], c: ICRConstruction) -> None:
+    """O (labelled with R = 1/kappa) and Q; triangles O Q C2, Q C1 P and the radius O C1.
+    Empty where the construction is not valid (|kappa| small)."""
+    rec.log(
+        ICR,
+        rr.Points2D.from_fields(colors=[COLORS["O"], COLORS["Q"]], radii=[0.1]),
+        rr.LineStrips2D.from_fields(colors=[COLORS[n] for n in ICR_STRIPS], radii=[0.02]),
+        static=True,
+    )
+    o, q = c.O, c.Q
+    strips = [
+        np.stack([o, q, c.C2, o], axis=1),
+        np.stack([q, c.C1, c.P, q], axis=1),
+        np.stack([o, c.C1], axis=1),
+    ]
+    ok = c.valid & np.all([np.isfinite(s).reshape(len(t), -1).all(axis=1) for s in strips], axis=0)
+    labels = np.empty((int(ok.sum()), 2), dtype=object)
+    labels[:, 0] = np.char.mod("O: R = 1/κ = %.2f m", c.R[ok])
+    labels[:, 1] = "Q"
+    _send_points_and_strips(
+        rec, ICR, t, np.stack([o, q], axis=1), strips, ok, labels.reshape(-1).tolist()
+    )
