@@ -41,10 +41,26 @@ def _register() -> None:
 _register()
 
 
+def _click_exception_types() -> tuple[tuple[type, ...], tuple[type, ...]]:
+    """(usage-error types, abort types) of click and of typer's vendored click, when present."""
+    import click
+
+    usage: list[type] = [click.ClickException]
+    abort: list[type] = [click.exceptions.Abort, typer.Abort]
+    try:  # typer >= 0.2x vendors its own copy of click
+        from typer._click import exceptions as vendored
+    except ImportError:  # pragma: no cover - depends on the typer version
+        vendored = None
+    if vendored is not None:
+        usage.append(vendored.ClickException)
+    return tuple(usage), tuple(abort)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI in-process with ``argv`` (without the program name); return the exit code."""
     args = list(sys.argv[1:] if argv is None else argv)
     _state["debug"] = "--debug" in args
+    usage_errors, aborts = _click_exception_types()
     try:
         app(args=args, prog_name="logcal", standalone_mode=False)
     except (LogcalError, CalibError) as err:
@@ -54,21 +70,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except typer.Exit as ex:
         return int(ex.exit_code or 0)
-    except SystemExit as ex:  # click's own exits (usage errors give 2)
+    except SystemExit as ex:
         return int(ex.code or 0) if isinstance(ex.code, int) else 1
-    except Exception as ex:  # click usage errors arrive as ClickException subclasses
-        import click
-
-        if isinstance(ex, click.ClickException):
-            ex.show()
-            return ex.exit_code
-        if isinstance(ex, click.exceptions.Abort):
-            print("Aborted.", file=sys.stderr)
-            return 1
-        raise
+    except usage_errors as ex:
+        ex.show()
+        return int(getattr(ex, "exit_code", 2))
+    except aborts:
+        print("Aborted.", file=sys.stderr)
+        return 1
     return 0
 
 
 def run() -> None:
     """Console-script entry point."""
     raise SystemExit(main())
+
+
+if __name__ == "__main__":
+    run()
