@@ -88,27 +88,17 @@ def integrate_hitch(
     default the steady state of the first curvature). Inputs are linear between samples.
     Units: s, 1/m, m/s, m; returns psi (rad).
     """
-    n = t_s.size
-    tl, kl, vl = t_s.tolist(), kappa.tolist(), v.tolist()
-    sin, cos = math.sin, math.cos
-    p = float(steady_psi(np.array([kl[0]]), L1, L2)[0]) if psi0 is None else psi0
-    out = [0.0] * n
-    out[0] = p
-    inv = 1.0 / lam
-    for i in range(n - 1):
-        h = tl[i + 1] - tl[i]
-        k0, k1, v0, v1 = kl[i], kl[i + 1], vl[i], vl[i + 1]
-        km, vm = 0.5 * (k0 + k1), 0.5 * (v0 + v1)
-        f1 = v0 * (k0 * (L2 + L1 * cos(p)) - sin(p)) * inv
-        q = p + 0.5 * h * f1
-        f2 = vm * (km * (L2 + L1 * cos(q)) - sin(q)) * inv
-        q = p + 0.5 * h * f2
-        f3 = vm * (km * (L2 + L1 * cos(q)) - sin(q)) * inv
-        q = p + h * f3
-        f4 = v1 * (k1 * (L2 + L1 * cos(q)) - sin(q)) * inv
-        p = p + h / 6.0 * (f1 + 2.0 * f2 + 2.0 * f3 + f4)
-        out[i + 1] = p
-    return np.asarray(out)
+    return integrate_hitch_half(
+        _with_midpoints(t_s), _with_midpoints(kappa), _with_midpoints(v), L1, L2, lam, psi0
+    )
+
+
+def _with_midpoints(x: FloatArray) -> FloatArray:
+    """``x`` on the half-step grid: samples at even indices, their means at odd ones."""
+    out = np.empty(2 * x.size - 1)
+    out[0::2] = x
+    out[1::2] = 0.5 * (x[:-1] + x[1:])
+    return out
 
 
 def integrate_hitch_half(

@@ -42,17 +42,22 @@ _register()
 
 
 def _click_exception_types() -> tuple[tuple[type, ...], tuple[type, ...]]:
-    """(usage-error types, abort types) of click and of typer's vendored click, when present."""
-    import click
-
-    usage: list[type] = [click.ClickException]
-    abort: list[type] = [click.exceptions.Abort, typer.Abort]
+    """(usage-error types, abort types) of typer's vendored click and of click, when present."""
+    usage: list[type] = []
+    abort: list[type] = [typer.Abort]
     try:  # typer >= 0.2x vendors its own copy of click
         from typer._click import exceptions as vendored
-    except ImportError:  # pragma: no cover - depends on the typer version
-        vendored = None
-    if vendored is not None:
+
         usage.append(vendored.ClickException)
+    except ImportError:  # pragma: no cover - depends on the typer version
+        pass
+    try:  # older typer runs on the click package
+        import click
+
+        usage.append(click.ClickException)
+        abort.append(click.exceptions.Abort)
+    except ImportError:
+        pass
     return tuple(usage), tuple(abort)
 
 
