@@ -33,6 +33,7 @@ from viz.style import COLORS
 __all__ = [
     "CHROMIUM",
     "ViewerScreenshotError",
+    "alive_in_group",
     "color_pixel_counts",
     "find_chromium",
     "screenshot_rrd",
@@ -105,16 +106,22 @@ def _wait_file(path: Path, deadline: float) -> str:
     raise ViewerScreenshotError(f"Chromium did not write {path} in time")
 
 
-def _group_alive(pgid: int) -> bool:
-    """True while a non-zombie process of process group ``pgid`` exists (Linux /proc)."""
+def alive_in_group(pgid: int) -> list[int]:
+    """Pids of the non-zombie processes of process group ``pgid`` (Linux /proc)."""
+    alive = []
     for stat in Path("/proc").glob("[0-9]*/stat"):
         try:
             fields = stat.read_text().rsplit(")", 1)[1].split()
         except OSError:
             continue
         if int(fields[2]) == pgid and fields[0] != "Z":
-            return True
-    return False
+            alive.append(int(stat.parent.name))
+    return alive
+
+
+def _group_alive(pgid: int) -> bool:
+    """True while a non-zombie process of process group ``pgid`` exists."""
+    return bool(alive_in_group(pgid))
 
 
 def _stop(proc: subprocess.Popen[bytes] | None) -> None:

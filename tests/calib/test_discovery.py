@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import polars as pl
 import pytest
+from discovery_logs import ISSUE_CATALOGUE
 
 from calib.discovery import catalogue, discover
 from calib.discovery.data import CommandSignal, prepare_data
@@ -112,15 +113,7 @@ def test_missing_columns_and_short_logs_are_reported() -> None:
 
 def test_catalogue_is_one_interface() -> None:
     steady = catalogue("steady")
-    assert {e.id for e in steady} == {
-        "hitch_transient",
-        "sensor_offset",
-        "sensor_scale",
-        "actuator_delay",
-        "actuator_lag",
-        "understeer",
-        "clock_offset",
-    }
+    assert {e.id for e in steady} == ISSUE_CATALOGUE
     assert "hitch_transient" not in {e.id for e in catalogue("transient")}
     assert {e.key for e in catalogue("steady", ("omega",))}.isdisjoint(
         {"hitch_transient", "sensor_offset(psi)", "clock_offset(hitch)"}

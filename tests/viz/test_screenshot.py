@@ -3,29 +3,22 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import pytest
 
 from viz.recording import write_recording
-from viz.screenshot import CHROMIUM, READY_COLORS, color_pixel_counts, screenshot_rrd
+from viz.screenshot import (
+    CHROMIUM,
+    READY_COLORS,
+    alive_in_group,
+    color_pixel_counts,
+    screenshot_rrd,
+)
 
 pytestmark = [
     pytest.mark.browser,
     pytest.mark.skipif(not os.access(CHROMIUM, os.X_OK), reason="needs /usr/bin/chromium"),
 ]
-
-
-def _alive_in_group(pgid: int) -> list[int]:
-    alive = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[2]) == pgid and fields[0] != "Z":
-            alive.append(int(stat.parent.name))
-    return alive
 
 
 def test_viewer_shows_the_panels_and_processes_stop(case, tmp_path):
@@ -39,4 +32,4 @@ def test_viewer_shows_the_panels_and_processes_stop(case, tmp_path):
     assert all(counts[c] >= 20 for c in READY_COLORS), counts
     assert len(pids) == 2
     for pid in pids:
-        assert _alive_in_group(pid) == [], f"process group {pid} still has live processes"
+        assert alive_in_group(pid) == [], f"process group {pid} still has live processes"
