@@ -19,6 +19,7 @@ __all__ = [
     "Estimate",
     "MethodResult",
     "Segment",
+    "StageStatus",
     "json_safe",
 ]
 
@@ -206,6 +207,19 @@ class CalibrationResult:
 
 
 @dataclass(frozen=True)
+class StageStatus:
+    """How one stage of an analysis ended: "ok", "skipped" (the log has too little for it) or
+    "failed" (a numerical failure, caught at the stage's boundary); ``reason`` says why."""
+
+    stage: str
+    status: str
+    reason: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"stage": self.stage, "status": self.status, "reason": self.reason}
+
+
+@dataclass(frozen=True)
 class AnalysisResult:
     """Everything ``logcal analyze`` found in one log; ``to_dict()`` is the ``--json`` document.
 
@@ -221,11 +235,13 @@ class AnalysisResult:
     truth: Mapping[str, float] = field(default_factory=dict)
     source: Mapping[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    stages: list[StageStatus] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         return json_safe(
             {
                 "robot": self.robot,
+                "stages": [s.to_dict() for s in self.stages],
                 "source": dict(self.source),
                 "segments": [s.to_dict() for s in self.segments],
                 "methods": [m.to_dict() for m in self.methods],

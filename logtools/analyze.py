@@ -7,20 +7,30 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from typing import Literal
+from dataclasses import dataclass, replace
+from typing import Literal, TypeVar
 
 import numpy as np
 import polars as pl
 
-from calib.results import AnalysisResult, CommandType, MethodResult, Segment
+from calib.estimators.path_transient import PathTransientFit
+from calib.results import (
+    AnalysisResult,
+    CalibrationResult,
+    CommandType,
+    MethodResult,
+    Segment,
+    StageStatus,
+)
 from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.load import LoadedLog, load_log
 from logtools.signals import Robot, SignalSource
+from logtools.tt_path import PathInputs, path_inputs
 
 __all__ = ["AnalysisConfig", "UnsupportedRobotError", "analyze_loaded", "analyze_log"]
 
 Progress = Callable[[str], None]
+T = TypeVar("T")
 
 
 class UnsupportedRobotError(LogcalInputError):
@@ -38,6 +48,7 @@ class AnalysisConfig:
         seed: seed of every random draw (bootstrap), for reproducible reports.
         discovery: run model-mismatch discovery.
         per_segment: also report the method table per command type.
+        debug: let a failing stage raise (with its traceback) instead of recording it.
     """
 
     repeats: int = 10
@@ -45,6 +56,7 @@ class AnalysisConfig:
     seed: int = 0
     discovery: bool = True
     per_segment: bool = True
+    debug: bool = False
 
 
 def _noop(_: str) -> None:
@@ -125,13 +137,113 @@ def _method_tables(
     return rows, notes
 
 
+class _Stages:
+    """Runs each stage inside its own boundary: too little data -> "skipped", any numerical
+    failure -> "failed", each with its reason; the other stages go on. ``debug`` re-raises."""
+
+    def __init__(self, debug: bool) -> None:
+        self.debug = debug
+        self.status: list[StageStatus] = []
+
+    def run(self, stage: str, fn: Callable[[], T]) -> T | None:
+        from calib.errors import InsufficientDataError
+
+        try:
+            out = fn()
+        except (InsufficientDataError, LogcalInputError) as err:
+            if self.debug:
+                raise
+            self.status.append(StageStatus(stage, "skipped", str(err)))
+            return None
+        except (KeyboardInterrupt, MemoryError):
+            raise
+        except Exception as err:  # a numerical failure stays inside its stage
+            if self.debug:
+                raise
+            self.status.append(StageStatus(stage, "failed", f"{type(err).__name__}: {err}"))
+            return None
+        self.status.append(StageStatus(stage, "ok"))
+        return out
+
+    def skip(self, stage: str, reason: str) -> None:
+        self.status.append(StageStatus(stage, "skipped", reason))
+
+
+def _path_fit(
+    loaded: LoadedLog, *, psi_offset: bool = False, psi_shift_s: float = 0.0
+) -> tuple[PathInputs, PathTransientFit]:
+
+    inp = path_inputs(loaded)
+    fit = PathTransientFit(fit_psi_offset=psi_offset).fit(
+        inp.path, inp.t_psi_s - psi_shift_s, inp.psi_rad, gaps=inp.gaps
+    )
+    return inp, fit
+
+
+def _sensor_effects(discovery: object) -> tuple[bool, float, list[str]]:
+    """From accepted discovery effects: (fit a joint-angle offset, joint-angle clock offset
+    (s), labels used). Effects on the actuator do not enter a path-driven fit."""
+    offset, shift, used = False, 0.0, []
+    for e in getattr(discovery, "effects", []) or []:
+        if e.id == "sensor_offset" and e.target == "psi":
+            offset = True
+            used.append(e.label)
+        elif e.id == "clock_offset" and e.target in ("hitch", "psi"):
+            shift = float(next(iter(e.parameters.values())))
+            used.append(e.label)
+    return offset, shift, used
+
+
+def _recommend(
+    path_fit: PathTransientFit | None,
+    eiv: CalibrationResult | None,
+    stages: _Stages,
+) -> tuple[CalibrationResult | None, list[str]]:
+    """The path-driven transient fit when it is sound, else the steady-state estimate with the
+    reason in its verdict."""
+    notes: list[str] = []
+    reason = ""
+    if path_fit is not None:
+        res = path_fit.result_
+        if path_fit.sound_:
+            return res, notes
+        why = []
+        if not path_fit.converged_:
+            why.append("the optimiser did not converge")
+        if path_fit.on_bound_:
+            why.append("estimate on a bound of " + ", ".join(path_fit.on_bound_))
+        reason = "transient fit along the path not used: " + (
+            "; ".join(why) or "no finite covariance"
+        )
+    else:
+        failed = [s for s in stages.status if s.stage == _PATH_STAGE and s.status != "ok"]
+        reason = "transient fit along the path not possible" + (
+            f": {failed[0].reason}" if failed else ""
+        )
+    if eiv is None:
+        if path_fit is not None:
+            res = path_fit.result_
+            return replace(res, verdict=res.verdict + f" ({reason}.)"), [reason]
+        return None, [reason]
+    notes.append(reason)
+    return replace(eiv, verdict=f"{eiv.verdict} ({reason}.)"), notes
+
+
+_PATH_STAGE = "transient fit along the path"
+
+
 def analyze_loaded(
     loaded: LoadedLog,
     *,
     config: AnalysisConfig | None = None,
     progress: Progress | None = None,
 ) -> AnalysisResult:
-    """Analyse an already loaded log (see ``analyze_log``)."""
+    """Analyse an already loaded log (see ``analyze_log``).
+
+    Each stage (segmentation, least-squares methods, estimators, discovery) runs inside its own
+    boundary: a stage that lacks data or fails numerically says so in ``stages`` and the
+    others still report.
+    """
     cfg = config or AnalysisConfig()
     progress = progress or _noop
     if loaded.robot is not Robot.TRACTOR_TRAILER:
@@ -141,44 +253,118 @@ def analyze_loaded(
             "If this is a tractor-trailer log, set the 'robot' entry of its 'logcal' metadata "
             "record or map its hitch-angle topic with --channel-map."
         )
-    _require(loaded, ("psi", "kappa"))
+    _require(loaded, ("psi",))
+    stages = _Stages(cfg.debug)
     rng = np.random.default_rng(cfg.seed)
-    frame = _usable_rows(loaded.frame, ("psi", "kappa"))
-    if frame.height < 10:
-        raise LogcalInputError(
-            f"{loaded.path}: only {frame.height} samples have both a joint angle (psi) and a "
-            "measured curvature (kappa); at least 10 are needed."
-        )
-    t_s = (frame["t_ns"].to_numpy() - frame["t_ns"][0]) / 1e9
-    kappa = frame["kappa"].to_numpy()
-    psi = frame["psi"].to_numpy()
-    v = frame["v"].to_numpy() if "v" in frame.columns else None
+    notes: list[str] = []
+    has_kappa = "kappa" in loaded.frame.columns
+    frame = _usable_rows(loaded.frame, ("psi", "kappa") if has_kappa else ("psi",))
+    t_s = (frame["t_ns"].to_numpy() - frame["t_ns"][0]) / 1e9 if frame.height else np.zeros(0)
 
     progress("segmenting by command type")
-    segments = _segments(t_s, frame)
-    methods, notes = _method_tables(kappa, psi, segments, cfg, rng, progress)
+    segments: list[Segment] = []
+    if "kappa_cmd" not in frame.columns:
+        stages.skip("segmentation", "no curvature command (kappa_cmd) in the log")
+    elif frame.height < 10:
+        stages.skip("segmentation", f"{frame.height} usable rows; need 10")
+    else:
+        segments = stages.run("segmentation", lambda: _segments(t_s, frame)) or []
 
-    from calib.estimators.recommend import calibrate_link_lengths
+    progress(_PATH_STAGE)
+    path_out = stages.run(_PATH_STAGE, lambda: _path_fit(loaded))
+    path_fit = path_out[1] if path_out else None
+    if path_out:
+        notes += path_out[0].notes + path_out[1].notes_
 
-    progress("recommended estimate (errors-in-variables and transient fits)")
-    estimate, own_rows = calibrate_link_lengths(t_s, kappa, psi, v, segments=segments, rng=rng)
-    methods = methods + list(own_rows)
+    methods: list[MethodResult] = []
+    eiv = None
+    if not has_kappa:
+        reason = "no measured curvature (kappa needs v and omega, or a pose path)"
+        stages.skip("least-squares methods", reason)
+        stages.skip("steady-state and time-domain estimators", reason)
+    elif frame.height < 10:
+        reason = f"{frame.height} rows have both psi and kappa; need 10"
+        stages.skip("least-squares methods", reason)
+        stages.skip("steady-state and time-domain estimators", reason)
+    else:
+        kappa = frame["kappa"].to_numpy()
+        psi = frame["psi"].to_numpy()
+        v = frame["v"].to_numpy() if "v" in frame.columns else None
+        tables = stages.run(
+            "least-squares methods",
+            lambda: _method_tables(kappa, psi, segments, cfg, rng, progress),
+        )
+        if tables:
+            methods += tables[0]
+            notes += tables[1]
+        from calib.estimators.recommend import calibrate_link_lengths
+
+        progress("steady-state and time-domain estimators")
+        own = stages.run(
+            "steady-state and time-domain estimators",
+            lambda: calibrate_link_lengths(t_s, kappa, psi, v, segments=segments, rng=rng),
+        )
+        if own:
+            eiv = own[0] if own[0].method == "EIV-ML" else None
+            methods += list(own[1])
+    if path_fit is not None:
+        methods.append(path_fit.method_result_)
+    estimate, why = _recommend(path_fit, eiv, stages)
+    notes += why
 
     discovery = None
-    if cfg.discovery:
+    if not cfg.discovery:
+        stages.skip("discovery", "switched off (--no-discovery)")
+    elif estimate is None:
+        stages.skip("discovery", "no calibrated link lengths to start from")
+    elif "kappa_cmd" not in frame.columns:
+        stages.skip("discovery", "discovery compares against the curvature command; the log "
+                    "has none (kappa_cmd)")
+    else:
         from calib.discovery import discover
 
         progress("model-mismatch discovery")
         L1 = estimate.parameters["L1"].value
         L2 = estimate.parameters["L2"].value
-        discovery = discover(frame, L1, L2, baseline=cfg.baseline, segments=segments, rng=rng)
+        discovery = stages.run(
+            "discovery",
+            lambda: discover(frame, L1, L2, baseline=cfg.baseline, segments=segments, rng=rng),
+        )
+    offset, shift, used = _sensor_effects(discovery)
+    if used and path_fit is not None:
+        progress("refit with the effects discovery named")
+        joint = stages.run(
+            "joint refit with discovered sensor effects",
+            lambda: _path_fit(loaded, psi_offset=offset, psi_shift_s=shift)[1],
+        )
+        if joint is not None and joint.sound_:
+            res = joint.result_
+            model = f"{res.method} + " + " + ".join(used)
+            estimate = replace(
+                res, method=model,
+                details={**res.details, "model": model, "effects_included": used},
+            )
+    if estimate is not None and path_fit is not None and estimate.method.startswith(
+        path_fit.name
+    ):
+        actuator = [
+            e.label for e in getattr(discovery, "effects", []) or []
+            if e.id in ("actuator_delay", "actuator_lag", "understeer")
+        ]
+        if actuator:
+            notes.append(
+                "the recommended estimate follows the measured path, so the actuator effects "
+                f"discovery named ({', '.join(actuator)}) do not bias it"
+            )
 
     source = {
         "path": str(loaded.path),
         "samples": frame.height,
-        "duration_s": float(t_s[-1]),
+        "duration_s": float(t_s[-1]) if t_s.size else 0.0,
         "signals": {k: f"{s.topic}:{s.field}" for k, s in loaded.signals.sources.items()},
     }
+    if path_out:
+        source["path_source"] = path_out[0].path.source
     return AnalysisResult(
         robot=str(loaded.robot),
         segments=segments,
@@ -188,4 +374,5 @@ def analyze_loaded(
         truth=dict(loaded.truth),
         source=source,
         warnings=list(loaded.problems) + notes,
+        stages=stages.status,
     )

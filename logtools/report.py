@@ -89,6 +89,18 @@ def render_analysis(result: AnalysisResult, *, per_segment: bool = True) -> Rend
     parts.append(Text(CLS_SPLIT_NOTE, style="yellow"))
     if result.estimate is not None:
         parts.append(Panel(result.estimate.report(), title="Recommended estimate", expand=False))
+    else:
+        parts.append(Text("No link-length estimate: no calibration stage could run (see below).",
+                          style="bold red"))
+    not_ok = [s for s in result.stages if s.status != "ok"]
+    if not_ok:
+        parts.append(
+            Text(
+                "Stages that did not run:\n"
+                + "\n".join(f"- {s.stage}: {s.status} ({s.reason})" for s in not_ok),
+                style="yellow",
+            )
+        )
     if result.discovery is not None:
         parts.append(Panel(result.discovery.report(), title="Model mismatch", expand=False))
     if result.warnings:

@@ -7,6 +7,8 @@ its value. For a steady-state log the sum L1 + L2 is usually determined and the 
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,11 +28,29 @@ _ADVICE = (
 
 
 def make_estimate(
-    name: str, value: float, std: float, *, rel_tol: float, note: str = "", unit: str = "m"
+    name: str,
+    value: float,
+    std: float,
+    *,
+    rel_tol: float,
+    note: str = "",
+    unit: str = "m",
+    scale: float = 0.0,
+    force_undetermined: bool = False,
 ) -> Estimate:
-    """An ``Estimate`` with a Wald 95 % interval, determined when 1.96 std <= rel_tol |value|."""
+    """An ``Estimate`` with a Wald 95 % interval, determined when
+    1.96 std <= rel_tol max(|value|, scale) (``scale``: a size below which the relative rule
+    would be unfair, e.g. for a value near zero). ``force_undetermined``: e.g. on a bound; the
+    interval is then reported unbounded rather than narrow."""
     half = Z95 * std
-    ok = bool(np.isfinite(std) and np.isfinite(value) and half <= rel_tol * abs(value))
+    ok = bool(
+        np.isfinite(std) and np.isfinite(value) and half <= rel_tol * max(abs(value), scale)
+    )
+    if force_undetermined:
+        return Estimate(
+            name, float(value), math.nan, (-math.inf, math.inf), False, unit,
+            (note + "; " if note else "") + "on a bound of the fit: not determined",
+        )
     return Estimate(name, float(value), float(std), (value - half, value + half), ok, unit, note)
 
 
@@ -109,6 +129,8 @@ def identifiability(
     rel_tol: float = 0.1,
     method: str = "",
     advice: str = _ADVICE,
+    scale: float = 0.0,
+    not_determined: Sequence[str] = (),
 ) -> IdentifiabilityVerdict:
     """Verdict on (L1, L2) from their 2 x 2 covariance (m^2) or Fisher information (1/m^2).
 
@@ -120,6 +142,9 @@ def identifiability(
         rel_tol: a quantity is determined when its 95 % half-width <= rel_tol |value|.
         method: name of the estimator, put in each estimate's note.
         advice: what to do when something is not determined (ends the sentence).
+        scale: absolute size (m) for the relative rule (see ``make_estimate``): L1 near zero
+            (a hitch on the axle) is judged against the robot's size, not against itself.
+        not_determined: names ("L1", "L2") known not to be determined (e.g. on a bound).
 
     Returns:
         The verdict with estimates of L1, L2 and L1 + L2.
@@ -148,9 +173,13 @@ def identifiability(
     sd2 = np.sqrt(var_of(np.array([0.0, 1.0])))
     sds = np.sqrt(var_of(np.array([1.0, 1.0])))
     note = f"{method}: Wald 95 % interval" if method else "Wald 95 % interval"
-    l1 = make_estimate("L1", v1, sd1, rel_tol=rel_tol, note=note)
-    l2 = make_estimate("L2", v2, sd2, rel_tol=rel_tol, note=note)
-    s = make_estimate("L1+L2", v1 + v2, sds, rel_tol=rel_tol, note=note)
+    nd = set(not_determined)
+    l1 = make_estimate("L1", v1, sd1, rel_tol=rel_tol, note=note, scale=scale,
+                       force_undetermined="L1" in nd)
+    l2 = make_estimate("L2", v2, sd2, rel_tol=rel_tol, note=note, scale=scale,
+                       force_undetermined="L2" in nd)
+    s = make_estimate("L1+L2", v1 + v2, sds, rel_tol=rel_tol, note=note, scale=scale,
+                      force_undetermined=bool(nd))
     corr = float(m[0, 1] / np.sqrt(m[0, 0] * m[1, 1])) if m[0, 0] * m[1, 1] > 0 else float("nan")
     if is_fisher and np.isfinite(corr):
         corr = -corr

@@ -102,9 +102,13 @@ def sample_average(
     if nodes.shape[0] > 2:
         pe0, pm, pe1 = full[1:-2:2], full[2:-1:2], full[3::2]
         e0, m, e1 = edges[1:-2], tbar[1:-1], edges[2:-1]
-        d2 = 2.0 * ((pe1 - pm) / (e1 - m)[:, None] - (pm - pe0) / (m - e0)[:, None])
-        d2 /= (e1 - e0)[:, None]
-        out[1:-1] += 0.5 * d2 * var_t[1:-1, None]
+        # a bin with one sample has var_t = 0 and may have its sample on an edge: no
+        # correction there (and no division by a zero width)
+        ok = ((e1 - m) > 0) & ((m - e0) > 0) & (var_t[1:-1] > 0)
+        w1 = np.where(ok, e1 - m, 1.0)[:, None]
+        w0 = np.where(ok, m - e0, 1.0)[:, None]
+        d2 = 2.0 * ((pe1 - pm) / w1 - (pm - pe0) / w0) / (e1 - e0)[:, None]
+        out[1:-1] += np.where(ok[:, None], 0.5 * d2 * var_t[1:-1, None], 0.0)
     return out
 
 

@@ -1,0 +1,473 @@
+"""Output-error fit of the transient joint-angle kinematics along the measured path.
+
+The joint angle is simulated along link 1's measured path (``DrivePath``: cumulative arc length
+and heading) with calib.models.hitch_path, evaluated at each joint-angle sample's own time, and
+(L1, L2, an optional joint-angle sensor offset, one initial angle per piece) minimise the squared
+difference to the measured joint angle.
+
+Why this form (issue #8): a time-domain fit driven by sampled speed and curvature must guess the
+inputs between samples and divides by the speed; this one integrates the recorded motion itself,
+so it is the same at any sampling rate, with jitter and with asynchronous sensors, it needs no
+speed (a pose is enough), stops and reversing are ordinary, and actuator effects (delay, lag,
+understeer) do not bias it when the path is measured.
+
+Gaps (recorder stalls, dropouts of the joint angle or of the path) split the log into pieces;
+each piece has its own initial angle and nothing is integrated across a gap. Long pieces are cut
+into chunks integrated side by side (one numpy call per step for all of them); the chunks'
+start values are made continuous by sweeping until they agree to 1e-12 rad.
+
+Uncertainty: a Newey-West (HAC) sandwich of the residuals, with the per-piece initial angles
+projected out (Frisch-Waugh), which carries the autocorrelation that path noise and unmodelled
+effects leave in the residual. Its coverage is measured on logs from an independent generator
+(bench/path_coverage_study.py).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.optimize import least_squares
+from scipy.sparse import csr_matrix
+
+from calib.errors import InsufficientDataError, SolverError
+from calib.estimators._result import calibration_result, information_criteria, method_result
+from calib.estimators._stats import bartlett_bandwidth, hac_covariance, hf_noise_std
+from calib.estimators.drive_path import DrivePath, default_gap_s
+from calib.estimators.identifiability import IdentifiabilityVerdict, identifiability
+from calib.models.hitch_path import advance_psi, rk4_substeps
+from calib.results import CalibrationResult, MethodResult
+
+__all__ = ["PathTransientFit"]
+
+_ADVICE = (
+    "drive with curvature changes (turns shorter than a few trailer lengths, S-bends) and larger "
+    "joint angles, record the joint angle without gaps, or lower the sensor noise"
+)
+_FILL_S = 0.05  # path knots inside joint-angle intervals longer than this become nodes
+_MIN_PIECE = 8  # joint-angle samples a piece needs
+_MIN_MOVE_M = 0.01  # a piece whose path moves less than this carries nothing on L1, L2
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Nodes cut into chunks for side-by-side integration.
+
+    ``A``/``B``: heading and arc-length increments per step, (k, c) (zero-padded);
+    ``node_chunk``/``node_step``: where each node sits (chunk, row of the output);
+    ``chunk_piece``: piece of each chunk; ``chunk_first``: the chunk starts its piece;
+    ``prev_chunk``: chunk whose end starts this one (-1 for a piece's first chunk).
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    node_chunk: np.ndarray
+    node_step: np.ndarray
+    chunk_piece: np.ndarray
+    chunk_first: np.ndarray
+    prev_chunk: np.ndarray
+    chunk_end_step: np.ndarray
+
+
+def _pieces(t: np.ndarray, path: DrivePath, gaps: list[tuple[float, float]]) -> np.ndarray:
+    """Piece index of each joint-angle sample: a new piece after any gap."""
+    gap_psi = default_gap_s(t)
+    new = np.diff(t) > gap_psi
+    # a path gap between two joint-angle samples
+    k0 = np.searchsorted(path.t_s, t[:-1], side="right")
+    k1 = np.searchsorted(path.t_s, t[1:], side="left")
+    if path.t_s.size > 1:
+        big = np.nonzero(np.diff(path.t_s) > path.gap_s)[0]  # knot interval big -> big + 1
+        if big.size:
+            # samples i, i+1 straddle knot interval j when k0 <= j + 1 and j < k1 ... any j
+            cum = np.concatenate([[0], np.cumsum(np.isin(np.arange(path.t_s.size - 1), big))])
+            lo = np.clip(k0 - 1, 0, path.t_s.size - 1)
+            hi = np.clip(k1, 0, path.t_s.size - 1)
+            new |= (cum[hi] - cum[lo]) > 0
+    for g0, g1 in gaps:
+        new |= (t[:-1] < g1) & (t[1:] > g0)
+    return np.concatenate([[0], np.cumsum(new)])
+
+
+class PathTransientFit:
+    """Fit (L1, L2[, psi offset], psi0 per piece) of the joint angle along a measured path.
+
+    Args:
+        rel_tol: a quantity is "determined" when its 95 % half-width <= rel_tol times
+            max(|value|, (|L1| + |L2|) / 2) (an absolute scale, so L1 near 0 can be determined).
+        fit_psi_offset: also fit a constant offset of the joint-angle sensor (rad).
+        bounds_L1_m, bounds_L2_m: parameter bounds (m); L1 may be negative (hitch ahead of
+            link 1's axle) or zero. An estimate on a bound is reported as not determined.
+        chunk_nodes: nodes per chunk of side-by-side integration (None: chosen by size).
+
+    Attributes (after ``fit``):
+        L1_, L2_, psi_offset_: estimates (m, m, rad). cov_: covariance of (L1, L2[, offset]).
+        verdict_, result_, method_result_, converged_, sound_ (converged, finite covariance,
+        no parameter on a bound), misfit_ (residual rms / joint-angle white-noise std),
+        residual_rms_, noise_std_, n_pieces_, notes_ (what was dropped and why),
+        t_s_, psi_fit_ (model at the used samples), residual_.
+    """
+
+    name = "Transient-path"
+
+    def __init__(
+        self,
+        *,
+        rel_tol: float = 0.1,
+        fit_psi_offset: bool = False,
+        bounds_L1_m: tuple[float, float] = (-20.0, 50.0),
+        bounds_L2_m: tuple[float, float] = (0.02, 50.0),
+        chunk_nodes: int | None = None,
+    ) -> None:
+        self.rel_tol = rel_tol
+        self.fit_psi_offset = fit_psi_offset
+        self.bounds_L1_m = bounds_L1_m
+        self.bounds_L2_m = bounds_L2_m
+        self.chunk_nodes = chunk_nodes
+
+    # ------------------------------------------------------------------ layout
+    def _prepare(
+        self, path: DrivePath, t_psi: ArrayLike, psi: ArrayLike,
+        gaps: list[tuple[float, float]],
+    ) -> None:
+        t = np.asarray(t_psi, dtype=float).ravel()
+        p = np.asarray(psi, dtype=float).ravel()
+        if t.size != p.size:
+            raise InsufficientDataError(
+                f"{self.name}: t_psi and psi lengths differ ({t.size} vs {p.size})"
+            )
+        ok = np.isfinite(t) & np.isfinite(p)
+        t, p = t[ok], p[ok]
+        order = np.argsort(t, kind="stable")
+        t, p = t[order], p[order]
+        keep = np.concatenate([[True], np.diff(t) > 0]) if t.size else np.zeros(0, bool)
+        t, p = t[keep], p[keep]
+        notes: list[str] = []
+        inside = path.covered(t) if t.size else np.zeros(0, bool)
+        if t.size and not inside.all():
+            notes.append(
+                f"{int((~inside).sum())} joint-angle samples outside the recorded path or "
+                "inside a path gap were not used"
+            )
+        t, p = t[inside], p[inside]
+        if t.size < _MIN_PIECE:
+            raise InsufficientDataError(
+                f"{self.name}: {t.size} joint-angle samples on the recorded path; need "
+                f"{_MIN_PIECE}"
+            )
+        piece = _pieces(t, path, gaps)
+        s_at, _ = path.at(t)
+        used = np.zeros(t.size, dtype=bool)
+        dropped_short = dropped_still = 0
+        for j in range(int(piece[-1]) + 1):
+            m = piece == j
+            if m.sum() < _MIN_PIECE:
+                dropped_short += 1
+                continue
+            moved = np.sum(np.abs(np.diff(s_at[m])))
+            if moved < _MIN_MOVE_M:
+                dropped_still += 1
+                continue
+            used |= m
+        if dropped_short:
+            notes.append(f"{dropped_short} pieces between gaps with < {_MIN_PIECE} samples dropped")
+        if dropped_still:
+            notes.append(f"{dropped_still} pieces where the robot did not move dropped")
+        if not used.any():
+            moved = path.distance_m
+            raise InsufficientDataError(
+                f"{self.name}: no piece of the log both moves and has {_MIN_PIECE} joint-angle "
+                f"samples (the robot travelled {moved:.3g} m in all)"
+            )
+        t, p = t[used], p[used]
+        _, piece = np.unique(piece[used], return_inverse=True)
+        self._t, self._p, self._piece = t, p, piece
+        self.n_pieces_ = int(piece.max()) + 1
+        self.notes_ = notes
+        self._build_layout(path)
+
+    def _build_layout(self, path: DrivePath) -> None:
+        t, piece = self._t, self._piece
+        # nodes: joint-angle samples plus path knots inside long joint-angle intervals
+        node_t, node_piece, is_obs = [t], [piece], [np.ones(t.size, bool)]
+        if path.t_s.size:
+            j = np.searchsorted(t, path.t_s, side="right")
+            ok = (j > 0) & (j < t.size)
+            jj = np.clip(j, 1, t.size - 1)
+            ok &= (t[jj] - t[jj - 1] > _FILL_S) & (piece[jj] == piece[jj - 1])
+            ok &= path.t_s > t[jj - 1]
+            node_t.append(path.t_s[ok])
+            node_piece.append(piece[jj[ok]])
+            is_obs.append(np.zeros(int(ok.sum()), bool))
+        nt = np.concatenate(node_t)
+        npc = np.concatenate(node_piece)
+        obs = np.concatenate(is_obs)
+        order = np.lexsort((nt, npc))
+        nt, npc, obs = nt[order], npc[order], obs[order]
+        s, th = path.at(nt)
+        n = nt.size
+        size = self.chunk_nodes or int(np.clip(math.ceil(n / 12), 256, 4096))
+        # chunks: split each piece into runs of <= size nodes sharing their boundary node
+        chunk_of = np.empty(n, dtype=np.int64)
+        step_of = np.empty(n, dtype=np.int64)
+        starts: list[int] = []
+        c_piece: list[int] = []
+        c_first: list[bool] = []
+        bounds = np.nonzero(np.diff(npc))[0] + 1
+        piece_ranges = zip(np.r_[0, bounds], np.r_[bounds, n], strict=True)
+        ranges: list[tuple[int, int]] = []
+        for a, b in piece_ranges:
+            first = True
+            k = a
+            while True:
+                e = min(k + size, b - 1)
+                ranges.append((k, e))  # nodes k..e inclusive
+                starts.append(k)
+                c_piece.append(int(npc[a]))
+                c_first.append(first)
+                first = False
+                if e >= b - 1:
+                    break
+                k = e
+        kmax = max(e - k for k, e in ranges)
+        c = len(ranges)
+        A = np.zeros((max(kmax, 1), c))
+        B = np.zeros((max(kmax, 1), c))
+        for ci, (k, e) in enumerate(ranges):
+            A[: e - k, ci] = np.diff(th[k : e + 1])
+            B[: e - k, ci] = np.diff(s[k : e + 1])
+            chunk_of[k : e + 1] = ci
+            step_of[k : e + 1] = np.arange(e - k + 1)
+        prev = np.array([ci - 1 if not c_first[ci] else -1 for ci in range(c)])
+        self._layout = _Layout(
+            A, B, chunk_of[obs], step_of[obs], np.array(c_piece), np.array(c_first), prev,
+            np.array([e - k for k, e in ranges]),
+        )
+        self._chunk_start_guess = np.interp(nt[np.array(starts)], t, self._p)
+
+    # ------------------------------------------------------------------ model
+    def _simulate(
+        self, L1: np.ndarray, L2: np.ndarray, psi0: np.ndarray,
+        warm: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Model psi at the used samples for m parameter sets: psi0 (pieces, m)."""
+        lay = self._layout
+        m = L1.size
+        first = lay.chunk_first
+        start = np.empty((first.size, m))
+        start[first] = psi0[lay.chunk_piece[first]]
+        rest = ~first
+        if rest.any():
+            if warm is not None:
+                start[rest] = warm[rest]
+            else:
+                start[rest] = self._chunk_start_guess[rest, None]
+        n_sub = rk4_substeps(lay.A, lay.B, L1, L2)
+        cols = np.arange(first.size)
+        for _ in range(first.size + 1):
+            out = advance_psi(lay.A, lay.B, L1, L2, start, n_sub)
+            if not rest.any():
+                break
+            ends = out[lay.chunk_end_step, cols]  # (c, m)
+            new = ends[lay.prev_chunk[rest]]
+            change = float(np.max(np.abs(new - start[rest])))
+            start[rest] = new
+            if change < 1e-12 or not np.all(np.isfinite(new)):
+                break
+        self._last_start = start
+        return out[lay.node_step, lay.node_chunk]  # (n_obs, m)
+
+    # ------------------------------------------------------------------ fit
+    def _start_point(self) -> np.ndarray:
+        lo1, hi1 = self.bounds_L1_m
+        lo2, hi2 = self.bounds_L2_m
+        g2 = np.geomspace(max(lo2, 0.1), min(hi2, 20.0), 13)
+        ratios = np.array([-0.2, -0.05, 0.0, 0.1, 0.25, 0.5, 0.75, 1.0, 1.5])
+        A2, R = np.meshgrid(g2, ratios, indexing="ij")
+        L2 = A2.ravel()
+        L1 = np.clip(R.ravel() * L2, lo1, hi1)
+        psi0 = np.repeat(self._psi0_guess[:, None], L1.size, axis=1)
+        sim = self._simulate(L1, L2, psi0)
+        res = self._p[:, None] - sim
+        if self.fit_psi_offset:
+            res = res - np.nanmean(res, axis=0)
+        cost = np.nansum(res**2, axis=0)
+        cost[~np.isfinite(cost)] = np.inf
+        best = int(np.argmin(cost))
+        return np.array([L1[best], L2[best]])
+
+    def fit(
+        self,
+        path: DrivePath,
+        t_psi: ArrayLike,
+        psi: ArrayLike,
+        *,
+        gaps: list[tuple[float, float]] | None = None,
+    ) -> PathTransientFit:
+        """Fit to the joint angle ``psi`` (rad) sampled at ``t_psi`` (s, same clock as the
+        path) along ``path``. ``gaps``: extra (t0, t1) spans (s) where the log is interrupted.
+
+        Raises:
+            InsufficientDataError: too few joint-angle samples on a moving path.
+            SolverError: the optimiser produced a non-finite result.
+        """
+        self._path_source = path.source
+        self._prepare(path, t_psi, psi, list(gaps or []))
+        P = self.n_pieces_
+        piece = self._piece
+        first_idx = np.searchsorted(piece, np.arange(P))
+        self._psi0_guess = np.array(
+            [float(np.mean(self._p[i : i + 3])) for i in first_idx]
+        )
+        q = 3 if self.fit_psi_offset else 2
+        x0 = np.concatenate([self._start_point(), np.zeros(q - 2), self._psi0_guess])
+        lo = np.concatenate([[self.bounds_L1_m[0], self.bounds_L2_m[0]],
+                             np.full(q - 2, -math.pi), np.full(P, -math.pi)])
+        hi = np.concatenate([[self.bounds_L1_m[1], self.bounds_L2_m[1]],
+                             np.full(q - 2, math.pi), np.full(P, math.pi)])
+        x0 = np.clip(x0, lo + 1e-6, hi - 1e-6)
+        n = self._p.size
+        cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        warm: list[np.ndarray | None] = [None]
+        rows = np.arange(n)
+
+        def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            key = x.tobytes()
+            if key not in cache:
+                d = 1e-6 * np.maximum(np.abs(x[:2]), 1.0)
+                L1 = np.array([x[0], x[0] + d[0], x[0], x[0]])
+                L2 = np.array([x[1], x[1], x[1] + d[1], x[1]])
+                p0 = np.repeat(x[q:, None], 4, axis=1)
+                p0[:, 3] += 1e-6
+                w = None if warm[0] is None else np.repeat(warm[0][:, :1], 4, axis=1)
+                sim = self._simulate(L1, L2, p0, w)
+                warm[0] = self._last_start
+                off = x[2] if self.fit_psi_offset else 0.0
+                resid = self._p - sim[:, 0] - off
+                J = np.empty((n, 3 + (q - 2)))
+                J[:, 0] = -(sim[:, 1] - sim[:, 0]) / d[0]
+                J[:, 1] = -(sim[:, 2] - sim[:, 0]) / d[1]
+                if self.fit_psi_offset:
+                    J[:, 2] = -1.0
+                J[:, -1] = -(sim[:, 3] - sim[:, 0]) / 1e-6
+                cache.clear()
+                cache[key] = (resid, J)
+            return cache[key]
+
+        def full_jac(J: np.ndarray) -> np.ndarray | csr_matrix:
+            if P == 1:
+                return J
+            dense = J[:, :q]
+            col0 = J[:, -1]
+            sp = csr_matrix((col0, (rows, q + piece)), shape=(n, q + P))
+            if n * (q + P) <= 4_000_000:
+                out = sp.toarray()
+                out[:, :q] = dense
+                return out
+            from scipy.sparse import hstack
+
+            return hstack([csr_matrix(dense), sp[:, q:]]).tocsr()
+
+        def fun(x: np.ndarray) -> np.ndarray:
+            r = evaluate(x)[0]
+            return np.where(np.isfinite(r), r, 1e3)
+
+        def jac(x: np.ndarray) -> np.ndarray | csr_matrix:
+            J = evaluate(x)[1]
+            return full_jac(np.where(np.isfinite(J), J, 0.0))
+
+        sparse = P > 1 and n * (q + P) > 4_000_000
+        sol = least_squares(
+            fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
+            tr_solver="lsmr" if sparse else "exact", xtol=1e-10, ftol=1e-12, gtol=1e-10,
+            max_nfev=200,
+        )
+        if not np.all(np.isfinite(sol.x)):
+            raise SolverError(f"{self.name}: non-finite estimate {sol.x!r}")
+        r, J = evaluate(sol.x)
+        if not np.all(np.isfinite(r)):
+            raise SolverError(f"{self.name}: the model diverges at the estimate")
+        self._finish(sol, r, J, q, lo, hi)
+        return self
+
+    # ------------------------------------------------------------------ results
+    def _covariance(self, r: np.ndarray, J: np.ndarray, q: int) -> np.ndarray:
+        """HAC covariance of the q structural parameters with the per-piece initial angles
+        projected out of their Jacobian columns (Frisch-Waugh)."""
+        Js = J[:, :q].copy()
+        c0 = J[:, -1]
+        piece = self._piece
+        cc = np.bincount(piece, weights=c0 * c0)
+        for j in range(q):
+            cj = np.bincount(piece, weights=c0 * Js[:, j])
+            Js[:, j] -= c0 * np.where(cc > 0, cj / np.where(cc > 0, cc, 1.0), 0.0)[piece]
+        bw = bartlett_bandwidth(r)
+        self.bandwidth_ = bw
+        cov = hac_covariance(Js, r, bw)
+        n, p = r.size, q + self.n_pieces_
+        return cov * (max(n - q, 1) / max(n - p, 1))
+
+    def _finish(
+        self, sol: object, r: np.ndarray, J: np.ndarray, q: int, lo: np.ndarray, hi: np.ndarray
+    ) -> None:
+        x = np.asarray(sol.x)  # type: ignore[attr-defined]
+        self.converged_ = bool(sol.success)  # type: ignore[attr-defined]
+        self.L1_, self.L2_ = float(x[0]), float(x[1])
+        self.psi_offset_ = float(x[2]) if self.fit_psi_offset else 0.0
+        self.psi0_ = x[q:].copy()
+        cov = self._covariance(r, J, q)
+        self.cov_ = cov
+        span = hi[:q] - lo[:q]
+        on_bound = (x[:q] - lo[:q] < 1e-4 * span) | (hi[:q] - x[:q] < 1e-4 * span)
+        self.on_bound_ = [n for n, b in zip(("L1", "L2", "psi_offset"), on_bound, strict=False)
+                          if b]
+        self.residual_ = r
+        self.residual_rms_ = float(np.sqrt(np.mean(r * r)))
+        self.noise_std_ = max(hf_noise_std(self._p), 1e-4)
+        self.misfit_ = self.residual_rms_ / self.noise_std_
+        self.t_s_ = self._t
+        self.psi_fit_ = self._p - r
+        finite = bool(np.all(np.isfinite(cov)) and np.all(np.diag(cov) > 0))
+        self.sound_ = self.converged_ and finite and not self.on_bound_
+        cov2 = cov[:2, :2] if finite else np.full((2, 2), np.inf)
+        if not finite:
+            cov2 = np.diag([np.inf, np.inf])
+        scale = 0.5 * (abs(self.L1_) + abs(self.L2_))
+        self.verdict_: IdentifiabilityVerdict = identifiability(
+            np.where(np.isfinite(cov2), cov2, 1e12), (self.L1_, self.L2_),
+            rel_tol=self.rel_tol, method=self.name, advice=_ADVICE, scale=scale,
+            not_determined=self.on_bound_ or ([] if finite else ["L1", "L2"]),
+        )
+        aic, bic = information_criteria(float(r @ r), r.size, q + self.n_pieces_)
+        details = {
+            "estimator": "output-error fit of the transient joint-angle kinematics along the "
+            "measured path (distance domain)",
+            "path_source": self._path_source,
+            "pieces": self.n_pieces_,
+            "samples": int(r.size),
+            "psi_offset_rad": self.psi_offset_ if self.fit_psi_offset else None,
+            "psi_offset_std_rad": math.sqrt(cov[2, 2]) if self.fit_psi_offset and finite
+            else None,
+            "residual_rms_rad": self.residual_rms_,
+            "noise_std_rad": self.noise_std_,
+            "misfit": self.misfit_,
+            "hac_bandwidth": self.bandwidth_,
+            "on_bound": list(self.on_bound_),
+            "sound": self.sound_,
+            "notes": list(self.notes_),
+            "identifiability": self.verdict_.to_dict(),
+        }
+        self.result_: CalibrationResult = calibration_result(
+            self.name, self.verdict_, cov2, converged=self.converged_, aic=aic, bic=bic,
+            details=details,
+        )
+        Jc = J[:, :2]
+        sv = np.linalg.svd(Jc[np.all(np.isfinite(Jc), axis=1)], compute_uv=False)
+        cond = float(sv[0] / sv[-1]) if sv.size == 2 and sv[-1] > 0 else math.inf
+        self.method_result_: MethodResult = method_result(
+            self.name, "TRANSIENT", self.verdict_, condition_number=cond,
+            extra={"residual_rms_rad": self.residual_rms_, "misfit": self.misfit_},
+        )
+

@@ -1,0 +1,146 @@
+"""The tractor's path and the joint angle, from a loaded log's own per-signal samples.
+
+The transient fit (calib.estimators.path_transient) reads every signal at its own time stamps
+(no common grid), so that asynchronous sensors and any sampling rate give the same answer.
+This module picks the path source, best first: the pose of link 1 (x, y, yaw), odometry
+(v, omega), the command (v or v_cmd times kappa_cmd). A source whose values do not move (an
+all-zero odometry twist) is passed over with a note.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import polars as pl
+
+from calib.errors import InsufficientDataError
+from calib.estimators.drive_path import DrivePath
+from logtools.load import LoadedLog
+
+__all__ = ["PathInputs", "path_inputs"]
+
+_MIN_TRAVEL_M = 0.01
+
+
+@dataclass(frozen=True)
+class PathInputs:
+    """What the path-driven fit needs, times in s from ``t0_ns``.
+
+    Attributes:
+        path: link 1's cumulative arc length and heading.
+        t_psi_s, psi_rad: the joint-angle samples.
+        gaps: (t0, t1) spans (s) where the recorder stalled.
+        t0_ns: the time origin (the aligned frame's first row).
+        notes: sources passed over and why.
+    """
+
+    path: DrivePath
+    t_psi_s: np.ndarray
+    psi_rad: np.ndarray
+    gaps: list[tuple[float, float]]
+    t0_ns: int
+    notes: list[str]
+
+
+def _signal(loaded: LoadedLog, name: str) -> pl.DataFrame | None:
+    return loaded.signals.signals.get(name)
+
+
+def _times(frame: pl.DataFrame, t0_ns: int) -> np.ndarray:
+    return (frame["t_ns"].to_numpy() - t0_ns) / 1e9
+
+
+def _on_common_times(
+    loaded: LoadedLog, names: tuple[str, ...], t0_ns: int
+) -> tuple[np.ndarray, list[np.ndarray]] | None:
+    """The signals ``names`` at the first one's stamps (others interpolated), or None."""
+    frames = [_signal(loaded, n) for n in names]
+    if any(f is None or f.height < 2 for f in frames):
+        return None
+    base = frames[0]
+    assert base is not None
+    t = _times(base, t0_ns)
+    cols = []
+    for f in frames:
+        assert f is not None
+        tf = _times(f, t0_ns)
+        v = f["value"].to_numpy().astype(float)
+        if f is base:
+            cols.append(v)
+        else:
+            out = np.interp(t, tf, v)
+            out[(t < tf[0]) | (t > tf[-1])] = np.nan
+            cols.append(out)
+    return t, cols
+
+
+def _candidates(loaded: LoadedLog, t0_ns: int) -> list[tuple[str, DrivePath | None, str]]:
+    out: list[tuple[str, DrivePath | None, str]] = []
+    pose = _on_common_times(loaded, ("x", "y", "yaw"), t0_ns)
+    if pose is not None:
+        t, (x, y, yaw) = pose
+        out.append(("pose", DrivePath.from_pose(t, x, y, yaw), ""))
+    else:
+        out.append(("pose", None, "no pose with yaw (x, y, yaw)"))
+    odo = _on_common_times(loaded, ("omega", "v"), t0_ns)
+    if odo is not None:
+        t, (w, v) = odo
+        out.append(("odometry", DrivePath.from_rates(t, v, w), ""))
+    else:
+        out.append(("odometry", None, "no odometry (v, omega)"))
+    for speed in ("v", "v_cmd"):
+        cmd = _on_common_times(loaded, (speed, "kappa_cmd"), t0_ns)
+        if cmd is not None:
+            t, (v, k) = cmd
+            out.append(("command", DrivePath.from_rates(t, v, v * k, source="command"), ""))
+            break
+    else:
+        out.append(("command", None, "no speed with a curvature command"))
+    return out
+
+
+def path_inputs(loaded: LoadedLog, *, prefer: str | None = None) -> PathInputs:
+    """The best path source of ``loaded`` and its joint-angle samples.
+
+    Args:
+        loaded: a loaded log with a ``psi`` signal.
+        prefer: "pose", "odometry" or "command" to use that source when the log has it.
+
+    Raises:
+        InsufficientDataError: no joint angle, or no source of the path that moves.
+    """
+    psi = _signal(loaded, "psi")
+    if psi is None or psi.height < 2:
+        raise InsufficientDataError("the log has no joint-angle (psi) samples")
+    t0_ns = int(loaded.frame["t_ns"][0]) if loaded.frame.height else int(psi["t_ns"][0])
+    notes: list[str] = []
+    cands = _candidates(loaded, t0_ns)
+    if prefer is not None:
+        cands.sort(key=lambda c: c[0] != prefer)
+    chosen: DrivePath | None = None
+    for name, path, why in cands:
+        if path is None:
+            notes.append(f"path from {name}: {why}")
+            continue
+        try:
+            moved = path.distance_m
+        except InsufficientDataError as err:  # pragma: no cover - guarded by _on_common_times
+            notes.append(f"path from {name}: {err}")
+            continue
+        if moved < _MIN_TRAVEL_M:
+            notes.append(f"path from {name}: it does not move ({moved:.3g} m in all)")
+            continue
+        chosen = path
+        break
+    if chosen is None:
+        raise InsufficientDataError(
+            "no signal shows the robot moving: " + "; ".join(notes)
+        )
+    gaps = [
+        ((g.t0_ns - t0_ns) / 1e9, (g.t1_ns - t0_ns) / 1e9)
+        for g in getattr(loaded, "gaps", [])
+    ]
+    return PathInputs(
+        chosen, _times(psi, t0_ns), psi["value"].to_numpy().astype(float), gaps, t0_ns, notes
+    )
