@@ -225,6 +225,8 @@ class AnalysisResult:
 
     ``discovery`` is the model-mismatch result (any object with ``to_dict()``), ``truth`` the
     true parameters when the log carries them (simulated logs), ``source`` facts about the file.
+    ``stages`` says how each stage ended. For several runs of one robot, ``estimate`` is the
+    pooled one and ``runs`` holds each run's own analysis.
     """
 
     robot: str
@@ -236,8 +238,15 @@ class AnalysisResult:
     source: Mapping[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     stages: list[StageStatus] = field(default_factory=list)
+    runs: list[AnalysisResult] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
+        out = self._own_dict()
+        if self.runs:
+            out["runs"] = [r.to_dict() for r in self.runs]
+        return out
+
+    def _own_dict(self) -> dict[str, Any]:
         return json_safe(
             {
                 "robot": self.robot,

@@ -27,7 +27,13 @@ from logtools.load import LoadedLog, load_log
 from logtools.signals import Robot, SignalSource
 from logtools.tt_path import PathInputs, path_inputs
 
-__all__ = ["AnalysisConfig", "UnsupportedRobotError", "analyze_loaded", "analyze_log"]
+__all__ = [
+    "AnalysisConfig",
+    "UnsupportedRobotError",
+    "analyze_loaded",
+    "analyze_log",
+    "analyze_logs",
+]
 
 Progress = Callable[[str], None]
 T = TypeVar("T")
@@ -376,3 +382,91 @@ def analyze_loaded(
         warnings=list(loaded.problems) + notes,
         stages=stages.status,
     )
+
+
+def analyze_logs(
+    paths: list[str | os.PathLike[str]],
+    *,
+    channel_map: Mapping[str, SignalSource] | None = None,
+    config: AnalysisConfig | None = None,
+    progress: Progress | None = None,
+) -> tuple[list[LoadedLog], AnalysisResult]:
+    """Analyse several runs of one robot: each run on its own (``runs``) and one pooled
+    transient fit along all their paths (``estimate``); a single path gives that run's result.
+
+    A run that cannot be read is left out and named in ``source["errors"]`` (the others are
+    still analysed and pooled).
+
+    Raises:
+        LogcalInputError: no run could be read (the first run's error).
+    """
+    progress = progress or _noop
+    if len(paths) == 1:
+        loaded, res = analyze_log(paths[0], channel_map=channel_map, config=config,
+                                  progress=progress)
+        return [loaded], res
+    results: list[AnalysisResult] = []
+    loadeds: list[LoadedLog] = []
+    inputs: list[PathInputs] = []
+    errors: list[LogcalInputError] = []
+    for i, p in enumerate(paths, 1):
+        progress(f"run {i} of {len(paths)}: {p}")
+        try:
+            loaded, res = analyze_log(p, channel_map=channel_map, config=config,
+                                      progress=progress)
+        except LogcalInputError as err:
+            errors.append(err)
+            continue
+        results.append(res)
+        loadeds.append(loaded)
+        try:
+            inputs.append(path_inputs(loaded))
+        except LogcalInputError:
+            continue
+        except Exception:  # the run's own result already says why its path fit did not run
+            continue
+    if not results:
+        raise errors[0]
+    cfg = config or AnalysisConfig()
+    stages = _Stages(cfg.debug)
+    progress("pooled transient fit along every run's path")
+    pooled = stages.run("pooled transient fit", lambda: _pooled_fit(inputs))
+    estimate = None
+    methods: list[MethodResult] = []
+    if pooled is not None:
+        methods.append(replace(pooled.method_result_, segment="pooled"))
+        estimate = replace(
+            pooled.result_,
+            method=f"{pooled.result_.method} pooled over {len(inputs)} runs",
+        )
+    truth = results[0].truth if all(r.truth == results[0].truth for r in results) else {}
+    warnings = [str(e) for e in errors]
+    if len(inputs) < len(results):
+        warnings.append(
+            f"{len(results) - len(inputs)} runs have no usable path and are not pooled"
+        )
+    return loadeds, AnalysisResult(
+        robot=results[0].robot,
+        segments=[],
+        methods=methods,
+        estimate=estimate,
+        truth=dict(truth),
+        source={
+            "runs": [r.source.get("path", "") for r in results],
+            "runs_pooled": len(inputs),
+            "errors": [str(e) for e in errors],
+        },
+        warnings=warnings,
+        stages=stages.status,
+        runs=results,
+    )
+
+
+def _pooled_fit(inputs: list[PathInputs]) -> PathTransientFit:
+    from calib.errors import InsufficientDataError
+    from calib.estimators.drive_path import pool_runs
+
+    if not inputs:
+        raise InsufficientDataError("no run has both a moving path and joint-angle samples")
+    path, t, psi, gaps, _ = pool_runs([(i.path, i.t_psi_s, i.psi_rad, i.gaps) for i in inputs])
+    return PathTransientFit().fit(path, t, psi, gaps=gaps)

@@ -21,6 +21,9 @@ CLS_SPLIT_NOTE = (
 )
 
 
+PM_MEANING = "(+/- is one standard error; [95 %: lo, hi] the 95 % interval.)"
+
+
 def _pm(value: float, std: float, digits: int = 3) -> str:
     if value is None or not math.isfinite(value):
         return "-"
@@ -66,8 +69,36 @@ def _segments_table(result: AnalysisResult) -> Table:
     return table
 
 
+def _ci(result: AnalysisResult, name: str) -> str:
+    est = result.estimate
+    if est is None:
+        return "-"
+    e = est.parameters[name]
+    if not e.identifiable:
+        return f"{e.value:.3f} (not determined)"
+    return f"{e.value:.3f} [{e.ci95[0]:.3f}, {e.ci95[1]:.3f}]"
+
+
+def _runs_table(result: AnalysisResult) -> Table:
+    table = Table(title="Each run on its own (95 % intervals)", title_justify="left")
+    for col in ("run", "estimate", "L1 (m)", "L2 (m)", "stages not run"):
+        table.add_column(col)
+    for r in result.runs:
+        skipped = ", ".join(s.stage for s in r.stages if s.status != "ok") or "-"
+        table.add_row(
+            str(r.source.get("path", "")),
+            r.estimate.method if r.estimate else "none",
+            _ci(r, "L1"),
+            _ci(r, "L2"),
+            skipped,
+        )
+    return table
+
+
 def render_analysis(result: AnalysisResult, *, per_segment: bool = True) -> RenderableType:
     """Everything a person reads after ``logcal analyze``, as one rich renderable."""
+    if result.runs:
+        return _render_pooled(result)
     parts: list[RenderableType] = []
     src = result.source
     head = f"[bold]{src.get('path', '')}[/bold]  robot: {result.robot}"
@@ -88,7 +119,10 @@ def render_analysis(result: AnalysisResult, *, per_segment: bool = True) -> Rend
             parts.append(_methods_table(rows, label, truth))
     parts.append(Text(CLS_SPLIT_NOTE, style="yellow"))
     if result.estimate is not None:
-        parts.append(Panel(result.estimate.report(), title="Recommended estimate", expand=False))
+        parts.append(
+            Panel(result.estimate.report() + "\n  " + PM_MEANING, title="Recommended estimate",
+                  expand=False)
+        )
     else:
         parts.append(Text("No link-length estimate: no calibration stage could run (see below).",
                           style="bold red"))
@@ -103,6 +137,30 @@ def render_analysis(result: AnalysisResult, *, per_segment: bool = True) -> Rend
         )
     if result.discovery is not None:
         parts.append(Panel(result.discovery.report(), title="Model mismatch", expand=False))
+    if result.warnings:
+        parts.append(Text("Notes:\n" + "\n".join(f"- {w}" for w in result.warnings), style="dim"))
+    return Group(*parts)
+
+
+def _render_pooled(result: AnalysisResult) -> RenderableType:
+    parts: list[RenderableType] = [
+        Text.from_markup(
+            f"[bold]{len(result.runs)} runs[/bold]  robot: {result.robot}  pooled: "
+            f"{result.source.get('runs_pooled', 0)}"
+        ),
+        _runs_table(result),
+    ]
+    if result.estimate is not None:
+        parts.append(
+            Panel(result.estimate.report() + "\n  " + PM_MEANING,
+                  title="Recommended estimate (all runs pooled)", expand=False)
+        )
+    else:
+        parts.append(Text("No pooled estimate.", style="bold red"))
+    not_ok = [s for s in result.stages if s.status != "ok"]
+    if not_ok:
+        parts.append(Text("\n".join(f"- {s.stage}: {s.status} ({s.reason})" for s in not_ok),
+                          style="yellow"))
     if result.warnings:
         parts.append(Text("Notes:\n" + "\n".join(f"- {w}" for w in result.warnings), style="dim"))
     return Group(*parts)

@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike
 
 from calib.errors import InsufficientDataError
 
-__all__ = ["DrivePath", "default_gap_s"]
+__all__ = ["DrivePath", "default_gap_s", "pool_runs"]
 
 
 def default_gap_s(t_s: np.ndarray) -> float:
@@ -122,3 +122,43 @@ class DrivePath:
     def distance_m(self) -> float:
         """Total distance travelled (m), forward and back."""
         return float(np.sum(np.abs(np.diff(self.s_m))))
+
+
+def pool_runs(
+    runs: list[tuple[DrivePath, np.ndarray, np.ndarray, list[tuple[float, float]]]],
+) -> tuple[DrivePath, np.ndarray, np.ndarray, list[tuple[float, float]], list[float]]:
+    """Several runs of one robot laid end to end on one clock, separated by gaps, so that one
+    fit sees them all (each run starts its own pieces; nothing is integrated between runs).
+
+    Args:
+        runs: per run (path, joint-angle times (s), joint angles (rad), gaps (s)).
+
+    Returns:
+        (path, t_psi, psi, gaps, offsets): the pooled inputs and each run's time offset (s).
+    """
+    if not runs:
+        raise InsufficientDataError("pool_runs: no runs")
+    spacer = 2.0 * max(p.gap_s for p, *_ in runs) + 1.0
+    t_k, s_k, th_k, t_p, p_p, gaps, offsets = [], [], [], [], [], [], []
+    end_t = end_s = end_th = 0.0
+    for i, (path, t_psi, psi, run_gaps) in enumerate(runs):
+        t_psi = np.asarray(t_psi, dtype=float)
+        start = min(float(path.t_s[0]), float(np.min(t_psi)) if t_psi.size else path.t_s[0])
+        off = (end_t + spacer - start) if i else -start
+        offsets.append(off)
+        t_k.append(path.t_s + off)
+        s_k.append(path.s_m - path.s_m[0] + end_s)
+        th_k.append(path.theta_rad - path.theta_rad[0] + end_th)
+        t_p.append(t_psi + off)
+        p_p.append(np.asarray(psi, dtype=float))
+        gaps += [(a + off, b + off) for a, b in run_gaps]
+        if i:
+            gaps.append((end_t, float(t_k[-1][0])))
+        end_t = max(float(t_k[-1][-1]), float(t_p[-1].max()) if t_p[-1].size else end_t)
+        end_s, end_th = float(s_k[-1][-1]), float(th_k[-1][-1])
+    sources = sorted({p.source for p, *_ in runs})
+    pooled = DrivePath(
+        np.concatenate(t_k), np.concatenate(s_k), np.concatenate(th_k), "+".join(sources),
+        max(p.gap_s for p, *_ in runs),
+    )
+    return pooled, np.concatenate(t_p), np.concatenate(p_p), gaps, offsets

@@ -17,7 +17,11 @@ def register(app: typer.Typer) -> None:
 
     @app.command("analyze")
     def analyze(
-        log: Path = typer.Argument(..., help="Drive log: MCAP (.mcap) or CSV (.csv)."),
+        logs: list[Path] = typer.Argument(
+            ...,
+            help="Drive logs: MCAP, CSV, ROS bags (rosbag2 folder or .bag), or folders of them. "
+            "Several runs of one robot are also pooled into one estimate.",
+        ),
         as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
         rrd: Path | None = typer.Option(None, "--rrd", help="Save a rerun recording here."),
         png: Path | None = typer.Option(
@@ -33,42 +37,60 @@ def register(app: typer.Typer) -> None:
         no_discovery: bool = typer.Option(False, "--no-discovery", help="Skip discovery."),
         seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap draws."),
     ) -> None:
-        """Calibrate the robot's parameters from LOG and explain model mismatch."""
-        from logtools.analyze import AnalysisConfig, analyze_log
+        """Calibrate the robot's parameters from LOG(s) and explain model mismatch."""
+        from logtools.analyze import AnalysisConfig, analyze_logs
         from logtools.channel_map import load_channel_map
         from logtools.errors import LogcalInputError
         from logtools.report import print_analysis
+        from logtools.runs import expand_runs
 
         if baseline not in ("steady", "transient"):
             raise LogcalInputError(
                 f"--baseline {baseline!r}: expected 'steady' (the patent's steady-state model) "
                 "or 'transient' (off-axle trailer kinematics)."
             )
+        runs = expand_runs(logs)
         cmap = load_channel_map(channel_map) if channel_map else None
         cfg = AnalysisConfig(
-            repeats=repeats, baseline=baseline, seed=seed, discovery=not no_discovery
+            repeats=repeats, baseline=baseline, seed=seed, discovery=not no_discovery,
+            debug=_debug(),
         )
         err = Console(stderr=True)
-        show = sys.stderr.isatty()
-        if show:
+        if sys.stderr.isatty():
             with err.status("analysing", spinner="dots") as status:
-                loaded, result = analyze_log(
-                    log, channel_map=cmap, config=cfg, progress=lambda s: status.update(s)
+                loadeds, result = analyze_logs(
+                    runs, channel_map=cmap, config=cfg, progress=lambda s: status.update(s)
                 )
         else:
-            loaded, result = analyze_log(log, channel_map=cmap, config=cfg)
+            loadeds, result = analyze_logs(runs, channel_map=cmap, config=cfg)
         if rrd is not None or png is not None:
             from viz.plots import write_report_png
             from viz.recording import write_recording
 
-            if rrd is not None:
-                write_recording(rrd, loaded.frame, result)
-                err.print(f"rerun recording saved: {rrd}")
-            png_path = png or (rrd.with_suffix(".png") if rrd is not None else None)
-            if png_path is not None:
-                write_report_png(png_path, loaded.frame, result)
-                err.print(f"report image saved: {png_path}")
+            per_run = result.runs or [result]
+            for i, (loaded, res) in enumerate(zip(loadeds, per_run, strict=True)):
+                tag = "" if len(per_run) == 1 else f"_run{i + 1}"
+                if rrd is not None:
+                    out = rrd.with_name(rrd.stem + tag + rrd.suffix)
+                    write_recording(out, loaded.frame, res)
+                    err.print(f"rerun recording saved: {out}")
+                png_path = png or (rrd.with_suffix(".png") if rrd is not None else None)
+                if png_path is not None:
+                    out = png_path.with_name(png_path.stem + tag + png_path.suffix)
+                    write_report_png(out, loaded.frame, res)
+                    err.print(f"report image saved: {out}")
         if as_json:
             sys.stdout.write(json.dumps(result.to_dict(), indent=2) + "\n")
         else:
             print_analysis(result)
+        bad = result.source.get("errors") or []
+        if bad:
+            for message in bad:
+                err.print(f"logcal: error: {message}", markup=False, highlight=False)
+            raise typer.Exit(2)
+
+
+def _debug() -> bool:
+    from logtools.cli.main import debug_enabled
+
+    return debug_enabled()

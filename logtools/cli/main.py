@@ -11,7 +11,7 @@ import typer
 from calib.errors import CalibError
 from logtools.errors import LogcalError
 
-__all__ = ["app", "main", "run"]
+__all__ = ["app", "debug_enabled", "main", "run"]
 
 app = typer.Typer(
     name="logcal",
@@ -29,6 +29,11 @@ def _root(
     debug: bool = typer.Option(False, "--debug", help="Show the full traceback of errors."),
 ) -> None:
     _state["debug"] = debug
+
+
+def debug_enabled() -> bool:
+    """Whether ``--debug`` was given (errors then keep their traceback)."""
+    return bool(_state["debug"])
 
 
 def _register() -> None:
