@@ -18,11 +18,17 @@ Method (documented choice):
   extrapolates: rows outside a signal's own span are null for it.
 
 Source rows whose value is null or not finite are dropped; duplicate time stamps keep the last.
+
+Gaps (:func:`find_gaps`): a signal has a gap where the time between two of its samples exceeds
+``max(periods * its median period, min_gap_s)`` (defaults 5 and 0.5 s). Gaps of different
+signals that overlap in time are one :class:`Gap` (a recorder stall on every topic at once is
+one record naming all signals, not one per signal).
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
@@ -30,10 +36,21 @@ import polars as pl
 
 from logtools.errors import LogcalInputError, TimestampError
 
-__all__ = ["AlignMethod", "align_signals", "median_rate_hz"]
+__all__ = [
+    "DEFAULT_HOLD",
+    "DEFAULT_WRAP",
+    "AlignMethod",
+    "Gap",
+    "align_signals",
+    "find_gaps",
+    "median_rate_hz",
+    "resample_at",
+]
 
-DEFAULT_HOLD = ("kappa_cmd", "v_cmd", "omega_cmd")
-DEFAULT_WRAP = ("yaw",)
+DEFAULT_HOLD = ("kappa_cmd", "v_cmd", "omega_cmd", "steer_cmd")
+DEFAULT_WRAP = ("yaw", "yaw2")
+GAP_PERIODS = 5.0
+GAP_MIN_S = 0.5
 
 
 class AlignMethod(StrEnum):
@@ -43,7 +60,7 @@ class AlignMethod(StrEnum):
     ASOF = "asof"
 
 
-def _columns_of(name: str, frame: pl.DataFrame) -> dict[str, np.ndarray]:
+def _columns_of(name: str, frame: pl.DataFrame) -> dict[str, str]:
     """Value columns of one signal frame, keyed by output column name."""
     if "t_ns" not in frame.columns:
         raise LogcalInputError(f"signal {name!r}: frame has no 't_ns' column ({frame.columns})")
@@ -187,3 +204,132 @@ def align_signals(
     frame = pl.DataFrame({"t_ns": pl.Series(grid, dtype=pl.Int64)})
     cols = [pl.Series(k, a, dtype=pl.Float64).fill_nan(None) for k, a in out.items() if k != "t_ns"]
     return frame.with_columns(cols)
+
+
+def resample_at(
+    t_src: np.ndarray,
+    v: np.ndarray,
+    t_ns: np.ndarray,
+    *,
+    hold: bool = False,
+    tolerance_s: float | None = None,
+) -> np.ndarray:
+    """Sample one signal at the times ``t_ns`` (int64 ns): linear interpolation, or the latest
+    earlier sample with ``hold``; NaN beyond ``tolerance_s`` (default 2.5 median periods) from
+    the samples used and outside the signal's span.
+
+    Args:
+        t_src: the signal's sample times (int64 ns, increasing, distinct).
+        v: its values.
+        t_ns: the query times (int64 ns).
+        hold: zero-order hold (commands) instead of interpolation.
+        tolerance_s: largest distance (s) from a source sample.
+    """
+    t_src = np.asarray(t_src, dtype=np.int64)
+    v = np.asarray(v, dtype=float)
+    grid = np.asarray(t_ns, dtype=np.int64)
+    if t_src.size == 0:
+        return np.full(grid.shape, np.nan)
+    if t_src.size == 1:
+        out = np.where(grid == t_src[0], v[0], np.nan)
+        return out.astype(float)
+    tol_ns = 2.5 * 1e9 / median_rate_hz(t_src) if tolerance_s is None else tolerance_s * 1e9
+    if hold:
+        return _sample_hold(t_src, v, grid, tol_ns)
+    return _sample_continuous(t_src, v, grid, tol_ns, AlignMethod.INTERPOLATE)
+
+
+@dataclass(frozen=True)
+class Gap:
+    """A stretch of time in which the named signals have no samples (dropout, recorder stall).
+
+    Attributes:
+        t0_ns: start (ns): the latest sample before the gap among ``signals`` (the earliest,
+            when their gaps only chain together without a common stretch).
+        t1_ns: end (ns): the earliest sample after the gap among ``signals`` (or the latest).
+            No signal listed has a sample strictly between ``t0_ns`` and ``t1_ns``.
+        signals: the signals without samples there, sorted.
+        span_ns: (earliest last sample before, latest first sample after) over ``signals``: the
+            whole stretch in which some listed signal is without samples.
+    """
+
+    t0_ns: int
+    t1_ns: int
+    signals: tuple[str, ...]
+    span_ns: tuple[int, int] = (0, 0)
+
+    @property
+    def duration_s(self) -> float:
+        """Length of the gap (s), ``t1_ns - t0_ns``."""
+        return (self.t1_ns - self.t0_ns) * 1e-9
+
+    def covers(self, t_ns: np.ndarray) -> np.ndarray:
+        """Mask of the times ``t_ns`` (ns) strictly inside ``span_ns``."""
+        t = np.asarray(t_ns)
+        lo, hi = self.span_ns if self.span_ns != (0, 0) else (self.t0_ns, self.t1_ns)
+        return (t > lo) & (t < hi)
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe dictionary."""
+        return {
+            "t0_ns": self.t0_ns,
+            "t1_ns": self.t1_ns,
+            "duration_s": self.duration_s,
+            "signals": list(self.signals),
+            "span_ns": list(self.span_ns),
+        }
+
+
+def find_gaps(
+    times: Mapping[str, np.ndarray | pl.Series | pl.DataFrame],
+    *,
+    periods: float = GAP_PERIODS,
+    min_gap_s: float = GAP_MIN_S,
+) -> list[Gap]:
+    """Recorder stalls and dropouts across signals, each reported once.
+
+    A signal has a gap between two consecutive samples more than
+    ``max(periods * median period, min_gap_s)`` apart. Gaps of different signals that overlap
+    in time are merged into one :class:`Gap` listing all of them, so a stall of the recorder on
+    every topic at once gives one record.
+
+    Args:
+        times: signal name -> its sample times (int64 ns): an array, a Series, or a frame with
+            ``t_ns``.
+        periods: gap threshold in median sample periods of the signal.
+        min_gap_s: the threshold is never below this (s).
+
+    Returns:
+        The gaps, sorted by start time.
+    """
+    spans: list[tuple[int, int, str]] = []
+    for name, obj in times.items():
+        if isinstance(obj, pl.DataFrame):
+            obj = obj["t_ns"]
+        t = np.unique(np.asarray(obj.to_numpy() if isinstance(obj, pl.Series) else obj))
+        t = t.astype(np.int64)
+        if t.size < 3:
+            continue
+        dt = np.diff(t)
+        limit = max(periods * float(np.median(dt)), min_gap_s * 1e9)
+        for i in np.flatnonzero(dt > limit):
+            spans.append((int(t[i]), int(t[i + 1]), name))
+    spans.sort()
+    gaps: list[Gap] = []
+    cur: list[tuple[int, int, str]] = []
+    for span in spans:
+        if cur and span[0] >= max(e for _, e, _ in cur):
+            gaps.append(_merge(cur))
+            cur = []
+        cur.append(span)
+    if cur:
+        gaps.append(_merge(cur))
+    return gaps
+
+
+def _merge(spans: list[tuple[int, int, str]]) -> Gap:
+    lo, hi = min(s for s, _, _ in spans), max(e for _, e, _ in spans)
+    t0, t1 = max(s for s, _, _ in spans), min(e for _, e, _ in spans)
+    if t1 <= t0:  # the gaps chain together without a stretch common to all
+        t0, t1 = lo, hi
+    return Gap(t0, t1, tuple(sorted({n for _, _, n in spans})), (lo, hi))

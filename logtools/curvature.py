@@ -1,6 +1,6 @@
-"""Measured path curvature ``kappa`` (1/m) from an aligned frame.
+"""Curvature: the measured ``kappa`` (1/m) of an aligned frame, and ``kappa_cmd`` from steering.
 
-Two sources, chosen per row (column ``kappa_source``):
+Measured curvature, three sources, chosen per row in this order (column ``kappa_source``):
 
 * ``"omega/v"``: kappa = omega / v where both are present and |v| > ``v_min``. This is the
   curvature in the vehicle's sense (positive = turning left when driving forward; it keeps its
@@ -17,11 +17,26 @@ Two sources, chosen per row (column ``kappa_source``):
   into the vehicle's sense with the heading ``yaw`` when present (travel against the heading =
   reversing); without ``yaw`` the path is assumed driven forward. Rows where the path speed is
   at most ``v_min`` (the curvature is undefined there) stay null.
+* ``"steer"``: elsewhere, kappa = tan(steer) / wheelbase from a measured steering angle
+  ``steer`` (rad) when the wheelbase (m) is known (bicycle model: the curvature of the middle
+  of the fixed axle). Rows with a saturated steering angle (:data:`STEER_SATURATION_RAD`) stay
+  null.
 
-Rows where neither source applies have a null ``kappa`` and ``kappa_source``.
+Rows where no source applies have a null ``kappa`` and ``kappa_source``. Signals that carry
+nothing (an all-zero odometry twist) never reach this module: the channel map drops them
+(:mod:`logtools.channel_map`), so ``kappa`` comes from the path instead of 0/0.
+
+The commanded curvature ``kappa_cmd`` is logged, or derived when the channel map resolves the
+signals; :class:`KappaCmdOrigin` records how (:class:`KappaCmdKind`). From a steering command,
+:func:`kappa_from_steering` gives tan(delta) / wheelbase and says which samples are saturated
+(|delta| >= 85 deg, where the curvature runs to infinity); those are reported and left out.
 """
 
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 import polars as pl
@@ -29,9 +44,81 @@ from scipy.signal import savgol_filter
 
 from logtools.errors import LogcalInputError
 
-__all__ = ["KAPPA_SOURCES", "derive_kappa", "path_curvature"]
+__all__ = [
+    "KAPPA_SOURCES",
+    "STEER_SATURATION_RAD",
+    "KappaCmdKind",
+    "KappaCmdOrigin",
+    "derive_kappa",
+    "kappa_from_steering",
+    "path_curvature",
+]
 
-KAPPA_SOURCES = ("omega/v", "path")
+KAPPA_SOURCES = ("omega/v", "path", "steer")
+
+STEER_SATURATION_RAD = math.radians(85.0)
+"""|steering angle| at or beyond this (rad) is saturated: tan(delta) / wheelbase is not used."""
+
+
+class KappaCmdKind(StrEnum):
+    """How the curvature command ``kappa_cmd`` was obtained."""
+
+    LOGGED = "logged"  # a curvature-command field of the log
+    FORMULA = "formula"  # a channel-map formula
+    STEERING = "steering"  # tan(steer_cmd) / wheelbase
+    TWIST = "twist"  # omega_cmd / v_cmd of a velocity command
+
+
+@dataclass(frozen=True)
+class KappaCmdOrigin:
+    """Where ``kappa_cmd`` came from.
+
+    Attributes:
+        kind: logged, formula, steering or twist.
+        expression: ``topic:field`` when logged, else the expression evaluated, e.g.
+            ``tan(steer_cmd) / 0.42``.
+        detail: one sentence for reports (inputs, wheelbase and where it came from).
+        wheelbase: the wheelbase used (m), for ``steering``.
+    """
+
+    kind: KappaCmdKind
+    expression: str
+    detail: str
+    wheelbase: float | None = None
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe dictionary."""
+        return {
+            "kind": self.kind.value,
+            "expression": self.expression,
+            "detail": self.detail,
+            "wheelbase": self.wheelbase,
+        }
+
+
+def kappa_from_steering(
+    delta: np.ndarray, wheelbase: float, *, saturation_rad: float = STEER_SATURATION_RAD
+) -> tuple[np.ndarray, np.ndarray]:
+    """Curvature (1/m) tan(delta) / wheelbase of a car-like vehicle, and the saturated samples.
+
+    Args:
+        delta: steering angle (rad), positive to the left.
+        wheelbase: distance (m) between the steered and the fixed axle, > 0.
+        saturation_rad: |delta| at or beyond which the sample is saturated.
+
+    Returns:
+        (kappa with NaN where saturated, mask of the saturated samples).
+
+    Raises:
+        LogcalInputError: the wheelbase is not a positive number.
+    """
+    if not (math.isfinite(wheelbase) and wheelbase > 0):
+        raise LogcalInputError(f"the wheelbase must be a positive length (m), got {wheelbase}")
+    d = np.asarray(delta, dtype=float)
+    saturated = np.abs(d) >= saturation_rad
+    kappa = np.tan(d) / wheelbase
+    kappa[saturated] = np.nan
+    return kappa, saturated
 
 
 def _col(frame: pl.DataFrame, name: str) -> np.ndarray | None:
@@ -88,26 +175,34 @@ def path_curvature(
 
 
 def derive_kappa(
-    frame: pl.DataFrame, *, v_min: float = 0.05, window_s: float = 2.0
+    frame: pl.DataFrame,
+    *,
+    v_min: float = 0.05,
+    window_s: float = 2.0,
+    wheelbase: float | None = None,
 ) -> pl.DataFrame:
-    """Add ``kappa`` (1/m) and ``kappa_source`` ("omega/v" | "path" | null) to an aligned frame.
+    """Add ``kappa`` (1/m) and ``kappa_source`` ("omega/v" | "path" | "steer" | null).
 
     Args:
         frame: output of ``align_signals`` (uniform ``t_ns``; ``v``, ``omega``, ``x``, ``y``,
-            ``yaw`` used where present).
+            ``yaw``, ``steer`` used where present).
         v_min: speed (m/s) below which omega/v is not used and the path is not trusted.
         window_s: Savitzky-Golay window (s) of the path differentiator.
+        wheelbase: wheelbase (m) turning a measured steering angle ``steer`` into a curvature;
+            None: ``steer`` is not used.
 
     Raises:
-        LogcalInputError: the frame has neither (v, omega) nor (x, y).
+        LogcalInputError: the frame has neither (v, omega), (x, y) nor (steer and a wheelbase).
     """
     n = frame.height
     v, omega = _col(frame, "v"), _col(frame, "omega")
     x, y = _col(frame, "x"), _col(frame, "y")
-    if (v is None or omega is None) and (x is None or y is None):
+    steer = _col(frame, "steer") if wheelbase is not None else None
+    if (v is None or omega is None) and (x is None or y is None) and steer is None:
         raise LogcalInputError(
-            "cannot derive the measured curvature kappa: the log needs (v, omega) or (x, y); "
-            f"aligned signals are {[c for c in frame.columns if c != 't_ns']}"
+            "cannot derive the measured curvature kappa: the log needs (v, omega) or (x, y), or a "
+            "steering angle steer with a wheelbase; aligned signals are "
+            f"{[c for c in frame.columns if c != 't_ns']}"
         )
     kappa = np.full(n, np.nan)
     source = np.full(n, None, dtype=object)
@@ -123,6 +218,12 @@ def derive_kappa(
         use = need & np.isfinite(kp)
         kappa[use] = kp[use]
         source[use] = KAPPA_SOURCES[1]
+    need = ~np.isfinite(kappa)
+    if steer is not None and wheelbase is not None and np.any(need):
+        ks, _ = kappa_from_steering(steer, wheelbase)
+        use = need & np.isfinite(ks)
+        kappa[use] = ks[use]
+        source[use] = KAPPA_SOURCES[2]
     return frame.with_columns(
         pl.Series("kappa", kappa, dtype=pl.Float64).fill_nan(None),
         pl.Series("kappa_source", source.tolist(), dtype=pl.String),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 __all__ = [
+    "ChannelMapEntryError",
     "ChannelMapError",
     "LogFileNotFoundError",
     "LogWriteError",
@@ -10,6 +11,7 @@ __all__ = [
     "LogcalInputError",
     "MissingSignalsError",
     "NoDriveSignalsError",
+    "NotARosbagError",
     "NotAnMcapError",
     "SignalValueError",
     "TimestampError",
@@ -27,7 +29,10 @@ class LogcalInputError(LogcalError):
 
 class LogFileNotFoundError(LogcalInputError):
     def __init__(self, path: str) -> None:
-        super().__init__(f"{path}: no such file. Expected an MCAP (.mcap) or CSV (.csv) drive log.")
+        super().__init__(
+            f"{path}: no such file. Expected an MCAP (.mcap) or CSV (.csv) drive log, a rosbag2 "
+            "folder (metadata.yaml) or a ROS 1 bag (.bag)."
+        )
         self.path = path
 
 
@@ -38,6 +43,17 @@ class NotAnMcapError(LogcalInputError):
             "with the magic bytes 0x89 'MCAP0', or a CSV with a header row and a time column 't'."
         )
         self.path = path
+
+
+class NotARosbagError(LogcalInputError):
+    """A path that looks like a ROS bag (folder with metadata.yaml, .db3, .bag) but is not one."""
+
+    def __init__(self, path: str, detail: str) -> None:
+        super().__init__(
+            f"{path}: not a readable ROS bag ({detail}). Expected a rosbag2 folder (metadata.yaml "
+            "and its .db3 or .mcap files), a rosbag2 .db3 file, or a ROS 1 .bag file."
+        )
+        self.path, self.detail = path, detail
 
 
 class UnknownEncodingError(LogcalInputError):
@@ -70,6 +86,21 @@ class TimestampError(LogcalInputError):
 
 class ChannelMapError(LogcalInputError):
     """A channel-map TOML that is malformed or names a topic/field the log does not have."""
+
+
+class ChannelMapEntryError(ChannelMapError):
+    """One key of a channel-map TOML is wrong: the message names the file and the key.
+
+    Attributes:
+        file: the channel-map file ("" for a map built in code).
+        key: the dotted key, e.g. ``signals.psi.unit``.
+        detail: what is wrong and what is expected.
+    """
+
+    def __init__(self, file: str, key: str, detail: str) -> None:
+        where = f"{file}: " if file else "channel map: "
+        super().__init__(f"{where}[{key}] {detail}")
+        self.file, self.key, self.detail = file, key, detail
 
 
 class NoDriveSignalsError(MissingSignalsError):

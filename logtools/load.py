@@ -3,7 +3,7 @@
 ``load_log`` composes :func:`logtools.readers.read_log`,
 :func:`logtools.channel_map.resolve_signals`, :func:`logtools.robot.infer_robot`,
 :func:`logtools.align.align_signals` (its module docstring gives the alignment method and
-tolerance) and :func:`logtools.curvature.derive_kappa`.
+tolerance), :func:`logtools.align.find_gaps` and :func:`logtools.curvature.derive_kappa`.
 """
 
 from __future__ import annotations
@@ -11,19 +11,20 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
+import numpy as np
 import polars as pl
 
-from logtools.align import AlignMethod, align_signals
+from logtools.align import AlignMethod, Gap, align_signals, find_gaps
 from logtools.channel_map import ResolvedSignals, resolve_signals
-from logtools.curvature import derive_kappa
+from logtools.curvature import KappaCmdOrigin, derive_kappa
 from logtools.errors import MissingSignalsError
 from logtools.readers import LogData, read_log
 from logtools.robot import METADATA_RECORD, infer_robot
-from logtools.signals import ROBOT_REQUIRED_SIGNALS, Robot, SignalSource
+from logtools.signals import ROBOT_REQUIRED_SIGNALS, Robot, RobotConfig, SignalSource
 
-__all__ = ["LoadedLog", "load_log", "metadata_truth"]
+__all__ = ["LoadedLog", "gap_notes", "load_log", "metadata_truth"]
 
 # Signals whose common span sets the aligned frame, per robot (those present in the log).
 _SPAN_SIGNALS: dict[Robot, tuple[str, ...]] = {
@@ -41,12 +42,14 @@ class LoadedLog:
     Attributes:
         path: the file read.
         log: the raw frames per topic.
-        signals: the logical signals found and where they came from.
+        signals: the logical signals found (raw per-signal frames ``signals.signals``), where
+            they came from, the ones that carry nothing, and how kappa_cmd was obtained.
         frame: aligned frame (``t_ns`` + one float64 column per signal, plus ``kappa`` (1/m)
-            and ``kappa_source`` when odometry or pose allow it).
-        robot: the robot type (metadata, else inferred from the signals).
+            and ``kappa_source`` when odometry, pose or steering allow it).
+        robot: the robot type (channel map, metadata, else inferred from the signals).
         truth: true parameters from the ``logcal`` metadata record (simulated logs).
         problems: what was lost or repaired, from reading to alignment.
+        gaps: recorder stalls and dropouts of the signals, one record per stretch of time.
     """
 
     path: str
@@ -56,6 +59,17 @@ class LoadedLog:
     robot: Robot
     truth: dict[str, float]
     problems: list[str]
+    gaps: list[Gap] = field(default_factory=list)
+
+    @property
+    def kappa_cmd_origin(self) -> KappaCmdOrigin | None:
+        """How ``kappa_cmd`` was obtained (logged, formula, steering, twist); None without it."""
+        return self.signals.kappa_cmd_origin
+
+    @property
+    def robot_config(self) -> RobotConfig:
+        """The channel map's [robot] table (wheelbase completed from the metadata record)."""
+        return self.signals.robot
 
 
 def metadata_truth(metadata: Mapping[str, Mapping[str, str]]) -> dict[str, float]:
@@ -81,12 +95,36 @@ def _span_signals(robot: Robot, names: list[str]) -> list[str]:
     return chosen or names
 
 
-def _null_notes(path: str, frame: pl.DataFrame) -> list[str]:
+def gap_notes(path: str, gaps: list[Gap], names: list[str], origin_ns: int) -> list[str]:
+    """One sentence per gap for ``problems`` (times relative to ``origin_ns``)."""
     notes = []
+    for gap in gaps:
+        who = (
+            f"every signal ({len(gap.signals)}) at once: a recorder stall"
+            if set(names) <= set(gap.signals)
+            else f"signals {', '.join(gap.signals)}"
+        )
+        notes.append(
+            f"{path}: no samples for {gap.duration_s:.2f} s from "
+            f"{(gap.t0_ns - origin_ns) * 1e-9:.3f} s to {(gap.t1_ns - origin_ns) * 1e-9:.3f} s "
+            f"(relative to the first sample) on {who}; aligned rows there are null"
+        )
+    return notes
+
+
+def _null_notes(path: str, frame: pl.DataFrame, gaps: list[Gap]) -> list[str]:
+    """Null rows per signal that the gaps (reported once each) do not explain."""
+    notes = []
+    t = frame["t_ns"].to_numpy()
     for name in frame.columns:
         if name == "t_ns":
             continue
-        k = frame[name].null_count()
+        null = frame[name].is_null().to_numpy()
+        base = name.split(".", 1)[0]
+        for gap in gaps:
+            if base in gap.signals:
+                null &= ~gap.covers(t)
+        k = int(np.count_nonzero(null))
         if k:
             notes.append(
                 f"{path}: signal {name!r} has no sample within the alignment tolerance on "
@@ -103,11 +141,12 @@ def load_log(
     rate_hz: float | None = None,
     method: AlignMethod = AlignMethod.INTERPOLATE,
 ) -> LoadedLog:
-    """Read ``path`` (MCAP or CSV) and align its logical signals on one time base.
+    """Read ``path`` (MCAP, ROS bag or CSV) and align its logical signals on one time base.
 
     Args:
-        path: the log file.
-        channel_map: signal -> source overriding the default topic/field names.
+        path: the log file, rosbag2 folder or ROS 1 bag.
+        channel_map: a :class:`logtools.channel_map.ChannelMap` or signal -> source mapping
+            overriding the default topic/field names.
         rate_hz: rate (Hz) of the aligned grid; None: the fastest signal's median rate.
         method: interpolation or nearest-sample for continuous signals (commands are held).
 
@@ -129,11 +168,20 @@ def load_log(
         method=method,
         required=_span_signals(robot, names),
     )
-    problems = [*log.problems, *resolved.problems, *_null_notes(log.path, frame)]
+    gaps = find_gaps(resolved.signals)
+    origin = min((i.first_ns for i in log.info.values() if i.first_ns is not None), default=0)
+    problems = [
+        *log.problems,
+        *resolved.problems,
+        *gap_notes(log.path, gaps, names, origin),
+        *_null_notes(log.path, frame, gaps),
+    ]
+    wheelbase = resolved.robot.wheelbase
     has_odom = {"v", "omega"} <= set(frame.columns)
     has_pose = {"x", "y"} <= set(frame.columns)
-    if robot is not Robot.MANIPULATOR_2LINK and (has_odom or has_pose):
-        frame = derive_kappa(frame)
+    has_steer = "steer" in frame.columns and wheelbase is not None
+    if robot is not Robot.MANIPULATOR_2LINK and (has_odom or has_pose or has_steer):
+        frame = derive_kappa(frame, wheelbase=wheelbase)
     return LoadedLog(
         path=log.path,
         log=log,
@@ -142,4 +190,5 @@ def load_log(
         robot=robot,
         truth=metadata_truth(log.metadata),
         problems=problems,
+        gaps=gaps,
     )

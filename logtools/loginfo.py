@@ -1,15 +1,19 @@
-"""What a log holds, for ``logcal info``: topics, signals found and where from, robot, problems."""
+"""What a log holds, for ``logcal info``: topics, signals found and where from, robot, gaps,
+problems."""
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from calib.results import json_safe
-from logtools.channel_map import resolve_signals
+from logtools.align import Gap, find_gaps
+from logtools.channel_map import FlatSignal, resolve_signals
+from logtools.curvature import KappaCmdOrigin
 from logtools.errors import NoDriveSignalsError
+from logtools.load import gap_notes
 from logtools.readers import TopicInfo, read_log
 from logtools.robot import explain_robot
 from logtools.signals import SignalSource
@@ -19,7 +23,11 @@ __all__ = ["LogSummary", "SignalSummary", "summarize_log"]
 
 @dataclass(frozen=True)
 class SignalSummary:
-    """One logical signal found: source, sample count, time span (ns) and value range."""
+    """One logical signal found: source, sample count, time span (ns) and value range.
+
+    ``source`` describes the source in one string (topic:field and scale, unit, stamp, frame;
+    ``= formula`` for a derived signal).
+    """
 
     name: str
     topic: str
@@ -30,6 +38,7 @@ class SignalSummary:
     last_ns: int
     min: float
     max: float
+    source: str = ""
 
 
 @dataclass(frozen=True)
@@ -45,6 +54,9 @@ class LogSummary:
         robot_reason: where the robot type came from, or why it is unknown.
         metadata: MCAP metadata records.
         problems: what was lost or repaired while reading and resolving signals.
+        gaps: recorder stalls and dropouts of the signals found (one record per stretch).
+        flat: signals found but not used because they carry nothing.
+        kappa_cmd_origin: how kappa_cmd was obtained, None without it.
     """
 
     path: str
@@ -55,6 +67,9 @@ class LogSummary:
     robot_reason: str
     metadata: dict[str, dict[str, str]]
     problems: list[str]
+    gaps: list[Gap] = field(default_factory=list)
+    flat: list[FlatSignal] = field(default_factory=list)
+    kappa_cmd_origin: KappaCmdOrigin | None = None
 
     @property
     def span_ns(self) -> tuple[int, int] | None:
@@ -91,6 +106,11 @@ class LogSummary:
                 "robot_reason": self.robot_reason,
                 "metadata": self.metadata,
                 "problems": self.problems,
+                "gaps": [g.to_dict() for g in self.gaps],
+                "flat": [vars(f) for f in self.flat],
+                "kappa_cmd_origin": (
+                    self.kappa_cmd_origin.to_dict() if self.kappa_cmd_origin else None
+                ),
             }
         )
 
@@ -112,13 +132,30 @@ class LogSummary:
         lines.append(f"signals found ({len(self.signals)}):")
         for s in self.signals.values():
             how = f" via {s.transform}" if s.transform else ""
+            src = f"{s.topic} : {s.field}{how}" if not s.source.startswith("=") else s.source
             lines.append(
-                f"  {s.name:<11} <- {s.topic} : {s.field}{how}  {s.samples} samples  "
-                f"[{s.min:.4g}, {s.max:.4g}]"
+                f"  {s.name:<11} <- {src}  {s.samples} samples  [{s.min:.4g}, {s.max:.4g}]"
             )
         if not self.signals:
             lines.append("  (no drive signals; see the topics above)")
+        if self.kappa_cmd_origin is not None:
+            lines.append(f"kappa_cmd: {self.kappa_cmd_origin.detail}")
+        for f in self.flat:
+            lines.append(
+                f"not used (carries nothing): {f.name} <- {f.topic} : {f.field}, "
+                f"{f.value:g} in all {f.samples} samples"
+            )
         lines.append(f"signals missing: {', '.join(self.missing) or '(none)'}")
+        if self.gaps:
+            origin = span[0] if span else 0
+            lines.append(f"gaps ({len(self.gaps)}):")
+            every = set(self.signals)
+            for g in self.gaps:
+                who = "all signals" if every <= set(g.signals) else ", ".join(g.signals)
+                lines.append(
+                    f"  {(g.t0_ns - origin) * 1e-9:.3f} s .. {(g.t1_ns - origin) * 1e-9:.3f} s  "
+                    f"({g.duration_s:.2f} s)  {who}"
+                )
         if self.metadata:
             lines.append("metadata: " + ", ".join(sorted(self.metadata)))
         if self.problems:
@@ -130,7 +167,7 @@ class LogSummary:
 def summarize_log(
     path: str | os.PathLike[str], channel_map: Mapping[str, SignalSource] | None = None
 ) -> LogSummary:
-    """Read ``path`` and summarise it (see :class:`LogSummary`).
+    """Read ``path`` (MCAP, ROS bag or CSV) and summarise it (see :class:`LogSummary`).
 
     Raises:
         LogcalInputError: the log cannot be read or a signal cannot be repaired.
@@ -156,7 +193,10 @@ def summarize_log(
             last_ns=int(times.max()),  # type: ignore[arg-type]
             min=float(values.min()),  # type: ignore[arg-type]
             max=float(values.max()),  # type: ignore[arg-type]
+            source=src.describe(),
         )
+    gaps = find_gaps(resolved.signals)
+    origin = min((i.first_ns for i in log.info.values() if i.first_ns is not None), default=0)
     return LogSummary(
         path=log.path,
         topics=[log.info[t] for t in log.topic_names()],
@@ -165,5 +205,12 @@ def summarize_log(
         robot=robot_name,
         robot_reason=reason,
         metadata=log.metadata,
-        problems=[*log.problems, *resolved.problems],
+        problems=[
+            *log.problems,
+            *resolved.problems,
+            *gap_notes(log.path, gaps, list(resolved.signals), origin),
+        ],
+        gaps=gaps,
+        flat=resolved.flat,
+        kappa_cmd_origin=resolved.kappa_cmd_origin,
     )

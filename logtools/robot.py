@@ -16,7 +16,8 @@ METADATA_RECORD = "logcal"
 def infer_robot(log: LogData, signals: ResolvedSignals) -> Robot:
     """The robot type of ``log``.
 
-    The ``robot`` entry of the ``logcal`` metadata record wins; otherwise the signals decide:
+    A channel map's ``[robot] type`` wins, then the ``robot`` entry of the ``logcal`` metadata
+    record; otherwise the signals decide:
     ``psi`` -> tractor_trailer, ``wheel_left`` and ``wheel_right`` -> diff_drive, joint signals
     (``q1``, …) -> manipulator_2link.
 
@@ -28,7 +29,13 @@ def infer_robot(log: LogData, signals: ResolvedSignals) -> Robot:
 
 
 def explain_robot(log: LogData, signals: ResolvedSignals) -> tuple[Robot, str]:
-    """:func:`infer_robot` and why: e.g. ``metadata record 'logcal'`` or ``signal psi``."""
+    """:func:`infer_robot` and why: e.g. ``metadata record 'logcal'`` or ``signal psi``.
+
+    A channel map's ``[robot] type`` comes first (the user says so), then the metadata record,
+    then the signals.
+    """
+    if signals.robot.type is not None:
+        return signals.robot.type, "channel map [robot] type"
     named = log.metadata.get(METADATA_RECORD, {}).get("robot")
     if named is not None:
         try:

@@ -1,17 +1,41 @@
-"""Logical signals and the default topic/field mapping of LOG_FORMAT.md."""
+"""Logical signals, where they come from, and the default topic/field mapping of LOG_FORMAT.md.
+
+Besides the tables of default names this module holds the small pieces a channel map is made of:
+:class:`SignalSource` (topic, field and how to turn the field into the signal), units,
+:class:`RobotConfig` (the ``[robot]`` table) and :class:`Formula`, a safe evaluator of the
+arithmetic a channel map may use to derive one signal from others (parsed with :mod:`ast`,
+never ``eval``).
+"""
 
 from __future__ import annotations
 
+import ast
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from dataclasses import field as dc_field
 from enum import StrEnum
+from typing import Any
+
+import numpy as np
 
 __all__ = [
+    "COMMAND_SIGNALS",
     "DEFAULT_JSON_MAP",
     "DEFAULT_ROS2_MAP",
+    "DEFAULT_ROS_MAP",
+    "DERIVED_TOPIC",
+    "FORMULA_FUNCTIONS",
     "ROBOT_REQUIRED_SIGNALS",
     "SIGNAL_UNITS",
+    "UNIT_FACTORS",
+    "Formula",
+    "FormulaError",
     "Robot",
+    "RobotConfig",
     "SignalSource",
+    "Stamp",
+    "default_candidates",
 ]
 
 
@@ -33,8 +57,31 @@ SIGNAL_UNITS: dict[str, str] = {
     "wheel_right": "rad",
     "v_cmd": "m/s",
     "omega_cmd": "rad/s",
+    "steer_cmd": "rad",
+    "steer": "rad",
+    "x2": "m",
+    "y2": "m",
+    "yaw2": "rad",
     "kappa": "1/m",
 }
+"""SI unit of every logical signal (per-joint q, qd, tau: rad, rad/s, N·m)."""
+
+COMMAND_SIGNALS: tuple[str, ...] = ("kappa_cmd", "v_cmd", "omega_cmd", "steer_cmd")
+"""Signals that are commands: held between samples, and allowed to be constant."""
+
+UNIT_FACTORS: dict[str, tuple[str, float]] = {
+    "rad": ("rad", 1.0),
+    "deg": ("rad", math.pi / 180),
+    "rad/s": ("rad/s", 1.0),
+    "deg/s": ("rad/s", math.pi / 180),
+    "m": ("m", 1.0),
+    "cm": ("m", 1e-2),
+    "mm": ("m", 1e-3),
+    "m/s": ("m/s", 1.0),
+    "km/h": ("m/s", 1 / 3.6),
+    "1/m": ("1/m", 1.0),
+}
+"""Units a channel map may give a field in: unit -> (SI unit of the signal, factor to SI)."""
 
 ROBOT_REQUIRED_SIGNALS: dict[Robot, tuple[str, ...]] = {
     Robot.TRACTOR_TRAILER: ("psi",),  # plus kappa, derived from (omega, v) or (x, y)
@@ -42,14 +89,92 @@ ROBOT_REQUIRED_SIGNALS: dict[Robot, tuple[str, ...]] = {
     Robot.MANIPULATOR_2LINK: ("q", "tau"),
 }
 
+DERIVED_TOPIC = "(derived)"
+"""The ``topic`` of a :class:`SignalSource` computed from other signals (``field``: formula)."""
+
+
+class Stamp(StrEnum):
+    """Which time a signal's samples get: the log's receive time or the message header stamp."""
+
+    LOG = "log"
+    HEADER = "header"
+
 
 @dataclass(frozen=True)
 class SignalSource:
-    """Where a logical signal comes from: a topic and a flattened field path."""
+    """Where a logical signal comes from: a topic and a flattened field path, and how to read it.
+
+    The value is ``(field * scale + offset)`` converted from ``unit`` to the signal's SI unit
+    (e.g. ``deg`` -> rad), after ``transform`` when one is named.
+
+    Attributes:
+        topic: topic name (:data:`DERIVED_TOPIC` for a formula).
+        field: flattened field path (``twist.twist.linear.x``); for a formula its text.
+        transform: ``yaw_from_quaternion`` | ``deg_to_rad`` | None.
+        scale: factor applied to the field (dimensionless).
+        offset: added after ``scale``, in the field's unit.
+        unit: unit of the field (a key of :data:`UNIT_FACTORS`); None: already SI.
+        stamp: sample times from the log (receive time) or from ``header.stamp``.
+        frame: for arrays of stamped transforms (``tf2_msgs/TFMessage``): take the element
+            whose ``child_frame_id`` is this frame; None: not such an array.
+        formula: for a derived signal, the expression over other signal names.
+        origin: where the entry was written (``map.toml [signals.psi]``), for messages; not
+            part of equality.
+    """
 
     topic: str
     field: str
-    transform: str | None = None  # e.g. "yaw_from_quaternion"
+    transform: str | None = None
+    scale: float = 1.0
+    offset: float = 0.0
+    unit: str | None = None
+    stamp: Stamp = Stamp.LOG
+    frame: str | None = None
+    formula: str | None = None
+    origin: str | None = dc_field(default=None, compare=False)
+
+    @property
+    def is_derived(self) -> bool:
+        """True for a signal computed by a formula from other signals."""
+        return self.formula is not None
+
+    def describe(self) -> str:
+        """``topic:field`` plus what is done to it, e.g. ``/cmd_vel:angular.z (deg)``."""
+        if self.formula is not None:
+            return f"= {self.formula}"
+        extra = [
+            *([self.transform] if self.transform else []),
+            *([f"frame {self.frame}"] if self.frame else []),
+            *([f"x {self.scale:g}"] if self.scale != 1.0 else []),
+            *([f"{self.offset:+g}"] if self.offset != 0.0 else []),
+            *([self.unit] if self.unit else []),
+            *(["header stamp"] if self.stamp is Stamp.HEADER else []),
+        ]
+        how = f" ({', '.join(extra)})" if extra else ""
+        return f"{self.topic}:{self.field}{how}"
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """The ``[robot]`` table of a channel map.
+
+    Attributes:
+        type: robot type, None: from the log's metadata or its signals.
+        wheelbase: distance (m) from the steered axle to the fixed axle of a car-like tractor;
+            turns a steering angle into a curvature, kappa = tan(delta) / wheelbase.
+        params: other nominal parameters by name (``L1``, ``L2``, …; m or rad).
+    """
+
+    type: Robot | None = None
+    wheelbase: float | None = None
+    params: dict[str, float] = dc_field(default_factory=dict)
+
+    def constants(self) -> dict[str, float]:
+        """Named numbers a formula may use: ``wheelbase`` and the nominal parameters."""
+        out = dict(self.params)
+        if self.wheelbase is not None:
+            out["wheelbase"] = self.wheelbase
+        return out
 
 
 # Default mapping for the JSON encoding that `logcal simulate` writes.
@@ -67,7 +192,7 @@ DEFAULT_JSON_MAP: dict[str, SignalSource] = {
     "wheel_right": SignalSource("/wheels", "right"),
 }
 
-# Default mapping for ROS 2 standard types (field paths flattened with dots).
+# Default mapping for ROS 2 standard types on our topic names (field paths flattened with dots).
 DEFAULT_ROS2_MAP: dict[str, SignalSource] = {
     "kappa_cmd": SignalSource("/cmd/curvature", "data"),
     "v_cmd": SignalSource("/cmd/vel", "linear.x"),
@@ -81,3 +206,185 @@ DEFAULT_ROS2_MAP: dict[str, SignalSource] = {
     "wheel_left": SignalSource("/wheels", "position.0"),
     "wheel_right": SignalSource("/wheels", "position.1"),
 }
+
+_YAW = "yaw_from_quaternion"
+
+# The standard ROS names, tried after ours: /cmd_vel (Twist), /odom (Odometry: pose and
+# twist), /pose as a PoseStamped, wheels from /joint_states by joint name.
+DEFAULT_ROS_MAP: dict[str, list[SignalSource]] = {
+    "v_cmd": [SignalSource("/cmd_vel", "linear.x")],
+    "omega_cmd": [SignalSource("/cmd_vel", "angular.z")],
+    "x": [
+        SignalSource("/pose", "pose.position.x"),
+        SignalSource("/odom", "pose.pose.position.x"),
+    ],
+    "y": [
+        SignalSource("/pose", "pose.position.y"),
+        SignalSource("/odom", "pose.pose.position.y"),
+    ],
+    "yaw": [
+        SignalSource("/pose", "pose.orientation", transform=_YAW),
+        SignalSource("/odom", "pose.pose.orientation", transform=_YAW),
+    ],
+    "wheel_left": [SignalSource("/joint_states", "position.0")],
+    "wheel_right": [SignalSource("/joint_states", "position.1")],
+}
+
+TF_TOPIC = "/tf"
+TF_DEFAULT_FRAMES = ("base_link", "base_footprint")
+"""Child frames of ``/tf`` taken as the pose (x, y, yaw) when no channel map names one."""
+
+
+def tf_pose_sources(frame: str) -> dict[str, SignalSource]:
+    """x, y, yaw from the ``/tf`` transform whose child frame is ``frame``."""
+    return {
+        "x": SignalSource(TF_TOPIC, "transform.translation.x", frame=frame),
+        "y": SignalSource(TF_TOPIC, "transform.translation.y", frame=frame),
+        "yaw": SignalSource(TF_TOPIC, "transform.rotation", transform=_YAW, frame=frame),
+    }
+
+
+def default_candidates(tf_frame: str | None = None) -> dict[str, list[SignalSource]]:
+    """Per logical signal, the default sources in the order they are tried.
+
+    Ours (JSON names, then ROS 2 types on our topics) come first, then the standard ROS names,
+    then ``/tf``: the child frame ``tf_frame`` when given (then it comes before ``/odom``'s
+    pose, since the user chose it), else ``base_link`` / ``base_footprint``.
+    """
+    out: dict[str, list[SignalSource]] = {}
+    for table in (DEFAULT_JSON_MAP, DEFAULT_ROS2_MAP):
+        for name, src in table.items():
+            out.setdefault(name, []).append(src)
+    for name, srcs in DEFAULT_ROS_MAP.items():
+        out.setdefault(name, []).extend(srcs)
+    frames = (tf_frame,) if tf_frame else TF_DEFAULT_FRAMES
+    for fr in frames:
+        for name, src in tf_pose_sources(fr).items():
+            if tf_frame:
+                out[name].insert(0, src)
+            else:
+                out[name].append(src)
+    return out
+
+
+# ---------------------------------------------------------------- formulas
+
+
+class FormulaError(ValueError):
+    """A formula that is not the small arithmetic a channel map allows (message says why)."""
+
+
+def _atan2(y: np.ndarray, x: np.ndarray) -> np.ndarray:
+    return np.arctan2(y, x)
+
+
+FORMULA_FUNCTIONS: dict[str, tuple[int, Any]] = {
+    "tan": (1, np.tan),
+    "sin": (1, np.sin),
+    "cos": (1, np.cos),
+    "atan": (1, np.arctan),
+    "atan2": (2, _atan2),
+    "sqrt": (1, np.sqrt),
+    "abs": (1, np.abs),
+}
+"""Functions a formula may call: name -> (number of arguments, numpy function)."""
+
+_CONSTANTS = {"pi": math.pi}
+_BINARY = {ast.Add: np.add, ast.Sub: np.subtract, ast.Mult: np.multiply, ast.Div: np.divide}
+
+
+@dataclass(frozen=True)
+class Formula:
+    """An arithmetic expression over signal names and numbers, parsed once with :mod:`ast`.
+
+    Allowed: numbers, names, ``+ - * /``, unary ``-``/``+``, parentheses, ``pi`` and the
+    functions of :data:`FORMULA_FUNCTIONS`. Anything else (attributes, subscripts, other calls,
+    ``**``, comparisons, …) is refused, so evaluating a formula runs no user code.
+
+    Attributes:
+        text: the expression as written.
+        names: the names it uses (signals or constants), sorted.
+    """
+
+    text: str
+    names: tuple[str, ...]
+    _tree: ast.expr = dc_field(repr=False, compare=False)
+
+    @classmethod
+    def parse(cls, text: str) -> Formula:
+        """Parse ``text``.
+
+        Raises:
+            FormulaError: a syntax error or a construct that is not allowed.
+        """
+        try:
+            tree = ast.parse(text.strip(), mode="eval").body
+        except SyntaxError as err:
+            raise FormulaError(f"formula {text!r} does not parse: {err.msg}") from err
+        names: set[str] = set()
+        _check(tree, text, names)
+        return cls(text, tuple(sorted(names - set(_CONSTANTS))), tree)
+
+    def evaluate(self, values: Mapping[str, np.ndarray | float]) -> np.ndarray:
+        """Evaluate on arrays (float64, broadcast together) or numbers given by name.
+
+        Raises:
+            FormulaError: a name without a value.
+        """
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            return np.asarray(_eval(self._tree, values, self.text), dtype=float)
+
+
+def _check(node: ast.AST, text: str, names: set[str]) -> None:
+    if isinstance(node, ast.Constant):
+        if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
+            raise FormulaError(f"formula {text!r}: {node.value!r} is not a number")
+    elif isinstance(node, ast.Name):
+        names.add(node.id)
+    elif isinstance(node, ast.BinOp):
+        if type(node.op) not in _BINARY:
+            raise FormulaError(f"formula {text!r}: only + - * / are allowed")
+        _check(node.left, text, names)
+        _check(node.right, text, names)
+    elif isinstance(node, ast.UnaryOp):
+        if not isinstance(node.op, (ast.USub, ast.UAdd)):
+            raise FormulaError(f"formula {text!r}: only unary - and + are allowed")
+        _check(node.operand, text, names)
+    elif isinstance(node, ast.Call):
+        fn = node.func.id if isinstance(node.func, ast.Name) else None
+        if fn not in FORMULA_FUNCTIONS or node.keywords:
+            raise FormulaError(
+                f"formula {text!r}: calls only {', '.join(FORMULA_FUNCTIONS)} (positional "
+                "arguments)"
+            )
+        nargs = FORMULA_FUNCTIONS[fn][0]
+        if len(node.args) != nargs:
+            raise FormulaError(f"formula {text!r}: {fn} takes {nargs} argument(s)")
+        for arg in node.args:
+            _check(arg, text, names)
+    else:
+        raise FormulaError(
+            f"formula {text!r}: {type(node).__name__} is not allowed; use signal names, numbers, "
+            f"+ - * / and {', '.join(FORMULA_FUNCTIONS)}"
+        )
+
+
+def _eval(node: ast.expr, values: Mapping[str, np.ndarray | float], text: str) -> Any:
+    if isinstance(node, ast.Constant):
+        return float(node.value)  # type: ignore[arg-type]  # _check allows numbers only
+    if isinstance(node, ast.Name):
+        if node.id in values:
+            return values[node.id]
+        if node.id in _CONSTANTS:
+            return _CONSTANTS[node.id]
+        raise FormulaError(f"formula {text!r}: no value for {node.id!r}")
+    if isinstance(node, ast.BinOp):
+        op = _BINARY[type(node.op)]
+        return op(_eval(node.left, values, text), _eval(node.right, values, text))
+    if isinstance(node, ast.UnaryOp):
+        operand = _eval(node.operand, values, text)
+        return np.negative(operand) if isinstance(node.op, ast.USub) else operand
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+        fn = FORMULA_FUNCTIONS[node.func.id][1]
+        return fn(*(_eval(a, values, text) for a in node.args))
+    raise FormulaError(f"formula {text!r}: {type(node).__name__} is not allowed")

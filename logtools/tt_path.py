@@ -15,12 +15,17 @@ import numpy as np
 import polars as pl
 
 from calib.errors import InsufficientDataError
-from calib.estimators.drive_path import DrivePath
+from calib.estimators.drive_path import DrivePath, pose_smoothing
 from logtools.load import LoadedLog
 
 __all__ = ["PathInputs", "path_inputs"]
 
 _MIN_TRAVEL_M = 0.01
+_SIGNALS = {
+    "pose": ("x", "y", "yaw"),
+    "odometry": ("v", "omega"),
+    "command": ("v", "v_cmd", "kappa_cmd"),
+}
 
 
 @dataclass(frozen=True)
@@ -75,12 +80,21 @@ def _on_common_times(
     return t, cols
 
 
-def _candidates(loaded: LoadedLog, t0_ns: int) -> list[tuple[str, DrivePath | None, str]]:
+def _candidates(
+    loaded: LoadedLog, t0_ns: int, psi: np.ndarray
+) -> list[tuple[str, DrivePath | None, str]]:
     out: list[tuple[str, DrivePath | None, str]] = []
+    noisy_pose: DrivePath | None = None
     pose = _on_common_times(loaded, ("x", "y", "yaw"), t0_ns)
     if pose is not None:
         t, (x, y, yaw) = pose
-        out.append(("pose", DrivePath.from_pose(t, x, y, yaw), ""))
+        n = pose_smoothing(t, x, y, yaw, psi)
+        if n is None:
+            noisy_pose = DrivePath.from_pose(t, x, y, yaw, smooth_samples=_odd(0.25 * _rate(t)))
+            out.append(("pose", None, "the pose is too noisy next to the joint angle (its "
+                        "noise would bias the fit); used only when nothing else moves"))
+        else:
+            out.append(("pose", DrivePath.from_pose(t, x, y, yaw, smooth_samples=n), ""))
     else:
         out.append(("pose", None, "no pose with yaw (x, y, yaw)"))
     odo = _on_common_times(loaded, ("omega", "v"), t0_ns)
@@ -97,7 +111,18 @@ def _candidates(loaded: LoadedLog, t0_ns: int) -> list[tuple[str, DrivePath | No
             break
     else:
         out.append(("command", None, "no speed with a curvature command"))
+    if noisy_pose is not None:
+        out.append(("pose", noisy_pose, ""))
     return out
+
+
+def _rate(t: np.ndarray) -> float:
+    return 1.0 / float(np.median(np.diff(t))) if t.size > 1 else 1.0
+
+
+def _odd(n: float) -> int:
+    k = int(n)
+    return k if k % 2 else k - 1
 
 
 def path_inputs(loaded: LoadedLog, *, prefer: str | None = None) -> PathInputs:
@@ -115,7 +140,7 @@ def path_inputs(loaded: LoadedLog, *, prefer: str | None = None) -> PathInputs:
         raise InsufficientDataError("the log has no joint-angle (psi) samples")
     t0_ns = int(loaded.frame["t_ns"][0]) if loaded.frame.height else int(psi["t_ns"][0])
     notes: list[str] = []
-    cands = _candidates(loaded, t0_ns)
+    cands = _candidates(loaded, t0_ns, psi["value"].to_numpy().astype(float))
     if prefer is not None:
         cands.sort(key=lambda c: c[0] != prefer)
     chosen: DrivePath | None = None
@@ -137,9 +162,11 @@ def path_inputs(loaded: LoadedLog, *, prefer: str | None = None) -> PathInputs:
         raise InsufficientDataError(
             "no signal shows the robot moving: " + "; ".join(notes)
         )
+    used = {"psi", *_SIGNALS[chosen.source]}
     gaps = [
         ((g.t0_ns - t0_ns) / 1e9, (g.t1_ns - t0_ns) / 1e9)
         for g in getattr(loaded, "gaps", [])
+        if used & set(g.signals)
     ]
     return PathInputs(
         chosen, _times(psi, t0_ns), psi["value"].to_numpy().astype(float), gaps, t0_ns, notes

@@ -7,7 +7,13 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["bartlett_bandwidth", "hac_covariance", "hf_noise_std"]
+__all__ = [
+    "bartlett_bandwidth",
+    "detect_quantum",
+    "hac_covariance",
+    "hf_noise_std",
+    "hf_noise_std_t",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -30,6 +36,28 @@ def hf_noise_std(x: np.ndarray) -> float:
     d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
     mad = float(np.median(np.abs(d2 - np.median(d2))))
     return _MAD_TO_STD * mad / math.sqrt(6.0)
+
+
+def hf_noise_std_t(t: np.ndarray, x: np.ndarray) -> float:
+    """``hf_noise_std`` for samples at uneven times ``t``: each sample against the line
+    through its neighbours, e_i = x_i - (a x_(i-1) + b x_(i+1)), whose variance is
+    sigma^2 (1 + a^2 + b^2) for white noise (robust MAD estimate)."""
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    ok = np.isfinite(t) & np.isfinite(x)
+    t, x = t[ok], x[ok]
+    if x.size < 5:
+        return 0.0
+    h0, h1 = t[1:-1] - t[:-2], t[2:] - t[1:-1]
+    span = h0 + h1
+    good = span > 0
+    a = np.where(good, h1 / np.where(good, span, 1.0), 0.5)
+    b = 1.0 - a
+    e = (x[1:-1] - a * x[:-2] - b * x[2:]) / np.sqrt(1.0 + a * a + b * b)
+    e = e[good]
+    if e.size < 3:
+        return 0.0
+    return _MAD_TO_STD * float(np.median(np.abs(e - np.median(e))))
 
 
 def _acf(r: np.ndarray, max_lag: int) -> FloatArray:
@@ -85,3 +113,20 @@ def hac_covariance(jac: np.ndarray, resid: np.ndarray, bandwidth: int) -> FloatA
     H_inv = np.linalg.pinv(jac.T @ jac)
     cov = H_inv @ S @ H_inv
     return 0.5 * (cov + cov.T)
+
+
+def detect_quantum(x: np.ndarray, min_levels: int = 3) -> float:
+    """Quantisation step of ``x`` (an encoder's tick), or 0 when the values are not on a
+    lattice: the smallest non-zero difference of the distinct values, accepted when at least
+    95 % of the differences are whole multiples of it (to 1 %)."""
+    u = np.unique(np.asarray(x, dtype=float)[np.isfinite(x)])
+    if u.size < min_levels:
+        return 0.0
+    d = np.diff(u)
+    d = d[d > 1e-12 * max(1.0, float(np.max(np.abs(u))))]
+    if d.size < min_levels - 1:
+        return 0.0
+    q = float(np.min(d))
+    ratio = d / q
+    whole = np.abs(ratio - np.round(ratio)) < 0.01
+    return q if whole.mean() >= 0.95 else 0.0

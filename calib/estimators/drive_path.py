@@ -17,14 +17,18 @@ is constant between samples gives: the same at 5 Hz or 200 Hz, and for asynchron
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import itertools
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.signal import savgol_filter
 
 from calib.errors import InsufficientDataError
 
-__all__ = ["DrivePath", "default_gap_s", "pool_runs"]
+__all__ = ["DrivePath", "default_gap_s", "pool_runs", "pose_smoothing", "smoothing_gain"]
 
 
 def default_gap_s(t_s: np.ndarray) -> float:
@@ -52,6 +56,35 @@ def _clean(t: ArrayLike, *cols: ArrayLike) -> tuple[np.ndarray, ...]:
     return tuple(arrs)
 
 
+def smoothing_gain(n: int) -> float:
+    """Factor on white-noise std left by a quadratic Savitzky-Golay filter of ``n`` points
+    (its centre weight, sqrt(3 (3 n^2 - 7) / (4 n (n^2 - 4)))); 1 for n < 5."""
+    if n < 5:
+        return 1.0
+    return float(np.sqrt(3.0 * (3 * n * n - 7) / (4.0 * n * (n * n - 4))))
+
+
+def _runs(t: np.ndarray, gap_s: float) -> list[slice]:
+    cut = np.nonzero(np.diff(t) > gap_s)[0] + 1
+    edges = np.r_[0, cut, t.size]
+    return [slice(int(a), int(b)) for a, b in itertools.pairwise(edges)]
+
+
+def _smooth(t: np.ndarray, cols: list[np.ndarray], n: int, gap_s: float) -> list[np.ndarray]:
+    """Quadratic Savitzky-Golay smoothing of each column over ``n`` samples, run by run."""
+    if n < 5:
+        return cols
+    out = [c.copy() for c in cols]
+    for sl in _runs(t, gap_s):
+        m = sl.stop - sl.start
+        w = min(n, m if m % 2 else m - 1)
+        if w < 5:
+            continue
+        for o, c in zip(out, cols, strict=True):
+            o[sl] = savgol_filter(c[sl], w, 2)
+    return out
+
+
 def _cumtrapz(t: np.ndarray, rate: np.ndarray, gap_s: float) -> np.ndarray:
     """Trapezoidal integral of ``rate``; nothing is integrated across a gap (> gap_s)."""
     dt = np.diff(t)
@@ -77,23 +110,40 @@ class DrivePath:
     theta_rad: np.ndarray
     source: str
     gap_s: float
+    coarser: Callable[[], DrivePath] | None = field(default=None, repr=False, compare=False)
+    smoothing_samples: int = 1
 
     @classmethod
     def from_pose(
         cls, t_s: ArrayLike, x_m: ArrayLike, y_m: ArrayLike, yaw_rad: ArrayLike,
-        gap_s: float | None = None,
+        gap_s: float | None = None, *, smooth_samples: int = 1,
     ) -> DrivePath:
-        """From a pose of link 1 (any point of link 1: lateral motion is projected away)."""
+        """From a pose of link 1 (any point of link 1: lateral motion is projected away).
+
+        The displacement between two poses is a chord; on an arc of heading change d theta
+        the arc length is chord (d theta / 2) / sin(d theta / 2), used here. Noise on the pose
+        enters the joint-angle model directly (a noisy heading is an error in the input, which
+        biases a least-squares fit); ``smooth_samples`` >= 5 smooths x, y and yaw with a
+        quadratic Savitzky-Golay filter first.
+        """
         t, x, y, yaw = _clean(t_s, x_m, y_m, yaw_rad)
         gap = default_gap_s(t) if gap_s is None else gap_s
-        th = np.unwrap(yaw)
+        x, y, th = _smooth(t, [x, y, np.unwrap(yaw)], smooth_samples, gap)
         mid = 0.5 * (th[1:] + th[:-1])
-        ds = np.diff(x) * np.cos(mid) + np.diff(y) * np.sin(mid)
         dth = np.diff(th)
+        chord = np.diff(x) * np.cos(mid) + np.diff(y) * np.sin(mid)
+        half = 0.5 * dth
+        safe = np.abs(half) > 1e-8
+        ds = chord * np.where(safe, half / np.where(safe, np.sin(half), 1.0), 1.0)
         across = np.diff(t) > gap
         ds[across] = 0.0
         th = np.concatenate([[th[0]], th[0] + np.cumsum(np.where(across, 0.0, dth))])
-        return cls(t, np.concatenate([[0.0], np.cumsum(ds)]), th, "pose", gap)
+
+        def coarser() -> DrivePath:
+            return cls.from_pose(t[::2], x[::2], y[::2], th[::2], gap_s=2 * gap)
+
+        return cls(t, np.concatenate([[0.0], np.cumsum(ds)]), th, "pose", gap, coarser,
+                   smooth_samples)
 
     @classmethod
     def from_rates(
@@ -104,7 +154,11 @@ class DrivePath:
         ``source="command"``."""
         t, v, w = _clean(t_s, v_mps, omega_radps)
         gap = default_gap_s(t) if gap_s is None else gap_s
-        return cls(t, _cumtrapz(t, v, gap), _cumtrapz(t, w, gap), source, gap)
+
+        def coarser() -> DrivePath:
+            return cls.from_rates(t[::2], v[::2], w[::2], source=source, gap_s=2 * gap)
+
+        return cls(t, _cumtrapz(t, v, gap), _cumtrapz(t, w, gap), source, gap, coarser)
 
     def at(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Cumulative (s, theta) at ``t_s`` (linear between knots; held beyond the ends)."""
@@ -162,3 +216,36 @@ def pool_runs(
         max(p.gap_s for p, *_ in runs),
     )
     return pooled, np.concatenate(t_p), np.concatenate(p_p), gaps, offsets
+
+
+def pose_smoothing(
+    t_s: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, yaw_rad: np.ndarray,
+    psi_rad: np.ndarray, *, max_window_s: float = 0.25, share: float = 0.3,
+) -> int | None:
+    """Savitzky-Golay length (samples) that makes a pose quiet enough to drive the joint-angle
+    model, or None when no window up to ``max_window_s`` does.
+
+    A pose's noise enters the modelled joint angle directly (about 2 sigma_yaw plus
+    0.5 sigma_xy per m), and noise in an input biases a least-squares fit; it must stay below
+    ``share`` of the joint angle's own noise (white noise from second differences, at least
+    the encoder's quantisation step / sqrt(12)). 1: no smoothing needed.
+    """
+    from calib.estimators._stats import detect_quantum, hf_noise_std, hf_noise_std_t
+
+    ok = np.isfinite(t_s) & np.isfinite(x_m) & np.isfinite(y_m) & np.isfinite(yaw_rad)
+    if ok.sum() < 5:
+        return None
+    t = t_s[ok]
+    sy = hf_noise_std_t(t, np.unwrap(yaw_rad[ok]))
+    sxy = max(hf_noise_std_t(t, x_m[ok]), hf_noise_std_t(t, y_m[ok]))
+    direct = math.hypot(2.0 * sy, 0.5 * sxy)
+    p = psi_rad[np.isfinite(psi_rad)]
+    target = share * max(hf_noise_std(p), detect_quantum(p) / math.sqrt(12.0), 1e-4)
+    if direct <= target:
+        return 1
+    rate = 1.0 / float(np.median(np.diff(t_s[ok])))
+    n_max = int(max_window_s * rate)
+    for n in range(5, n_max + 1, 2):
+        if direct * smoothing_gain(n) <= target:
+            return n
+    return None

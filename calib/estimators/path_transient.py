@@ -34,7 +34,12 @@ from scipy.sparse import csr_matrix
 
 from calib.errors import InsufficientDataError, SolverError
 from calib.estimators._result import calibration_result, information_criteria, method_result
-from calib.estimators._stats import bartlett_bandwidth, hac_covariance, hf_noise_std
+from calib.estimators._stats import (
+    bartlett_bandwidth,
+    detect_quantum,
+    hac_covariance,
+    hf_noise_std,
+)
 from calib.estimators.drive_path import DrivePath, default_gap_s
 from calib.estimators.identifiability import IdentifiabilityVerdict, identifiability
 from calib.models.hitch_path import advance_psi, rk4_substeps
@@ -101,6 +106,9 @@ class PathTransientFit:
         bounds_L1_m, bounds_L2_m: parameter bounds (m); L1 may be negative (hitch ahead of
             link 1's axle) or zero. An estimate on a bound is reported as not determined.
         chunk_nodes: nodes per chunk of side-by-side integration (None: chosen by size).
+        resolution_check: refit on the path at half its resolution and add the difference
+            (a bound of the discretisation error) to the covariance, so that clean or sparsely
+            sampled logs do not claim a precision the path's sampling cannot give.
 
     Attributes (after ``fit``):
         L1_, L2_, psi_offset_: estimates (m, m, rad). cov_: covariance of (L1, L2[, offset]).
@@ -120,7 +128,9 @@ class PathTransientFit:
         bounds_L1_m: tuple[float, float] = (-20.0, 50.0),
         bounds_L2_m: tuple[float, float] = (0.02, 50.0),
         chunk_nodes: int | None = None,
+        resolution_check: bool = True,
     ) -> None:
+        self.resolution_check = resolution_check
         self.rel_tol = rel_tol
         self.fit_psi_offset = fit_psi_offset
         self.bounds_L1_m = bounds_L1_m
@@ -152,6 +162,13 @@ class PathTransientFit:
                 "inside a path gap were not used"
             )
         t, p = t[inside], p[inside]
+        in_gap = np.zeros(t.size, dtype=bool)
+        for g0, g1 in gaps:
+            in_gap |= (t > g0) & (t < g1)
+        if in_gap.any():
+            notes.append(f"{int(in_gap.sum())} joint-angle samples inside recorder gaps of other "
+                         "signals were not used")
+            t, p = t[~in_gap], p[~in_gap]
         if t.size < _MIN_PIECE:
             raise InsufficientDataError(
                 f"{self.name}: {t.size} joint-angle samples on the recorded path; need "
@@ -314,6 +331,14 @@ class PathTransientFit:
             SolverError: the optimiser produced a non-finite result.
         """
         self._path_source = path.source
+        self._smoothing = path.smoothing_samples
+        self._fit_core(path, t_psi, psi, gaps)
+        return self
+
+    def _fit_core(
+        self, path: DrivePath, t_psi: ArrayLike, psi: ArrayLike,
+        gaps: list[tuple[float, float]] | None,
+    ) -> None:
         self._prepare(path, t_psi, psi, list(gaps or []))
         P = self.n_pieces_
         piece = self._piece
@@ -322,11 +347,14 @@ class PathTransientFit:
             [float(np.mean(self._p[i : i + 3])) for i in first_idx]
         )
         q = 3 if self.fit_psi_offset else 2
-        x0 = np.concatenate([self._start_point(), np.zeros(q - 2), self._psi0_guess])
+        start = self._start_point() if self._x0_override is None else self._x0_override[:2]
+        x0 = np.concatenate([start, np.zeros(q - 2), self._psi0_guess])
         lo = np.concatenate([[self.bounds_L1_m[0], self.bounds_L2_m[0]],
                              np.full(q - 2, -math.pi), np.full(P, -math.pi)])
         hi = np.concatenate([[self.bounds_L1_m[1], self.bounds_L2_m[1]],
                              np.full(q - 2, math.pi), np.full(P, math.pi)])
+        if self._x0_override is not None:
+            x0 = np.concatenate([self._x0_override[:q], x0[q:]])
         x0 = np.clip(x0, lo + 1e-6, hi - 1e-6)
         n = self._p.size
         cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
@@ -389,13 +417,48 @@ class PathTransientFit:
         r, J = evaluate(sol.x)
         if not np.all(np.isfinite(r)):
             raise SolverError(f"{self.name}: the model diverges at the estimate")
-        self._finish(sol, r, J, q, lo, hi)
-        return self
+        self._x_ = np.asarray(sol.x)
+        if self._x0_override is not None:
+            return
+        extra = self._resolution_error(path, t_psi, psi, gaps, self._x_, q)
+        self._finish(sol, r, J, q, lo, hi, extra)
+
+    _x0_override: np.ndarray | None = None
+
+    def _resolution_error(
+        self, path: DrivePath, t_psi: ArrayLike, psi: ArrayLike,
+        gaps: list[tuple[float, float]] | None, x: np.ndarray, q: int,
+    ) -> np.ndarray:
+        """Covariance (q x q) of the discretisation error, from a refit at half resolution."""
+        self.resolution_error_ = np.zeros(q)
+        if not self.resolution_check or path.coarser is None:
+            return np.zeros((q, q))
+        from calib.errors import CalibError
+
+        other = PathTransientFit(
+            rel_tol=self.rel_tol, fit_psi_offset=self.fit_psi_offset,
+            bounds_L1_m=self.bounds_L1_m, bounds_L2_m=self.bounds_L2_m,
+            chunk_nodes=self.chunk_nodes, resolution_check=False,
+        )
+        other._x0_override = x[:q]
+        try:
+            other._fit_core(path.coarser(), t_psi, psi, gaps)
+        except (CalibError, ValueError, FloatingPointError) as err:
+            self._resolution_note = f"resolution check not possible: {err}"
+            return np.zeros((q, q))
+        # the whole difference, not the O(h^2) third of it: where the path is coarse next to
+        # the trailer's relaxation length the error is not yet in its asymptotic regime
+        d = x[:q] - other._x_[:q]
+        self.resolution_error_ = d
+        floor = 1e-6 * (abs(x[0]) + abs(x[1]))  # finite-difference Jacobian resolution
+        return np.outer(d, d) + floor * floor * np.eye(q)
+
+    _resolution_note = ""
 
     # ------------------------------------------------------------------ results
-    def _covariance(self, r: np.ndarray, J: np.ndarray, q: int) -> np.ndarray:
-        """HAC covariance of the q structural parameters with the per-piece initial angles
-        projected out of their Jacobian columns (Frisch-Waugh)."""
+    def _projected(self, J: np.ndarray, q: int) -> np.ndarray:
+        """Jacobian columns of the q structural parameters with the per-piece initial angles
+        projected out (Frisch-Waugh)."""
         Js = J[:, :q].copy()
         c0 = J[:, -1]
         piece = self._piece
@@ -403,21 +466,51 @@ class PathTransientFit:
         for j in range(q):
             cj = np.bincount(piece, weights=c0 * Js[:, j])
             Js[:, j] -= c0 * np.where(cc > 0, cj / np.where(cc > 0, cc, 1.0), 0.0)[piece]
+        return Js
+
+    def _covariance(self, r: np.ndarray, J: np.ndarray, q: int) -> np.ndarray:
+        """HAC covariance of the q structural parameters (initial angles projected out)."""
+        Js = self._projected(J, q)
         bw = bartlett_bandwidth(r)
         self.bandwidth_ = bw
         cov = hac_covariance(Js, r, bw)
         n, p = r.size, q + self.n_pieces_
         return cov * (max(n - q, 1) / max(n - p, 1))
 
+    def _quantum_cov(self, J: np.ndarray, r: np.ndarray, q: int) -> np.ndarray:
+        """Systematic error of an encoder's quantisation.
+
+        Where the joint angle moves less than a tick between samples, its rounding error is
+        not white: it follows the angle itself. With little noise to dither it (white noise
+        below one tick), the error is simulated along the fitted angle for 16 phases of the
+        tick lattice (the true phase is unknown) and its effect on the parameters (initial
+        angles projected out) averaged into a covariance.
+        """
+        self.quantum_ = detect_quantum(self._p)
+        qt = self.quantum_
+        if qt == 0.0 or hf_noise_std(self._p) >= qt:
+            return np.zeros((q, q))
+        Js = self._projected(J, q)
+        fit = self._p - r
+        pinv = np.linalg.pinv(Js)
+        cov = np.zeros((q, q))
+        phases = np.arange(16) / 16.0 * qt
+        for u in phases:
+            e = qt * np.round((fit + u) / qt) - (fit + u)
+            d = pinv @ e
+            cov += np.outer(d, d)
+        return cov / phases.size
+
     def _finish(
-        self, sol: object, r: np.ndarray, J: np.ndarray, q: int, lo: np.ndarray, hi: np.ndarray
+        self, sol: object, r: np.ndarray, J: np.ndarray, q: int, lo: np.ndarray, hi: np.ndarray,
+        extra_cov: np.ndarray,
     ) -> None:
         x = np.asarray(sol.x)  # type: ignore[attr-defined]
         self.converged_ = bool(sol.success)  # type: ignore[attr-defined]
         self.L1_, self.L2_ = float(x[0]), float(x[1])
         self.psi_offset_ = float(x[2]) if self.fit_psi_offset else 0.0
         self.psi0_ = x[q:].copy()
-        cov = self._covariance(r, J, q)
+        cov = self._covariance(r, J, q) + extra_cov + self._quantum_cov(J, r, q)
         self.cov_ = cov
         span = hi[:q] - lo[:q]
         on_bound = (x[:q] - lo[:q] < 1e-4 * span) | (hi[:q] - x[:q] < 1e-4 * span)
@@ -456,7 +549,11 @@ class PathTransientFit:
             "hac_bandwidth": self.bandwidth_,
             "on_bound": list(self.on_bound_),
             "sound": self.sound_,
-            "notes": list(self.notes_),
+            "discretisation_error": self.resolution_error_[:2].tolist(),
+            "path_smoothing_samples": self._smoothing,
+            "psi_quantum_rad": self.quantum_,
+            "notes": list(self.notes_) + ([self._resolution_note] if self._resolution_note
+                                          else []),
             "identifiability": self.verdict_.to_dict(),
         }
         self.result_: CalibrationResult = calibration_result(

@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from calib.results import CommandType, Segment
+from calib.sim.validation import check_finite, check_positive
 
 __all__ = ["CommandSequence", "CommandSpec", "command_value"]
 
@@ -38,6 +39,32 @@ class CommandSpec:
     phase: float = 0.0
     offset: float = 0.0
     step_at_s: float | None = None
+
+    def __post_init__(self) -> None:
+        CommandType(self.kind)
+        check_positive("duration_s", self.duration_s, "s")
+        check_finite("amplitude", self.amplitude, "1/m")
+        check_finite("rate", self.rate, "rad/s")
+        check_finite("phase", self.phase, "rad")
+        check_finite("offset", self.offset, "1/m")
+        if self.step_at_s is not None:
+            check_finite("step_at_s", self.step_at_s, "s")
+
+    def peak_abs(self) -> float:
+        """Largest |command| (1/m) over the segment (an upper bound for ``harmonic``).
+
+        Raises:
+            ValueError: a command type without a profile (``other``).
+        """
+        m, off = self.amplitude, self.offset
+        kind = CommandType(self.kind)
+        if kind is CommandType.HARMONIC:
+            return abs(m) + abs(off)
+        if kind is CommandType.CONSTANT:
+            return abs(m + off)
+        # curve, linear and step are monotone: the extremes are at the ends
+        ends = command_value(self, np.array([0.0, self.duration_s]))
+        return float(np.max(np.abs(ends)))
 
 
 def command_value(spec: CommandSpec, t_local_s: ArrayLike) -> NDArray[np.float64]:
@@ -70,6 +97,20 @@ class CommandSequence:
     @property
     def duration_s(self) -> float:
         return float(sum(s.duration_s for s in self.specs))
+
+    def peak_abs(self) -> float:
+        """Largest |command| (1/m) over the sequence (0 when empty): from the segments' closed
+        forms (:meth:`CommandSpec.peak_abs`, skipping ``other``), or, for a subclass that
+        replaces ``__call__`` (e.g. a table), from the command sampled every 10 ms (at most
+        10^6 samples)."""
+        if not self.specs:
+            return 0.0
+        if type(self).__call__ is not CommandSequence.__call__:
+            step = max(0.01, self.duration_s / 1e6)
+            t = np.arange(0.0, self.duration_s + step, step)
+            return float(np.max(np.abs(self(t))))
+        peaks = [s.peak_abs() for s in self.specs if CommandType(s.kind) is not CommandType.OTHER]
+        return max(peaks, default=0.0)
 
     def boundaries_s(self) -> NDArray[np.float64]:
         """Start times of each segment and the end time (s), length ``len(specs) + 1``."""

@@ -24,12 +24,23 @@ from scipy.signal import lfilter
 
 from calib.models.tractor_trailer import steady_state_psi
 from calib.results import Segment
+from calib.sim.choices import HitchModel
 from calib.sim.commands import CommandSequence
+from calib.sim.validation import (
+    SimParameterError,
+    check_finite,
+    check_non_negative,
+    check_positive,
+    check_steady_turn,
+    require,
+)
 
 __all__ = [
     "SENSOR_GROUPS",
     "Effects",
+    "HitchModel",
     "NoiseSpec",
+    "SimParameterError",
     "SimulatedRun",
     "SpeedProfile",
     "TractorTrailerSim",
@@ -54,6 +65,18 @@ class SpeedProfile:
     variation: float = 0.0
     period_s: float = 40.0
 
+    def __post_init__(self) -> None:
+        check_positive("v_mps", self.v_mps, "m/s, driving forward")
+        check_non_negative("ramp_s", self.ramp_s, "s")
+        check_finite("variation", self.variation)
+        require(abs(self.variation) < 1, "variation", self.variation, "|variation| < 1")
+        check_positive("period_s", self.period_s, "s")
+
+    @property
+    def max_mps(self) -> float:
+        """Largest speed of the profile (m/s)."""
+        return self.v_mps * (1.0 + abs(self.variation))
+
     def __call__(self, t_s: np.ndarray) -> np.ndarray:
         t = np.asarray(t_s, dtype=float)
         ramp = np.clip(t / self.ramp_s, 0.0, 1.0) if self.ramp_s > 0 else np.ones_like(t)
@@ -76,6 +99,10 @@ class NoiseSpec:
             "psi": 0.005,
         }
     )
+
+    def __post_init__(self) -> None:
+        for name, sd in self.std.items():
+            check_non_negative(f"noise.std[{name}]", sd)
 
     @classmethod
     def none(cls) -> NoiseSpec:
@@ -102,6 +129,18 @@ class Effects:
     sensor_scale: Mapping[str, float] = field(default_factory=dict)
     clock_offset_s: Mapping[str, float] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        check_non_negative("actuator_delay_s", self.actuator_delay_s, "s")
+        check_non_negative("actuator_lag_s", self.actuator_lag_s, "s")
+        check_finite("understeer_K", self.understeer_K, "s^2/m^2")
+        for what, values in (
+            ("sensor_offset", self.sensor_offset),
+            ("sensor_scale", self.sensor_scale),
+            ("clock_offset_s", self.clock_offset_s),
+        ):
+            for name, value in values.items():
+                check_finite(f"{what}[{name}]", value)
+
 
 @dataclass(frozen=True)
 class TractorTrailerSim:
@@ -113,13 +152,21 @@ class TractorTrailerSim:
         speed: speed profile.
         noise: sensor noise.
         effects: injected effects.
-        hitch_model: "transient" (real kinematics) or "steady" (psi on the steady-state curve).
+        hitch_model: :class:`HitchModel` (or its string value).
         rate_hz: integration and base sampling rate (Hz).
         rates_hz: per sensor group sampling rate (Hz); must divide ``rate_hz``.
         start_time_ns: absolute time of t = 0 (ns since the Unix epoch).
         timestamp_jitter_s: standard deviation of white Gaussian jitter on each sample's
             timestamp (s), clipped to +/- 0.45 of the group's sample period; the value stays
-            the one at the nominal time (the sensor stamps late or early). 0: none.
+            the one at the nominal time (the sensor stamps late or early). 0: none; must be
+            below the fastest sample period, so stamps stay strictly increasing per topic.
+
+    Raises:
+        SimParameterError: a parameter that makes no physical sense: a non-finite number, a
+            rate, ``L2`` or duration <= 0, no steady turn at the command's peak curvature
+            (kappa^2 >= 1/(L2^2 - L1^2)), a jitter outside [0, sample period), a rate too coarse
+            for the hitch dynamics. ``L1`` may be 0 or negative (a hitch ahead of the tractor
+            axle); the presets also require ``|L1| < L2``.
     """
 
     L1: float = 1.25
@@ -128,13 +175,73 @@ class TractorTrailerSim:
     speed: SpeedProfile = field(default_factory=SpeedProfile)
     noise: NoiseSpec = field(default_factory=NoiseSpec)
     effects: Effects = field(default_factory=Effects)
-    hitch_model: Literal["transient", "steady"] = "transient"
+    hitch_model: HitchModel | Literal["transient", "steady"] = HitchModel.TRANSIENT
     rate_hz: float = 100.0
     rates_hz: Mapping[str, float] = field(
         default_factory=lambda: {"cmd": 100.0, "odom": 100.0, "pose": 50.0, "hitch": 100.0}
     )
     start_time_ns: int = 1_750_000_000_000_000_000
     timestamp_jitter_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        """Reject parameters that make no physical sense (:class:`SimParameterError`)."""
+        choices = [h.value for h in HitchModel]
+        require(
+            self.hitch_model in choices,
+            "hitch_model",
+            self.hitch_model,
+            f"one of {', '.join(choices)}",
+        )
+        check_positive("L2", self.L2, "m")
+        check_finite("L1", self.L1, "m")
+        check_positive("rate_hz", self.rate_hz, "Hz")
+        for group, r in self.rates_hz.items():
+            check_positive(f"rates_hz[{group}]", r, "Hz")
+        rates = [self.rate_hz, *(self.rates_hz.get(g, self.rate_hz) for g in SENSOR_GROUPS)]
+        period_s = 1.0 / max(rates)
+        require(
+            math.isfinite(self.timestamp_jitter_s) and 0 <= self.timestamp_jitter_s < period_s,
+            "timestamp_jitter_s",
+            self.timestamp_jitter_s,
+            f"a standard deviation >= 0 s and < the sample period {period_s:g} s",
+        )
+        v_max = self.speed.max_mps
+        K = self.effects.understeer_K
+        require(
+            1.0 + K * v_max * v_max > 0,
+            "understeer_K",
+            K,
+            f"1 + K v^2 > 0 at the top speed {v_max:g} m/s (K > {-1.0 / (v_max * v_max):.4g})",
+        )
+        if self.hitch_model == HitchModel.TRANSIENT:
+            require(
+                self.rate_hz >= v_max / self.L2,
+                "rate_hz",
+                self.rate_hz,
+                f">= {v_max / self.L2:.4g} Hz, so that the tractor moves at most L2 = "
+                f"{self.L2:g} m per step at its top speed {v_max:g} m/s",
+            )
+        if self.commands.specs:
+            min_rate = min(rates)
+            require(
+                self.commands.duration_s * min_rate >= 1.0,
+                "duration_s",
+                self.commands.duration_s,
+                f">= {1.0 / min_rate:g} s, so that every sensor has two samples",
+            )
+            check_steady_turn(self.L1, self.L2, self.kappa_peak())
+
+    def curvature_gain(self) -> float:
+        """Largest ratio of driven to commanded curvature: 1, or 1/(1 + K v^2) at the top speed
+        under oversteer (K < 0)."""
+        K = min(self.effects.understeer_K, 0.0)
+        v = self.speed.max_mps
+        return 1.0 / (1.0 + K * v * v)
+
+    def kappa_peak(self) -> float:
+        """Bound on the largest |curvature| (1/m) the run drives: the command's peak times
+        :meth:`curvature_gain`."""
+        return self.commands.peak_abs() * self.curvature_gain()
 
 
 @dataclass(frozen=True)
@@ -240,7 +347,7 @@ def _integrate(cfg: TractorTrailerSim, t: np.ndarray) -> dict[str, np.ndarray]:
     yaw_h = _yaw_half_grid(omega, dt)
     x = _simpson_steps(v * np.cos(yaw_h), dt)
     y = _simpson_steps(v * np.sin(yaw_h), dt)
-    if cfg.hitch_model == "steady":
+    if cfg.hitch_model == HitchModel.STEADY:
         psi = steady_state_psi(kappa[::2], cfg.L1, cfg.L2)
     else:
         psi = _psi_rk4(v.tolist(), kappa.tolist(), dt, cfg.L1, cfg.L2)
@@ -260,6 +367,8 @@ def simulate_tractor_trailer(cfg: TractorTrailerSim, seed: int = 0) -> Simulated
     """Simulate ``cfg`` with noise drawn from ``numpy.random.default_rng(seed)``."""
     if not cfg.commands.specs:
         raise ValueError("TractorTrailerSim.commands is empty: give at least one CommandSpec")
+    if seed < 0:
+        raise SimParameterError("seed", seed, "an integer >= 0")
     rng = np.random.default_rng(seed)
     n = round(cfg.commands.duration_s * cfg.rate_hz) + 1
     t = np.arange(n) / cfg.rate_hz

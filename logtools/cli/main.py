@@ -46,10 +46,12 @@ def _register() -> None:
 _register()
 
 
-def _click_exception_types() -> tuple[tuple[type, ...], tuple[type, ...]]:
+def _click_exception_types() -> tuple[
+    tuple[type[BaseException], ...], tuple[type[BaseException], ...]
+]:
     """(usage-error types, abort types) of typer's vendored click and of click, when present."""
-    usage: list[type] = []
-    abort: list[type] = [typer.Abort]
+    usage: list[type[BaseException]] = []
+    abort: list[type[BaseException]] = [typer.Abort]
     try:  # typer >= 0.2x vendors its own copy of click
         from typer._click import exceptions as vendored
 
@@ -57,7 +59,7 @@ def _click_exception_types() -> tuple[tuple[type, ...], tuple[type, ...]]:
     except ImportError:  # pragma: no cover - depends on the typer version
         pass
     try:  # older typer runs on the click package
-        import click
+        import click  # type: ignore[import-not-found, unused-ignore]
 
         usage.append(click.ClickException)
         abort.append(click.exceptions.Abort)
@@ -83,7 +85,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as ex:
         return int(ex.code or 0) if isinstance(ex.code, int) else 1
     except usage_errors as ex:
-        ex.show()
+        ex.show()  # type: ignore[attr-defined]  # a click ClickException
         return int(getattr(ex, "exit_code", 2))
     except aborts:
         print("Aborted.", file=sys.stderr)

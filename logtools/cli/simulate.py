@@ -2,17 +2,57 @@
 
 ``logcal simulate tractor-trailer --out FILE [--encoding json|ros2|csv] [--preset NAME] ...``
 ``logcal simulate samples [DIR]`` regenerates ``sample_logs/``.
+
+The library (:mod:`calib.sim`) decides which parameters make physical sense; this module only
+translates its :class:`~calib.sim.validation.SimParameterError` into the option's name.
 """
 
 from __future__ import annotations
 
 import sys
-from dataclasses import replace
+from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
-__all__ = ["register"]
+from calib.sim.choices import HitchModel, PresetName
+from logtools.writers.encoding import LogEncoding
+
+if TYPE_CHECKING:
+    from calib.sim.validation import SimParameterError
+    from logtools.errors import LogcalInputError
+
+__all__ = ["OPTION_OF_PARAMETER", "input_error", "register"]
+
+OPTION_OF_PARAMETER: dict[str, str] = {
+    "L1": "--L1",
+    "L2": "--L2",
+    "v_mps": "--speed",
+    "duration_s": "--duration",
+    "noise_scale": "--noise-scale",
+    "rate_hz": "--rate",
+    "seed": "--seed",
+    "actuator_delay_s": "--delay",
+    "actuator_lag_s": "--lag",
+    "understeer_K": "--understeer",
+    "timestamp_jitter_s": "--jitter",
+}
+"""The ``tractor-trailer`` option that sets each simulator parameter."""
+
+
+def input_error(err: SimParameterError) -> LogcalInputError:
+    """``err`` as the CLI's one-line message: the option, the value given, what was expected."""
+    from calib.sim.validation import show
+    from logtools.errors import LogcalInputError
+
+    names = [err.parameter, *err.related]
+    if not all(name in OPTION_OF_PARAMETER for name in names):  # a preset's own value
+        return LogcalInputError(str(err))
+    given = ", ".join(f"{OPTION_OF_PARAMETER[k]} {show(v)}" for k, v in err.related.items())
+    with_ = f" (with {given})" if given else ""
+    option = OPTION_OF_PARAMETER[err.parameter]
+    return LogcalInputError(f"{option} {show(err.value)}{with_}: expected {err.expected}")
 
 
 def register(app: typer.Typer) -> None:
@@ -27,76 +67,80 @@ def register(app: typer.Typer) -> None:
     @sim.command("tractor-trailer")
     def tractor_trailer(
         out: Path = typer.Option(..., "--out", "-o", help="Output log file."),
-        encoding: str | None = typer.Option(
-            None, "--encoding", help="json | ros2 | csv (default: csv for *.csv, else json)."
+        encoding: LogEncoding | None = typer.Option(
+            None, "--encoding", help="Log encoding (default: csv for *.csv, else json)."
         ),
-        preset: str = typer.Option("mixed", "--preset", help="harmonic | mixed."),
-        L1: float = typer.Option(1.25, "--L1", help="Link 1 length C1-P (m)."),
-        L2: float = typer.Option(2.48, "--L2", help="Link 2 length P-C2 (m)."),
-        speed: float = typer.Option(1.0, "--speed", help="Forward speed of C1 (m/s)."),
+        preset: PresetName = typer.Option(
+            PresetName.MIXED,
+            "--preset",
+            help="Command preset (0.2 1/m, lowered where the joint would pass 0.77 rad).",
+        ),
+        L1: float = typer.Option(
+            1.25, "--L1", help="Link 1 length C1-P (m); 0 or negative: hitch ahead of the axle."
+        ),
+        L2: float = typer.Option(2.48, "--L2", help="Link 2 length P-C2 (m), > |L1|."),
+        speed: float = typer.Option(1.0, "--speed", help="Forward speed of C1 (m/s), > 0."),
         duration: float | None = typer.Option(
-            None, "--duration", help="Run length (s); default the preset's (63 / 249 s)."
+            None,
+            "--duration",
+            help="Run length (s); default the preset's (63 / 249 s). Mixed repeats its cycle.",
         ),
         noise_scale: float = typer.Option(
-            1.0, "--noise-scale", min=0.0, help="Factor on the default sensor noise (0: none)."
+            1.0, "--noise-scale", help="Factor >= 0 on the default sensor noise (0: none)."
         ),
-        rate: float = typer.Option(50.0, "--rate", help="Base sampling rate (Hz)."),
-        seed: int = typer.Option(0, "--seed", help="Seed of the sensor noise."),
+        rate: float = typer.Option(50.0, "--rate", help="Base sampling rate (Hz); pose at half."),
+        seed: int = typer.Option(0, "--seed", help="Seed (>= 0) of the sensor noise."),
         delay: float = typer.Option(0.0, "--delay", help="Actuator dead time (s)."),
         lag: float = typer.Option(0.0, "--lag", help="Actuator first-order lag (s)."),
         understeer: float = typer.Option(0.0, "--understeer", help="Understeer K (s^2/m^2)."),
-        jitter: float = typer.Option(0.0, "--jitter", help="Timestamp jitter std (s)."),
-        hitch_model: str = typer.Option(
-            "transient", "--hitch-model", help="transient (real kinematics) | steady."
+        jitter: float = typer.Option(
+            0.0,
+            "--jitter",
+            help="Std of timestamp jitter on every topic (s), below the sample period; "
+            "stamps stay strictly increasing.",
+        ),
+        hitch_model: HitchModel = typer.Option(
+            HitchModel.TRANSIENT, "--hitch-model", help="transient (real kinematics) | steady."
         ),
         include_effects: bool = typer.Option(
             False, "--include-effects", help="Also write injected effects into the metadata."
         ),
     ) -> None:
         """Simulate a tractor with an off-axle trailer and write its drive log."""
-        from rich.console import Console
-
         from calib.sim.presets import preset as make_preset
         from calib.sim.tractor_trailer import Effects, simulate_tractor_trailer
-        from logtools.errors import LogcalInputError
-        from logtools.writers.tractor_trailer import ENCODINGS, run_metadata, write_run
+        from calib.sim.validation import SimParameterError
+        from logtools.writers.tractor_trailer import run_metadata, write_run
 
-        enc = encoding or ("csv" if out.suffix.lower() == ".csv" else "json")
-        if enc not in ENCODINGS:
-            raise LogcalInputError(f"--encoding {enc!r}: expected one of {', '.join(ENCODINGS)}")
-        if hitch_model not in ("transient", "steady"):
-            raise LogcalInputError(f"--hitch-model {hitch_model!r}: expected transient or steady")
-        effects = Effects(actuator_delay_s=delay, actuator_lag_s=lag, understeer_K=understeer)
+        enc = encoding or LogEncoding.for_path(out)
         kwargs: dict[str, object] = {
             "L1": L1,
             "L2": L2,
             "v_mps": speed,
             "noise_scale": noise_scale,
             "rate_hz": rate,
-            "effects": effects,
+            "timestamp_jitter_s": jitter,
+            "hitch_model": hitch_model,
         }
         if duration is not None:
             kwargs["duration_s"] = duration
         try:
+            kwargs["effects"] = Effects(
+                actuator_delay_s=delay, actuator_lag_s=lag, understeer_K=understeer
+            )
             cfg = make_preset(preset, **kwargs)
-        except ValueError as err:
-            raise LogcalInputError(f"--preset: {err}") from err
-        cfg = replace(cfg, timestamp_jitter_s=jitter, hitch_model=hitch_model)  # type: ignore[arg-type]
-        err_console = Console(stderr=True)
-        if sys.stderr.isatty():
-            with err_console.status(f"simulating {cfg.commands.duration_s:.0f} s", spinner="dots"):
+            with _status(f"simulating {cfg.commands.duration_s:.0f} s"):
                 run = simulate_tractor_trailer(cfg, seed=seed)
-            with err_console.status(f"writing {out}", spinner="dots"):
-                meta = run_metadata(run, include_effects=include_effects, extra={"preset": preset})
-                n = write_run(out, run, encoding=enc, metadata=meta)  # type: ignore[arg-type]
-        else:
-            run = simulate_tractor_trailer(cfg, seed=seed)
+        except SimParameterError as err:
+            raise input_error(err) from err
+        with _status(f"writing {out}"):
             meta = run_metadata(run, include_effects=include_effects, extra={"preset": preset})
-            n = write_run(out, run, encoding=enc, metadata=meta)  # type: ignore[arg-type]
-        unit = "rows" if enc == "csv" else "messages"
+            n = write_run(out, run, encoding=enc, metadata=meta)
+        unit = "rows" if enc is LogEncoding.CSV else "messages"
         print(
             f"wrote {out} ({enc}): {n} {unit}, {cfg.commands.duration_s:g} s, "
-            f"L1 = {L1:g} m, L2 = {L2:g} m, seed {seed}"
+            f"L1 = {L1:g} m, L2 = {L2:g} m, |kappa_cmd| <= {cfg.commands.peak_abs():.3g} 1/m, "
+            f"seed {seed}"
         )
 
     @sim.command("samples")
@@ -108,3 +152,12 @@ def register(app: typer.Typer) -> None:
 
         for path in write_sample_logs(out_dir):
             print(f"{path}  {path.stat().st_size / 1e6:.2f} MB")
+
+
+def _status(message: str) -> AbstractContextManager[object]:
+    """A spinner with ``message`` on stderr when it is a terminal, else nothing."""
+    if not sys.stderr.isatty():
+        return nullcontext()
+    from rich.console import Console
+
+    return Console(stderr=True).status(message, spinner="dots")

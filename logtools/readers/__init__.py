@@ -1,9 +1,11 @@
-"""Read drive logs (MCAP or CSV) into per-topic polars frames.
+"""Read drive logs (MCAP, ROS bags or CSV) into per-topic polars frames.
 
-``read_log(path)`` picks the reader from the file's first bytes: MCAP (magic ``0x89 MCAP0``) or
-CSV. Every frame has the int64 nanosecond time column ``t_ns`` (MCAP ``log_time``) and the message
-fields flattened by path (``twist.twist.linear.x``; arrays as ``position.0``). Damage is repaired
-where possible and described in ``LogData.problems``; input that cannot be read at all raises a
+``read_log(path)`` picks the reader from the path and the file's first bytes: a rosbag2 folder
+(with ``metadata.yaml``; a ``.db3`` file reads its folder) or a ROS 1 ``.bag`` through
+``rosbags``; MCAP (magic ``0x89 MCAP0``); or CSV. Every frame has the int64 nanosecond time column
+``t_ns`` (MCAP ``log_time``, the bag's record time) and the message fields flattened by path
+(``twist.twist.linear.x``; arrays as ``position.0``). Damage is repaired where possible and
+described in ``LogData.problems``; input that cannot be read at all raises a
 :class:`logtools.errors.LogcalInputError`.
 """
 
@@ -20,6 +22,7 @@ from logtools.readers.csv_reader import CSV_TOPIC, read_csv
 from logtools.readers.decoders import known_encodings, register_decoder
 from logtools.readers.mcap_reader import read_mcap
 from logtools.readers.mcap_scan import MAGIC
+from logtools.readers.rosbag_reader import is_rosbag, read_rosbag
 
 __all__ = [
     "CSV_TOPIC",
@@ -28,16 +31,17 @@ __all__ = [
     "TopicInfo",
     "known_encodings",
     "read_log",
+    "read_rosbag",
     "register_decoder",
 ]
 
 
 def read_log(path: str | os.PathLike[str], *, topics: Iterable[str] | None = None) -> LogData:
-    """Read an MCAP or CSV drive log.
+    """Read an MCAP, ROS bag or CSV drive log.
 
     Args:
-        path: the log file.
-        topics: MCAP only: decode just these topics (``info`` still lists all); None: all.
+        path: the log file, a rosbag2 folder (or one of its ``.db3`` files), or a ROS 1 ``.bag``.
+        topics: MCAP and bags: decode just these topics (``info`` still lists all); None: all.
 
     Returns:
         The log's frames, topic summaries, metadata records and the problems repaired.
@@ -45,6 +49,7 @@ def read_log(path: str | os.PathLike[str], *, topics: Iterable[str] | None = Non
     Raises:
         LogFileNotFoundError: ``path`` does not exist.
         NotAnMcapError: the file is neither a readable MCAP nor a CSV log.
+        NotARosbagError: a ROS bag that cannot be read.
         UnknownEncodingError: no topic is in an encoding logcal can decode.
     """
     name = os.fspath(path)
@@ -52,10 +57,15 @@ def read_log(path: str | os.PathLike[str], *, topics: Iterable[str] | None = Non
     if not p.exists():
         raise LogFileNotFoundError(name)
     if p.is_dir():
-        raise NotAnMcapError(name, "it is a directory")
+        if is_rosbag(p):
+            return read_rosbag(name, topics)
+        raise NotAnMcapError(name, "it is a directory without a rosbag2 metadata.yaml")
     try:
         with p.open("rb") as fh:
             head = fh.read(len(MAGIC))
+            if head != MAGIC and is_rosbag(p, head + fh.read(16)):
+                return read_rosbag(name, topics)
+            fh.seek(len(MAGIC))
             if head == MAGIC:  # mapped, not read: the scan touches each byte about once
                 with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mapped:
                     return read_mcap(name, mapped, topics)

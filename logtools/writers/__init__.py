@@ -3,30 +3,40 @@
 The generic writers (:func:`write_frames_mcap_json`, :func:`write_frames_mcap_ros2`,
 :func:`write_frames_csv`) map sensor-group frames onto topics through :class:`TopicBinding`
 lists; the tractor-trailer writers declare theirs.
+
+The writers load numpy, polars and mcap on first use of a name exported here, so that
+``logtools.writers.encoding`` (the :class:`LogEncoding` choices the CLI needs at start-up)
+stays cheap to import.
 """
 
 from __future__ import annotations
 
-from logtools.writers.csv_writer import frames_to_table, write_frames_csv
-from logtools.writers.mcap_writer import (
-    TopicBinding,
-    json_schema,
-    write_frames_mcap_json,
-    write_frames_mcap_ros2,
-)
-from logtools.writers.ros2_msgdefs import MSGDEFS, msgdef
-from logtools.writers.tractor_trailer import (
-    ENCODINGS,
-    run_metadata,
-    write_csv,
-    write_mcap_json,
-    write_mcap_ros2,
-    write_run,
-)
+import importlib
+from typing import TYPE_CHECKING
+
+from logtools.writers.encoding import ENCODINGS, LogEncoding
+
+if TYPE_CHECKING:
+    from logtools.writers.csv_writer import frames_to_table, write_frames_csv
+    from logtools.writers.mcap_writer import (
+        TopicBinding,
+        json_schema,
+        write_frames_mcap_json,
+        write_frames_mcap_ros2,
+    )
+    from logtools.writers.ros2_msgdefs import MSGDEFS, msgdef
+    from logtools.writers.tractor_trailer import (
+        run_metadata,
+        write_csv,
+        write_mcap_json,
+        write_mcap_ros2,
+        write_run,
+    )
 
 __all__ = [
     "ENCODINGS",
     "MSGDEFS",
+    "LogEncoding",
     "TopicBinding",
     "frames_to_table",
     "json_schema",
@@ -40,3 +50,34 @@ __all__ = [
     "write_mcap_ros2",
     "write_run",
 ]
+
+_LAZY = {
+    "frames_to_table": "csv_writer",
+    "write_frames_csv": "csv_writer",
+    "TopicBinding": "mcap_writer",
+    "json_schema": "mcap_writer",
+    "write_frames_mcap_json": "mcap_writer",
+    "write_frames_mcap_ros2": "mcap_writer",
+    "MSGDEFS": "ros2_msgdefs",
+    "msgdef": "ros2_msgdefs",
+    "run_metadata": "tractor_trailer",
+    "write_csv": "tractor_trailer",
+    "write_mcap_json": "tractor_trailer",
+    "write_mcap_ros2": "tractor_trailer",
+    "write_run": "tractor_trailer",
+}
+
+
+def __getattr__(name: str) -> object:
+    """Import the writer that defines ``name`` on first use (PEP 562)."""
+    try:
+        module = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

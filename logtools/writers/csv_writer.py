@@ -61,7 +61,7 @@ def write_frames_csv(
     """
     table = frames_to_table(frames, columns)
     try:
-        table.write_csv(path, null_value="")
+        table.write_csv(os.fspath(path), null_value="")
     except OSError as err:
         raise LogWriteError(f"{os.fspath(path)}: cannot write the CSV ({err.strerror})") from err
     return table.height

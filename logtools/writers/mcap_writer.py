@@ -125,8 +125,8 @@ def _messages(
         i, r, t_ns = int(which[k]), int(row[k]), int(t_all[k])
         b = bindings[i]
         msg: dict[str, Any] = {}
-        for path, value in b.constants.items():
-            _set(msg, tuple(path.split(".")), value)
+        for dotted, value in b.constants.items():
+            _set(msg, tuple(dotted.split(".")), value)
         if b.stamp_field is not None:
             sec, nsec = divmod(t_ns, 1_000_000_000)
             _set(msg, tuple(b.stamp_field.split(".")), {"sec": sec, "nanosec": nsec})

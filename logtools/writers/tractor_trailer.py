@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from typing import Literal
 
 import numpy as np
 import polars as pl
@@ -13,6 +12,7 @@ import polars as pl
 from calib.sim.tractor_trailer import SimulatedRun
 from logtools.errors import LogWriteError
 from logtools.writers.csv_writer import write_frames_csv
+from logtools.writers.encoding import ENCODINGS, Encoding, LogEncoding
 from logtools.writers.mcap_writer import (
     Compression,
     TopicBinding,
@@ -25,6 +25,8 @@ __all__ = [
     "ENCODINGS",
     "JSON_BINDINGS",
     "ROS2_BINDINGS",
+    "Encoding",
+    "LogEncoding",
     "run_frames",
     "run_metadata",
     "write_csv",
@@ -32,9 +34,6 @@ __all__ = [
     "write_mcap_ros2",
     "write_run",
 ]
-
-Encoding = Literal["json", "ros2", "csv"]
-ENCODINGS: tuple[str, ...] = ("json", "ros2", "csv")
 
 JSON_BINDINGS: tuple[TopicBinding, ...] = (
     TopicBinding("/cmd/curvature", "cmd", "logcal/Curvature", {"curvature": "kappa_cmd"}),

@@ -17,7 +17,10 @@ def test_info_text(tmp_path, truth, mcap_writers, capsys):
     assert "  /hitch/angle  hitch/angle  [json/jsonschema]  200 msgs  50.0 Hz" in out
     assert "psi         <- /hitch/angle : angle  200 samples" in out
     assert "time span: 3.980 s" in out
-    assert "signals missing: wheel_left, wheel_right, v_cmd, omega_cmd, q, qd, tau" in out
+    assert (
+        "signals missing: wheel_left, wheel_right, v_cmd, omega_cmd, steer_cmd, steer, x2, y2, "
+        "yaw2, q, qd, tau" in out
+    )
     assert "problems" not in out
 
 

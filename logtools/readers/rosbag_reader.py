@@ -1,0 +1,289 @@
+"""Read ROS bags directly with ``rosbags``: rosbag2 folders (sqlite3 or mcap storage) and ROS 1.
+
+No conversion step: :func:`read_rosbag` opens the bag with ``rosbags``' ``AnyReader`` and turns
+every topic into the same frames as the MCAP reader (``t_ns`` = the bag's record time, fields
+flattened by path, arrays as numbered columns). Message types come from the definitions stored
+in the bag; where a bag stores none (rosbag2 before Humble, e.g. Foxy), from ``rosbags``' type
+store of the bag's distribution (``ros_distro`` in metadata.yaml), else of ROS 2 Foxy.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+
+from logtools.errors import NotARosbagError
+from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
+from logtools.readers.decoders import MAX_ARRAY_ITEMS, frame_from_rows
+
+__all__ = ["ROS1_MAGIC", "SQLITE_MAGIC", "bag_path", "is_rosbag", "read_rosbag"]
+
+ROS1_MAGIC = b"#ROSBAG V2.0"
+SQLITE_MAGIC = b"SQLite format 3\x00"
+METADATA_FILE = "metadata.yaml"
+CUSTOM_DATA_PREFIX = "logcal."
+"""rosbag2 ``custom_data`` keys ``logcal.<key>`` become the ``logcal`` metadata record."""
+
+
+def is_rosbag(path: Path, head: bytes = b"") -> bool:
+    """True for a rosbag2 folder, a .db3 file or a ROS 1 bag (by name or first bytes)."""
+    if path.is_dir():
+        return (path / METADATA_FILE).is_file()
+    return (
+        path.suffix.lower() in (".db3", ".bag")
+        or head.startswith(ROS1_MAGIC)
+        or head.startswith(SQLITE_MAGIC)
+    )
+
+
+def bag_path(path: Path) -> Path:
+    """What to open: a .db3 file's folder when it holds metadata.yaml, else ``path``."""
+    if path.is_file() and path.suffix.lower() == ".db3" and (path.parent / METADATA_FILE).is_file():
+        return path.parent
+    return path
+
+
+def read_rosbag(path: str | os.PathLike[str], topics: Iterable[str] | None = None) -> LogData:
+    """Read a ROS bag into per-topic frames.
+
+    Args:
+        path: a rosbag2 folder (with metadata.yaml), a .db3 file (its folder is read when it
+            holds metadata.yaml), or a ROS 1 .bag file.
+        topics: decode just these topics (``info`` still lists all); None: all.
+
+    Returns:
+        Frames, topic summaries, metadata (``rosbag2``: distribution and storage; ``logcal``:
+        custom_data keys ``logcal.*``) and problems (undecodable types, time going backwards).
+
+    Raises:
+        NotARosbagError: the bag cannot be opened (missing files, bad metadata, not a bag).
+    """
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.rosbag1 import ReaderError as Ros1ReaderError
+    from rosbags.rosbag2 import ReaderError as Ros2ReaderError
+
+    name = os.fspath(path)
+    target = bag_path(Path(name))
+    is_ros1 = target.is_file() and _head(target).startswith(ROS1_MAGIC)
+    if target.is_file() and target.suffix.lower() != ".bag" and is_ros1:
+        raise NotARosbagError(name, "a ROS 1 bag must be named *.bag for rosbags to read it")
+    errors = (AnyReaderError, Ros1ReaderError, Ros2ReaderError, OSError, ValueError, KeyError)
+    try:
+        store = _default_store(target, is_ros1)
+        reader = AnyReader([target], default_typestore=store)
+        reader.open()
+    except errors as err:
+        raise NotARosbagError(name, f"{type(err).__name__}: {err}") from err
+    try:
+        return _read_open(name, reader, store, is_ros1, topics)
+    except errors as err:
+        raise NotARosbagError(name, f"{type(err).__name__}: {err}") from err
+    finally:
+        reader.close()
+
+
+def _head(path: Path) -> bytes:
+    try:
+        with path.open("rb") as fh:
+            return fh.read(len(SQLITE_MAGIC))
+    except OSError:
+        return b""
+
+
+def _distro(target: Path) -> str | None:
+    meta = target / METADATA_FILE if target.is_dir() else None
+    if meta is None or not meta.is_file():
+        return None
+    for line in meta.read_text(encoding="utf-8", errors="replace").splitlines():
+        key, _, value = line.strip().partition(":")
+        if key == "ros_distro":
+            return value.strip().strip("'\"") or None
+    return None
+
+
+def _default_store(target: Path, is_ros1: bool) -> Any:
+    from rosbags.typesys import Stores, get_typestore
+
+    if is_ros1:
+        return get_typestore(Stores.ROS1_NOETIC)
+    distro = _distro(target)
+    store = next((s for s in Stores if s.value == f"ros2_{distro}"), Stores.ROS2_FOXY)
+    return get_typestore(store)
+
+
+def _read_open(
+    name: str, reader: Any, store: Any, is_ros1: bool, topics: Iterable[str] | None
+) -> LogData:
+    problems: list[str] = []
+    _complete_typestore(reader, store)
+    known = set(reader.typestore.fielddefs)
+    conns_by_topic: dict[str, list[Any]] = {}
+    for conn in reader.connections:
+        conns_by_topic.setdefault(conn.topic, []).append(conn)
+    wanted = set(conns_by_topic) if topics is None else set(topics)
+    decodable = [c for c in reader.connections if c.topic in wanted and c.msgtype in known]
+    for topic in sorted(wanted & set(conns_by_topic)):
+        missing = sorted({c.msgtype for c in conns_by_topic[topic] if c.msgtype not in known})
+        if missing:
+            count = sum(c.msgcount for c in conns_by_topic[topic] if c.msgtype in missing)
+            problems.append(
+                f"{name}: topic {topic!r}: message type {', '.join(missing)} is neither defined in "
+                f"the bag nor a standard type; its {count} messages were not decoded"
+            )
+    raw: dict[str, tuple[list[int], list[bytes], list[str]]] = {}
+    times: dict[str, list[int]] = {t: [] for t in conns_by_topic}
+    for conn, t_ns, data in reader.messages(connections=decodable) if decodable else ():
+        entry = raw.setdefault(conn.topic, ([], [], []))
+        entry[0].append(t_ns)
+        entry[1].append(bytes(data))
+        entry[2].append(conn.msgtype)
+    frames: dict[str, pl.DataFrame] = {}
+    for topic, (t_list, payloads, types) in sorted(raw.items()):
+        times[topic] = t_list
+        frame, note = _decode(reader, t_list, payloads, types)
+        if note:
+            problems.append(f"{name}: topic {topic!r}: {note}")
+        frames[topic] = _sorted(frame, name, topic, problems)
+    info = {
+        topic: _topic_info(topic, conns, times.get(topic, []), is_ros1)
+        for topic, conns in sorted(conns_by_topic.items())
+    }
+    if not frames and any(info[t].message_count for t in wanted & set(info)):
+        types = sorted({c.msgtype for c in reader.connections if c.topic in wanted})
+        raise NotARosbagError(
+            name, f"none of its messages could be decoded (types: {', '.join(types)})"
+        )
+    return LogData(name, frames, info, _metadata(reader, is_ros1), problems)
+
+
+def _complete_typestore(reader: Any, default: Any) -> None:
+    """Add the default store's types a bag lacks (bags that define only some of their types)."""
+    have = set(reader.typestore.fielddefs)
+    needed = {c.msgtype for c in reader.connections} - have
+    if needed & set(default.fielddefs):
+        reader.typestore.register({k: v for k, v in default.fielddefs.items() if k not in have})
+
+
+def _decode(
+    reader: Any, t_list: list[int], payloads: list[bytes], types: list[str]
+) -> tuple[pl.DataFrame, str | None]:
+    rows: list[dict[str, Any]] = []
+    kept: list[int] = []
+    error: str | None = None
+    for i, (payload, msgtype) in enumerate(zip(payloads, types, strict=True)):
+        try:
+            msg = reader.deserialize(payload, msgtype)
+        except Exception as err:  # a message that does not match its type: drop just it
+            error = error or f"{type(err).__name__}: {err}"
+            continue
+        row: dict[str, Any] = {}
+        _flatten(msg, "", row)
+        rows.append(row)
+        kept.append(i)
+    t_ns = pl.Series(TIME_COLUMN, [t_list[i] for i in kept], dtype=pl.Int64)
+    frame = frame_from_rows(rows)
+    if TIME_COLUMN in frame.columns:
+        frame = frame.rename({TIME_COLUMN: f"{TIME_COLUMN}.field"})
+    frame = frame.insert_column(0, t_ns) if frame.width else pl.DataFrame([t_ns])
+    note = None
+    if len(kept) < len(payloads):
+        note = (
+            f"{len(payloads) - len(kept)} of {len(payloads)} messages did not decode and were "
+            f"dropped (first error: {error})"
+        )
+    return frame, note
+
+
+_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def _flatten(obj: Any, prefix: str, out: dict[str, Any]) -> None:
+    """Flatten a ``rosbags`` message (a dataclass; arrays are numpy arrays or lists) by path."""
+    if isinstance(obj, (bool, int, float, str)) or obj is None:
+        out[prefix or "value"] = obj
+        return
+    if isinstance(obj, np.ndarray):
+        items = obj[:MAX_ARRAY_ITEMS].tolist()
+        for i, value in enumerate(items):
+            out[f"{prefix}.{i}"] = value
+        return
+    if isinstance(obj, np.generic):
+        out[prefix or "value"] = obj.item()
+        return
+    if isinstance(obj, (list, tuple)):
+        for i, value in enumerate(obj[:MAX_ARRAY_ITEMS]):
+            _flatten(value, f"{prefix}.{i}", out)
+        return
+    cls = type(obj)
+    names = _FIELDS.get(cls)
+    if names is None:
+        names = _FIELDS[cls] = (
+            tuple(f.name for f in dataclasses.fields(obj) if not f.name.startswith("_"))
+            if dataclasses.is_dataclass(obj)
+            else ()
+        )
+    if not names:
+        out[prefix or "value"] = str(obj)
+        return
+    for fname in names:
+        _flatten(getattr(obj, fname), f"{prefix}.{fname}" if prefix else fname, out)
+
+
+def _sorted(frame: pl.DataFrame, path: str, topic: str, problems: list[str]) -> pl.DataFrame:
+    t = frame[TIME_COLUMN].to_numpy()
+    backwards = int(np.count_nonzero(np.diff(t) < 0))
+    if backwards:
+        problems.append(
+            f"{path}: topic {topic!r}: record time went backwards {backwards} times; messages "
+            "were sorted by record time"
+        )
+        frame = frame.sort(TIME_COLUMN, maintain_order=True)
+    return frame
+
+
+def _topic_info(topic: str, conns: list[Any], times: list[int], is_ros1: bool) -> TopicInfo:
+    from rosbags.interfaces import MessageDefinitionFormat
+
+    fmt = conns[0].msgdef.format
+    schema_encoding = ""
+    if fmt == MessageDefinitionFormat.MSG:
+        schema_encoding = "ros1msg" if is_ros1 else "ros2msg"
+    elif fmt == MessageDefinitionFormat.IDL:
+        schema_encoding = "ros2idl"
+    count = len(times) if times else sum(c.msgcount for c in conns)
+    return TopicInfo(
+        topic=topic,
+        schema_name=conns[0].msgtype,
+        schema_encoding=schema_encoding,
+        message_encoding="ros1" if is_ros1 else "cdr",
+        message_count=count,
+        first_ns=min(times) if times else None,
+        last_ns=max(times) if times else None,
+    )
+
+
+def _metadata(reader: Any, is_ros1: bool) -> dict[str, dict[str, str]]:
+    if is_ros1:
+        return {}
+    out: dict[str, dict[str, str]] = {}
+    rec: dict[str, str] = {}
+    for sub in reader.readers:
+        meta = getattr(getattr(sub, "storage", sub), "metadata", None)
+        distro = getattr(meta, "ros_distro", None)
+        if distro:
+            rec["ros_distro"] = str(distro)
+        custom = getattr(meta, "custom", None) or {}
+        for key, value in custom.items():
+            if str(key).startswith(CUSTOM_DATA_PREFIX):
+                out.setdefault("logcal", {})[str(key)[len(CUSTOM_DATA_PREFIX) :]] = str(value)
+            else:
+                rec[f"custom_data.{key}"] = str(value)
+    if rec:
+        out["rosbag2"] = rec
+    return out
