@@ -25,7 +25,7 @@ from calib.results import (
 from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.load import LoadedLog, load_log
 from logtools.signals import Robot, SignalSource
-from logtools.tt_path import PathInputs, path_inputs
+from logtools.tt_path import PathInputs, path_inputs, relaxation_window_s
 
 __all__ = [
     "AnalysisConfig",
@@ -183,6 +183,18 @@ def _path_fit(
     fit = PathTransientFit(fit_psi_offset=psi_offset).fit(
         inp.path, inp.t_psi_s - psi_shift_s, inp.psi_rad, gaps=inp.gaps
     )
+    # a noisy pose may be smoothed over a tenth of the trailer's relaxation time, which the
+    # first fit tells: a slow robot affords a longer window than the 0.25 s first assumed
+    window = relaxation_window_s(inp.path, fit.L2_)
+    if window > 0.25:
+        again = path_inputs(loaded, max_window_s=window)
+        if (again.path.source, again.path.smoothing_samples) != (
+            inp.path.source, inp.path.smoothing_samples
+        ):
+            inp = again
+            fit = PathTransientFit(fit_psi_offset=psi_offset).fit(
+                inp.path, inp.t_psi_s - psi_shift_s, inp.psi_rad, gaps=inp.gaps
+            )
     return inp, fit
 
 
@@ -284,7 +296,11 @@ def analyze_loaded(
 
     methods: list[MethodResult] = []
     eiv = None
-    if not has_kappa:
+    still = [s for s in stages.status if s.stage == _PATH_STAGE and "did not move" in s.reason]
+    if still:
+        stages.skip("least-squares methods", "the robot did not move")
+        stages.skip("steady-state and time-domain estimators", "the robot did not move")
+    elif not has_kappa:
         reason = "no measured curvature (kappa needs v and omega, or a pose path)"
         stages.skip("least-squares methods", reason)
         stages.skip("steady-state and time-domain estimators", reason)
@@ -315,7 +331,10 @@ def analyze_loaded(
             methods += list(own[1])
     if path_fit is not None:
         methods.append(path_fit.method_result_)
-    estimate, why = _recommend(path_fit, eiv, stages)
+    if still:
+        estimate, why = None, [still[0].reason]
+    else:
+        estimate, why = _recommend(path_fit, eiv, stages)
     notes += why
 
     discovery = None

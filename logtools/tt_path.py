@@ -18,9 +18,13 @@ from calib.errors import InsufficientDataError
 from calib.estimators.drive_path import DrivePath, pose_smoothing
 from logtools.load import LoadedLog
 
-__all__ = ["PathInputs", "path_inputs"]
+__all__ = ["PathInputs", "RobotDidNotMoveError", "path_inputs", "relaxation_window_s"]
 
-_MIN_TRAVEL_M = 0.01
+
+class RobotDidNotMoveError(InsufficientDataError):
+    """No source of the path shows the robot travelling far enough to calibrate it."""
+
+_MIN_TRAVEL_M = 0.1  # m: less than this calibrates nothing (the robot did not move)
 _SIGNALS = {
     "pose": ("x", "y", "yaw"),
     "odometry": ("v", "omega"),
@@ -81,20 +85,19 @@ def _on_common_times(
 
 
 def _candidates(
-    loaded: LoadedLog, t0_ns: int, psi: np.ndarray
+    loaded: LoadedLog, t0_ns: int, psi: np.ndarray, max_window_s: float
 ) -> list[tuple[str, DrivePath | None, str]]:
+    """Path sources, best first: a pose (measured motion, immune to actuator and odometry
+    scale errors; its noise is smoothed within ``max_window_s`` and its remaining bias
+    corrected in the fit), odometry, the command."""
     out: list[tuple[str, DrivePath | None, str]] = []
-    noisy_pose: DrivePath | None = None
     pose = _on_common_times(loaded, ("x", "y", "yaw"), t0_ns)
     if pose is not None:
         t, (x, y, yaw) = pose
-        n = pose_smoothing(t, x, y, yaw, psi)
+        n = pose_smoothing(t, x, y, yaw, psi, max_window_s=max_window_s)
         if n is None:
-            noisy_pose = DrivePath.from_pose(t, x, y, yaw, smooth_samples=_odd(0.25 * _rate(t)))
-            out.append(("pose", None, "the pose is too noisy next to the joint angle (its "
-                        "noise would bias the fit); used only when nothing else moves"))
-        else:
-            out.append(("pose", DrivePath.from_pose(t, x, y, yaw, smooth_samples=n), ""))
+            n = _odd(max_window_s * _rate(t))
+        out.append(("pose", DrivePath.from_pose(t, x, y, yaw, smooth_samples=n), ""))
     else:
         out.append(("pose", None, "no pose with yaw (x, y, yaw)"))
     odo = _on_common_times(loaded, ("omega", "v"), t0_ns)
@@ -111,8 +114,6 @@ def _candidates(
             break
     else:
         out.append(("command", None, "no speed with a curvature command"))
-    if noisy_pose is not None:
-        out.append(("pose", noisy_pose, ""))
     return out
 
 
@@ -125,12 +126,16 @@ def _odd(n: float) -> int:
     return k if k % 2 else k - 1
 
 
-def path_inputs(loaded: LoadedLog, *, prefer: str | None = None) -> PathInputs:
+def path_inputs(
+    loaded: LoadedLog, *, prefer: str | None = None, max_window_s: float = 0.25
+) -> PathInputs:
     """The best path source of ``loaded`` and its joint-angle samples.
 
     Args:
         loaded: a loaded log with a ``psi`` signal.
         prefer: "pose", "odometry" or "command" to use that source when the log has it.
+        max_window_s: longest smoothing window (s) for a noisy pose; it should be short next
+            to the trailer's relaxation time L2 / v (``relaxation_window_s``).
 
     Raises:
         InsufficientDataError: no joint angle, or no source of the path that moves.
@@ -140,7 +145,7 @@ def path_inputs(loaded: LoadedLog, *, prefer: str | None = None) -> PathInputs:
         raise InsufficientDataError("the log has no joint-angle (psi) samples")
     t0_ns = int(loaded.frame["t_ns"][0]) if loaded.frame.height else int(psi["t_ns"][0])
     notes: list[str] = []
-    cands = _candidates(loaded, t0_ns, psi["value"].to_numpy().astype(float))
+    cands = _candidates(loaded, t0_ns, psi["value"].to_numpy().astype(float), max_window_s)
     if prefer is not None:
         cands.sort(key=lambda c: c[0] != prefer)
     chosen: DrivePath | None = None
@@ -154,13 +159,21 @@ def path_inputs(loaded: LoadedLog, *, prefer: str | None = None) -> PathInputs:
             notes.append(f"path from {name}: {err}")
             continue
         if moved < _MIN_TRAVEL_M:
+            if name in ("pose", "odometry"):  # measured: the robot did not move
+                cmd = [p for n, p, _ in cands if n == "command" and p is not None]
+                told = f"; it was commanded to go {cmd[0].distance_m:.3g} m" if cmd else ""
+                raise RobotDidNotMoveError(
+                    f"the robot did not move: its {name} shows {moved:.3g} m of travel "
+                    f"(at least {_MIN_TRAVEL_M} m is needed to calibrate anything){told}"
+                )
             notes.append(f"path from {name}: it does not move ({moved:.3g} m in all)")
             continue
         chosen = path
         break
     if chosen is None:
-        raise InsufficientDataError(
-            "no signal shows the robot moving: " + "; ".join(notes)
+        raise RobotDidNotMoveError(
+            f"the robot did not move enough to calibrate anything (less than {_MIN_TRAVEL_M} m "
+            "by every source): " + "; ".join(notes)
         )
     used = {"psi", *_SIGNALS[chosen.source]}
     gaps = [
@@ -171,3 +184,15 @@ def path_inputs(loaded: LoadedLog, *, prefer: str | None = None) -> PathInputs:
     return PathInputs(
         chosen, _times(psi, t0_ns), psi["value"].to_numpy().astype(float), gaps, t0_ns, notes
     )
+
+
+def relaxation_window_s(path: DrivePath, L2_m: float, share: float = 0.1) -> float:
+    """``share`` of the trailer's relaxation time L2 / v at the path's median moving speed (s):
+    the longest a pose may be smoothed without blurring the joint angle's transients."""
+    dt = np.diff(path.t_s)
+    ds = np.abs(np.diff(path.s_m))
+    moving = (dt > 0) & (ds > 0)
+    if not moving.any():
+        return 0.25
+    v = float(np.median(ds[moving] / dt[moving]))
+    return float(share * abs(L2_m) / max(v, 1e-3))

@@ -20,12 +20,14 @@ reported as one.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import Any, Literal
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 import polars as pl
 
+from calib.discovery.confirm import EQUIVALENCE_MARGIN, Confirmed, confirm_effects, effect_values
 from calib.discovery.data import DiscoveryData, prepare_data
 from calib.discovery.diagnostics import (
     UNITS,
@@ -37,9 +39,21 @@ from calib.discovery.diagnostics import (
     ljung_box,
 )
 from calib.discovery.effects import Effect, catalogue
-from calib.discovery.fit import ModelFit, covariance, fit_model, holdout_rms, neff_factors
-from calib.discovery.model import ModelSpec, predict
-from calib.discovery.result import DiscoveryResult, EffectFit
+from calib.discovery.fit import (
+    ModelFit,
+    fit_model,
+    holdout_rms,
+    neff_factors,
+    param_std,
+)
+from calib.discovery.model import BASE_PARAMS, ModelSpec, predict
+from calib.discovery.result import (
+    AlternativeExplanation,
+    DiscoveryResult,
+    EffectFit,
+    JointFit,
+    StepFailure,
+)
 from calib.discovery.selection import SelectionRules, SelectionStep, select_effects
 from calib.discovery.signals import INPUT_UNITS, delayed, input_signals
 from calib.discovery.sparse import SparseResidualModel, fit_sparse_residual
@@ -47,35 +61,39 @@ from calib.errors import CalibError
 from calib.results import Segment
 
 __all__ = [
+    "DEFAULT_BASELINE",
+    "AlternativeExplanation",
     "DiscoveryResult",
     "Effect",
     "EffectFit",
+    "JointFit",
     "MismatchRegion",
     "SelectionRules",
     "SparseResidualModel",
+    "StepFailure",
     "catalogue",
     "discover",
 ]
 
+# The baseline discovery compares against unless told otherwise: the transient kinematics named
+# the effect in more logs than the steady-state relation (bench/discovery_confusion_study.py).
+DEFAULT_BASELINE: Literal["steady", "transient"] = "transient"
 LB_P_STRUCTURE = 1e-3
 MIN_SPARSE_R2 = 0.2
 
 
 def _effect_fit(
-    effect: Effect, step: SelectionStep, final: ModelFit, cov: np.ndarray, dt_s: float
+    effect: Effect, conf: Confirmed, data: DiscoveryData, alternatives: Sequence[str]
 ) -> EffectFit:
-    """Parameters of ``effect`` in the final fit, with Fisher 95 % intervals, and its evidence.
-
-    Time shifts add the sampling resolution dt / sqrt(12) in quadrature to their error.
-    """
-    assert step.accepted is not None
-    names = final.names
+    """Parameters of ``effect`` in the final joint fit, with Fisher 95 % intervals (a time
+    shift's include the sampling resolution dt / sqrt(12)), and its evidence."""
+    final, cov = conf.final, conf.cov
+    ev = conf.evidence[effect.key]
     pars, std, ci, units = {}, {}, {}, {}
     for p in effect.params:
-        i = names.index(f"{effect.key}.{p.name}")
-        v = float(final.theta[i])
-        var = max(float(cov[i, i]), 0.0) + (dt_s**2 / 12.0 if p.time_shift else 0.0)
-        sd = math.sqrt(var) if var > 0 else math.nan
+        name = f"{effect.key}.{p.name}"
+        v = float(final.theta[final.names.index(name)])
+        sd = param_std(final, cov, name, p.time_shift, data.dt_s)
         pars[p.name], std[p.name], units[p.name] = v, sd, p.unit
         ci[p.name] = (v - 1.96 * sd, v + 1.96 * sd)
     return EffectFit(
@@ -85,20 +103,55 @@ def _effect_fit(
         std=std,
         ci95=ci,
         units=units,
-        channels=tuple(c for c in effect.channels if c in step.holdout_before),
-        rms_before=dict(step.holdout_before),
-        rms_after=dict(step.accepted.holdout),
-        delta_bic=step.accepted.delta_bic,
+        channels=tuple(c for c in effect.channels if c in ev.rms_without),
+        rms_before=dict(ev.rms_without),
+        rms_after=dict(ev.rms_with),
+        delta_bic=ev.delta_bic,
         explanation=effect.explanation(pars),
-        alternatives=tuple(
+        alternatives=tuple(alternatives),
+    )
+
+
+def _round_candidates(steps: Sequence[SelectionStep]) -> dict[str, list[str]]:
+    """Per accepted effect, the candidates of its round that were material, significant
+    (every parameter >= 3 standard errors from its null) and within ``EQUIVALENCE_MARGIN`` BIC
+    units of it: the ones to try in its place at the end."""
+    out: dict[str, list[str]] = {}
+    for s in steps:
+        acc = s.accepted
+        if acc is None:
+            continue
+        out[acc.effect.key] = [
             t.effect.key
-            for t in step.trials
-            if t is not step.accepted
-            and t.effect is not effect
+            for t in s.trials
+            if t is not acc
+            and t.effect is not acc.effect
             and t.material
-            and t.delta_bic <= step.accepted.delta_bic + 10.0
+            and t.delta_bic <= acc.delta_bic + EQUIVALENCE_MARGIN
             and all(z >= 3.0 for z in t.z.values())
+        ]
+    return out
+
+
+def _joint_fit(conf: Confirmed, data: DiscoveryData, baseline: str) -> JointFit:
+    final, cov = conf.final, conf.cov
+    vals = {n: float(final.theta[i]) for i, n in enumerate(("L1", "L2"))}
+    sd = {n: math.sqrt(max(float(cov[i, i]), 0.0)) for i, n in enumerate(("L1", "L2"))}
+    sd = {n: (v if v > 0 and math.isfinite(v) else math.nan) for n, v in sd.items()}
+    c2 = cov[:2, :2]
+    return JointFit(
+        baseline=baseline,
+        effects=tuple(e.key for e in conf.effects),
+        parameters=vals,
+        std=sd,
+        ci95={n: (vals[n] - 1.96 * sd[n], vals[n] + 1.96 * sd[n]) for n in vals},
+        covariance=(
+            (float(c2[0, 0]), float(c2[0, 1])),
+            (float(c2[1, 0]), float(c2[1, 1])),
         ),
+        effect_parameters=effect_values(final),
+        n_samples=int(final.mask.sum()),
+        fit_rate_hz=1.0 / float(np.median(np.diff(data.tc_s))),
     )
 
 
@@ -127,6 +180,7 @@ def _diagnostics(
     deriv_inputs = {k: v for k, v in inputs.items() if k != "v*kappa_cmd"}
     diag: dict[str, Any] = {
         "noise_std": dict(data.sigma),
+        "noise_std_fit": dict(data.sigma_d),
         "fit_rate_hz": 1.0 / dt,
         "bins": {
             "speed": binned_stats(res, inputs["v"], mask=valid),
@@ -202,15 +256,44 @@ def _sparse(
     return best, tried
 
 
+def _start_lengths(L1: float, L2: float) -> list[float]:
+    """The calibrated link lengths as a starting point, inside the fit's bounds (1.0 m and
+    2.0 m where they are not finite)."""
+    lo1, lo2 = BASE_PARAMS[0], BASE_PARAMS[1]
+    a = float(L1) if math.isfinite(L1) else 1.0
+    b = float(L2) if math.isfinite(L2) and lo2.lower < L2 else 2.0
+    return [min(max(a, lo1.lower + 0.01), lo1.upper - 0.01), min(b, lo2.upper - 0.01)]
+
+
+def _reason(err: BaseException) -> str:
+    text = str(err) or type(err).__name__
+    return text if isinstance(err, CalibError) else f"{type(err).__name__}: {text}"
+
+
+T = TypeVar("T")
+
+
+def _step(name: str, failures: list[StepFailure], fn: Callable[[], T], default: T) -> T:
+    """``fn()``, or ``default`` with the failure recorded: discovery reports what it could."""
+    try:
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return fn()
+    except Exception as err:  # a failing step must not take the rest of the result with it
+        failures.append(StepFailure(name, _reason(err)))
+        return default
+
+
 def discover(
     frame: pl.DataFrame,
     L1: float,
     L2: float,
     *,
-    baseline: Literal["steady", "transient"] = "steady",
+    baseline: Literal["steady", "transient"] = DEFAULT_BASELINE,
     segments: list[Segment] | None = None,
     rng: np.random.Generator | None = None,
     rules: SelectionRules | None = None,
+    signals: Mapping[str, pl.DataFrame] | None = None,
 ) -> DiscoveryResult:
     """Locate, name and fit what the tractor-trailer model leaves out of a recording.
 
@@ -218,39 +301,106 @@ def discover(
         frame: aligned frame with ``t_ns`` and kappa_cmd (1/m), v (m/s), omega (rad/s) or
             kappa (1/m), psi (rad); other columns are ignored.
         L1, L2: calibrated link lengths (m), the starting point (they are refitted jointly
-            with every candidate effect).
-        baseline: "steady" (the patent's steady-state hitch relation) or "transient".
+            with every candidate effect; L1 may be zero or negative).
+        baseline: "transient" (default: the trailer's transient off-axle kinematics, which
+            diagnoses best in bench/discovery_confusion_study.py) or "steady" (the patent's
+            steady-state hitch relation).
         segments: command segments (times in s from the first row) for per-segment and
             per-command-type diagnostics.
         rng: unused; the procedure is deterministic (kept for a uniform estimator signature).
         rules: acceptance thresholds (defaults in ``SelectionRules``).
+        signals: optional raw logical signals (name -> ``t_ns``, ``value`` frames, as
+            ``logtools``' ``ResolvedSignals.signals``): the command is then taken at its own
+            samples (not as the aligned frame holds it) and each output's noise is measured on
+            its own samples. Recommended whenever the topics have different rates.
+
+    Never raises on short or odd data: a log discovery cannot work on gives ``status``
+    "not_run" with the ``reason``; a step that fails is recorded in ``failures`` (``status``
+    "partial") and the rest is reported.
 
     Raises:
-        InsufficientDataError: missing columns or too little data.
+        CalibError: ``baseline`` is neither "steady" nor "transient" (a usage error).
     """
     del rng
     if baseline not in ("steady", "transient"):
         raise CalibError(f"discovery: baseline must be 'steady' or 'transient', got {baseline!r}")
-    data = prepare_data(frame)
+    rules = rules or SelectionRules()
+    failures: list[StepFailure] = []
+    data = _step("prepare", failures, lambda: prepare_data(frame, signals), None)
+    if data is None:
+        return DiscoveryResult.not_run(baseline, failures)
     base_spec = ModelSpec(baseline)
-    steps, factors = select_effects(
-        data, base_spec, [L1, L2], catalogue(baseline, data.channels), rules
+    theta0 = _start_lengths(L1, L2)
+    pool = catalogue(baseline, data.channels)
+    base_train = _step(
+        "baseline fit",
+        failures,
+        lambda: fit_model(base_spec, data, theta0, data.train_mask()),
+        None,
     )
-    accepted = [s for s in steps if s.accepted is not None]
-    last_train = accepted[-1].accepted.fit if accepted else steps[0].before  # type: ignore[union-attr]
-    final = fit_model(last_train.spec, data, last_train.theta, data.valid, fine=True)
-    base = fit_model(base_spec, data, steps[0].before.theta, data.valid, fine=True)
-    cov = covariance(final, data)
-    dt_full = float(np.median(np.diff(data.t_s)))
-    effects = [_effect_fit(s.accepted.effect, s, final, cov, dt_full) for s in accepted]  # type: ignore[union-attr]
+    if base_train is None:
+        return DiscoveryResult.not_run(baseline, failures)
+    selected = _step(
+        "selection",
+        failures,
+        lambda: select_effects(data, base_spec, theta0, pool, rules),
+        None,
+    )
+    steps, factors = selected if selected is not None else ([], neff_factors(base_train))
+    accepted = [s.accepted for s in steps if s.accepted is not None]
+    train = accepted[-1].fit if accepted else base_train
+    acc_effects = [t.effect for t in accepted]
+    conf = _step(
+        "confirmation",
+        failures,
+        lambda: confirm_effects(
+            data, base_spec, acc_effects, train, pool, factors, rules, _round_candidates(steps)
+        ),
+        None,
+    )
+    if conf is None:  # fall back on the baseline alone: nothing confirmed, nothing reported
+        conf = _step(
+            "baseline joint fit",
+            failures,
+            lambda: confirm_effects(data, base_spec, [], base_train, pool, factors, rules),
+            None,
+        )
+    alternatives = list(conf.alternatives) if conf is not None else []
+    effects: list[EffectFit] = []
+    joint = None
+    if conf is not None:
+        effects = [
+            _effect_fit(e, conf, data, [a.label for a in alternatives if e.key in a.reported])
+            for e in conf.effects
+        ]
+        joint = _step("joint fit", failures, lambda: _joint_fit(conf, data, baseline), None)
+    final_train = conf.train if conf is not None else base_train
+    base = _step(
+        "baseline full fit",
+        failures,
+        lambda: fit_model(base_spec, data, base_train.theta, data.valid, fine=True),
+        base_train,
+    )
+    final = conf.final if conf is not None else base
     inputs = input_signals(data)
     types = command_types(data.tc_s, segments)
-    regions = find_regions(data, base.residuals, inputs, types)
-    diag = _diagnostics(data, base, final, inputs, types, segments)
-    residual_model, tried = _sparse(data, final, inputs)
+    regions: list[MismatchRegion] = _step(
+        "regions", failures, lambda: find_regions(data, base.residuals, inputs, types), []
+    )
+    diag: dict[str, Any] = _step(
+        "diagnostics",
+        failures,
+        lambda: _diagnostics(data, base, final, inputs, types, segments),
+        {},
+    )
+    no_model: tuple[SparseResidualModel | None, list[dict[str, Any]]] = (None, [])
+    residual_model, tried = _step(
+        "residual model", failures, lambda: _sparse(data, final, inputs), no_model
+    )
     diag["sparse_candidates"] = tried
     diag["neff_factor"] = factors
-    diag["neff_factor_final"] = neff_factors(final)
+    no_dict: dict[str, float] = {}
+    diag["neff_factor_final"] = _step("neff", failures, lambda: neff_factors(final), no_dict)
     diag["selection"] = [
         {
             "holdout_before": s.holdout_before,
@@ -259,14 +409,45 @@ def discover(
         }
         for s in steps
     ]
+    if conf is not None:
+        diag["confirmation"] = {
+            "dropped": conf.dropped,
+            "swaps": conf.swaps,
+            "evidence": {
+                k: {
+                    "rms_without": ev.rms_without,
+                    "rms_with": ev.rms_with,
+                    "delta_bic": ev.delta_bic,
+                    "ci95_excludes_null": ev.ci_excludes_null,
+                    "improves_holdout": ev.improves_holdout,
+                }
+                for k, ev in conf.evidence.items()
+            },
+        }
+    hold_base = holdout_rms(base_spec, base_train.theta, data, data.test_mask())
+    rms_final = _step(
+        "held-out RMS",
+        failures,
+        lambda: holdout_rms(final_train.spec, final_train.theta, data, data.test_mask()),
+        no_dict,
+    )
+    no_res: dict[str, np.ndarray] = {}
+    residuals = _step(
+        "residuals", failures, lambda: _full_rate_residuals(data, base, final), no_res
+    )
     return DiscoveryResult(
         baseline=baseline,
         regions=regions,
         effects=effects,
-        rms_baseline=steps[0].holdout_before,
+        rms_baseline=hold_base,
         residual_model=residual_model,
         diagnostics=diag,
-        residuals=_full_rate_residuals(data, base, final),
-        rms_final=holdout_rms(last_train.spec, last_train.theta, data, data.test_mask()),
+        residuals=residuals,
+        rms_final=rms_final,
         link_lengths={"L1": float(final.theta[0]), "L2": float(final.theta[1])},
+        joint_fit=joint,
+        alternatives=alternatives,
+        status="partial" if failures else "ok",
+        reason="; ".join(f"{f.step}: {f.reason}" for f in failures) or None,
+        failures=failures,
     )

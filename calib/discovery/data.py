@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -13,9 +15,12 @@ from calib.errors import InsufficientDataError
 
 __all__ = [
     "OUTPUTS",
+    "RESOLUTION",
     "CommandSignal",
     "DiscoveryData",
     "block_mean",
+    "command_samples",
+    "output_noise_std",
     "prepare_data",
     "robust_noise_std",
 ]
@@ -27,6 +32,13 @@ MIN_FIT_SAMPLES = 150
 FIT_RATE_HZ = 10.0
 N_TIME_BLOCKS = 8
 BURN_IN_M = 10.0
+REVERSE_MPS = 0.02  # speeds below -this count as reversing
+GAP_S = 0.5  # a longer gap between complete rows restarts the joint-angle model
+REANCHOR_M = 5.0  # travel (m) left out after a restart, while the model forgets it
+# Finest misfit worth explaining, per output (rad/s, rad): below any real sensor's resolution
+# (a 14-bit encoder quantises to 3.8e-4 rad), above the model's numerical error. It floors the
+# noise level, so that a noise-free log's interpolation error is not taken for physics.
+RESOLUTION: dict[str, float] = {"omega": 1e-4, "psi": 1e-4}
 
 
 def block_mean(x: FloatArray, m: int) -> FloatArray:
@@ -44,6 +56,39 @@ def robust_noise_std(y: FloatArray) -> float:
     return 1.4826 * mad / np.sqrt(6.0)
 
 
+def output_noise_std(y: FloatArray) -> float:
+    """White-noise level of a recorded output on the aligned grid (units of y).
+
+    An output interpolated onto a faster grid is linear between its own samples: its second
+    differences vanish except where a sample lies, so the estimate is taken on those rows
+    (about the recorded samples). A quantised output (many exact repeats) is not quieter than
+    its quantisation noise q / sqrt(12), q the smallest step it makes.
+    """
+    return _noise_and_rows(y)[0]
+
+
+def _noise_and_rows(y: FloatArray) -> tuple[float, float]:
+    """(noise std, aligned rows per recorded sample) of an output on the aligned grid."""
+    if y.size < 12:
+        return robust_noise_std(y), 1.0
+    d2 = np.diff(y, n=2)
+    scale = max(float(np.max(np.abs(y))), 1e-12)
+    knots = np.flatnonzero(np.abs(d2) > 1e-9 * scale) + 1
+    interpolated = 12 <= knots.size < 0.7 * d2.size
+    ys = y[knots] if interpolated else y
+    rows = y.size / knots.size if interpolated else 1.0
+    return _quantised_floor(ys, robust_noise_std(ys)), rows
+
+
+def _quantised_floor(ys: FloatArray, s: float) -> float:
+    d1 = np.diff(ys)
+    steps = np.abs(d1[d1 != 0])
+    s = s if np.isfinite(s) else 0.0
+    if d1.size and float(np.mean(d1 == 0)) > 0.3 and steps.size:
+        s = max(s, float(np.percentile(steps, 5)) / math.sqrt(12.0))
+    return s
+
+
 @dataclass(frozen=True)
 class DiscoveryData:
     """Arrays for discovery.
@@ -51,10 +96,14 @@ class DiscoveryData:
     Full rate (the aligned grid): ``t_ns``, ``t_s`` (s from the first row), ``kappa_cmd``
     (1/m), ``v`` (m/s), ``outputs`` (recorded "omega" rad/s and/or "psi" rad).
     Fitting grid: blocks of ``m`` full-rate samples averaged (about 10 Hz): ``tc_s`` (block
-    centres), ``outputs_d``; ``sigma_d`` is each output's white-noise level on that grid and
-    ``sigma`` at full rate. ``block`` labels each fitting sample with its time block (0..7);
-    even blocks train, odd blocks are held out. ``valid`` drops the first ``BURN_IN_M`` metres
-    of travel, where the modelled joint angle still forgets its assumed initial state.
+    centres), ``outputs_d``; ``sigma_d`` is each output's white-noise level on that grid (a
+    block averages only the recorded samples it holds) and ``sigma`` per recorded sample.
+    ``block`` labels each fitting sample with its time block (0..7); even blocks train, odd
+    blocks are held out. ``valid`` drops the first ``BURN_IN_M`` metres
+    of travel, where the modelled joint angle still forgets its assumed initial state, and
+    ``REANCHOR_M`` after each restart of the joint-angle model: ``anchors`` (aligned rows) and
+    ``anchors_d`` (fitting rows) map where it restarts from the recorded angle (reversing,
+    gaps longer than ``GAP_S``) to that angle.
     """
 
     t_ns: NDArray[np.int64]
@@ -73,11 +122,18 @@ class DiscoveryData:
     kappa_h: FloatArray
     v_h: FloatArray
     psi0: float
+    anchors: dict[int, float]
+    anchors_d: dict[int, float]
     command: CommandSignal
 
     @property
     def channels(self) -> tuple[str, ...]:
         return tuple(self.outputs)
+
+    @property
+    def dt_s(self) -> float:
+        """Median sample period of the aligned grid (s)."""
+        return float(np.median(np.diff(self.t_s)))
 
     @property
     def n_fit(self) -> int:
@@ -119,9 +175,14 @@ class CommandSignal:
     eps: float
 
     @classmethod
-    def from_samples(cls, t_s: FloatArray, y: FloatArray) -> CommandSignal:
+    def from_samples(
+        cls, t_s: FloatArray, y: FloatArray, *, hold_jumps: bool = True
+    ) -> CommandSignal:
+        """``hold_jumps=False``: linear across jumps too (a jump recorded by a slow command
+        topic is only known to lie between two samples; the ramp is its expected place)."""
         dt = np.diff(t_s)
-        slope = np.where(jump_intervals(y), 0.0, np.diff(y) / np.where(dt > 0, dt, 1.0))
+        jumps = jump_intervals(y) if hold_jumps else np.zeros(dt.size, dtype=bool)
+        slope = np.where(jumps, 0.0, np.diff(y) / np.where(dt > 0, dt, 1.0))
         cum = np.concatenate([[0.0], np.cumsum(y[:-1] * dt + 0.5 * slope * dt * dt)])
         eps = float(np.median(dt)) / 50.0 if dt.size else 1e-6
         return cls(t_s, y, slope, cum, eps)
@@ -141,22 +202,100 @@ class CommandSignal:
         return (self.integral(tq + self.eps) - self.integral(tq)) / self.eps
 
 
-def prepare_data(frame: pl.DataFrame) -> DiscoveryData:
-    """Arrays from an aligned frame: ``t_ns``, ``kappa_cmd``, ``v``, ``omega``/``kappa``, ``psi``.
+def command_samples(t_s: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The samples of a command that the aligned frame holds between them (zero-order hold
+    onto a faster grid): (times, values) to interpolate the command through.
 
-    Rows with a missing value in a used column are dropped. Raises ``InsufficientDataError``
-    when a column is missing or the log is too short to fit and hold out (< 15 s at 10 Hz).
+    A value that changes only every few rows was recorded at a lower rate: each change marks a
+    sample (at the row where it appears). The typical run between changes gives the command's
+    own period P; a run much longer than P (the command really stayed constant) keeps its value
+    until P before the next change, so that the change spans one period as it did when it was
+    recorded. A command that changes on every row, or whose runs are not mostly of one length
+    (fewer than 20 runs, or under 60 % within 1.5 rows of the median), is returned as is.
+    """
+    if y.size < 4:
+        return t_s, y
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(y) != 0) + 1])
+    if starts.size < 4:
+        return t_s, y
+    runs = np.diff(np.concatenate([starts, [y.size]]))
+    rows = float(np.median(runs[:-1]))
+    # a held low-rate command: many runs of about the same length (give or take a row of
+    # jitter); a command that is only constant between steps has few runs of any length
+    typical = np.abs(runs[:-1] - rows) <= 1.5
+    if rows < 1.5 or runs.size < 20 or typical.mean() < 0.6:
+        return t_s, y
+    dt = float(np.median(np.diff(t_s)))
+    period = rows * dt
+    ts, ys = [], []
+    for i, s0 in enumerate(starts):
+        ts.append(t_s[s0])
+        ys.append(y[s0])
+        if i + 1 < starts.size:
+            if runs[i] > 1.5 * rows:
+                ts.append(t_s[starts[i + 1]] - period)
+                ys.append(y[s0])
+        elif t_s[-1] > t_s[s0]:
+            ts.append(t_s[-1])
+            ys.append(y[s0])
+    return np.asarray(ts, dtype=float), np.asarray(ys, dtype=float)
+
+
+HOLD_JUMPS_MAX_PERIOD_S = 0.02
+
+
+def _raw(
+    signals: Mapping[str, pl.DataFrame] | None, name: str
+) -> tuple[FloatArray, FloatArray] | None:
+    """(t_ns as float, value) of a raw signal frame (``t_ns``, ``value``), finite rows only."""
+    if not signals or name not in signals:
+        return None
+    f = signals[name]
+    if "t_ns" not in f.columns or "value" not in f.columns or f.height < 4:
+        return None
+    t = f.get_column("t_ns").cast(pl.Int64).to_numpy().astype(float)
+    y = f.get_column("value").cast(pl.Float64).to_numpy()
+    ok = np.isfinite(y)
+    order = np.argsort(t[ok], kind="stable")
+    return t[ok][order], y[ok][order]
+
+
+def prepare_data(
+    frame: pl.DataFrame, signals: Mapping[str, pl.DataFrame] | None = None
+) -> DiscoveryData:
+    """Arrays from an aligned frame: ``t_ns``, ``kappa_cmd``, ``v`` (else ``v_cmd``),
+    ``omega``/``kappa``, ``psi``. A command held between its samples is interpolated through
+    them (``command_samples``).
+
+    Rows with a missing value in a used column are dropped (the command is taken from every
+    row that holds it). ``signals``: optional raw logical signals (``t_ns``, ``value``, e.g.
+    ``logtools``' ``ResolvedSignals.signals``): the command is then interpolated through its
+    own samples and the outputs' noise is measured on theirs. A jump of the command is held
+    (zero-order) only when its samples are at most ``HOLD_JUMPS_MAX_PERIOD_S`` apart; from a
+    slower topic it is only known to lie between two samples and is spread over them.
+
+    Raises ``InsufficientDataError`` when a column is missing or the log is too short to fit
+    and hold out (< 15 s at 10 Hz).
     """
     need = ["t_ns", "kappa_cmd", "v"]
+    if "v" not in frame.columns and "v_cmd" in frame.columns:
+        # no measured speed: the commanded one stands in (a drive-gain error then shows up
+        # as a yaw-rate gain or understeer)
+        frame = frame.with_columns(pl.col("v_cmd").alias("v"))
     missing = [c for c in need if c not in frame.columns]
     if missing:
         raise InsufficientDataError(
             f"discovery: aligned frame lacks column(s) {missing}; expected t_ns, kappa_cmd, v "
             f"and omega (or kappa) and/or psi, got {frame.columns}"
         )
-    df = frame.sort("t_ns")
+    df = frame.sort("t_ns").unique(subset="t_ns", keep="first", maintain_order=True)
     if "omega" not in df.columns and "kappa" in df.columns:
-        df = df.with_columns((pl.col("kappa") * pl.col("v")).alias("omega"))
+        kappa = pl.col("kappa")
+        if "kappa_source" in df.columns:  # a curvature differentiated from the path is no sensor
+            kappa = pl.when(pl.col("kappa_source") == "path").then(None).otherwise(kappa)
+        df = df.with_columns((kappa * pl.col("v")).alias("omega"))
+        if df.get_column("omega").drop_nulls().len() == 0:
+            df = df.drop("omega")
     outs = [c for c in OUTPUTS if c in df.columns]
     if not outs:
         raise InsufficientDataError(
@@ -164,6 +303,9 @@ def prepare_data(frame: pl.DataFrame) -> DiscoveryData:
             f"the model with (columns: {df.columns})"
         )
     cols = need + outs
+    # the command from every row that has it: a gap in an output must not move its steps
+    cmd = df.select("t_ns", "kappa_cmd").drop_nulls()
+    cmd = cmd.filter(pl.col("kappa_cmd").cast(pl.Float64).is_finite())
     df = df.select(cols).drop_nulls()
     df = df.filter(pl.all_horizontal([pl.col(c).cast(pl.Float64).is_finite() for c in cols[1:]]))
     t_ns = df.get_column("t_ns").cast(pl.Int64).to_numpy()
@@ -179,22 +321,58 @@ def prepare_data(frame: pl.DataFrame) -> DiscoveryData:
             f"{FIT_RATE_HZ:g} Hz; need at least {MIN_FIT_SAMPLES}"
         )
     outputs = {c: _column(df, c) for c in outs}
-    sigma = {}
+    sigma, sigma_d = {}, {}
     for c, y in outputs.items():
-        s = robust_noise_std(y)
-        floor = 1e-6 * max(float(np.std(y)), 1e-6)
-        sigma[c] = max(s if np.isfinite(s) else 0.0, floor)
+        raw = _raw(signals, c)
+        if raw is not None and raw[0].size >= 12:
+            period = float(np.median(np.diff(raw[0]))) / 1e9
+            s = _quantised_floor(raw[1], robust_noise_std(raw[1]))
+            rows = max(period / dt, 1.0) if dt > 0 else 1.0
+        else:
+            s, rows = _noise_and_rows(y)
+        sigma[c] = max(s if np.isfinite(s) else 0.0, RESOLUTION[c])
+        # a block of m rows averages only the recorded samples it holds
+        sigma_d[c] = sigma[c] / math.sqrt(max(m / rows, 1.0))
     kc, v = _column(df, "kappa_cmd"), _column(df, "v")
-    v_d = block_mean(np.abs(v), m)
-    dist = np.cumsum(v_d) * m * dt
+    # travel (m) at the end of each fitting block, over the recorded time (gaps included)
+    step = np.abs(v[1:] + v[:-1]) * 0.5 * np.diff(t_s)
+    travel = np.concatenate([[0.0], np.cumsum(step)])
+    dist = travel[np.arange(1, nb + 1) * m - 1]
     valid = dist >= BURN_IN_M
+    anchors, anchors_d = {}, {}
+    if "psi" in outputs:
+        # where the model cannot run open loop, restart it from the recorded angle: reversing
+        # (the joint angle is unstable backwards) and after a gap in the recording
+        gap = np.concatenate([[False], np.diff(t_s) > GAP_S])
+        events = (v < -REVERSE_MPS) | gap
+        psi_rec = outputs["psi"]
+        anchors = {int(i): float(psi_rec[i]) for i in np.flatnonzero(events)}
+        ev_d = block_mean(events.astype(float), m) > 0
+        psi_d = block_mean(psi_rec, m)
+        anchors_d = {int(i): float(psi_d[i]) for i in np.flatnonzero(ev_d)}
+        last = -np.inf
+        for i in range(nb):
+            if ev_d[i]:
+                last = dist[i]
+            if dist[i] - last < REANCHOR_M:
+                valid[i] = False
     if int(valid.sum()) < MIN_FIT_SAMPLES:
         raise InsufficientDataError(
             f"discovery: only {dist[-1]:.1f} m of travel; need {BURN_IN_M:g} m to settle plus "
             f"{MIN_FIT_SAMPLES} fitting samples"
         )
     th_s = _half_grid(t_s, t_s)
-    command = CommandSignal.from_samples(t_s, kc)
+    raw_cmd = _raw(signals, "kappa_cmd")
+    if raw_cmd is not None:
+        tk, yk = (raw_cmd[0] - float(t_ns[0])) / 1e9, raw_cmd[1]
+        keep = np.concatenate([[True], np.diff(tk) > 0])
+        tk, yk = tk[keep], yk[keep]
+    else:
+        tk = (cmd.get_column("t_ns").cast(pl.Int64).to_numpy() - t_ns[0]) / 1e9
+        tk, yk = command_samples(tk, _column(cmd, "kappa_cmd"))
+    period = float(np.median(np.diff(tk))) if tk.size > 1 else 0.0
+    command = CommandSignal.from_samples(tk, yk, hold_jumps=period <= HOLD_JUMPS_MAX_PERIOD_S)
+    kc = command.at(t_s)
     block = np.minimum((np.arange(nb) * N_TIME_BLOCKS) // nb, N_TIME_BLOCKS - 1).astype(np.int64)
     return DiscoveryData(
         t_ns=t_ns,
@@ -206,12 +384,14 @@ def prepare_data(frame: pl.DataFrame) -> DiscoveryData:
         tc_s=block_mean(t_s, m),
         outputs_d={c: block_mean(y, m) for c, y in outputs.items()},
         sigma=sigma,
-        sigma_d={c: s / np.sqrt(m) for c, s in sigma.items()},
+        sigma_d=sigma_d,
         block=block,
         valid=valid,
         th_s=th_s,
         kappa_h=command.at(th_s),
         v_h=_half_grid(t_s, v),
         psi0=float(np.mean(outputs["psi"][:m])) if "psi" in outputs else 0.0,
+        anchors=anchors,
+        anchors_d=anchors_d,
         command=command,
     )

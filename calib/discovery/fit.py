@@ -10,15 +10,15 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
-from calib.discovery.data import DiscoveryData
-from calib.discovery.model import ModelSpec, predict
+from calib.discovery.data import RESOLUTION, DiscoveryData
+from calib.discovery.model import ModelSpec, Vector, predict
 from calib.errors import SolverError
 
 __all__ = [
@@ -29,6 +29,7 @@ __all__ = [
     "holdout_rms",
     "lag1_autocorr",
     "neff_factors",
+    "param_std",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -61,13 +62,13 @@ class ModelFit:
 
 
 def _residuals(
-    spec: ModelSpec, theta: Sequence[float], data: DiscoveryData, fine: bool = False
+    spec: ModelSpec, theta: Vector, data: DiscoveryData, fine: bool = False
 ) -> dict[str, FloatArray]:
     pred = predict(spec, theta, data, fine=fine)
     return {c: data.outputs_d[c] - pred[c] for c in data.channels}
 
 
-def _starts(spec: ModelSpec, theta0: Sequence[float]) -> list[np.ndarray]:
+def _starts(spec: ModelSpec, theta0: Vector) -> list[np.ndarray]:
     """theta0, plus the extra starting values of the last effect's parameters."""
     base = np.asarray(theta0, dtype=float)
     if not spec.effects:
@@ -86,7 +87,7 @@ def _starts(spec: ModelSpec, theta0: Sequence[float]) -> list[np.ndarray]:
 def fit_model(
     spec: ModelSpec,
     data: DiscoveryData,
-    theta0: Sequence[float],
+    theta0: Vector,
     mask: BoolArray | None = None,
     *,
     fine: bool = False,
@@ -148,6 +149,9 @@ def neff_factors(fit: ModelFit, mask: BoolArray | None = None) -> dict[str, floa
     pair = mk[1:] & mk[:-1]
     out = {}
     for c, r in fit.residuals.items():
+        if not mk.any():
+            out[c] = 1.0
+            continue
         x = r - r[mk].mean()
         den = float(np.sum(x[mk] ** 2))
         rho = 0.0 if den <= 0 else float(np.sum((x[1:] * x[:-1])[pair]) / den)
@@ -174,7 +178,7 @@ def bic(fit: ModelFit, factors: Mapping[str, float]) -> float:
 
 
 def holdout_rms(
-    spec: ModelSpec, theta: Sequence[float], data: DiscoveryData, mask: BoolArray
+    spec: ModelSpec, theta: Vector, data: DiscoveryData, mask: BoolArray
 ) -> dict[str, float]:
     """RMS of recorded - modelled per output on the held-out rows ``mask``."""
     res = _residuals(spec, theta, data)
@@ -192,11 +196,26 @@ def covariance(fit: ModelFit, data: DiscoveryData) -> FloatArray:
     for i, c in enumerate(data.channels):
         jc = fit.jac[i * n : (i + 1) * n]
         # jac is of r / sigma_d; rescale to r / sigma_hat, then by the effective-sample factor
-        s_hat2 = max(rss[c] / max(n - len(fit.theta), 1), 1e-300)
+        # never below the resolution floor: a noise-free log's numerical error is no precision
+        floor2 = RESOLUTION[c] ** 2 / data.m
+        s_hat2 = max(rss[c] / max(n - len(fit.theta), 1), floor2, 1e-300)
         rows.append(jc * math.sqrt(data.sigma_d[c] ** 2 / s_hat2 * fac[c]))
     j = np.vstack(rows)
     info = j.T @ j
+    # equilibrate before the pseudo-inverse: parameters on very different scales (a time shift
+    # across a step against a length) must not have the smaller ones cut off as rank-deficient
+    d = np.sqrt(np.clip(np.diag(info), 0.0, None))
+    d = np.where(d > 0, d, 1.0)
     try:
-        return np.linalg.pinv(info)
+        scaled = np.linalg.pinv(info / np.outer(d, d), rcond=1e-12)
+        return np.asarray(scaled / np.outer(d, d), dtype=float)
     except np.linalg.LinAlgError:  # pragma: no cover - defensive
         return np.full_like(info, np.nan)
+
+
+def param_std(fit: ModelFit, cov: FloatArray, name: str, time_shift: bool, dt_s: float) -> float:
+    """Standard error of parameter ``name``: the Fisher variance, plus for a time shift the
+    sampling resolution dt^2 / 12 (a jump is only known to lie within one sample period)."""
+    i = fit.names.index(name)
+    var = max(float(cov[i, i]), 0.0) + (dt_s**2 / 12.0 if time_shift else 0.0)
+    return math.sqrt(var) if var > 0 and math.isfinite(var) else math.nan

@@ -8,7 +8,7 @@ lambda, lambda = L2 unless an effect sets it).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -21,6 +21,7 @@ from calib.discovery.effects import Effect, ParamSpec
 __all__ = [
     "BASE_PARAMS",
     "ModelSpec",
+    "Vector",
     "integrate_hitch",
     "integrate_hitch_half",
     "predict",
@@ -28,9 +29,12 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+Vector = Sequence[float] | NDArray[np.float64]
 
+# L1 may be zero or negative: a hitch ahead of the tractor's axle is real (L1 = -0.02 m on one
+# robot); the models below hold for any sign of L1.
 BASE_PARAMS: tuple[ParamSpec, ...] = (
-    ParamSpec("L1", "m", 1.0, 0.02, 20.0, math.nan),
+    ParamSpec("L1", "m", 1.0, -5.0, 20.0, math.nan),
     ParamSpec("L2", "m", 2.0, 0.05, 30.0, math.nan),
 )
 
@@ -56,7 +60,7 @@ class ModelSpec:
     def with_effect(self, effect: Effect) -> ModelSpec:
         return ModelSpec(self.baseline, (*self.effects, effect))
 
-    def split(self, theta: Sequence[float]) -> tuple[float, float, list[dict[str, float]]]:
+    def split(self, theta: Vector) -> tuple[float, float, list[dict[str, float]]]:
         """(L1, L2, per-effect parameter dicts) from a flat vector."""
         L1, L2 = float(theta[0]), float(theta[1])
         out, i = [], 2
@@ -83,13 +87,22 @@ def integrate_hitch(
     L2: float,
     lam: float,
     psi0: float | None = None,
+    anchors: Mapping[int, float] | None = None,
 ) -> FloatArray:
     """RK4 of d psi/dt = v [kappa (L2 + L1 cos psi) - sin psi] / lam from ``psi0`` (rad;
     default the steady state of the first curvature). Inputs are linear between samples.
-    Units: s, 1/m, m/s, m; returns psi (rad).
+    Units: s, 1/m, m/s, m; returns psi (rad). ``anchors``: sample index -> psi to reset the
+    state to there (see ``integrate_hitch_half``).
     """
     return integrate_hitch_half(
-        _with_midpoints(t_s), _with_midpoints(kappa), _with_midpoints(v), L1, L2, lam, psi0
+        _with_midpoints(t_s),
+        _with_midpoints(kappa),
+        _with_midpoints(v),
+        L1,
+        L2,
+        lam,
+        psi0,
+        anchors,
     )
 
 
@@ -101,6 +114,9 @@ def _with_midpoints(x: FloatArray) -> FloatArray:
     return out
 
 
+MAX_STEP_LENGTHS = 0.25  # largest RK4 step, in relaxation lengths of travel
+
+
 def integrate_hitch_half(
     th_s: FloatArray,
     kappa_h: FloatArray,
@@ -109,36 +125,68 @@ def integrate_hitch_half(
     L2: float,
     lam: float,
     psi0: float | None = None,
+    anchors: Mapping[int, float] | None = None,
 ) -> FloatArray:
     """RK4 as ``integrate_hitch`` on a half-step grid (samples at even, midpoints at odd
-    indices); returns psi (rad) at the samples."""
+    indices); returns psi (rad) at the samples.
+
+    A step that covers more than ``MAX_STEP_LENGTHS`` relaxation lengths of travel (high
+    speed, a coarse grid or a gap in the recording) is split into sub-steps, the inputs
+    linear between the grid points. ``anchors`` (sample index -> psi, rad) resets the state
+    at those samples: where the model cannot run open loop (reversing, where the joint angle
+    is unstable), it restarts from the recorded angle.
+    """
     tl, kl, vl = th_s.tolist(), kappa_h.tolist(), v_h.tolist()
     sin, cos = math.sin, math.cos
     p = float(steady_psi(np.array([kl[0]]), L1, L2)[0]) if psi0 is None else psi0
     n = (len(tl) + 1) // 2
     out = [0.0] * n
+    inv = 1.0 / lam if lam > 0 else 1e9
+    reset = dict(anchors) if anchors else {}
+    if 0 in reset:
+        p = reset[0]
     out[0] = p
-    inv = 1.0 / lam
+
+    def f(q: float, k: float, v: float) -> float:
+        return v * (k * (L2 + L1 * cos(q)) - sin(q)) * inv
+
     for i in range(n - 1):
         j = 2 * i
         h = tl[j + 2] - tl[j]
         k0, km, k1 = kl[j], kl[j + 1], kl[j + 2]
         v0, vm, v1 = vl[j], vl[j + 1], vl[j + 2]
-        f1 = v0 * (k0 * (L2 + L1 * cos(p)) - sin(p)) * inv
-        q = p + 0.5 * h * f1
-        f2 = vm * (km * (L2 + L1 * cos(q)) - sin(q)) * inv
-        q = p + 0.5 * h * f2
-        f3 = vm * (km * (L2 + L1 * cos(q)) - sin(q)) * inv
-        q = p + h * f3
-        f4 = v1 * (k1 * (L2 + L1 * cos(q)) - sin(q)) * inv
-        p = p + h / 6.0 * (f1 + 2.0 * f2 + 2.0 * f3 + f4)
+        travel = h * max(abs(v0), abs(vm), abs(v1)) * inv
+        if travel <= MAX_STEP_LENGTHS:
+            f1 = f(p, k0, v0)
+            f2 = f(p + 0.5 * h * f1, km, vm)
+            f3 = f(p + 0.5 * h * f2, km, vm)
+            f4 = f(p + h * f3, k1, v1)
+            p = p + h / 6.0 * (f1 + 2.0 * f2 + 2.0 * f3 + f4)
+        else:  # sub-steps; inputs linear on each half of the step
+            ns = math.ceil(travel / MAX_STEP_LENGTHS)
+            hs = h / ns
+
+            def at(u: float, a: float, b: float, c: float) -> float:
+                return a + (b - a) * 2.0 * u if u <= 0.5 else b + (c - b) * (2.0 * u - 1.0)
+
+            for s_ in range(ns):
+                u0, uh, u1 = s_ / ns, (s_ + 0.5) / ns, (s_ + 1) / ns
+                ka, kb, kc = at(u0, k0, km, k1), at(uh, k0, km, k1), at(u1, k0, km, k1)
+                va, vb, vc = at(u0, v0, vm, v1), at(uh, v0, vm, v1), at(u1, v0, vm, v1)
+                f1 = f(p, ka, va)
+                f2 = f(p + 0.5 * hs * f1, kb, vb)
+                f3 = f(p + 0.5 * hs * f2, kb, vb)
+                f4 = f(p + hs * f3, kc, vc)
+                p = p + hs / 6.0 * (f1 + 2.0 * f2 + 2.0 * f3 + f4)
+        if reset and (i + 1) in reset:
+            p = reset[i + 1]
         out[i + 1] = p
     return np.asarray(out)
 
 
 def predict(
     spec: ModelSpec,
-    theta: Sequence[float],
+    theta: Vector,
     data: DiscoveryData,
     *,
     full_rate: bool = False,
@@ -181,10 +229,12 @@ def predict(
         if lam is None:
             out["psi"] = block_mean(steady_psi(kappa, L1, L2), m)
         elif full_rate:
-            out["psi"] = integrate_hitch_half(data.th_s, kh, vh, L1, L2, lam, data.psi0)
+            out["psi"] = integrate_hitch_half(
+                data.th_s, kh, vh, L1, L2, lam, data.psi0, data.anchors
+            )
         else:
             k_d, v_d = block_mean(kappa, m), block_mean(v, m)
-            out["psi"] = integrate_hitch(t, k_d, v_d, L1, L2, lam, data.psi0)
+            out["psi"] = integrate_hitch(t, k_d, v_d, L1, L2, lam, data.psi0, data.anchors_d)
     if "psi" in out:
         for e, p in sorted(stage2, key=lambda x: x[0].order):
             out["psi"] = e.modify_output("psi", t, out["psi"], p)

@@ -13,7 +13,14 @@ from calib.discovery.diagnostics import UNITS, MismatchRegion
 from calib.discovery.sparse import SparseResidualModel
 from calib.results import json_safe
 
-__all__ = ["BASELINE_DESCRIPTIONS", "DiscoveryResult", "EffectFit"]
+__all__ = [
+    "BASELINE_DESCRIPTIONS",
+    "AlternativeExplanation",
+    "DiscoveryResult",
+    "EffectFit",
+    "JointFit",
+    "StepFailure",
+]
 
 BASELINE_DESCRIPTIONS = {
     "steady": (
@@ -28,13 +35,130 @@ BASELINE_DESCRIPTIONS = {
 
 
 @dataclass(frozen=True)
+class AlternativeExplanation:
+    """Another explanation of the same misfit that this log barely tells from the reported one.
+
+    ``reported``: labels of the reported effects it stands for; ``alternative``: labels of its
+    effects (one or more); ``parameters``/``ci95``: their fitted values and 95 % intervals per
+    label; ``delta_bic``: BIC(alternative) - BIC(reported) on the training blocks (positive
+    favours the reported one; within ``confirm.EQUIVALENCE_MARGIN`` = 10 the two count as
+    equivalent and the one with fewer effects is reported); ``rule``: which known equivalence
+    (or "same_round": another candidate of the selection round in which the effect was
+    accepted); ``note``: why they look alike and why the reported one was chosen.
+    """
+
+    reported: tuple[str, ...]
+    alternative: tuple[str, ...]
+    parameters: Mapping[str, Mapping[str, float]]
+    ci95: Mapping[str, Mapping[str, tuple[float, float]]]
+    delta_bic: float
+    rule: str
+    note: str
+
+    @property
+    def label(self) -> str:
+        return " + ".join(self.alternative)
+
+    def report(self) -> str:
+        pars = "; ".join(
+            f"{k}: "
+            + ", ".join(
+                f"{n} = {v:.4g} [{self.ci95[k][n][0]:.4g}, {self.ci95[k][n][1]:.4g}]"
+                for n, v in p.items()
+            )
+            for k, p in self.parameters.items()
+        )
+        return (
+            f"{' + '.join(self.reported)} could also be {self.label} ({pars}; BIC "
+            f"{self.delta_bic:+.1f}): {self.note}"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe(
+            {
+                "reported": list(self.reported),
+                "alternative": list(self.alternative),
+                "label": self.label,
+                "parameters": {k: dict(v) for k, v in self.parameters.items()},
+                "ci95": {k: {n: list(ci) for n, ci in v.items()} for k, v in self.ci95.items()},
+                "delta_bic": self.delta_bic,
+                "rule": self.rule,
+                "note": self.note,
+            }
+        )
+
+
+@dataclass(frozen=True)
+class JointFit:
+    """L1, L2 fitted jointly with the accepted effects: the model the result stands on.
+
+    ``baseline``: "steady" or "transient"; ``effects``: labels of the effects in the model
+    (empty: the baseline alone); ``parameters``/``std``/``ci95``: L1 and L2 (m), 95 % intervals
+    value +/- 1.96 std (Gauss-Newton Fisher information, residual variance from the fit and
+    inflated for residual autocorrelation); ``covariance``: 2x2 of (L1, L2) in m^2;
+    ``effect_parameters``: the effects' values in the same fit; ``n_samples``: fitting-grid
+    rows used; ``fit_rate_hz``: that grid's rate.
+    """
+
+    baseline: str
+    effects: tuple[str, ...]
+    parameters: Mapping[str, float]
+    std: Mapping[str, float]
+    ci95: Mapping[str, tuple[float, float]]
+    covariance: tuple[tuple[float, float], tuple[float, float]]
+    effect_parameters: Mapping[str, Mapping[str, float]]
+    n_samples: int
+    fit_rate_hz: float
+
+    @property
+    def model(self) -> str:
+        """E.g. "transient + actuator_delay + clock_offset(hitch)"."""
+        return " + ".join((self.baseline, *self.effects))
+
+    def report(self) -> str:
+        return f"Joint fit ({self.model}): " + ", ".join(
+            f"{k} = {v:.4g} m [95 %: {self.ci95[k][0]:.4g}, {self.ci95[k][1]:.4g}]"
+            for k, v in self.parameters.items()
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe(
+            {
+                "model": self.model,
+                "baseline": self.baseline,
+                "effects": list(self.effects),
+                "parameters": dict(self.parameters),
+                "std": dict(self.std),
+                "ci95": {k: list(v) for k, v in self.ci95.items()},
+                "covariance": [list(r) for r in self.covariance],
+                "units": {"L1": "m", "L2": "m"},
+                "effect_parameters": {k: dict(v) for k, v in self.effect_parameters.items()},
+                "n_samples": self.n_samples,
+                "fit_rate_hz": self.fit_rate_hz,
+            }
+        )
+
+
+@dataclass(frozen=True)
+class StepFailure:
+    """A discovery step that failed: its name and the error, in words."""
+
+    step: str
+    reason: str
+
+    def to_dict(self) -> dict[str, str]:
+        return {"step": self.step, "reason": self.reason}
+
+
+@dataclass(frozen=True)
 class EffectFit:
     """An accepted effect: fitted parameters with 95 % intervals and the evidence.
 
-    ``rms_before``/``rms_after``: held-out RMS per output (omega rad/s, psi rad) of the model
-    without and with this effect (the round in which it was accepted); ``delta_bic`` the BIC
-    change of that round (negative favours the effect); ``alternatives`` other effects that
-    passed the same round within 10 BIC units (the log cannot tell them apart well).
+    ``rms_before``/``rms_after``: held-out RMS per output (omega rad/s, psi rad) of the final
+    model without this effect (the others kept and refitted) and with it; ``delta_bic`` the
+    BIC change of adding it to the others (negative favours the effect); ``alternatives``
+    labels of explanations the log barely tells from this one (details in
+    ``DiscoveryResult.alternatives``; a set of effects is joined with " + ").
     """
 
     id: str
@@ -100,9 +224,16 @@ class DiscoveryResult:
 
     ``baseline``: "steady" or "transient"; ``rms_baseline``/``rms_final``: held-out RMS per
     output of the baseline and of the final model; ``link_lengths``: L1, L2 (m) refitted with
-    the final model; ``residuals``: "t_ns" and "<output>_before"/"<output>_after" (recorded -
-    modelled) on the aligned grid; ``diagnostics``: bins, whiteness, cross-correlations and the
-    selection rounds.
+    the final model (the values of ``joint_fit``); ``joint_fit``: L1, L2 with intervals and
+    covariance from the final joint fit and the model it came from (baseline + accepted
+    effects; None if that fit failed); ``alternatives``: explanations the log barely tells
+    from the reported effects; ``residuals``: "t_ns" and "<output>_before"/"<output>_after"
+    (recorded - modelled) on the aligned grid; ``diagnostics``: bins, whiteness,
+    cross-correlations, the selection rounds and the confirmation ("confirmation": dropped
+    effects and equivalence swaps).
+
+    ``status``: "ok"; "partial" (a step failed, listed in ``failures``; the rest is
+    reported); "not_run" (the log gives discovery nothing to work on; ``reason`` says why).
     """
 
     baseline: str
@@ -114,6 +245,26 @@ class DiscoveryResult:
     residuals: Mapping[str, NDArray[np.float64]] = field(repr=False, default_factory=dict)
     rms_final: Mapping[str, float] = field(default_factory=dict)
     link_lengths: Mapping[str, float] = field(default_factory=dict)
+    joint_fit: JointFit | None = None
+    alternatives: list[AlternativeExplanation] = field(default_factory=list)
+    status: str = "ok"
+    reason: str | None = None
+    failures: list[StepFailure] = field(default_factory=list)
+
+    @classmethod
+    def not_run(cls, baseline: str, failures: list[StepFailure]) -> DiscoveryResult:
+        """The result when discovery could not work on the log (``status`` "not_run")."""
+        return cls(
+            baseline=baseline,
+            regions=[],
+            effects=[],
+            rms_baseline={},
+            residual_model=None,
+            diagnostics={},
+            status="not_run",
+            reason=failures[0].reason if failures else None,
+            failures=failures,
+        )
 
     def effect(self, effect_id: str, target: str | None = None) -> EffectFit | None:
         """The accepted effect with ``effect_id`` (and ``target`` if given), else None."""
@@ -123,6 +274,8 @@ class DiscoveryResult:
         return None
 
     def report(self) -> str:
+        if self.status == "not_run":
+            return f"Model-mismatch discovery did not run: {self.reason}"
         lines = [f"Baseline ({self.baseline}): {BASELINE_DESCRIPTIONS[self.baseline]}."]
         lines.append(
             "Held-out RMS of the baseline: "
@@ -154,8 +307,18 @@ class DiscoveryResult:
                 )
                 + "."
             )
+        if self.alternatives:
+            lines.append("Equivalent explanations this log barely tells apart:")
+            lines += ["  - " + a.report() for a in self.alternatives]
+        if self.effects and self.joint_fit is not None:
+            lines.append(self.joint_fit.report() + ".")
         if self.residual_model is not None:
             lines.append("Beyond the catalogue: " + self.residual_model.describe() + ".")
+        if self.failures:
+            lines.append(
+                "Steps that failed (their part is missing): "
+                + "; ".join(f"{f.step}: {f.reason}" for f in self.failures)
+            )
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
@@ -168,6 +331,11 @@ class DiscoveryResult:
                 "rms_baseline": dict(self.rms_baseline),
                 "rms_final": dict(self.rms_final),
                 "link_lengths": dict(self.link_lengths),
+                "joint_fit": None if self.joint_fit is None else self.joint_fit.to_dict(),
+                "alternatives": [a.to_dict() for a in self.alternatives],
+                "status": self.status,
+                "reason": self.reason,
+                "failures": [f.to_dict() for f in self.failures],
                 "residual_model": None
                 if self.residual_model is None
                 else self.residual_model.to_dict(),

@@ -28,12 +28,29 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from calib.discovery.data import DiscoveryData, block_mean
+from calib.discovery.data import RESOLUTION, DiscoveryData, block_mean
 from calib.discovery.effects import Effect
-from calib.discovery.fit import ModelFit, bic, covariance, fit_model, holdout_rms, neff_factors
-from calib.discovery.model import BASE_PARAMS, ModelSpec
+from calib.discovery.fit import (
+    ModelFit,
+    bic,
+    covariance,
+    fit_model,
+    holdout_rms,
+    neff_factors,
+    param_std,
+)
+from calib.discovery.model import BASE_PARAMS, ModelSpec, Vector
 
-__all__ = ["SelectionRules", "SelectionStep", "Trial", "accepted_effects", "select_effects"]
+__all__ = [
+    "SelectionRules",
+    "SelectionStep",
+    "Trial",
+    "accepted_effects",
+    "is_material",
+    "select_effects",
+    "weighted_holdout",
+    "z_scores",
+]
 
 
 @dataclass(frozen=True)
@@ -85,24 +102,32 @@ class SelectionStep:
     accepted: Trial | None = None
 
 
-def _z_scores(fit: ModelFit, effect: Effect, data: DiscoveryData) -> dict[str, float]:
-    """Distance of the effect's parameters from their null values, in standard errors."""
+def z_scores(fit: ModelFit, effect: Effect, data: DiscoveryData) -> dict[str, float]:
+    """Distance of the effect's parameters from their null values, in the standard errors that
+    are reported (a time shift's include the sampling resolution; ``fit.param_std``)."""
     cov = covariance(fit, data)
-    names = fit.names
+    dt = data.dt_s
     out = {}
     for p in effect.params:
-        i = names.index(f"{effect.key}.{p.name}")
-        sd = math.sqrt(cov[i, i]) if cov[i, i] > 0 else math.nan
-        out[p.name] = abs(fit.theta[i] - p.null) / sd if sd > 0 else math.inf
+        name = f"{effect.key}.{p.name}"
+        sd = param_std(fit, cov, name, p.time_shift, dt)
+        val = float(fit.theta[fit.names.index(name)])
+        out[p.name] = abs(val - p.null) / sd if sd > 0 else 0.0
     return out
 
 
+MIN_SPLIT_ROWS = 40
+
+
 def _split_masks(data: DiscoveryData) -> list[tuple[NDArray[np.bool_], NDArray[np.bool_]]]:
-    """(low, high) halves of the valid rows by speed and by |kappa_cmd|."""
+    """(low, high) halves of the valid rows by speed and by |kappa_cmd|; a split whose halves
+    are not both at least ``MIN_SPLIT_ROWS`` long (constant speed, say) is left out."""
     out = []
     for x in (np.abs(block_mean(data.v, data.m)), np.abs(block_mean(data.kappa_cmd, data.m))):
         med = float(np.median(x[data.valid]))
-        out.append((data.valid & (x <= med), data.valid & (x > med)))
+        lo, hi = data.valid & (x <= med), data.valid & (x > med)
+        if min(int(lo.sum()), int(hi.sum())) >= MIN_SPLIT_ROWS:
+            out.append((lo, hi))
     return out
 
 
@@ -125,7 +150,7 @@ def _stability(
         for j, p in enumerate(e.params):
             a, b = vals[0][j], vals[1][j]
             split[p.name] += [a, b]
-            res2 = (float(np.median(np.diff(data.t_s))) ** 2 / 6.0) if p.time_shift else 0.0
+            res2 = (data.dt_s**2 / 6.0) if p.time_shift else 0.0
             sd = math.sqrt(sds[0][j] ** 2 + sds[1][j] ** 2 + res2)
             scale = max(abs(a - p.null), abs(b - p.null))
             if abs(a - b) > rules.max_split_z * sd and abs(a - b) > rules.max_split_rel * scale:
@@ -143,14 +168,35 @@ def _interior(fit: ModelFit, rel: float = 1e-3) -> bool:
     )
 
 
-def _weighted(hold: dict[str, float], data: DiscoveryData) -> float:
+def weighted_holdout(hold: dict[str, float], data: DiscoveryData) -> float:
+    """Held-out error of all outputs, each in units of its noise level on the fitting grid."""
     return sum((r / data.sigma_d[c]) ** 2 for c, r in hold.items())
+
+
+def is_material(
+    channels: Sequence[str],
+    hold: dict[str, float],
+    hold_before: dict[str, float],
+    data: DiscoveryData,
+    min_gain: float,
+) -> bool:
+    """True if the held-out RMS of one of ``channels`` falls by at least ``min_gain`` (relative)
+    and by at least the resolution floor (absolute, in quadrature), and the noise-weighted
+    held-out error of all outputs does not grow."""
+    for c in channels:
+        if c not in hold:
+            continue
+        before, after = hold_before[c], hold[c]
+        explained = math.sqrt(max(before**2 - after**2, 0.0))
+        if after <= (1.0 - min_gain) * before and explained >= RESOLUTION[c]:
+            return weighted_holdout(hold, data) <= weighted_holdout(hold_before, data)
+    return False
 
 
 def select_effects(
     data: DiscoveryData,
     baseline: ModelSpec,
-    theta0: Sequence[float],
+    theta0: Vector,
     candidates: Sequence[Effect],
     rules: SelectionRules | None = None,
 ) -> tuple[list[SelectionStep], dict[str, float]]:
@@ -173,11 +219,9 @@ def select_effects(
             th0 = list(current.theta) + [p.init for p in e.params]
             f = fit_model(spec, data, th0, train, tol=1e-6)
             hold = holdout_rms(spec, f.theta, data, test)
-            material = any(
-                c in hold and hold[c] <= (1.0 - rules.min_gain) * hold_cur[c] for c in e.channels
-            ) and _weighted(hold, data) <= _weighted(hold_cur, data)
+            material = is_material(e.channels, hold, hold_cur, data, rules.min_gain)
             trials.append(
-                Trial(e, f, hold, bic(f, factors) - bic_cur, _z_scores(f, e, data), material)
+                Trial(e, f, hold, bic(f, factors) - bic_cur, z_scores(f, e, data), material)
             )
         passing = [
             t

@@ -20,7 +20,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -85,10 +85,11 @@ def _smooth(t: np.ndarray, cols: list[np.ndarray], n: int, gap_s: float) -> list
     return out
 
 
-def _cumtrapz(t: np.ndarray, rate: np.ndarray, gap_s: float) -> np.ndarray:
-    """Trapezoidal integral of ``rate``; nothing is integrated across a gap (> gap_s)."""
+def _cumtrapz(t: np.ndarray, rate: np.ndarray, gap_s: float, hold: bool = False) -> np.ndarray:
+    """Trapezoidal integral of ``rate`` (``hold``: held from each sample to the next, as a
+    command is); nothing is integrated across a gap (> gap_s)."""
     dt = np.diff(t)
-    inc = 0.5 * (rate[1:] + rate[:-1]) * dt
+    inc = (rate[:-1] if hold else 0.5 * (rate[1:] + rate[:-1])) * dt
     inc[dt > gap_s] = 0.0
     return np.concatenate([[0.0], np.cumsum(inc)])
 
@@ -103,6 +104,10 @@ class DrivePath:
         theta_rad: cumulative (unwrapped) heading of link 1 (rad) at the knots.
         source: where it came from ("pose", "odometry" or "command").
         gap_s: knot spacing (s) above which the path is unknown in between.
+        coarser: rebuilds the path from every other raw sample (for the resolution check).
+        smoothing_samples: a pose was smoothed over this many samples first (1: not).
+        theta_noise_rad, s_noise_m: white noise left on the heading and the arc length at the
+            knots (a pose's; 0 for integrated rates, whose noise does not act directly).
     """
 
     t_s: np.ndarray
@@ -112,6 +117,8 @@ class DrivePath:
     gap_s: float
     coarser: Callable[[], DrivePath] | None = field(default=None, repr=False, compare=False)
     smoothing_samples: int = 1
+    theta_noise_rad: float = 0.0
+    s_noise_m: float = 0.0
 
     @classmethod
     def from_pose(
@@ -126,8 +133,13 @@ class DrivePath:
         biases a least-squares fit); ``smooth_samples`` >= 5 smooths x, y and yaw with a
         quadratic Savitzky-Golay filter first.
         """
+        from calib.estimators._stats import hf_noise_std_t
+
         t, x, y, yaw = _clean(t_s, x_m, y_m, yaw_rad)
         gap = default_gap_s(t) if gap_s is None else gap_s
+        gain = smoothing_gain(smooth_samples)
+        s_th = hf_noise_std_t(t, np.unwrap(yaw)) * gain
+        s_xy = max(hf_noise_std_t(t, x), hf_noise_std_t(t, y)) * gain
         x, y, th = _smooth(t, [x, y, np.unwrap(yaw)], smooth_samples, gap)
         mid = 0.5 * (th[1:] + th[:-1])
         dth = np.diff(th)
@@ -140,25 +152,30 @@ class DrivePath:
         th = np.concatenate([[th[0]], th[0] + np.cumsum(np.where(across, 0.0, dth))])
 
         def coarser() -> DrivePath:
-            return cls.from_pose(t[::2], x[::2], y[::2], th[::2], gap_s=2 * gap)
+            return replace(
+                cls.from_pose(t[::2], x[::2], y[::2], th[::2], gap_s=2 * gap),
+                theta_noise_rad=s_th, s_noise_m=s_xy,
+            )
 
         return cls(t, np.concatenate([[0.0], np.cumsum(ds)]), th, "pose", gap, coarser,
-                   smooth_samples)
+                   smooth_samples, s_th, s_xy)
 
     @classmethod
     def from_rates(
         cls, t_s: ArrayLike, v_mps: ArrayLike, omega_radps: ArrayLike, *,
         source: str = "odometry", gap_s: float | None = None,
     ) -> DrivePath:
-        """From speed (m/s) and yaw rate (rad/s) of link 1: odometry, or v kappa_cmd for
-        ``source="command"``."""
+        """From speed (m/s) and yaw rate (rad/s) of link 1: odometry (trapezoidal), or
+        v kappa_cmd for ``source="command"`` (held from sample to sample, as commands are)."""
         t, v, w = _clean(t_s, v_mps, omega_radps)
         gap = default_gap_s(t) if gap_s is None else gap_s
+        hold = False  # a command sampled from a smooth signal: trapezoidal too
 
         def coarser() -> DrivePath:
             return cls.from_rates(t[::2], v[::2], w[::2], source=source, gap_s=2 * gap)
 
-        return cls(t, _cumtrapz(t, v, gap), _cumtrapz(t, w, gap), source, gap, coarser)
+        return cls(t, _cumtrapz(t, v, gap, hold), _cumtrapz(t, w, gap, hold), source, gap,
+                   coarser)
 
     def at(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Cumulative (s, theta) at ``t_s`` (linear between knots; held beyond the ends)."""
@@ -174,12 +191,14 @@ class DrivePath:
 
     @property
     def distance_m(self) -> float:
-        """Total distance travelled (m), forward and back."""
-        return float(np.sum(np.abs(np.diff(self.s_m))))
+        """How far the path reaches along itself (m): the range of the cumulative arc length
+        (robust to pose noise, which a sum of |ds| would add up)."""
+        return float(np.ptp(self.s_m)) if self.s_m.size else 0.0
 
 
 def pool_runs(
     runs: list[tuple[DrivePath, np.ndarray, np.ndarray, list[tuple[float, float]]]],
+    offsets: list[float] | None = None,
 ) -> tuple[DrivePath, np.ndarray, np.ndarray, list[tuple[float, float]], list[float]]:
     """Several runs of one robot laid end to end on one clock, separated by gaps, so that one
     fit sees them all (each run starts its own pieces; nothing is integrated between runs).
@@ -187,18 +206,21 @@ def pool_runs(
     Args:
         runs: per run (path, joint-angle times (s), joint angles (rad), gaps (s)).
 
+        offsets: each run's time offset (s) to use (default: end to end with a spacer).
+
     Returns:
         (path, t_psi, psi, gaps, offsets): the pooled inputs and each run's time offset (s).
     """
     if not runs:
         raise InsufficientDataError("pool_runs: no runs")
     spacer = 2.0 * max(p.gap_s for p, *_ in runs) + 1.0
+    offsets_in = offsets
     t_k, s_k, th_k, t_p, p_p, gaps, offsets = [], [], [], [], [], [], []
     end_t = end_s = end_th = 0.0
     for i, (path, t_psi, psi, run_gaps) in enumerate(runs):
         t_psi = np.asarray(t_psi, dtype=float)
         start = min(float(path.t_s[0]), float(np.min(t_psi)) if t_psi.size else path.t_s[0])
-        off = (end_t + spacer - start) if i else -start
+        off = offsets_in[i] if offsets_in is not None else (end_t + spacer - start) if i else -start
         offsets.append(off)
         t_k.append(path.t_s + off)
         s_k.append(path.s_m - path.s_m[0] + end_s)
@@ -207,13 +229,23 @@ def pool_runs(
         p_p.append(np.asarray(psi, dtype=float))
         gaps += [(a + off, b + off) for a, b in run_gaps]
         if i:
-            gaps.append((end_t, float(t_k[-1][0])))
+            gaps.append((end_t, float(min(t_k[-1][0], t_p[-1].min(initial=t_k[-1][0])))))
         end_t = max(float(t_k[-1][-1]), float(t_p[-1].max()) if t_p[-1].size else end_t)
         end_s, end_th = float(s_k[-1][-1]), float(th_k[-1][-1])
     sources = sorted({p.source for p, *_ in runs})
+    coarser = None
+    if all(p.coarser is not None for p, *_ in runs):
+
+        def coarser() -> DrivePath:
+            coarse = [(p.coarser(), t, q, g) for p, t, q, g in runs]  # type: ignore[misc]
+            return pool_runs(coarse, offsets)[0]
+
     pooled = DrivePath(
         np.concatenate(t_k), np.concatenate(s_k), np.concatenate(th_k), "+".join(sources),
-        max(p.gap_s for p, *_ in runs),
+        max(p.gap_s for p, *_ in runs), coarser,
+        max(p.smoothing_samples for p, *_ in runs),
+        max(p.theta_noise_rad for p, *_ in runs),
+        max(p.s_noise_m for p, *_ in runs),
     )
     return pooled, np.concatenate(t_p), np.concatenate(p_p), gaps, offsets
 

@@ -183,7 +183,7 @@ class PathTransientFit:
             if m.sum() < _MIN_PIECE:
                 dropped_short += 1
                 continue
-            moved = np.sum(np.abs(np.diff(s_at[m])))
+            moved = float(np.ptp(s_at[m]))
             if moved < _MIN_MOVE_M:
                 dropped_still += 1
                 continue
@@ -258,6 +258,12 @@ class PathTransientFit:
             chunk_of[k : e + 1] = ci
             step_of[k : e + 1] = np.arange(e - k + 1)
         prev = np.array([ci - 1 if not c_first[ci] else -1 for ci in range(c)])
+        obs_t = nt[obs]
+        j = np.clip(np.searchsorted(path.t_s, obs_t, side="right"), 1, path.t_s.size - 1)
+        span = path.t_s[j] - path.t_s[j - 1]
+        a = np.clip((obs_t - path.t_s[j - 1]) / np.where(span > 0, span, 1.0), 0.0, 1.0)
+        self._knot_var_factor = a * a + (1.0 - a) ** 2
+        self._path_noise = (path.theta_noise_rad, path.s_noise_m)
         self._layout = _Layout(
             A, B, chunk_of[obs], step_of[obs], np.array(c_piece), np.array(c_first), prev,
             np.array([e - k for k, e in ranges]),
@@ -417,7 +423,9 @@ class PathTransientFit:
         r, J = evaluate(sol.x)
         if not np.all(np.isfinite(r)):
             raise SolverError(f"{self.name}: the model diverges at the estimate")
-        self._x_ = np.asarray(sol.x)
+        self.bias_correction_ = self._input_noise_bias(J, r, np.asarray(sol.x))
+        self._x_ = np.asarray(sol.x).copy()
+        self._x_[:2] += self.bias_correction_
         if self._x0_override is not None:
             return
         extra = self._resolution_error(path, t_psi, psi, gaps, self._x_, q)
@@ -477,6 +485,33 @@ class PathTransientFit:
         n, p = r.size, q + self.n_pieces_
         return cov * (max(n - q, 1) / max(n - p, 1))
 
+    def _input_noise_bias(self, J: np.ndarray, r: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """First-order bias of (L1, L2) from white noise on a pose-derived path.
+
+        A noisy heading enters the modelled joint angle directly with gain
+        g = 1 + (L1/L2) cos psi (a noisy arc length with h = -sin(psi) / L2), so the expected
+        squared residual grows with sigma^2 sum g^2 and least squares leans towards parameters
+        that make g small. The shift is -(J^T J)^-1 sum sigma_i^2 g_i grad g_i (plus the
+        arc-length term); it is returned with the opposite sign, as the correction to add.
+        """
+        s_th, s_s = self._path_noise
+        if s_th == 0.0 and s_s == 0.0:
+            return np.zeros(2)
+        L1, L2 = float(x[0]), float(x[1])
+        psi = self._p - r - (float(x[2]) if self.fit_psi_offset else 0.0)
+        c, sn = np.cos(psi), np.sin(psi)
+        g = 1.0 + (L1 / L2) * c
+        h = -sn / L2
+        vt = s_th * s_th * self._knot_var_factor
+        vs = s_s * s_s * self._knot_var_factor
+        grad = np.array([
+            np.sum(vt * g * c / L2),
+            np.sum(vt * g * (-L1 * c / (L2 * L2))) + np.sum(vs * h * (sn / (L2 * L2))),
+        ])
+        Js = self._projected(J, 2)
+        H = Js.T @ Js
+        return np.linalg.solve(H, grad) if np.linalg.cond(H) < 1e14 else np.zeros(2)
+
     def _quantum_cov(self, J: np.ndarray, r: np.ndarray, q: int) -> np.ndarray:
         """Systematic error of an encoder's quantisation.
 
@@ -505,15 +540,20 @@ class PathTransientFit:
         self, sol: object, r: np.ndarray, J: np.ndarray, q: int, lo: np.ndarray, hi: np.ndarray,
         extra_cov: np.ndarray,
     ) -> None:
-        x = np.asarray(sol.x)  # type: ignore[attr-defined]
+        raw = np.asarray(sol.x)  # type: ignore[attr-defined]
         self.converged_ = bool(sol.success)  # type: ignore[attr-defined]
-        self.L1_, self.L2_ = float(x[0]), float(x[1])
+        x = self._x_
         self.psi_offset_ = float(x[2]) if self.fit_psi_offset else 0.0
+        self.L1_, self.L2_ = float(x[0]), float(x[1])
         self.psi0_ = x[q:].copy()
         cov = self._covariance(r, J, q) + extra_cov + self._quantum_cov(J, r, q)
+        # the first-order noise correction is itself uncertain: half of it as one std
+        half = np.zeros(q)
+        half[:2] = 0.5 * self.bias_correction_
+        cov = cov + np.outer(half, half)
         self.cov_ = cov
         span = hi[:q] - lo[:q]
-        on_bound = (x[:q] - lo[:q] < 1e-4 * span) | (hi[:q] - x[:q] < 1e-4 * span)
+        on_bound = (raw[:q] - lo[:q] < 1e-4 * span) | (hi[:q] - raw[:q] < 1e-4 * span)
         self.on_bound_ = [n for n, b in zip(("L1", "L2", "psi_offset"), on_bound, strict=False)
                           if b]
         self.residual_ = r
@@ -551,6 +591,7 @@ class PathTransientFit:
             "sound": self.sound_,
             "discretisation_error": self.resolution_error_[:2].tolist(),
             "path_smoothing_samples": self._smoothing,
+            "input_noise_bias_correction": self.bias_correction_.tolist(),
             "psi_quantum_rad": self.quantum_,
             "notes": list(self.notes_) + ([self._resolution_note] if self._resolution_note
                                           else []),
