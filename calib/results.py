@@ -104,6 +104,9 @@ class Estimate:
     def report(self) -> str:
         lo, hi = self.ci95
         tag = "" if self.identifiable else "  (not determined by this log)"
+        if not (math.isfinite(self.std) and math.isfinite(lo) and math.isfinite(hi)):
+            why = f": {self.note}" if self.note else ""
+            return f"{self.name}: not determined by this log{why}"
         return (
             f"{self.name} = {self.value:.4g} +/- {self.std:.2g} {self.unit} "
             f"[95 %: {lo:.4g}, {hi:.4g}]{tag}"

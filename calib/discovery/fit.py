@@ -185,9 +185,11 @@ def holdout_rms(
     return {c: float(np.sqrt(np.mean(r[mask] ** 2))) for c, r in res.items()}
 
 
-def covariance(fit: ModelFit, data: DiscoveryData) -> FloatArray:
+def covariance(fit: ModelFit, data: DiscoveryData, *, robust: bool = True) -> FloatArray:
     """Parameter covariance: Gauss-Newton Fisher information, each output's residual variance
-    taken from the fit and inflated by (1 + rho)/(1 - rho) for its autocorrelation."""
+    taken from the fit and inflated by (1 + rho)/(1 - rho) for its autocorrelation; each
+    variance raised to the Newey-West one where that is larger (``_hac_covariance``; not with
+    ``robust=False``)."""
     mk = fit.mask
     n = int(mk.sum())
     fac = neff_factors(fit)
@@ -207,10 +209,52 @@ def covariance(fit: ModelFit, data: DiscoveryData) -> FloatArray:
     d = np.sqrt(np.clip(np.diag(info), 0.0, None))
     d = np.where(d > 0, d, 1.0)
     try:
-        scaled = np.linalg.pinv(info / np.outer(d, d), rcond=1e-12)
-        return np.asarray(scaled / np.outer(d, d), dtype=float)
+        inv = np.linalg.pinv(info / np.outer(d, d), rcond=1e-12) / np.outer(d, d)
     except np.linalg.LinAlgError:  # pragma: no cover - defensive
         return np.full_like(info, np.nan)
+    cov = np.asarray(inv, dtype=float)
+    hac = _hac_covariance(fit, data, fac) if robust else None
+    if hac is not None:
+        # each variance at least the autocorrelation-robust one (correlations kept)
+        f_diag = np.clip(np.diag(cov), 1e-300, None)
+        scale = np.sqrt(np.clip(np.diag(hac) / f_diag, 1.0, 1e6))
+        cov = cov * np.outer(scale, scale)
+    return cov
+
+
+def _hac_covariance(
+    fit: ModelFit, data: DiscoveryData, fac: Mapping[str, float]
+) -> FloatArray | None:
+    """Newey-West (Bartlett) sandwich covariance of the least-squares parameters: robust to
+    residuals that are correlated over many samples (a smooth misfit the model leaves), which
+    the lag-1 inflation of the Fisher covariance underrates. Bandwidth 3 (1 + rho)/(1 - rho)
+    rows (rho the largest lag-1 autocorrelation), at most a quarter of the rows."""
+    mk = fit.mask
+    n = int(mk.sum())
+    k = len(fit.theta)
+    if n < 4 * k or not np.all(np.isfinite(fit.jac)):
+        return None
+    g = np.zeros((n, k))
+    for i, c in enumerate(data.channels):
+        jc = fit.jac[i * n : (i + 1) * n]
+        r = fit.residuals[c][mk] / data.sigma_d[c]
+        g += jc * r[:, None]
+    f_min = min(fac.values()) if fac else 1.0
+    bw = int(min(n // 4, math.ceil(3.0 / max(f_min, 1e-3))))
+    s = g.T @ g
+    for lag in range(1, bw + 1):
+        w = 1.0 - lag / (bw + 1.0)
+        gamma = g[lag:].T @ g[:-lag]
+        s += w * (gamma + gamma.T)
+    jj = fit.jac.T @ fit.jac
+    d = np.sqrt(np.clip(np.diag(jj), 0.0, None))
+    d = np.where(d > 0, d, 1.0)
+    try:
+        inv = np.linalg.pinv(jj / np.outer(d, d), rcond=1e-12) / np.outer(d, d)
+    except np.linalg.LinAlgError:  # pragma: no cover - defensive
+        return None
+    out = inv @ s @ inv
+    return np.asarray(out, dtype=float) if np.all(np.isfinite(out)) else None
 
 
 def param_std(fit: ModelFit, cov: FloatArray, name: str, time_shift: bool, dt_s: float) -> float:

@@ -2,7 +2,8 @@
 
 Each round fits every remaining candidate added to the current model (training blocks, link
 lengths refitted jointly), measures the RMS on the held-out blocks and the BIC change, and
-accepts the candidate with the lowest BIC among those that pass all three rules:
+accepts, among the candidates that pass all the rules below, the one with the lowest
+noise-weighted held-out error (every catalogue effect has one parameter):
 
 * material: the held-out RMS of an output the effect acts on falls by at least
   ``min_gain`` (10 %) and the noise-weighted held-out error of all outputs does not grow;
@@ -144,7 +145,9 @@ def _stability(
         vals, sds = [], []
         for mk in (lo, hi):
             g = fit_model(f.spec, data, f.theta, mk, tol=1e-6)
-            cov = covariance(g, data)
+            # the lag-1 (Fisher) errors: a drift between the halves must not hide in the
+            # wider autocorrelation-robust ones
+            cov = covariance(g, data, robust=False)
             vals.append([float(g.theta[i]) for i in idx])
             sds.append([math.sqrt(max(float(cov[i, i]), 0.0)) for i in idx])
         for j, p in enumerate(e.params):
@@ -232,7 +235,9 @@ def select_effects(
             and _interior(t.fit)
         ]
         best = None
-        for t in sorted(passing, key=lambda t: t.delta_bic):
+        # every candidate has one parameter: the held-out error ranks them (BIC on the
+        # training blocks can favour an effect that also bends the link lengths)
+        for t in sorted(passing, key=lambda t: (weighted_holdout(t.holdout, data), t.delta_bic)):
             stable, split = _stability(t, data, rules)
             checked = replace(t, split=split, stable=stable, accepted=stable)
             trials[trials.index(t)] = checked

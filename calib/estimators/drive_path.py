@@ -33,10 +33,10 @@ __all__ = ["DrivePath", "default_gap_s", "pool_runs", "pose_smoothing", "smoothi
 
 def default_gap_s(t_s: np.ndarray) -> float:
     """Sample spacing (s) above which a stream counts as interrupted: 5 median periods, at
-    least 0.5 s."""
+    least 0.2 s."""
     if t_s.size < 2:
         return 0.5
-    return max(0.5, 5.0 * float(np.median(np.diff(t_s))))
+    return max(0.2, 5.0 * float(np.median(np.diff(t_s))))
 
 
 def _clean(t: ArrayLike, *cols: ArrayLike) -> tuple[np.ndarray, ...]:

@@ -165,7 +165,14 @@ class SteadyStateEIV:
         self.n_ = int(k.size)
         self.bandwidth_ = bw
         self.cost_ = float(np.sum(e * e))
-        self.verdict_ = identifiability(cov, (L1, L2), rel_tol=self.rel_tol, method=self.name)
+        span = hi - lo
+        self.on_bound_ = [
+            n for n, v in (("L1", L1), ("L2", L2)) if v - lo < 1e-4 * span or hi - v < 1e-4 * span
+        ]
+        self.verdict_ = identifiability(
+            cov, (L1, L2), rel_tol=self.rel_tol, method=self.name,
+            not_determined=self.on_bound_,
+        )
         self.result_ = self._calibration(J, e)
         self.method_result_ = self._method_row(J)
         return self

@@ -97,6 +97,13 @@ def _pm(e: Estimate) -> str:
     return f"{e.value:.3f} ± {e.ci95[1] - e.value:.2g} m"
 
 
+def _interval(e: Estimate) -> str:
+    lo, hi = e.ci95
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return "unbounded (the fit ran onto a bound)"
+    return f"[{lo:.2f}, {hi:.2f}] m"
+
+
 def _sentence(l1: Estimate, l2: Estimate, s: Estimate, advice: str) -> str:
     if l1.identifiable and l2.identifiable:
         return (
@@ -106,11 +113,11 @@ def _sentence(l1: Estimate, l2: Estimate, s: Estimate, advice: str) -> str:
     if s.identifiable:
         return (
             f"This log determines L1 + L2 = {_pm(s)} (95 %); the split is not determined "
-            f"(L1 anywhere in [{l1.ci95[0]:.2f}, {l1.ci95[1]:.2f}] m is consistent with it): "
+            f"(L1 anywhere in {_interval(l1)} is consistent with it): "
             f"{advice}."
         )
     return (
-        f"This log determines neither L1 + L2 (95 % interval [{s.ci95[0]:.2f}, {s.ci95[1]:.2f}] m) "
+        f"This log determines neither L1 + L2 (95 % interval {_interval(s)}) "
         f"nor the split: {advice}."
     )
 
