@@ -80,6 +80,9 @@ def one(i: int, seed: int) -> dict[str, Any]:
     row["method"] = est.method if est else None
     row["path_source"] = res.source.get("path_source")
     if est is not None:
+        row["misfit"] = est.details.get("misfit")
+        row["stages"] = {s.stage: s.status for s in res.stages}
+    if est is not None:
         for q in QUANTITIES:
             e = est.sum_L1_L2 if q == "sum_L1_L2" else est.parameters[q]
             row[q] = {"value": e.value, "ci95": list(e.ci95), "determined": e.identifiable}
@@ -153,11 +156,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=None, help="write rows and summary (JSON)")
     a = ap.parse_args(argv)
     t0 = time.perf_counter()
-    if a.jobs > 1:
-        with ProcessPoolExecutor(a.jobs) as ex:
-            rows = list(ex.map(one, range(a.n), [a.seed] * a.n))
-    else:
-        rows = [one(i, a.seed) for i in range(a.n)]
+    rows = []
+    with ProcessPoolExecutor(max(1, a.jobs)) as ex:
+        for k, row in enumerate(ex.map(one, range(a.n), [a.seed] * a.n), 1):
+            rows.append(row)
+            if k % 10 == 0 or k == a.n:
+                print(f"{k}/{a.n} logs, {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+            if a.out and k % 50 == 0:  # partial results survive an interrupted study
+                a.out.write_text(json.dumps({"rows": rows}, default=str))
     s = summarise(rows)
     print_summary(s)
     print(f"\nwall time {time.perf_counter() - t0:.0f} s")

@@ -495,6 +495,7 @@ class PathTransientFit:
         arc-length term); it is returned with the opposite sign, as the correction to add.
         """
         s_th, s_s = self._path_noise
+        self._direct_var = 0.0
         if s_th == 0.0 and s_s == 0.0:
             return np.zeros(2)
         L1, L2 = float(x[0]), float(x[1])
@@ -504,6 +505,7 @@ class PathTransientFit:
         h = -sn / L2
         vt = s_th * s_th * self._knot_var_factor
         vs = s_s * s_s * self._knot_var_factor
+        self._direct_var = float(np.mean(g * g * vt + h * h * vs))
         grad = np.array([
             np.sum(vt * g * c / L2),
             np.sum(vt * g * (-L1 * c / (L2 * L2))) + np.sum(vs * h * (sn / (L2 * L2))),
@@ -559,7 +561,10 @@ class PathTransientFit:
         self.residual_ = r
         self.residual_rms_ = float(np.sqrt(np.mean(r * r)))
         self.noise_std_ = max(hf_noise_std(self._p), 1e-4)
-        self.misfit_ = self.residual_rms_ / self.noise_std_
+        # what the residual would be if the model were right: the joint angle's own white
+        # noise plus the pose noise that reaches the modelled angle directly
+        self.expected_rms_ = math.sqrt(self.noise_std_**2 + self._direct_var)
+        self.misfit_ = self.residual_rms_ / self.expected_rms_
         self.t_s_ = self._t
         self.psi_fit_ = self._p - r
         finite = bool(np.all(np.isfinite(cov)) and np.all(np.diag(cov) > 0))
@@ -585,6 +590,7 @@ class PathTransientFit:
             else None,
             "residual_rms_rad": self.residual_rms_,
             "noise_std_rad": self.noise_std_,
+            "expected_rms_rad": self.expected_rms_,
             "misfit": self.misfit_,
             "hac_bandwidth": self.bandwidth_,
             "on_bound": list(self.on_bound_),
