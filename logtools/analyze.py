@@ -13,7 +13,7 @@ from typing import Literal, TypeVar
 import numpy as np
 import polars as pl
 
-from calib.estimators.path_transient import PathTransientFit
+from calib.estimators.path_transient import PathTransientFit, fit_path_transient
 from calib.results import (
     AnalysisResult,
     CalibrationResult,
@@ -179,10 +179,15 @@ def _path_fit(
     loaded: LoadedLog, *, psi_offset: bool = False, psi_shift_s: float = 0.0
 ) -> tuple[PathInputs, PathTransientFit]:
 
+    def run(inp: PathInputs) -> PathTransientFit:
+        if psi_offset or psi_shift_s:
+            return PathTransientFit(fit_psi_offset=psi_offset).fit(
+                inp.path, inp.t_psi_s - psi_shift_s, inp.psi_rad, gaps=inp.gaps
+            )
+        return fit_path_transient(inp.path, inp.t_psi_s, inp.psi_rad, gaps=inp.gaps)
+
     inp = path_inputs(loaded)
-    fit = PathTransientFit(fit_psi_offset=psi_offset).fit(
-        inp.path, inp.t_psi_s - psi_shift_s, inp.psi_rad, gaps=inp.gaps
-    )
+    fit = run(inp)
     # a noisy pose may be smoothed over a tenth of the trailer's relaxation time, which the
     # first fit tells: a slow robot affords a longer window than the 0.25 s first assumed
     window = relaxation_window_s(inp.path, fit.L2_)
@@ -192,9 +197,7 @@ def _path_fit(
             inp.path.source, inp.path.smoothing_samples
         ):
             inp = again
-            fit = PathTransientFit(fit_psi_offset=psi_offset).fit(
-                inp.path, inp.t_psi_s - psi_shift_s, inp.psi_rad, gaps=inp.gaps
-            )
+            fit = run(inp)
     return inp, fit
 
 
