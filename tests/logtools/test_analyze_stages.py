@@ -125,3 +125,26 @@ def test_random_physical_logs_never_fail_a_stage(tmp_path: Path, seed: int, dura
     failed = {k: r for k, (s, r) in _status(res).items() if s == "failed"}
     assert failed == {}
     assert isinstance(res.to_dict(), dict)
+
+
+@pytest.mark.parametrize("extra", [["--rate", "10"], ["--rate", "10", "--jitter", "0.01"]])
+def test_simulate_at_10_hz_then_analyze(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str]
+) -> None:
+    """Issue #8: a 10 Hz (jittered) log used to end in a traceback in the transient fit."""
+    import json
+
+    from logtools.cli.main import main
+
+    out = tmp_path / "r10.mcap"
+    assert main(["simulate", "tractor-trailer", "--out", str(out), "--duration", "63",
+                 "--preset", "harmonic", *extra]) == 0
+    capsys.readouterr()
+    assert main(["analyze", str(out), "--json", "--repeats", "1"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [s for s in doc["stages"] if s["status"] == "failed"] == []
+    est = doc["estimate"]
+    assert est["method"].startswith("Transient-path")
+    for k in ("L1", "L2"):
+        lo, hi = est[k]["ci95"]
+        assert lo is not None and hi is not None and lo < est[k]["value"] < hi
