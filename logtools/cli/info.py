@@ -15,7 +15,9 @@ def register(app: typer.Typer) -> None:
 
     @app.command("info")
     def _cmd(
-        log: Path = typer.Argument(..., help="Drive log: MCAP, CSV or a ROS bag (rosbag2 folder or .bag)."),
+        log: Path = typer.Argument(
+            ..., help="Drive log: MCAP, CSV or a ROS bag (rosbag2 folder or .bag)."
+        ),
         as_json: bool = typer.Option(False, "--json", help="Print a JSON document instead."),
         channel_map: Path | None = typer.Option(
             None, "--channel-map", help="TOML mapping topics/fields to logical signals."

@@ -14,7 +14,9 @@ def register(app: typer.Typer) -> None:
 
     @app.command("view")
     def view(
-        log: Path = typer.Argument(..., help="Drive log: MCAP, CSV or a ROS bag (rosbag2 folder or .bag)."),
+        log: Path = typer.Argument(
+            ..., help="Drive log: MCAP, CSV or a ROS bag (rosbag2 folder or .bag)."
+        ),
         rrd: Path | None = typer.Option(
             None, "--rrd", help="Where to save the recording (default: LOG with suffix .rrd)."
         ),

@@ -67,8 +67,8 @@ def test_noise_free_logs_give_the_truth_at_any_rate(rate_hz: float, source: str)
     path, t, psi = _arrays(gen, source)
     fit = PathTransientFit().fit(path, t, psi)
     tol = {5.0: 5e-3, 10.0: 1.5e-3}.get(rate_hz, 5e-4)  # the path's discretisation, O(h^2)
-    assert fit.L1_ == pytest.approx(1.25, abs=tol)
-    assert fit.L2_ == pytest.approx(2.48, abs=tol)
+    assert pytest.approx(1.25, abs=tol) == fit.L1_
+    assert pytest.approx(2.48, abs=tol) == fit.L2_
     for est, truth in ((fit.verdict_.L1, 1.25), (fit.verdict_.L2, 2.48)):
         assert est.ci95[0] <= truth <= est.ci95[1]  # the resolution check widens them
 
@@ -83,8 +83,8 @@ def test_asynchronous_rates_and_jitter() -> None:
     gen = generate(_clean_scenario(10.0, topics=topics), seed=2)
     path, t, psi = _arrays(gen, "pose")
     fit = PathTransientFit().fit(path, t, psi)
-    assert fit.L1_ == pytest.approx(1.25, abs=1e-3)
-    assert fit.L2_ == pytest.approx(2.48, abs=1e-3)
+    assert pytest.approx(1.25, abs=1e-3) == fit.L1_
+    assert pytest.approx(2.48, abs=1e-3) == fit.L2_
 
 
 def test_negative_L1_and_stalls_restart_pieces() -> None:
@@ -105,8 +105,8 @@ def test_negative_L1_and_stalls_restart_pieces() -> None:
     long = [b - a for a, b in gen.truth["stalls"] if b - a > 0.2]  # default_gap_s here
     assert long
     assert fit.n_pieces_ == len(long) + 1
-    assert fit.L1_ == pytest.approx(-0.02, abs=2e-3)
-    assert fit.L2_ == pytest.approx(0.537, abs=2e-3)
+    assert pytest.approx(-0.02, abs=2e-3) == fit.L1_
+    assert pytest.approx(0.537, abs=2e-3) == fit.L2_
 
 
 def test_pooled_runs_do_not_overlap_and_fit_together() -> None:
@@ -121,7 +121,7 @@ def test_pooled_runs_do_not_overlap_and_fit_together() -> None:
     assert offsets[1] > runs[0][0].t_s[-1] + offsets[0]
     fit = PathTransientFit().fit(pooled, t, psi, gaps=gaps)
     assert fit.n_pieces_ == 2
-    assert fit.L1_ == pytest.approx(1.25, abs=1e-3)
+    assert pytest.approx(1.25, abs=1e-3) == fit.L1_
 
 
 def test_a_robot_that_stands_still_is_refused() -> None:

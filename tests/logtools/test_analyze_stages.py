@@ -112,9 +112,13 @@ def test_debug_lets_a_failing_stage_raise(tmp_path: Path, monkeypatch: pytest.Mo
         analyze_loaded(_log(tmp_path), config=dc.replace(FAST, debug=True))
 
 
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(seed=st.integers(0, 2**31 - 1), duration=st.floats(3.0, 25.0))
-def test_random_physical_logs_never_fail_a_stage(tmp_path: Path, seed: int, duration: float) -> None:
+def test_random_physical_logs_never_fail_a_stage(
+    tmp_path: Path, seed: int, duration: float
+) -> None:
     """Random physically valid logs (any rate, jitter, dropouts, stalls, optional topics, speed
     profiles, command shapes): analyze returns, and no stage fails numerically."""
     rng = np.random.default_rng(seed)
@@ -147,4 +151,6 @@ def test_simulate_at_10_hz_then_analyze(
     assert est["method"].startswith("Transient-path")
     for k in ("L1", "L2"):
         lo, hi = est[k]["ci95"]
-        assert lo is not None and hi is not None and lo < est[k]["value"] < hi
+        assert lo is not None
+        assert hi is not None
+        assert lo < est[k]["value"] < hi
