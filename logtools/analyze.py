@@ -188,6 +188,18 @@ def _path_fit(
 
     inp = path_inputs(loaded)
     fit = run(inp)
+    # a pose noisy enough to need a large bias correction: odometry may do better; the more
+    # precise of the two is kept (both are reported in the notes)
+    if inp.path.source == "pose" and np.max(np.abs(fit.bias_correction_)) > 0.01 * (
+        abs(fit.L1_) + abs(fit.L2_)
+    ):
+        other = path_inputs(loaded, prefer="odometry")
+        if other.path.source == "odometry":
+            alt = run(other)
+            if np.trace(alt.cov_[:2, :2]) < np.trace(fit.cov_[:2, :2]):
+                inp, fit = other, alt
+                fit.notes_.append("the pose is noisy (large bias correction): odometry gave "
+                                  "the more precise fit and is used")
     # a noisy pose may be smoothed over a tenth of the trailer's relaxation time, which the
     # first fit tells: a slow robot affords a longer window than the 0.25 s first assumed
     window = relaxation_window_s(inp.path, fit.L2_)

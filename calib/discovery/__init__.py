@@ -5,16 +5,30 @@ name the physics that was left out from a catalogue of effects (greedy forward s
 held-out blocks and BIC), fit it, and describe any structure that remains with a sparse
 regression of the residual. ``discover`` is the entry point; frames in, result out.
 
-Pipeline: ``data`` (arrays, 10 Hz fitting grid, noise levels, held-out blocks) -> ``model``
-(baseline + effects run on the recorded command and speed) -> ``selection`` (greedy forward
-selection, rules in its docstring) -> final fit with intervals -> ``diagnostics`` (regions,
-bins, whiteness, cross-correlations) -> ``sparse`` (STLSQ on what is left).
+Pipeline: ``data`` (arrays, 10 Hz fitting grid, noise levels, held-out blocks; the command
+through its own samples) -> ``model`` (baseline + effects run on the recorded command and
+speed) -> ``selection`` (greedy forward selection, rules in its docstring) -> ``confirm``
+(each effect's 95 % interval must exclude its null value and removing it must worsen the
+held-out RMS; equivalent explanations: one physical cause preferred to two within 10 BIC,
+the other listed in ``alternatives``) -> the final joint fit (``joint_fit``: L1, L2 with
+intervals and covariance from the model with the accepted effects) -> ``diagnostics``
+(regions, bins, whiteness, cross-correlations) -> ``sparse`` (STLSQ on what is left).
+
+Default baseline: the transient kinematics (``DEFAULT_BASELINE``); it named the effects of
+more logs than the steady-state relation in bench/discovery_confusion_study.py and the
+bundled field runs (12 of 12 against 11 of 12 with the hitch transient set aside).
+
+Every step runs guarded: a log discovery cannot work on gives ``status`` "not_run" and the
+reason, a step that fails is recorded in ``failures`` (``status`` "partial"); ``discover``
+does not raise on data.
 
 Delay or clock? ``actuator_delay`` moves the yaw rate and the joint angle together against the
 command; ``clock_offset(odom)`` moves only the yaw rate (and speed), ``clock_offset(hitch)``
-only the joint angle, the other output still lining up with the command. Both are candidates
-and the data choose; a command topic stamped late looks exactly like an actuator delay and is
-reported as one.
+only the joint angle, the other output still lining up with the command. The same clock
+offset on every measured topic moves both, exactly as a dead time would but for speed
+changes within it: the dead time (one cause) is reported and the two offsets listed as its
+alternative unless BIC separates them by more than 10. A command topic stamped late looks
+exactly like an actuator delay and is reported as one.
 """
 
 from __future__ import annotations
@@ -406,6 +420,7 @@ def discover(
             "holdout_before": s.holdout_before,
             "trials": [t.to_dict() for t in s.trials],
             "accepted": None if s.accepted is None else s.accepted.effect.key,
+            "errors": dict(s.errors),
         }
         for s in steps
     ]

@@ -7,11 +7,13 @@ Two passes after the greedy rounds (``selection``):
    angle against the command exactly as the same clock offset on every measured topic would
    (they differ only through speed changes within the delay); at constant speed understeer
    scales the curvature by 1 / (1 + K v^2), which the yaw rate shows as a gain error and the
-   joint angle as slightly different link lengths. For each such pair whose one side is in the
+   joint angle as slightly different link lengths; a first-order steering lag delays slow
+   commands like a dead time of its time constant. For each such pair whose one side is in the
    accepted set, the other side is fitted in its place (jointly with the link lengths and the
    other effects, on the training blocks). If it is better by more than ``EQUIVALENCE_MARGIN``
    BIC units and no worse on the held-out blocks, it replaces the accepted side; if the two are
-   within the margin, the explanation with fewer effects (one physical cause rather than two)
+   within the margin (or both fit the held-out blocks to within ``data.RESOLUTION``), the
+   explanation with fewer effects (one physical cause rather than two)
    is reported, on equal counts the lower BIC (a replacement's held-out error at most
    ``TIE_HOLDOUT_SLACK`` times larger), and the other is listed as an alternative. An
    alternative is listed only if its own parameters are significant.
@@ -32,7 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from calib.discovery.data import DiscoveryData, block_mean
+from calib.discovery.data import RESOLUTION, DiscoveryData, block_mean
 from calib.discovery.effects import Effect
 from calib.discovery.fit import (
     ModelFit,
@@ -117,6 +119,14 @@ class Equivalence:
     to_one: Callable[[Values, Sequence[str], DiscoveryData], Values]
 
 
+def _delay_to_lag(vals: Values, keys: Sequence[str], data: DiscoveryData) -> Values:
+    return {"actuator_lag": {"time_constant": max(vals["actuator_delay"]["delay"], 1e-3)}}
+
+
+def _lag_to_delay(vals: Values, keys: Sequence[str], data: DiscoveryData) -> Values:
+    return {"actuator_delay": {"delay": vals["actuator_lag"]["time_constant"]}}
+
+
 EQUIVALENCES: tuple[Equivalence, ...] = (
     Equivalence(
         "dead_time_vs_clock_offsets",
@@ -137,6 +147,15 @@ EQUIVALENCES: tuple[Equivalence, ...] = (
         lambda ch: ("sensor_scale(omega)",) if "omega" in ch else (),
         _understeer_to_gain,
         _gain_to_understeer,
+    ),
+    Equivalence(
+        "dead_time_vs_lag",
+        "a first-order steering lag of time constant tau delays slow commands like a dead time "
+        "tau; only fast command changes (steps) tell them apart",
+        lambda ch: ("actuator_delay",),
+        lambda ch: ("actuator_lag",),
+        _delay_to_lag,
+        _lag_to_delay,
     ),
 )
 
@@ -230,6 +249,30 @@ def _equivalences(
     for eq in EQUIVALENCES:
         sides = (eq.one(data.channels), eq.other(data.channels))
         convert = (eq.to_other, eq.to_one)
+        keys = [e.key for e in effects]
+        if all(side and set(side) <= set(keys) for side in sides):
+            # both explanations at once: one of them is redundant unless the log clearly
+            # needs both (BIC worse by more than the margin without either)
+            vals = effect_values(train)
+            best_fit, best_side, best_d = None, None, math.inf
+            for side in sorted(sides, key=len, reverse=True):
+                kept = [e for e in effects if e.key not in side]
+                g = _fit_set(baseline, kept, data, train.theta[:2], vals, mask)
+                d = bic(g, factors) - bic(train, factors)
+                if d < best_d:
+                    best_fit, best_side, best_d = g, side, d
+            if best_fit is not None and best_side is not None and best_d <= EQUIVALENCE_MARGIN:
+                swaps.append(
+                    {
+                        "rule": eq.rule,
+                        "from": list(keys),
+                        "dropped": list(best_side),
+                        "why": f"redundant with its equivalent (BIC {best_d:+.1f} without it)",
+                    }
+                )
+                effects = [e for e in effects if e.key not in best_side]
+                train = best_fit
+            continue
         for i in (0, 1):
             have, want = sides[i], sides[1 - i]
             keys = [e.key for e in effects]
@@ -248,12 +291,16 @@ def _equivalences(
                 continue
             d_bic = bic(g, factors) - bic(train, factors)
             fewer = len(want) < len(have)
-            tie = abs(d_bic) <= EQUIVALENCE_MARGIN
             same = len(want) == len(have)
             # held-out error of the replacement: not worse (BIC-better), or within 5 % (a tie)
             test = data.test_mask()
-            w_new = weighted_holdout(holdout_rms(g.spec, g.theta, data, test), data)
-            w_cur = weighted_holdout(holdout_rms(train.spec, train.theta, data, test), data)
+            h_new = holdout_rms(g.spec, g.theta, data, test)
+            h_cur = holdout_rms(train.spec, train.theta, data, test)
+            w_new, w_cur = weighted_holdout(h_new, data), weighted_holdout(h_cur, data)
+            # both fit the held-out blocks to within the resolution: no log can tell them apart
+            # (on a noise-free log BIC differences of numerical error are large)
+            below = all(max(h_new[c], h_cur[c]) < RESOLUTION[c] for c in h_cur)
+            tie = abs(d_bic) <= EQUIVALENCE_MARGIN or below
             better = d_bic < -EQUIVALENCE_MARGIN and w_new <= w_cur
             switch = better or (
                 tie and (fewer or (same and d_bic < 0)) and w_new <= TIE_HOLDOUT_SLACK * w_cur
@@ -270,7 +317,7 @@ def _equivalences(
                 if tie:  # the replaced side stays as the alternative
                     alternatives.append(_alternative(eq, want, have, train, data, -d_bic, why))
                 effects, train = new, g
-            elif abs(d_bic) <= EQUIVALENCE_MARGIN:
+            elif tie:
                 why = (
                     "one physical cause rather than two"
                     if len(have) < len(want)

@@ -18,6 +18,11 @@ noise-weighted held-out error (every catalogue effect has one parameter):
   differ by no more than ``max_split_z`` (3) combined standard errors or by no more than
   ``max_split_rel`` (25 %) of their distance from the null value. A physical effect has one
   value; a catalogue effect that only mimics something else drifts with the conditions.
+
+When no candidate passes a round only because the strongest ones drift, pairs are tried
+(``_pair_step``): an effect can look inconstant while another it interacts with is missing.
+A pair is accepted under the same rules (BIC <= 2 x ``max_delta_bic``, both effects
+significant, interior and constant) and recorded as two consecutive rounds.
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ from calib.discovery.fit import (
     param_std,
 )
 from calib.discovery.model import BASE_PARAMS, ModelSpec, Vector
+from calib.errors import SolverError
 
 __all__ = [
     "SelectionRules",
@@ -52,6 +58,9 @@ __all__ = [
     "weighted_holdout",
     "z_scores",
 ]
+
+
+PAIR_SEEDS = 2
 
 
 @dataclass(frozen=True)
@@ -95,12 +104,14 @@ class Trial:
 
 @dataclass(frozen=True)
 class SelectionStep:
-    """One round: the model before it, its held-out RMS, the trials, the accepted effect."""
+    """One round: the model before it, its held-out RMS, the trials, the accepted effect and
+    the candidates whose fit failed (``errors``, key -> reason; left out of the round)."""
 
     before: ModelFit
     holdout_before: dict[str, float]
     trials: list[Trial] = field(default_factory=list)
     accepted: Trial | None = None
+    errors: dict[str, str] = field(default_factory=dict)
 
 
 def z_scores(fit: ModelFit, effect: Effect, data: DiscoveryData) -> dict[str, float]:
@@ -217,15 +228,23 @@ def select_effects(
     while remaining and len(steps) < rules.max_effects:
         trials = []
         bic_cur = bic(current, factors)
+        errors: dict[str, str] = {}
         for e in remaining:
             spec = current.spec.with_effect(e)
             th0 = list(current.theta) + [p.init for p in e.params]
-            f = fit_model(spec, data, th0, train, tol=1e-6)
-            hold = holdout_rms(spec, f.theta, data, test)
+            try:
+                f = fit_model(spec, data, th0, train, tol=1e-6)
+                hold = holdout_rms(spec, f.theta, data, test)
+                z = z_scores(f, e, data)
+                d_bic = bic(f, factors) - bic_cur
+            except (ArithmeticError, ValueError, np.linalg.LinAlgError, SolverError) as err:
+                errors[e.key] = f"{type(err).__name__}: {err}"  # this candidate only
+                continue
+            if not all(math.isfinite(x) for x in (d_bic, *hold.values())):
+                errors[e.key] = "non-finite fit"
+                continue
             material = is_material(e.channels, hold, hold_cur, data, rules.min_gain)
-            trials.append(
-                Trial(e, f, hold, bic(f, factors) - bic_cur, z_scores(f, e, data), material)
-            )
+            trials.append(Trial(e, f, hold, d_bic, z, material))
         passing = [
             t
             for t in trials
@@ -244,12 +263,92 @@ def select_effects(
             if stable:
                 best = checked
                 break
-        steps.append(SelectionStep(current, hold_cur, trials, best))
+        if best is None and len(steps) + 2 <= rules.max_effects:
+            pair = _pair_step(data, current, hold_cur, bic_cur, trials, remaining, factors, rules)
+            if pair is not None:
+                first, second, pair_trials = pair
+                steps.append(SelectionStep(current, hold_cur, trials, first, errors))
+                steps.append(SelectionStep(current, hold_cur, pair_trials, second))
+                current, hold_cur = second.fit, second.holdout
+                remaining = [e for e in remaining if e not in (first.effect, second.effect)]
+                continue
+        steps.append(SelectionStep(current, hold_cur, trials, best, errors))
         if best is None:
             break
         current, hold_cur = best.fit, best.holdout
         remaining = [e for e in remaining if e is not best.effect]
     return steps, factors
+
+
+def _pair_step(
+    data: DiscoveryData,
+    current: ModelFit,
+    hold_cur: dict[str, float],
+    bic_cur: float,
+    trials: Sequence[Trial],
+    remaining: Sequence[Effect],
+    factors: dict[str, float],
+    rules: SelectionRules,
+) -> tuple[Trial, Trial, list[Trial]] | None:
+    """Two effects at once, when no single one passed a round only because it drifted with
+    the conditions: an effect can look inconstant while another one it interacts with is
+    missing (a yaw-rate gain and understeer, say). The (at most ``PAIR_SEEDS``) strongest
+    such candidates are each paired with every other candidate; the pair with the lowest
+    held-out error that passes every rule (both effects constant) is accepted.
+
+    Returns (trial of the first effect, trial of the second, the pair trials), both trials
+    holding the pair's fit, or None.
+    """
+    train, test = data.train_mask(), data.test_mask()
+    seeds = sorted(
+        (
+            t
+            for t in trials
+            if t.stable is False
+            and t.material
+            and t.delta_bic <= rules.max_delta_bic
+            and all(z >= rules.min_z for z in t.z.values())
+        ),
+        key=lambda t: weighted_holdout(t.holdout, data),
+    )[:PAIR_SEEDS]
+    found: list[tuple[float, Trial, Trial]] = []
+    pair_trials: list[Trial] = []
+    for t in seeds:
+        for e2 in remaining:
+            if e2 is t.effect:
+                continue
+            spec = t.fit.spec.with_effect(e2)
+            th0 = list(t.fit.theta) + [p.init for p in e2.params]
+            try:
+                f = fit_model(spec, data, th0, train, tol=1e-6)
+                hold = holdout_rms(spec, f.theta, data, test)
+                z1, z2 = z_scores(f, t.effect, data), z_scores(f, e2, data)
+                d_bic = bic(f, factors) - bic_cur
+            except (ArithmeticError, ValueError, np.linalg.LinAlgError, SolverError):
+                continue
+            chans = tuple(dict.fromkeys((*t.effect.channels, *e2.channels)))
+            material = is_material(chans, hold, hold_cur, data, rules.min_gain)
+            second = Trial(e2, f, hold, d_bic, z2, material)
+            pair_trials.append(second)
+            if (
+                material
+                and d_bic <= 2 * rules.max_delta_bic
+                and all(z >= rules.min_z for z in (*z1.values(), *z2.values()))
+                and _interior(f)
+            ):
+                first = Trial(t.effect, f, hold, d_bic, z1, material)
+                found.append((weighted_holdout(hold, data), first, second))
+    for _, first, second in sorted(found, key=lambda x: x[0]):
+        ok1, split1 = _stability(first, data, rules)
+        ok2, split2 = _stability(second, data, rules) if ok1 else (False, None)
+        if ok1 and ok2:
+            first = replace(first, split=split1, stable=True, accepted=True)
+            second = replace(second, split=split2, stable=True, accepted=True)
+            pair_trials[pair_trials.index(next(p for p in pair_trials if p.fit is second.fit))] = (
+                second
+            )
+            return first, second, pair_trials
+    return None
 
 
 def accepted_effects(steps: Sequence[SelectionStep]) -> list[Effect]:

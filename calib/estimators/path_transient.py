@@ -25,6 +25,7 @@ effects leave in the residual. Its coverage is measured on logs from an independ
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -54,6 +55,8 @@ _ADVICE = (
 _FILL_S = 0.05  # path knots inside joint-angle intervals longer than this become nodes
 _MIN_PIECE = 8  # joint-angle samples a piece needs
 _MIN_MOVE_M = 0.01  # a piece whose path moves less than this carries nothing on L1, L2
+_DENSE_STEP = 0.05  # path knots closer than this (rad of heading + arc length / L2) are dense
+_ASYMPTOTIC_STEP = 0.1  # below this the O(h^2) Richardson third of the difference applies
 
 
 @dataclass(frozen=True)
@@ -347,31 +350,13 @@ class PathTransientFit:
         self._fit_core(path, t_psi, psi, gaps)
         return self
 
-    def _fit_core(
-        self, path: DrivePath, t_psi: ArrayLike, psi: ArrayLike,
-        gaps: list[tuple[float, float]] | None,
-    ) -> None:
-        self._prepare(path, t_psi, psi, list(gaps or []))
-        P = self.n_pieces_
-        piece = self._piece
-        first_idx = np.searchsorted(piece, np.arange(P))
-        self._psi0_guess = np.array(
-            [float(np.mean(self._p[i : i + 3])) for i in first_idx]
-        )
-        q = 3 if self.fit_psi_offset else 2
-        start = self._start_point() if self._x0_override is None else self._x0_override[:2]
-        x0 = np.concatenate([start, np.zeros(q - 2), self._psi0_guess])
-        lo = np.concatenate([[self.bounds_L1_m[0], self.bounds_L2_m[0]],
-                             np.full(q - 2, -math.pi), np.full(P, -math.pi)])
-        hi = np.concatenate([[self.bounds_L1_m[1], self.bounds_L2_m[1]],
-                             np.full(q - 2, math.pi), np.full(P, math.pi)])
-        if self._x0_override is not None:
-            x0 = np.concatenate([self._x0_override[:q], x0[q:]])
-        x0 = np.clip(x0, lo + 1e-6, hi - 1e-6)
+    def _evaluator(self, q: int) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        """Residuals and compact Jacobian at a parameter vector (L1, L2[, offset], psi0...):
+        columns L1, L2[, offset] and the initial angles of all pieces at once (each piece's
+        column is its rows of the last one)."""
         n = self._p.size
         cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         warm: list[np.ndarray | None] = [None]
-        rows = np.arange(n)
 
         def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             key = x.tobytes()
@@ -395,6 +380,31 @@ class PathTransientFit:
                 cache.clear()
                 cache[key] = (resid, J)
             return cache[key]
+
+        return evaluate
+
+    def _fit_core(
+        self, path: DrivePath, t_psi: ArrayLike, psi: ArrayLike,
+        gaps: list[tuple[float, float]] | None,
+    ) -> None:
+        self._prepare(path, t_psi, psi, list(gaps or []))
+        P = self.n_pieces_
+        piece = self._piece
+        first_idx = np.searchsorted(piece, np.arange(P))
+        self._psi0_guess = np.array(
+            [float(np.mean(self._p[i : i + 3])) for i in first_idx]
+        )
+        q = 3 if self.fit_psi_offset else 2
+        x0 = np.concatenate([self._start_point(), np.zeros(q - 2), self._psi0_guess])
+        lo = np.concatenate([[self.bounds_L1_m[0], self.bounds_L2_m[0]],
+                             np.full(q - 2, -math.pi), np.full(P, -math.pi)])
+        hi = np.concatenate([[self.bounds_L1_m[1], self.bounds_L2_m[1]],
+                             np.full(q - 2, math.pi), np.full(P, math.pi)])
+        x0 = np.clip(x0, lo + 1e-6, hi - 1e-6)
+        n = self._p.size
+        rows = np.arange(n)
+        evaluate = self._evaluator(q)
+        self._evaluate = evaluate
 
         def full_jac(J: np.ndarray) -> np.ndarray | csr_matrix:
             if P == 1:
@@ -430,23 +440,43 @@ class PathTransientFit:
         if not np.all(np.isfinite(r)):
             raise SolverError(f"{self.name}: the model diverges at the estimate")
         self.bias_correction_ = self._input_noise_bias(J, r, np.asarray(sol.x))
+        self._x_raw = np.asarray(sol.x).copy()
         self._x_ = np.asarray(sol.x).copy()
         self._x_[:2] += self.bias_correction_
-        if self._x0_override is not None:
-            return
         extra = self._resolution_error(path, t_psi, psi, gaps, self._x_, q)
         self._finish(sol, r, J, q, lo, hi, extra)
-
-    _x0_override: np.ndarray | None = None
 
     def _resolution_error(
         self, path: DrivePath, t_psi: ArrayLike, psi: ArrayLike,
         gaps: list[tuple[float, float]] | None, x: np.ndarray, q: int,
     ) -> np.ndarray:
-        """Covariance (q x q) of the discretisation error, from a refit at half resolution."""
+        """Covariance (q x q) of the discretisation error of the path.
+
+        The model is evaluated at the estimate along the path rebuilt from every other sample,
+        and the Gauss-Newton step that this change of the model asks for (initial angles
+        projected out) gives the error: a third of it (Richardson, O(h^2)) where the path's
+        steps are small next to the trailer's relaxation length, the whole step where they are
+        not (not yet asymptotic), nothing where the knots are dense (< ``_DENSE_STEP``). A
+        linearised step, not a refit, so that the optimiser's wandering along a flat
+        direction is not taken for an error.
+        """
         self.resolution_error_ = np.zeros(q)
+        self.path_step_ = math.nan
+        floor = 1e-6 * (abs(x[0]) + abs(x[1]))  # finite-difference Jacobian resolution
+        base = floor * floor * np.eye(q)
         if not self.resolution_check or path.coarser is None:
-            return np.zeros((q, q))
+            return base
+        # a path whose knots are dense next to the trailer's dynamics has a discretisation
+        # error of O(step^2), below what a linearised check can resolve in a flat direction
+        step = np.abs(np.diff(path.theta_rad)) * (1.0 + abs(x[0] / x[1])) + np.abs(
+            np.diff(path.s_m)
+        ) / abs(x[1])
+        self.path_step_ = float(np.percentile(step, 95)) if step.size else 0.0
+        if self.path_step_ < _DENSE_STEP:
+            # budget for what remains: measured on noise-free logs from the independent
+            # generator, the error stays below 0.1 step^2 of the link lengths' size
+            dense = 0.1 * self.path_step_**2 * (abs(x[0]) + abs(x[1]))
+            return base + dense * dense * np.eye(q)
         from calib.errors import CalibError
 
         other = PathTransientFit(
@@ -454,18 +484,31 @@ class PathTransientFit:
             bounds_L1_m=self.bounds_L1_m, bounds_L2_m=self.bounds_L2_m,
             chunk_nodes=self.chunk_nodes, resolution_check=False,
         )
-        other._x0_override = x[:q]
         try:
-            other._fit_core(path.coarser(), t_psi, psi, gaps)
+            cut = np.nonzero(np.diff(self._piece))[0]
+            same = [(float(self._t[i]), float(self._t[i + 1])) for i in cut]
+            other._prepare(path.coarser(), self._t, self._p, list(gaps or []) + same)
         except (CalibError, ValueError, FloatingPointError) as err:
             self._resolution_note = f"resolution check not possible: {err}"
-            return np.zeros((q, q))
-        # the whole difference, not the O(h^2) third of it: where the path is coarse next to
-        # the trailer's relaxation length the error is not yet in its asymptotic regime
-        d = x[:q] - other._x_[:q]
+            return base
+        rows = np.searchsorted(self._t, other._t)
+        if other.n_pieces_ != self.n_pieces_ or rows.size < 0.9 * self._t.size:
+            self._resolution_note = (
+                "resolution check not possible: the half-resolution path splits the log "
+                "differently"
+            )
+            return base
+        raw = self._x_raw
+        r_f, J = self._evaluate(raw)
+        r_c, _ = other._evaluator(q)(raw)
+        Js = self._projected(J, q)[rows]
+        d = -np.linalg.lstsq(Js, r_c - r_f[rows], rcond=None)[0]
+        if self.path_step_ < _ASYMPTOTIC_STEP:
+            d = d / 3.0  # Richardson: error(h) = (x_h - x_2h) / (2^2 - 1)
+        if not np.all(np.isfinite(d)):
+            return base
         self.resolution_error_ = d
-        floor = 1e-6 * (abs(x[0]) + abs(x[1]))  # finite-difference Jacobian resolution
-        return np.outer(d, d) + floor * floor * np.eye(q)
+        return np.outer(d, d) + base
 
     _resolution_note = ""
 
@@ -604,6 +647,7 @@ class PathTransientFit:
             "on_bound": list(self.on_bound_),
             "sound": self.sound_,
             "discretisation_error": self.resolution_error_[:2].tolist(),
+            "path_step_p95": self.path_step_,
             "path_smoothing_samples": self._smoothing,
             "input_noise_bias_correction": self.bias_correction_.tolist(),
             "psi_quantum_rad": self.quantum_,
