@@ -178,6 +178,13 @@ class _Stages:
 def _path_fit(
     loaded: LoadedLog, *, psi_offset: bool = False, psi_shift_s: float = 0.0
 ) -> tuple[PathInputs, PathTransientFit]:
+    """The transient fit along the log's best path source.
+
+    A noisy pose may be smoothed over a tenth of the trailer's relaxation time, which the first
+    fit tells (a slow robot affords a longer window than the 0.25 s first assumed); a pose
+    that still needs a large noise-bias correction is compared with odometry, and the more
+    precise fit is kept, with a note.
+    """
 
     def run(inp: PathInputs) -> PathTransientFit:
         if psi_offset or psi_shift_s:
@@ -188,28 +195,21 @@ def _path_fit(
 
     inp = path_inputs(loaded)
     fit = run(inp)
-    # a pose noisy enough to need a large bias correction: odometry may do better; the more
-    # precise of the two is kept (both are reported in the notes)
-    if inp.path.source == "pose" and np.max(np.abs(fit.bias_correction_)) > 0.01 * (
-        abs(fit.L1_) + abs(fit.L2_)
-    ):
+    if inp.path.source != "pose":
+        return inp, fit
+    window = relaxation_window_s(inp.path, fit.L2_)
+    if window > 0.25:
+        again = path_inputs(loaded, max_window_s=window)
+        if again.path.smoothing_samples != inp.path.smoothing_samples:
+            inp, fit = again, run(again)
+    if np.max(np.abs(fit.bias_correction_)) > 0.01 * (abs(fit.L1_) + abs(fit.L2_)):
         other = path_inputs(loaded, prefer="odometry")
         if other.path.source == "odometry":
             alt = run(other)
             if np.trace(alt.cov_[:2, :2]) < np.trace(fit.cov_[:2, :2]):
-                inp, fit = other, alt
-                fit.notes_.append("the pose is noisy (large bias correction): odometry gave "
+                alt.notes_.append("the pose is noisy (a large bias correction): odometry gave "
                                   "the more precise fit and is used")
-    # a noisy pose may be smoothed over a tenth of the trailer's relaxation time, which the
-    # first fit tells: a slow robot affords a longer window than the 0.25 s first assumed
-    window = relaxation_window_s(inp.path, fit.L2_)
-    if window > 0.25:
-        again = path_inputs(loaded, max_window_s=window)
-        if (again.path.source, again.path.smoothing_samples) != (
-            inp.path.source, inp.path.smoothing_samples
-        ):
-            inp = again
-            fit = run(inp)
+                inp, fit = other, alt
     return inp, fit
 
 
