@@ -13,6 +13,7 @@ from typing import Literal, TypeVar
 import numpy as np
 import polars as pl
 
+from calib.estimators.noslip import NoSlipRegression
 from calib.estimators.path_transient import PathTransientFit, fit_path_transient
 from calib.results import (
     AnalysisResult,
@@ -25,7 +26,12 @@ from calib.results import (
 from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.load import LoadedLog, load_log
 from logtools.signals import Robot, SignalSource
-from logtools.tt_path import PathInputs, path_inputs, relaxation_window_s
+from logtools.tt_path import (
+    PathInputs,
+    path_inputs,
+    relaxation_window_s,
+    trailer_pose_inputs,
+)
 
 __all__ = [
     "AnalysisConfig",
@@ -263,6 +269,12 @@ def _recommend(
 
 
 _PATH_STAGE = "transient fit along the path"
+_NOSLIP_STAGE = "no-slip regression on the trailer pose"
+
+
+def _noslip_fit(loaded: LoadedLog) -> NoSlipRegression:
+    t, (x2, y2, yaw2, psi) = trailer_pose_inputs(loaded)
+    return NoSlipRegression().fit(t, x2, y2, yaw2, psi)
 
 
 def analyze_loaded(
@@ -310,6 +322,12 @@ def analyze_loaded(
         notes += path_out[0].notes + path_out[1].notes_
 
     methods: list[MethodResult] = []
+    noslip = None
+    if {"x2", "y2", "yaw2"} <= set(loaded.signals.signals):
+        progress(_NOSLIP_STAGE)
+        noslip = stages.run(_NOSLIP_STAGE, lambda: _noslip_fit(loaded))
+        if noslip is not None:
+            methods.append(noslip.method_result_)
     eiv = None
     still = [s for s in stages.status if s.stage == _PATH_STAGE and "did not move" in s.reason]
     if still:
@@ -348,6 +366,11 @@ def analyze_loaded(
         methods.append(path_fit.method_result_)
     if still:
         estimate, why = None, [still[0].reason]
+    elif noslip is not None and (path_fit is None or not path_fit.sound_):
+        estimate = replace(noslip.result_, verdict=noslip.result_.verdict + (
+            " (No measured tractor path: the trailer pose and the joint angle give this "
+            "estimate.)"))
+        why = []
     else:
         estimate, why = _recommend(path_fit, eiv, stages)
     notes += why

@@ -585,10 +585,15 @@ class _Resolution:
                 if c != TIME_COLUMN and is_logical_signal(c) and c not in skip:
                     self.take(c, _signal_frame(frame, pl.col(c)), SignalSource(CSV_TOPIC, c))
             return
+        # a topic the map reads the trailer's pose from does not also give the tractor's pose
+        # by the default names (a trailer tracked on /odom is not the tractor)
+        trailer_topics = {s.topic for n, s in user.items() if n in ("x2", "y2", "yaw2")}
         for name, candidates in default_candidates(self.cmap.tf_frame).items():
             if name in skip:
                 continue
             for src in candidates:
+                if name in ("x", "y", "yaw") and src.topic in trailer_topics:
+                    continue
                 found = _extract_default(log, name, src)
                 if found is not None and self.take(name, *found):
                     break

@@ -18,7 +18,13 @@ from calib.errors import InsufficientDataError
 from calib.estimators.drive_path import DrivePath, pose_smoothing
 from logtools.load import LoadedLog
 
-__all__ = ["PathInputs", "RobotDidNotMoveError", "path_inputs", "relaxation_window_s"]
+__all__ = [
+    "PathInputs",
+    "RobotDidNotMoveError",
+    "path_inputs",
+    "relaxation_window_s",
+    "trailer_pose_inputs",
+]
 
 
 class RobotDidNotMoveError(InsufficientDataError):
@@ -196,3 +202,17 @@ def relaxation_window_s(path: DrivePath, L2_m: float, share: float = 0.1) -> flo
         return 0.25
     v = float(np.median(ds[moving] / dt[moving]))
     return float(share * abs(L2_m) / max(v, 1e-3))
+
+
+def trailer_pose_inputs(loaded: LoadedLog) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The trailer pose (x2, y2, yaw2) and the joint angle at the pose's stamps (s from the
+    aligned frame's first row), for the no-slip regression.
+
+    Raises:
+        InsufficientDataError: the log has no trailer pose or no joint angle.
+    """
+    t0_ns = int(loaded.frame["t_ns"][0]) if loaded.frame.height else 0
+    got = _on_common_times(loaded, ("x2", "y2", "yaw2", "psi"), t0_ns)
+    if got is None:
+        raise InsufficientDataError("no trailer pose (x2, y2, yaw2) with a joint angle (psi)")
+    return got

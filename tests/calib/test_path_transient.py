@@ -129,3 +129,22 @@ def test_a_robot_that_stands_still_is_refused() -> None:
     path = DrivePath.from_rates(t, np.zeros_like(t), np.zeros_like(t))
     with pytest.raises(InsufficientDataError, match="move"):
         PathTransientFit().fit(path, t, np.zeros_like(t))
+
+
+def test_noslip_regression_from_the_trailer_pose_is_exact_on_clean_data() -> None:
+    """The tractor axle's no-slip constraint written on the trailer pose (calib.estimators.
+    noslip) holds exactly on the independent generator's noise-free trailer (L1 < 0)."""
+    from calib.estimators.noslip import NoSlipRegression
+
+    scn = small_robot_scenario(np.random.default_rng(100))
+    scn = dc.replace(scn, topics={k: dc.replace(v, noise={}, quantum={}, stamp_noise_s=0.0,
+                                                sample_jitter_s=0.0)
+                                  for k, v in scn.topics.items()})
+    gen = generate(scn, seed=0)
+    t0 = gen.truth["start_ns"]
+    odom, hitch = gen.topics["/odom"], gen.topics["/encoder/angle"]
+    t = (odom.stamps_ns - t0) / 1e9
+    psi = np.interp(t, (hitch.stamps_ns - t0) / 1e9, hitch.fields["angle"])
+    fit = NoSlipRegression().fit(t, odom.fields["x"], odom.fields["y"], odom.fields["yaw"], psi)
+    assert fit.L1_ == pytest.approx(-0.02, abs=1e-4)
+    assert fit.L2_ == pytest.approx(0.537, abs=1e-4)

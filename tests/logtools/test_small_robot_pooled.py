@@ -57,3 +57,20 @@ def test_four_runs_pooled_and_a_run_that_did_not_move(tmp_path: Path) -> None:
     doc = res.to_dict()
     assert doc["estimate"]["L2"]["value"] == pytest.approx(L2.value)
     assert len(doc["runs"]) == 5
+
+
+def test_a_topic_mapped_to_the_trailer_is_not_also_the_tractor(tmp_path: Path) -> None:
+    """/odom mapped to the trailer pose (x2, y2, yaw2): its pose must not also be read as the
+    tractor's (x, y, yaw) by the default ROS names."""
+    from logtools.load import load_log
+
+    text = _readme_map(tmp_path).read_text(encoding="utf-8")
+    text = re.sub(r"\[signals\.(x|y|yaw)\][^\[]*", "", text)  # no tractor pose
+    cmap_path = tmp_path / "trailer_only.toml"
+    cmap_path.write_text(text, encoding="utf-8")
+    scn = small_robot_scenario(np.random.default_rng(100))
+    folder = tmp_path / "rosbag2_run"
+    write_rosbag2(folder, generate(scn, seed=0), storage="sqlite3")
+    loaded = load_log(folder, load_channel_map(cmap_path))
+    assert {"x2", "y2", "yaw2"} <= set(loaded.signals.signals)
+    assert "x" not in loaded.signals.signals
