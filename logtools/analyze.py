@@ -55,8 +55,9 @@ class AnalysisConfig:
 
     Args:
         repeats: repeats (moving-block bootstrap replicates) per method table row.
-        baseline: the model discovery compares against ("steady": the patent's steady-state
-            relation; "transient": the off-axle trailer kinematics).
+        baseline: the model discovery compares against ("transient", the default: the off-axle
+            trailer kinematics, which diagnoses best in bench/discovery_confusion_study.py;
+            "steady": the patent's steady-state relation).
         seed: seed of every random draw (bootstrap), for reproducible reports.
         discovery: run model-mismatch discovery.
         per_segment: also report the method table per command type.
@@ -64,7 +65,7 @@ class AnalysisConfig:
     """
 
     repeats: int = 10
-    baseline: Literal["steady", "transient"] = "steady"
+    baseline: Literal["steady", "transient"] = "transient"
     seed: int = 0
     discovery: bool = True
     per_segment: bool = True
@@ -268,6 +269,35 @@ def _recommend(
     return replace(eiv, verdict=f"{eiv.verdict} ({reason}.)"), notes
 
 
+def _unexplained(
+    estimate: CalibrationResult | None, discovery: object, path_fit: PathTransientFit | None
+) -> CalibrationResult | None:
+    """Not determined when discovery finds structure in the joint angle's residual that no
+    effect of its catalogue explains: the model then leaves out physics that biases L1, L2."""
+    model = getattr(discovery, "residual_model", None)
+    if estimate is None or path_fit is None or model is None or model.channel != "psi":
+        return estimate
+    if not estimate.method.startswith(path_fit.name):
+        return estimate
+    from calib.estimators.identifiability import undetermined
+
+    why = (
+        "the joint angle keeps structure no catalogued effect explains "
+        f"({model.describe()}); the model leaves out physics that biases L1 and L2"
+    )
+    short = "the model leaves out physics discovery finds in the joint angle (see below)"
+    params = {k: undetermined(e, short) for k, e in estimate.parameters.items()}
+    fitted = ", ".join(f"{k} = {e.value:.3f} m" for k, e in estimate.parameters.items())
+    verdict = (
+        f"Not determined: {why}. (The fit alone says {fitted}; model what discovery describes "
+        "before trusting it.)"
+    )
+    return replace(
+        estimate, parameters=params, sum_L1_L2=undetermined(estimate.sum_L1_L2, short),
+        verdict=verdict, details={**estimate.details, "unexplained_structure": model.describe()},
+    )
+
+
 _PATH_STAGE = "transient fit along the path"
 _NOSLIP_STAGE = "no-slip regression on the trailer pose"
 
@@ -391,8 +421,19 @@ def analyze_loaded(
         L2 = estimate.parameters["L2"].value
         discovery = stages.run(
             "discovery",
-            lambda: discover(frame, L1, L2, baseline=cfg.baseline, segments=segments, rng=rng),
+            lambda: discover(
+                frame, L1, L2, baseline=cfg.baseline, segments=segments, rng=rng,
+                signals=loaded.signals.signals,
+            ),
         )
+        status = getattr(discovery, "status", "ok")
+        if discovery is not None and status != "ok":
+            stages.status[-1] = StageStatus(
+                "discovery", "skipped" if status == "not_run" else "ok",
+                f"{status}: {discovery.reason}" if discovery.reason else status,
+            )
+            if status == "not_run":
+                discovery = None
     offset, shift, used = _sensor_effects(discovery)
     if used and path_fit is not None:
         progress("refit with the effects discovery named")
@@ -407,6 +448,7 @@ def analyze_loaded(
                 res, method=model,
                 details={**res.details, "model": model, "effects_included": used},
             )
+    estimate = _unexplained(estimate, discovery, path_fit)
     if estimate is not None and path_fit is not None and estimate.method.startswith(
         path_fit.name
     ):

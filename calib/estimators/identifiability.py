@@ -17,7 +17,13 @@ import numpy as np
 from calib.errors import SolverError
 from calib.results import Estimate, json_safe
 
-__all__ = ["Z95", "IdentifiabilityVerdict", "identifiability", "make_estimate"]
+__all__ = ["Z95", "IdentifiabilityVerdict", "identifiability", "make_estimate", "undetermined"]
+
+
+def undetermined(e: Estimate, reason: str) -> Estimate:
+    """``e`` reported as not determined, for ``reason``: no interval, the value kept only as
+    what the fit said."""
+    return Estimate(e.name, e.value, math.nan, (-math.inf, math.inf), False, e.unit, reason)
 
 Z95 = 1.959963984540054
 

@@ -29,7 +29,8 @@ def register(app: typer.Typer) -> None:
         ),
         repeats: int = typer.Option(10, "--repeats", min=1, help="Bootstrap repeats per method."),
         baseline: str = typer.Option(
-            "steady", "--baseline", help="Discovery baseline: steady (patent) or transient."
+            "transient", "--baseline",
+            help="Discovery baseline: transient (default) or steady (the patent's view).",
         ),
         channel_map: Path | None = typer.Option(
             None, "--channel-map", help="TOML mapping topics/fields to logical signals."

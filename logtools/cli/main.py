@@ -90,6 +90,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except aborts:
         print("Aborted.", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print("Interrupted.", file=sys.stderr)
+        return 130
+    except Exception as err:  # a bug of ours: one line for the user, the traceback on --debug
+        if _state["debug"]:
+            traceback.print_exc()
+        print(
+            f"logcal: internal error: {type(err).__name__}: {err} (run with --debug for the "
+            "traceback, and please report it)",
+            file=sys.stderr,
+        )
+        return 1
     return 0
 
 

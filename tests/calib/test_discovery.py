@@ -132,6 +132,7 @@ def test_yaw_rate_from_kappa_column() -> None:
     assert "omega" in data.outputs
 
 
+@pytest.mark.slow  # about 10-25 s: eight logs through selection and confirmation
 def test_null_study_small() -> None:
     """8 logs with nothing beyond the baseline's physics (4 steady, 4 transient): at most one
     false report (the 40-log study in bench/ asks >= 38 of 40)."""

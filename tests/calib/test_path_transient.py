@@ -146,5 +146,5 @@ def test_noslip_regression_from_the_trailer_pose_is_exact_on_clean_data() -> Non
     t = (odom.stamps_ns - t0) / 1e9
     psi = np.interp(t, (hitch.stamps_ns - t0) / 1e9, hitch.fields["angle"])
     fit = NoSlipRegression().fit(t, odom.fields["x"], odom.fields["y"], odom.fields["yaw"], psi)
-    assert fit.L1_ == pytest.approx(-0.02, abs=1e-4)
-    assert fit.L2_ == pytest.approx(0.537, abs=1e-4)
+    assert pytest.approx(-0.02, abs=1e-4) == fit.L1_
+    assert pytest.approx(0.537, abs=1e-4) == fit.L2_

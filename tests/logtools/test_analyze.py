@@ -76,9 +76,18 @@ def test_recommended_estimate_matches_the_simulated_truth(mixed_json: dict) -> N
         assert est[p]["value"] == pytest.approx(truth[p], rel=0.02)
 
 
-def test_slow_mixed_run_names_the_hitch_transient(mixed_json: dict) -> None:
-    ids = [e["id"] for e in mixed_json["discovery"]["effects"]]
-    assert "hitch_transient" in ids
+def test_default_baseline_is_transient_and_names_nothing_on_a_clean_run(mixed_json: dict) -> None:
+    assert mixed_json["discovery"]["baseline"] == "transient"
+    assert mixed_json["discovery"]["effects"] == []
+
+
+def test_steady_baseline_names_the_hitch_transient(capsys: pytest.CaptureFixture[str]) -> None:
+    """The patent's steady-state view leaves out the trailer's transient: discovery names it."""
+    code = main(["analyze", str(SAMPLES / "tt_mixed.mcap"), "--json", "--repeats", "1",
+                 "--baseline", "steady"])
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert "hitch_transient" in [e["id"] for e in doc["discovery"]["effects"]]
 
 
 @pytest.mark.parametrize("name", ["tt_mixed_ros2.mcap", "tt_mixed.csv"])
