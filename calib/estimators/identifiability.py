@@ -100,7 +100,7 @@ class IdentifiabilityVerdict:
 
 
 def _pm(e: Estimate) -> str:
-    return f"{e.value:.3f} ± {e.ci95[1] - e.value:.2g} m"
+    return f"{e.value:.3f} m [{e.ci95[0]:.3f}, {e.ci95[1]:.3f}]"
 
 
 def _interval(e: Estimate) -> str:
