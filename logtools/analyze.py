@@ -14,7 +14,7 @@ import numpy as np
 import polars as pl
 
 from calib.estimators.noslip import NoSlipRegression
-from calib.estimators.path_transient import PathTransientFit, fit_path_transient
+from calib.estimators.path_transient import PathTransientFit
 from calib.results import (
     AnalysisResult,
     CalibrationResult,
@@ -194,11 +194,9 @@ def _path_fit(
     """
 
     def run(inp: PathInputs) -> PathTransientFit:
-        if psi_offset or psi_shift_s:
-            return PathTransientFit(fit_psi_offset=psi_offset).fit(
-                inp.path, inp.t_psi_s - psi_shift_s, inp.psi_rad, gaps=inp.gaps
-            )
-        return fit_path_transient(inp.path, inp.t_psi_s, inp.psi_rad, gaps=inp.gaps)
+        return PathTransientFit(fit_psi_offset=psi_offset).fit(
+            inp.path, inp.t_psi_s - psi_shift_s, inp.psi_rad, gaps=inp.gaps
+        )
 
     inp = path_inputs(loaded)
     fit = run(inp)

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -46,7 +46,7 @@ from calib.estimators.identifiability import IdentifiabilityVerdict, identifiabi
 from calib.models.hitch_path import advance_psi, rk4_substeps
 from calib.results import CalibrationResult, MethodResult
 
-__all__ = ["PathTransientFit", "fit_path_transient"]
+__all__ = ["PathTransientFit"]
 
 _ADVICE = (
     "drive with curvature changes (turns shorter than a few trailer lengths, S-bends) and larger "
@@ -123,11 +123,6 @@ class PathTransientFit:
 
     name = "Transient-path"
 
-    @property
-    def model(self) -> str:
-        """The fitted model's name (with the joint-angle offset when it was fitted)."""
-        return self.name + (" + sensor_offset(psi)" if self.fit_psi_offset else "")
-
     def __init__(
         self,
         *,
@@ -139,7 +134,6 @@ class PathTransientFit:
         resolution_check: bool = True,
     ) -> None:
         self.resolution_check = resolution_check
-        self.offset_test_: dict[str, float] = {}
         self.rel_tol = rel_tol
         self.fit_psi_offset = fit_psi_offset
         self.bounds_L1_m = bounds_L1_m
@@ -668,39 +662,3 @@ class PathTransientFit:
         )
 
 
-
-def fit_path_transient(
-    path: DrivePath,
-    t_psi: ArrayLike,
-    psi: ArrayLike,
-    *,
-    gaps: list[tuple[float, float]] | None = None,
-    offset_z: float = 4.0,
-) -> PathTransientFit:
-    """The recommended fit: ``PathTransientFit``, with a joint-angle sensor offset when the
-    log shows one.
-
-    An encoder whose zero is off by b biases L1 and L2 without one; fitting b costs precision
-    where the curvature keeps one sign. So b is tried and kept only when it is clearly there
-    (|b| / std(b) > ``offset_z`` with the Newey-West standard error); the result says which.
-    """
-    base = PathTransientFit().fit(path, t_psi, psi, gaps=gaps)
-    trial = PathTransientFit(fit_psi_offset=True, resolution_check=False)
-    try:
-        trial.fit(path, t_psi, psi, gaps=gaps)
-    except (InsufficientDataError, SolverError):
-        return base
-    sd = math.sqrt(trial.cov_[2, 2]) if trial.cov_[2, 2] > 0 else math.inf
-    base.offset_test_ = {"psi_offset_rad": trial.psi_offset_, "std_rad": sd,
-                         "z": abs(trial.psi_offset_) / sd if sd > 0 else math.inf,
-                         "threshold_z": offset_z}
-    chosen = base
-    if abs(trial.psi_offset_) > offset_z * sd and trial.sound_:
-        chosen = PathTransientFit(fit_psi_offset=True).fit(path, t_psi, psi, gaps=gaps)
-    chosen.offset_test_ = base.offset_test_
-    chosen.result_ = replace(
-        chosen.result_, method=chosen.model,
-        details={**chosen.result_.details, "psi_offset_test": chosen.offset_test_},
-    )
-    chosen.method_result_ = replace(chosen.method_result_, name=chosen.model)
-    return chosen
