@@ -460,6 +460,19 @@ def analyze_loaded(
                 f"discovery named ({', '.join(actuator)}) do not bias it"
             )
 
+    steer = next((c for c in ("steer", "steer_cmd") if c in loaded.frame.columns), None)
+    geometry = None
+    if steer is not None and "kappa" in loaded.frame.columns:
+        from calib.estimators.steering import fit_steering_geometry
+
+        progress("steering geometry")
+        rows = _usable_rows(loaded.frame, ("kappa", steer))
+        geometry = stages.run(
+            "steering geometry (wheelbase, steering offset)",
+            lambda: fit_steering_geometry(rows["kappa"].to_numpy(), rows[steer].to_numpy()),
+        )
+        if geometry is not None:
+            notes.append(geometry.report() + f" (from {steer})")
     source = {
         "path": str(loaded.path),
         "samples": frame.height,
@@ -468,6 +481,8 @@ def analyze_loaded(
     }
     if path_out:
         source["path_source"] = path_out[0].path.source
+    if geometry is not None:
+        source["steering_geometry"] = geometry.to_dict()
     return AnalysisResult(
         robot=str(loaded.robot),
         segments=segments,

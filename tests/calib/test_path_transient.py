@@ -148,3 +148,17 @@ def test_noslip_regression_from_the_trailer_pose_is_exact_on_clean_data() -> Non
     fit = NoSlipRegression().fit(t, odom.fields["x"], odom.fields["y"], odom.fields["yaw"], psi)
     assert pytest.approx(-0.02, abs=1e-4) == fit.L1_
     assert pytest.approx(0.537, abs=1e-4) == fit.L2_
+
+
+def test_steering_geometry_recovers_the_wheelbase_and_offset() -> None:
+    """kappa = tan(delta - delta0) / wheelbase on the generator's small robot (wheelbase
+    0.42 m), with a steering sensor zero offset of 0.03 rad added."""
+    from calib.estimators.steering import fit_steering_geometry
+
+    scn = small_robot_scenario(np.random.default_rng(101))
+    gen = generate(scn, seed=1)
+    kelo = gen.topics["/kelo_angle"]
+    truth = gen.trajectory.signals(kelo.t_true)
+    geo = fit_steering_geometry(truth["kappa"], kelo.fields["angle"] + 0.03)
+    assert geo.wheelbase.value == pytest.approx(0.42, abs=0.01)
+    assert geo.offset.value == pytest.approx(0.03, abs=0.003)
