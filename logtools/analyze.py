@@ -15,6 +15,7 @@ import polars as pl
 
 from calib.estimators.noslip import NoSlipRegression
 from calib.estimators.path_transient import PathTransientFit
+from calib.estimators.steering import SteeringGeometry
 from calib.results import (
     AnalysisResult,
     CalibrationResult,
@@ -296,6 +297,50 @@ def _unexplained(
     )
 
 
+def _steering_geometry(
+    loaded: LoadedLog, stages: _Stages, progress: Progress, notes: list[str]
+) -> SteeringGeometry | None:
+    """Wheelbase and steering offset from the path's curvature, where the log has a steering
+    angle (measured, else commanded) and a measured curvature."""
+    steer = next((c for c in ("steer", "steer_cmd") if c in loaded.frame.columns), None)
+    if steer is None or "kappa" not in loaded.frame.columns:
+        return None
+    from calib.estimators.steering import fit_steering_geometry
+
+    progress("steering geometry")
+    rows = _usable_rows(loaded.frame, ("kappa", steer))
+    geometry = stages.run(
+        "steering geometry (wheelbase, steering offset)",
+        lambda: fit_steering_geometry(rows["kappa"].to_numpy(), rows[steer].to_numpy()),
+    )
+    if geometry is not None:
+        notes.append(geometry.report() + f" (from {steer})")
+    return geometry
+
+
+def _with_kappa_cmd_from_steering(
+    loaded: LoadedLog, geometry: SteeringGeometry, notes: list[str]
+) -> LoadedLog:
+    """A log with a steering command but no wheelbase (so no curvature command): kappa_cmd =
+    tan(steer_cmd - offset) / wheelbase with the fitted geometry, said in the notes."""
+    if "kappa_cmd" in loaded.frame.columns or "steer_cmd" not in loaded.signals.signals:
+        return loaded
+    if not geometry.wheelbase.identifiable:
+        return loaded
+    wb, d0 = geometry.wheelbase.value, geometry.offset.value
+    raw = loaded.signals.signals["steer_cmd"]
+    derived = raw.with_columns(((pl.col("value") - d0).tan() / wb).alias("value"))
+    frame = loaded.frame.with_columns(
+        ((pl.col("steer_cmd") - d0).tan() / wb).alias("kappa_cmd")
+    )
+    signals = replace(loaded.signals, signals={**loaded.signals.signals, "kappa_cmd": derived})
+    notes.append(
+        f"kappa_cmd derived as tan(steer_cmd - {d0:.4f}) / {wb:.4f} with the steering geometry "
+        "fitted from the path (no wheelbase was given)"
+    )
+    return replace(loaded, frame=frame, signals=signals)
+
+
 _PATH_STAGE = "transient fit along the path"
 _NOSLIP_STAGE = "no-slip regression on the trailer pose"
 
@@ -330,6 +375,9 @@ def analyze_loaded(
     stages = _Stages(cfg.debug)
     rng = np.random.default_rng(cfg.seed)
     notes: list[str] = []
+    geometry = _steering_geometry(loaded, stages, progress, notes)
+    if geometry is not None:
+        loaded = _with_kappa_cmd_from_steering(loaded, geometry, notes)
     has_kappa = "kappa" in loaded.frame.columns
     frame = _usable_rows(loaded.frame, ("psi", "kappa") if has_kappa else ("psi",))
     t_s = (frame["t_ns"].to_numpy() - frame["t_ns"][0]) / 1e9 if frame.height else np.zeros(0)
@@ -460,19 +508,6 @@ def analyze_loaded(
                 f"discovery named ({', '.join(actuator)}) do not bias it"
             )
 
-    steer = next((c for c in ("steer", "steer_cmd") if c in loaded.frame.columns), None)
-    geometry = None
-    if steer is not None and "kappa" in loaded.frame.columns:
-        from calib.estimators.steering import fit_steering_geometry
-
-        progress("steering geometry")
-        rows = _usable_rows(loaded.frame, ("kappa", steer))
-        geometry = stages.run(
-            "steering geometry (wheelbase, steering offset)",
-            lambda: fit_steering_geometry(rows["kappa"].to_numpy(), rows[steer].to_numpy()),
-        )
-        if geometry is not None:
-            notes.append(geometry.report() + f" (from {steer})")
     source = {
         "path": str(loaded.path),
         "samples": frame.height,
