@@ -87,3 +87,27 @@ def test_scoring_counts_exact_and_equivalent_names() -> None:
     )
     assert "False alarms on clean logs (target <= 5 %):  50.0 %" in text
     assert "single: actuator_delay" in text
+
+
+def test_detectable_means_after_refitting_the_link_lengths() -> None:
+    """Log 89 of seed 0 (fixed draw of the independent generator): a joint-angle scale 1.131
+    with a joint-angle offset. At small angles the scale is a change of L1 + L2, so with the
+    link lengths refitted it adds nothing to the held-out RMS and the log is not scored against
+    naming, though with L1, L2 held at the truth it changes the recordings by 160x the noise.
+    The offset is not absorbed. The refitted L1 is the equivalent one, s (L1 + L2) - L2."""
+    study = _study()
+    rec = study.run_one(0, 89, "indgen", "transient")
+    assert rec["status"] == "ok", rec.get("reason")
+    assert set(rec["truth"]) == {"sensor_scale(psi)", "sensor_offset(psi)"}
+    sig = rec["conditions"]["effect_signal"]
+    fixed = rec["conditions"]["effect_signal_fixed_L"]
+    assert sig["sensor_scale(psi)"] <= study.DETECTABLE < fixed["sensor_scale(psi)"]
+    assert sig["sensor_offset(psi)"] > 10 * study.DETECTABLE
+    assert study.strength(rec) <= study.DETECTABLE
+    s = rec["truth"]["sensor_scale(psi)"]["scale"]
+    L1, L2 = rec["truth_L"]["L1"], rec["truth_L"]["L2"]
+    _, lo, hi = rec["joint"]["L1"]
+    assert lo - 0.01 <= s * (L1 + L2) - L2 <= hi + 0.01
+    text = study.tables([rec])
+    assert "absorbed by the link lengths): 1 logs" in text
+    assert "sensor_offset(psi) + sensor_scale(psi) x1" in text
