@@ -105,6 +105,7 @@ class DrivePath:
         source: where it came from ("pose", "odometry" or "command").
         gap_s: knot spacing (s) above which the path is unknown in between.
         coarser: rebuilds the path from every other raw sample (for the resolution check).
+        perturbed: rebuilds it with a fresh draw of the rates' white noise added (odometry).
         smoothing_samples: a pose was smoothed over this many samples first (1: not).
         theta_noise_rad, s_noise_m: white noise left on the heading and the arc length at the
             knots (a pose's; 0 for integrated rates, whose noise does not act directly).
@@ -119,6 +120,9 @@ class DrivePath:
     smoothing_samples: int = 1
     theta_noise_rad: float = 0.0
     s_noise_m: float = 0.0
+    perturbed: Callable[[np.random.Generator], DrivePath] | None = field(
+        default=None, repr=False, compare=False
+    )
 
     @classmethod
     def from_pose(
@@ -167,6 +171,8 @@ class DrivePath:
     ) -> DrivePath:
         """From speed (m/s) and yaw rate (rad/s) of link 1: odometry (trapezoidal), or
         v kappa_cmd for ``source="command"`` (held from sample to sample, as commands are)."""
+        from calib.estimators._stats import hf_noise_std_t
+
         t, v, w = _clean(t_s, v_mps, omega_radps)
         gap = default_gap_s(t) if gap_s is None else gap_s
         hold = False  # a command sampled from a smooth signal: trapezoidal too
@@ -174,8 +180,18 @@ class DrivePath:
         def coarser() -> DrivePath:
             return cls.from_rates(t[::2], v[::2], w[::2], source=source, gap_s=2 * gap)
 
+        perturbed = None
+        sv, sw = hf_noise_std_t(t, v), hf_noise_std_t(t, w)
+        if sv > 0 or sw > 0:
+
+            def perturbed(rng: np.random.Generator) -> DrivePath:
+                return cls.from_rates(
+                    t, v + sv * rng.standard_normal(t.size), w + sw * rng.standard_normal(t.size),
+                    source=source, gap_s=gap,
+                )
+
         return cls(t, _cumtrapz(t, v, gap, hold), _cumtrapz(t, w, gap, hold), source, gap,
-                   coarser)
+                   coarser, perturbed=perturbed)
 
     def at(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Cumulative (s, theta) at ``t_s`` (linear between knots; held beyond the ends)."""

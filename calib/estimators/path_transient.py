@@ -56,6 +56,7 @@ _FILL_S = 0.05  # path knots inside joint-angle intervals longer than this becom
 _MIN_PIECE = 8  # joint-angle samples a piece needs
 _MIN_MOVE_M = 0.01  # a piece whose path moves less than this carries nothing on L1, L2
 _DENSE_STEP = 0.05  # path knots closer than this (rad of heading + arc length / L2) are dense
+_RATE_DRAWS = 8  # fresh noise draws that measure what odometry noise does to the estimate
 _ASYMPTOTIC_STEP = 0.1  # below this the O(h^2) Richardson third of the difference applies
 
 
@@ -438,6 +439,7 @@ class PathTransientFit:
         self._x_ = np.asarray(sol.x).copy()
         self._x_[:2] += self.bias_correction_
         extra = self._resolution_error(path, t_psi, psi, gaps, self._x_, q)
+        extra = extra + self._rate_noise_cov(path, gaps, q)
         self._finish(sol, r, J, q, lo, hi, extra)
 
     def _resolution_error(
@@ -471,6 +473,19 @@ class PathTransientFit:
             # generator, the error stays below 0.1 step^2 of the link lengths' size
             dense = 0.1 * self.path_step_**2 * (abs(x[0]) + abs(x[1]))
             return base + dense * dense * np.eye(q)
+        shift = self._linear_shift(path.coarser(), gaps, q)
+        if isinstance(shift, str):
+            self._resolution_note = f"resolution check not possible: {shift}"
+            return base
+        d = shift / 3.0 if self.path_step_ < _ASYMPTOTIC_STEP else shift
+        self.resolution_error_ = d  # Richardson where asymptotic: (x_h - x_2h) / (2^2 - 1)
+        return np.outer(d, d) + base
+
+    def _linear_shift(
+        self, other_path: DrivePath, gaps: list[tuple[float, float]] | None, q: int
+    ) -> np.ndarray | str:
+        """Gauss-Newton step of the structural parameters that the model along ``other_path``
+        asks for at the estimate (initial angles projected out), or why there is none."""
         from calib.errors import CalibError
 
         other = PathTransientFit(
@@ -481,28 +496,38 @@ class PathTransientFit:
         try:
             cut = np.nonzero(np.diff(self._piece))[0]
             same = [(float(self._t[i]), float(self._t[i + 1])) for i in cut]
-            other._prepare(path.coarser(), self._t, self._p, list(gaps or []) + same)
+            other._prepare(other_path, self._t, self._p, list(gaps or []) + same)
         except (CalibError, ValueError, FloatingPointError) as err:
-            self._resolution_note = f"resolution check not possible: {err}"
-            return base
+            return str(err)
         rows = np.searchsorted(self._t, other._t)
         if other.n_pieces_ != self.n_pieces_ or rows.size < 0.9 * self._t.size:
-            self._resolution_note = (
-                "resolution check not possible: the half-resolution path splits the log "
-                "differently"
-            )
-            return base
+            return "the other path splits the log differently"
         raw = self._x_raw
         r_f, J = self._evaluate(raw)
-        r_c, _ = other._evaluator(q)(raw)
+        r_o, _ = other._evaluator(q)(raw)
         Js = self._projected(J, q)[rows]
-        d = -np.linalg.lstsq(Js, r_c - r_f[rows], rcond=None)[0]
-        if self.path_step_ < _ASYMPTOTIC_STEP:
-            d = d / 3.0  # Richardson: error(h) = (x_h - x_2h) / (2^2 - 1)
-        if not np.all(np.isfinite(d)):
-            return base
-        self.resolution_error_ = d
-        return np.outer(d, d) + base
+        d = -np.linalg.lstsq(Js, r_o - r_f[rows], rcond=None)[0]
+        return d if np.all(np.isfinite(d)) else "a non-finite step"
+
+    def _rate_noise_cov(
+        self, path: DrivePath, gaps: list[tuple[float, float]] | None, q: int
+    ) -> np.ndarray:
+        """Covariance (q x q) that the noise of integrated rates (odometry) carries into the
+        estimate: the path is rebuilt with ``_RATE_DRAWS`` fresh draws of the rates' measured
+        white noise, and the linearised shifts of the estimate averaged. A residual sandwich
+        alone misses most of it: integrated noise wanders slowly, beyond its lag window."""
+        if path.perturbed is None:
+            return np.zeros((q, q))
+        rng = np.random.default_rng(12345)
+        shifts = []
+        for _ in range(_RATE_DRAWS):
+            d = self._linear_shift(path.perturbed(rng), gaps, q)
+            if not isinstance(d, str):
+                shifts.append(d)
+        if not shifts:
+            return np.zeros((q, q))
+        D = np.array(shifts)
+        return D.T @ D / D.shape[0]
 
     _resolution_note = ""
 
