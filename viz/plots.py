@@ -100,7 +100,9 @@ def _psi(ax, frame: pl.DataFrame, result: AnalysisResult, t: NDArray[np.float64]
         ax.plot(t, shown[-1], color=hex_color("psi"), lw=1, label="ψ measured")
     kappa = kappa_measured(frame)
     if kappa is not None and lengths is not None:
-        label = "ψ predicted" + ("" if result.estimate is None else f" ({result.estimate.method})")
+        label = "ψ steady state at " + (
+            "the true L1, L2" if result.estimate is None else f"{result.estimate.method}'s L1, L2"
+        )
         ax.plot(
             t,
             steady_state_psi(kappa, *lengths),

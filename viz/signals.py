@@ -96,7 +96,7 @@ def log_signals(
             "signals/psi/predicted_estimate",
             t,
             pred,
-            name=f"ψ predicted ({label})",
+            name=f"ψ steady state at {label}'s L1, L2",
             color="psi_estimate",
         )
     if kappa is not None and method_for_psi is not None:
