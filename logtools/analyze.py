@@ -29,6 +29,7 @@ from logtools.load import LoadedLog, load_log
 from logtools.signals import Robot, SignalSource
 from logtools.tt_path import (
     PathInputs,
+    RobotDidNotMoveError,
     path_inputs,
     relaxation_window_s,
     trailer_pose_inputs,
@@ -158,6 +159,7 @@ class _Stages:
     def __init__(self, debug: bool) -> None:
         self.debug = debug
         self.status: list[StageStatus] = []
+        self.errors: dict[str, Exception] = {}
 
     def run(self, stage: str, fn: Callable[[], T]) -> T | None:
         from calib.errors import InsufficientDataError
@@ -167,6 +169,7 @@ class _Stages:
         except (InsufficientDataError, LogcalInputError) as err:
             if self.debug:
                 raise
+            self.errors[stage] = err
             self.status.append(StageStatus(stage, "skipped", str(err)))
             return None
         except (KeyboardInterrupt, MemoryError):
@@ -174,6 +177,7 @@ class _Stages:
         except Exception as err:  # a numerical failure stays inside its stage
             if self.debug:
                 raise
+            self.errors[stage] = err
             self.status.append(StageStatus(stage, "failed", f"{type(err).__name__}: {err}"))
             return None
         self.status.append(StageStatus(stage, "ok"))
@@ -362,6 +366,14 @@ def analyze_loaded(
     boundary: a stage that lacks data or fails numerically says so in ``stages`` and the
     others still report.
     """
+    return _analyze(loaded, config, progress)[0]
+
+
+def _analyze(
+    loaded: LoadedLog, config: AnalysisConfig | None, progress: Progress | None
+) -> tuple[AnalysisResult, PathInputs | None]:
+    """``analyze_loaded``, also returning the path inputs its transient fit used (None where
+    it had none), so that pooling reuses them."""
     cfg = config or AnalysisConfig()
     progress = progress or _noop
     if loaded.robot is not Robot.TRACTOR_TRAILER:
@@ -405,7 +417,9 @@ def analyze_loaded(
         if noslip is not None:
             methods.append(noslip.method_result_)
     eiv = None
-    still = [s for s in stages.status if s.stage == _PATH_STAGE and "did not move" in s.reason]
+    still = stages.errors.get(_PATH_STAGE)
+    if not isinstance(still, RobotDidNotMoveError):
+        still = None
     if still:
         stages.skip("least-squares methods", "the robot did not move")
         stages.skip("steady-state and time-domain estimators", "the robot did not move")
@@ -441,7 +455,7 @@ def analyze_loaded(
     if path_fit is not None:
         methods.append(path_fit.method_result_)
     if still:
-        estimate, why = None, [still[0].reason]
+        estimate, why = None, [str(still)]
     elif noslip is not None and (path_fit is None or not path_fit.sound_):
         estimate = replace(noslip.result_, verdict=noslip.result_.verdict + (
             " (No measured tractor path: the trailer pose and the joint angle give this "
@@ -518,7 +532,7 @@ def analyze_loaded(
         source["path_source"] = path_out[0].path.source
     if geometry is not None:
         source["steering_geometry"] = geometry.to_dict()
-    return AnalysisResult(
+    result = AnalysisResult(
         robot=str(loaded.robot),
         segments=segments,
         methods=methods,
@@ -529,6 +543,7 @@ def analyze_loaded(
         warnings=list(loaded.problems) + notes,
         stages=stages.status,
     )
+    return result, (path_out[0] if path_out else None)
 
 
 def analyze_logs(
@@ -559,19 +574,16 @@ def analyze_logs(
     for i, p in enumerate(paths, 1):
         progress(f"run {i} of {len(paths)}: {p}")
         try:
-            loaded, res = analyze_log(p, channel_map=channel_map, config=config,
-                                      progress=progress)
+            progress("reading log")
+            loaded = load_log(p, channel_map)
+            res, used = _analyze(loaded, config, progress)
         except LogcalInputError as err:
             errors.append(err)
             continue
         results.append(res)
         loadeds.append(loaded)
-        try:
-            inputs.append(path_inputs(loaded))
-        except LogcalInputError:
-            continue
-        except Exception:  # the run's own result already says why its path fit did not run
-            continue
+        if used is not None:  # else the run's own stages say why it has no path fit
+            inputs.append(used)
     if not results:
         raise errors[0]
     cfg = config or AnalysisConfig()

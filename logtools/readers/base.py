@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
 import polars as pl
 
-__all__ = ["TIME_COLUMN", "LogData", "TopicInfo"]
+__all__ = ["TIME_COLUMN", "LogData", "TopicInfo", "sorted_by_time"]
 
 TIME_COLUMN = "t_ns"
 """The one time column of every frame: int64 nanoseconds (MCAP log_time; CSV t * 1e9)."""
@@ -65,3 +66,19 @@ class LogData:
     def topic_names(self) -> list[str]:
         """All topic names of the file, sorted."""
         return sorted(self.info)
+
+
+def sorted_by_time(
+    frame: pl.DataFrame, path: str, topic: str, problems: list[str], clock: str
+) -> pl.DataFrame:
+    """``frame`` sorted by its time column where the recorder wrote messages out of order,
+    saying so in ``problems`` (``clock`` names the time the reader uses, e.g. "log_time")."""
+    t = frame[TIME_COLUMN].to_numpy()
+    backwards = int(np.count_nonzero(np.diff(t) < 0))
+    if backwards:
+        problems.append(
+            f"{path}: topic {topic!r}: {clock} went backwards {backwards} times; "
+            f"messages were sorted by {clock}"
+        )
+        frame = frame.sort(TIME_COLUMN, maintain_order=True)
+    return frame

@@ -5,12 +5,11 @@ from __future__ import annotations
 import mmap
 from collections.abc import Iterable
 
-import numpy as np
 import polars as pl
 from mcap.records import Channel
 
 from logtools.errors import NotAnMcapError, UnknownEncodingError
-from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
+from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo, sorted_by_time
 from logtools.readers.decoders import decoder_for, known_encodings
 from logtools.readers.mcap_scan import ChannelMessages, ScanResult, scan_mcap
 
@@ -56,7 +55,9 @@ def read_mcap(path: str, buf: bytes | mmap.mmap, topics: Iterable[str] | None = 
             if frame is not None:
                 parts.append(frame)
         if parts:
-            frames[topic] = _sorted(pl.concat(parts, how="diagonal_relaxed"), path, topic, problems)
+            frames[topic] = sorted_by_time(
+                pl.concat(parts, how="diagonal_relaxed"), path, topic, problems, "log_time"
+            )
     if undecodable and not frames and any(info[t].message_count for t, _ in undecodable):
         topic, encoding = undecodable[0]
         raise UnknownEncodingError(path, topic, encoding, known_encodings())
@@ -111,18 +112,6 @@ def _decode_channel(scan: ScanResult, ch: Channel) -> tuple[pl.DataFrame | None,
     if TIME_COLUMN in frame.columns:  # a field named like our time column keeps its value
         frame = frame.rename({TIME_COLUMN: f"{TIME_COLUMN}.field"})
     return frame.insert_column(0, t_ns) if frame.width else pl.DataFrame([t_ns]), note
-
-
-def _sorted(frame: pl.DataFrame, path: str, topic: str, problems: list[str]) -> pl.DataFrame:
-    t = frame[TIME_COLUMN].to_numpy()
-    backwards = int(np.count_nonzero(np.diff(t) < 0))
-    if backwards:
-        problems.append(
-            f"{path}: topic {topic!r}: log_time went backwards {backwards} times; "
-            "messages were sorted by log_time"
-        )
-        frame = frame.sort(TIME_COLUMN, maintain_order=True)
-    return frame
 
 
 def _fmt_s(t_ns: int, origin: int) -> str:

@@ -19,7 +19,7 @@ import numpy as np
 import polars as pl
 
 from logtools.errors import NotARosbagError
-from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
+from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo, sorted_by_time
 from logtools.readers.decoders import MAX_ARRAY_ITEMS, frame_from_rows
 
 __all__ = ["ROS1_MAGIC", "SQLITE_MAGIC", "bag_path", "is_rosbag", "read_rosbag"]
@@ -149,7 +149,7 @@ def _read_open(
         frame, note = _decode(reader, t_list, payloads, types)
         if note:
             problems.append(f"{name}: topic {topic!r}: {note}")
-        frames[topic] = _sorted(frame, name, topic, problems)
+        frames[topic] = sorted_by_time(frame, name, topic, problems, "record time")
     info = {
         topic: _topic_info(topic, conns, times.get(topic, []), is_ros1)
         for topic, conns in sorted(conns_by_topic.items())
@@ -233,18 +233,6 @@ def _flatten(obj: Any, prefix: str, out: dict[str, Any]) -> None:
         return
     for fname in names:
         _flatten(getattr(obj, fname), f"{prefix}.{fname}" if prefix else fname, out)
-
-
-def _sorted(frame: pl.DataFrame, path: str, topic: str, problems: list[str]) -> pl.DataFrame:
-    t = frame[TIME_COLUMN].to_numpy()
-    backwards = int(np.count_nonzero(np.diff(t) < 0))
-    if backwards:
-        problems.append(
-            f"{path}: topic {topic!r}: record time went backwards {backwards} times; messages "
-            "were sorted by record time"
-        )
-        frame = frame.sort(TIME_COLUMN, maintain_order=True)
-    return frame
 
 
 def _topic_info(topic: str, conns: list[Any], times: list[int], is_ros1: bool) -> TopicInfo:
