@@ -13,6 +13,7 @@ from enum import StrEnum
 from typing import Any
 
 __all__ = [
+    "PM_MEANING",
     "AnalysisResult",
     "CalibrationResult",
     "CommandType",
@@ -20,8 +21,35 @@ __all__ = [
     "MethodResult",
     "Segment",
     "StageStatus",
+    "format_pm",
     "json_safe",
 ]
+
+PM_MEANING = (
+    "(± is one standard error; in method tables, the spread over bootstrap repeats. "
+    "[95 %: lo, hi] is the 95 % interval.)"
+)
+"""What ± means wherever logcal prints it (report, rerun tables): said once, in the report."""
+
+
+def format_pm(value: float | None, std: float | None, digits: int = 3, unit: str = "") -> str:
+    """``value ± std unit`` with ``digits`` decimals: the one formatter of ± (see PM_MEANING);
+    "-" for a missing or non-finite value, the value alone for a missing or zero std."""
+    if value is None or not math.isfinite(value):
+        return "-"
+    tail = f" {unit}" if unit else ""
+    if std is None or not math.isfinite(std) or std == 0:
+        return f"{value:.{digits}f}{tail}"
+    return f"{value:.{digits}f} ± {std:.{digits}f}{tail}"
+
+
+class Baseline(StrEnum):
+    """The model discovery compares a log against."""
+
+    TRANSIENT = "transient"
+    """The off-axle trailer kinematics (dynamic hitch angle); diagnoses best."""
+    STEADY = "steady"
+    """The patent's steady-state relation between curvature and hitch angle."""
 
 
 class CommandType(StrEnum):
@@ -108,7 +136,7 @@ class Estimate:
             why = f": {self.note}" if self.note else ""
             return f"{self.name}: not determined by this log{why}"
         return (
-            f"{self.name} = {self.value:.4g} +/- {self.std:.2g} {self.unit} "
+            f"{self.name} = {self.value:.4g} ± {self.std:.2g} {self.unit} "
             f"[95 %: {lo:.4g}, {hi:.4g}]{tag}"
         )
 
@@ -168,15 +196,17 @@ class MethodResult:
 
 @dataclass(frozen=True)
 class CalibrationResult:
-    """The recommended link-length estimate with its interval and identifiability verdict.
+    """One method's (or the recommended) parameter set, with intervals and a verdict.
 
-    ``parameters`` maps "L1" and "L2" to an ``Estimate``; ``sum_L1_L2`` is the sum, usually far
-    better determined than the split. ``verdict`` is a plain-language sentence for people.
+    ``parameters`` maps each parameter's name to an ``Estimate`` (the tractor-trailer's "L1" and
+    "L2"; a differential drive's wheel radii and track; an arm's base parameters).
+    ``sum_L1_L2`` is the tractor-trailer's sum of link lengths, usually far better determined
+    than the split (None for other robots). ``verdict`` is a plain-language sentence for people.
     """
 
     method: str
     parameters: Mapping[str, Estimate]
-    sum_L1_L2: Estimate
+    sum_L1_L2: Estimate | None
     verdict: str
     covariance: tuple[tuple[float, float], tuple[float, float]] | None = None
     converged: bool = True
@@ -191,13 +221,15 @@ class CalibrationResult:
     def report(self) -> str:
         lines = [f"Recommended estimate ({self.method}):"]
         lines += ["  " + e.report() for e in self.parameters.values()]
-        lines.append("  " + self.sum_L1_L2.report())
+        if self.sum_L1_L2 is not None:
+            lines.append("  " + self.sum_L1_L2.report())
         lines.append("  " + self.verdict)
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {name: est.to_dict() for name, est in self.parameters.items()}
-        d["sum_L1_L2"] = self.sum_L1_L2.to_dict()
+        if self.sum_L1_L2 is not None:
+            d["sum_L1_L2"] = self.sum_L1_L2.to_dict()
         d["method"] = self.method
         d["verdict"] = self.verdict
         d["identifiable"] = self.identifiable
@@ -229,12 +261,16 @@ class AnalysisResult:
     ``discovery`` is the model-mismatch result (any object with ``to_dict()``), ``truth`` the
     true parameters when the log carries them (simulated logs), ``source`` facts about the file.
     ``stages`` says how each stage ended. For several runs of one robot, ``estimate`` is the
-    pooled one and ``runs`` holds each run's own analysis.
+    pooled one and ``runs`` holds each run's own analysis. ``sections`` holds a robot's own
+    results (objects with ``to_dict()`` or JSON-safe values) under their JSON keys, e.g. a
+    differential drive's ``dead_reckoning`` or an arm's ``excitation``; ``methods`` may hold, for
+    robots other than the tractor-trailer, one ``CalibrationResult`` per method. ``artifacts``
+    carries arrays and inputs for later steps (views, pooling) and is not part of the JSON.
     """
 
     robot: str
     segments: list[Segment]
-    methods: list[MethodResult]
+    methods: list[Any]
     estimate: CalibrationResult | None
     discovery: Any = None
     truth: Mapping[str, float] = field(default_factory=dict)
@@ -242,6 +278,10 @@ class AnalysisResult:
     warnings: list[str] = field(default_factory=list)
     stages: list[StageStatus] = field(default_factory=list)
     runs: list[AnalysisResult] = field(default_factory=list)
+    sections: Mapping[str, Any] = field(default_factory=dict)
+    artifacts: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    """What the analysis computed for later steps but not for the JSON: arrays the views draw,
+    inputs a pooled fit reuses. Keys are the plugin's own."""
 
     def to_dict(self) -> dict[str, Any]:
         out = self._own_dict()
@@ -261,5 +301,6 @@ class AnalysisResult:
                 "discovery": None if self.discovery is None else self.discovery.to_dict(),
                 "truth": dict(self.truth),
                 "warnings": list(self.warnings),
+                **dict(self.sections),
             }
         )

@@ -78,7 +78,6 @@ from logtools.signals import (
     UNIT_FACTORS,
     Formula,
     FormulaError,
-    Robot,
     RobotConfig,
     SignalSource,
     Stamp,
@@ -117,14 +116,39 @@ _ZERO_MEANS_EMPTY = ("v", "omega", "psi", "steer", "wheel_left", "wheel_right", 
 _ENTRY_KEYS = ("topic", "field", "transform", "scale", "offset", "unit", "stamp", "frame")
 
 
+def plugin_sources() -> dict[str, list[SignalSource]]:
+    """Default sources the robot plugins declare (``SignalSpec.sources``), after ours."""
+    from logtools.robots import plugins
+
+    out: dict[str, list[SignalSource]] = {}
+    for p in plugins():
+        for spec in p.signals:
+            out.setdefault(spec.name, []).extend(spec.sources)
+    return out
+
+
+def _plugin_units() -> dict[str, str]:
+    """Units of the signals the robot plugins declare beyond LOG_FORMAT.md's."""
+    from logtools.robots import plugins
+
+    return {s.name: s.unit for p in plugins() for s in p.signals}
+
+
 def is_logical_signal(name: str) -> bool:
-    """True for a logical signal name, including per-joint names like ``q1`` or ``tau2``."""
-    return name in LOGICAL_SIGNALS or _JOINT_SIGNAL.match(name) is not None
+    """True for a logical signal name, including per-joint names like ``q1`` or ``tau2`` and
+    the signals a robot plugin declares."""
+    return (
+        name in LOGICAL_SIGNALS
+        or _JOINT_SIGNAL.match(name) is not None
+        or name in _plugin_units()
+    )
 
 
 def _si_unit(name: str) -> str | None:
     m = _JOINT_SIGNAL.match(name)
-    return _JOINT_UNITS[m.group(1)] if m else SIGNAL_UNITS.get(name)
+    if m:
+        return _JOINT_UNITS[m.group(1)]
+    return SIGNAL_UNITS.get(name) or _plugin_units().get(name)
 
 
 def _yaw_from_quaternion(frame: pl.DataFrame, fld: str) -> pl.Expr:
@@ -296,22 +320,30 @@ def _robot_table(file: str, table: object) -> RobotConfig:
         raise ChannelMapEntryError(
             file, "robot", "must be a table: [robot] type = …, wheelbase = …"
         )
-    rtype: Robot | None = None
+    from logtools.robots import UnknownRobotError, plugin_for
+
+    rtype: str | None = None
+    urdf: str | None = None
     wheelbase: float | None = None
     params: dict[str, float] = {}
     for key, value in table.items():
         if key == "type":
             try:
-                rtype = Robot(value)
-            except ValueError:
+                rtype = plugin_for(str(value)).name
+            except UnknownRobotError as err:
                 raise ChannelMapEntryError(
-                    file,
-                    "robot.type",
-                    f"is {value!r}; expected one of {', '.join(r.value for r in Robot)}.",
+                    file, "robot.type", f"is {value!r}; expected one of {', '.join(err.known)}."
                 ) from None
+        elif key == "urdf":
+            if not isinstance(value, str) or not value:
+                raise ChannelMapEntryError(
+                    file, "robot.urdf", f"is {value!r}; expected a URDF path or a model name."
+                )
+            urdf = value
         elif not _is_number(value) or not math.isfinite(value):
             raise ChannelMapEntryError(
-                file, f"robot.{key}", f"is {value!r}; expected a number (m or rad), or type = …"
+                file, f"robot.{key}",
+                f"is {value!r}; expected a number (m or rad), or type = … / urdf = …",
             )
         elif key == "wheelbase":
             if value <= 0:
@@ -321,7 +353,7 @@ def _robot_table(file: str, table: object) -> RobotConfig:
             wheelbase = float(value)
         else:
             params[key] = float(value)
-    return RobotConfig(rtype, wheelbase, params)
+    return RobotConfig(rtype, wheelbase, params, urdf)
 
 
 def _tf_table(file: str, table: object) -> str | None:
@@ -588,7 +620,10 @@ class _Resolution:
         # a topic the map reads the trailer's pose from does not also give the tractor's pose
         # by the default names (a trailer tracked on /odom is not the tractor)
         trailer_topics = {s.topic for n, s in user.items() if n in ("x2", "y2", "yaw2")}
-        for name, candidates in default_candidates(self.cmap.tf_frame).items():
+        candidates_by_name = default_candidates(self.cmap.tf_frame)
+        for name, extra in plugin_sources().items():
+            candidates_by_name.setdefault(name, []).extend(extra)
+        for name, candidates in candidates_by_name.items():
             if name in skip:
                 continue
             for src in candidates:

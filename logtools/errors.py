@@ -106,17 +106,22 @@ class ChannelMapEntryError(ChannelMapError):
 class NoDriveSignalsError(MissingSignalsError):
     """A log with none of the drive signals from which logcal tells the robot type."""
 
-    def __init__(self, path: str, available: list[str]) -> None:
+    def __init__(
+        self, path: str, available: list[str], expected: dict[str, list[str]] | None = None
+    ) -> None:
+        """``expected``: each robot type's required signals (from the robot plugins)."""
         have = ", ".join(available) if available else "(none)"
+        expected = expected or {}
+        options = "; ".join(f"{', '.join(sig)} ({robot})" for robot, sig in expected.items())
         LogcalInputError.__init__(
             self,
             f"{path}: no drive signals found, so the robot type is unknown. Expected a 'logcal' "
-            "metadata record or one of: psi (/hitch/angle, tractor_trailer), wheel_left and "
-            "wheel_right (/wheels, diff_drive), q (/joint_states, manipulator_2link). "
-            f"Topics in the log: {have}. Map yours with --channel-map FILE.toml.",
+            f"metadata record or the signals of one robot: {options or '(no robot plugins)'}. "
+            f"Topics in the log: {have}. Map yours with --channel-map FILE.toml (LOG_FORMAT.md "
+            "lists the default topics).",
         )
         self.path, self.available = path, available
-        self.missing = ["psi", "wheel_left", "wheel_right", "q"]
+        self.missing = sorted({s for sig in expected.values() for s in sig})
 
 
 class LogWriteError(LogcalInputError):

@@ -18,20 +18,14 @@ import polars as pl
 
 from logtools.align import AlignMethod, Gap, align_signals, find_gaps
 from logtools.channel_map import ResolvedSignals, resolve_signals
-from logtools.curvature import KappaCmdOrigin, derive_kappa
+from logtools.curvature import KappaCmdOrigin
 from logtools.errors import MissingSignalsError
 from logtools.readers import LogData, read_log
 from logtools.robot import METADATA_RECORD, infer_robot
-from logtools.signals import ROBOT_REQUIRED_SIGNALS, Robot, RobotConfig, SignalSource
+from logtools.signals import RobotConfig, SignalSource
 
 __all__ = ["LoadedLog", "gap_notes", "load_log", "metadata_truth"]
 
-# Signals whose common span sets the aligned frame, per robot (those present in the log).
-_SPAN_SIGNALS: dict[Robot, tuple[str, ...]] = {
-    Robot.TRACTOR_TRAILER: ("psi", "kappa_cmd", "v", "omega", "x", "y", "yaw"),
-    Robot.DIFF_DRIVE: ("wheel_left", "wheel_right", "v_cmd", "omega_cmd", "v", "omega"),
-    Robot.MANIPULATOR_2LINK: (),  # every joint signal (q1, tau1, ...)
-}
 _NOT_TRUTH = ("robot", "seed")
 
 
@@ -46,7 +40,8 @@ class LoadedLog:
             they came from, the ones that carry nothing, and how kappa_cmd was obtained.
         frame: aligned frame (``t_ns`` + one float64 column per signal, plus ``kappa`` (1/m)
             and ``kappa_source`` when odometry, pose or steering allow it).
-        robot: the robot type (channel map, metadata, else inferred from the signals).
+        robot: the robot type, a plugin's name (channel map, metadata, else inferred from the
+            signals).
         truth: true parameters from the ``logcal`` metadata record (simulated logs).
         problems: what was lost or repaired, from reading to alignment.
         gaps: recorder stalls and dropouts of the signals, one record per stretch of time.
@@ -56,7 +51,7 @@ class LoadedLog:
     log: LogData
     signals: ResolvedSignals
     frame: pl.DataFrame
-    robot: Robot
+    robot: str
     truth: dict[str, float]
     problems: list[str]
     gaps: list[Gap] = field(default_factory=list)
@@ -87,11 +82,10 @@ def metadata_truth(metadata: Mapping[str, Mapping[str, str]]) -> dict[str, float
     return out
 
 
-def _span_signals(robot: Robot, names: list[str]) -> list[str]:
-    if robot is Robot.MANIPULATOR_2LINK:
-        chosen = [n for n in names if n.rstrip("0123456789") in ("q", "qd", "tau")]
-    else:
-        chosen = [n for n in names if n in _SPAN_SIGNALS[robot]]
+def _span_signals(span: tuple[str, ...], names: list[str]) -> list[str]:
+    """The signals among ``names`` whose common span sets the aligned frame: those the robot
+    names in ``span`` (a joint signal ``q3`` matches ``q``); all when none match."""
+    chosen = [n for n in names if n in span or n.rstrip("0123456789") in span]
     return chosen or names
 
 
@@ -156,17 +150,18 @@ def load_log(
     """
     log = read_log(path)
     resolved = resolve_signals(log, channel_map)
+    from logtools.robots import plugin_for
+
     robot = infer_robot(log, resolved)
+    plugin = plugin_for(robot, where=log.path)
     if not resolved.signals:
-        raise MissingSignalsError(
-            log.path, list(ROBOT_REQUIRED_SIGNALS[robot]), log.topic_names(), str(robot)
-        )
+        raise MissingSignalsError(log.path, list(plugin.required), log.topic_names(), robot)
     names = list(resolved.signals)
     frame = align_signals(
         resolved.signals,
         rate_hz=rate_hz,
         method=method,
-        required=_span_signals(robot, names),
+        required=_span_signals(plugin.span_signals, names),
     )
     gaps = find_gaps(resolved.signals)
     origin = min((i.first_ns for i in log.info.values() if i.first_ns is not None), default=0)
@@ -176,12 +171,8 @@ def load_log(
         *gap_notes(log.path, gaps, names, origin),
         *_null_notes(log.path, frame, gaps),
     ]
-    wheelbase = resolved.robot.wheelbase
-    has_odom = {"v", "omega"} <= set(frame.columns)
-    has_pose = {"x", "y"} <= set(frame.columns)
-    has_steer = "steer" in frame.columns and wheelbase is not None
-    if robot is not Robot.MANIPULATOR_2LINK and (has_odom or has_pose or has_steer):
-        frame = derive_kappa(frame, wheelbase=wheelbase)
+    if plugin.prepare is not None:
+        frame = plugin.prepare(frame, resolved.robot)
     return LoadedLog(
         path=log.path,
         log=log,

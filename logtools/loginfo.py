@@ -122,6 +122,16 @@ class LogSummary:
             dur = (span[1] - span[0]) * 1e-9
             lines.append(f"time span: {dur:.3f} s (log_time {span[0]} .. {span[1]} ns)")
         lines.append(f"robot: {self.robot or 'unknown'} ({self.robot_reason})")
+        if self.robot:
+            from logtools.robots import plugin_for
+
+            plugin = plugin_for(self.robot)
+            need = [s.name for s in plugin.signals if s.required and s.name not in self.signals]
+            lines.append(
+                f"  {plugin.title}; it reads "
+                + ", ".join(f"{s.name} ({s.unit})" for s in plugin.signals)
+                + (f"; required but not found: {', '.join(need)}" if need else "")
+            )
         lines.append(f"topics ({len(self.topics)}):")
         for t in self.topics:
             rate = f"{t.rate_hz:.1f} Hz" if t.rate_hz else "-"
@@ -176,7 +186,7 @@ def summarize_log(
     resolved = resolve_signals(log, channel_map)
     try:
         robot, reason = explain_robot(log, resolved)
-        robot_name: str | None = robot.value
+        robot_name: str | None = robot
     except NoDriveSignalsError:
         robot_name, reason = None, "no logcal metadata and no drive signals"
     signals = {}

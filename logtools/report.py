@@ -1,130 +1,58 @@
-"""Readable terminal report of an ``AnalysisResult`` (rich tables)."""
+"""Readable terminal report of an ``AnalysisResult`` (rich): a header, the robot plugin's own
+part (its ``report``), the recommended estimate, the stages that did not run, discovery and
+notes. The same frame for every robot."""
 
 from __future__ import annotations
-
-import math
-from collections.abc import Iterable
 
 from rich.console import Console, Group, RenderableType
 from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
 
-from calib.results import AnalysisResult, MethodResult
+from calib.results import PM_MEANING, AnalysisResult, Estimate
+from logtools.robots import plugin_for
 
-__all__ = ["CLS_SPLIT_NOTE", "print_analysis", "render_analysis"]
-
-CLS_SPLIT_NOTE = (
-    "CLS (M1-M24) fits the exact model to data the prediction model has forced onto a line: its "
-    "split between L1 and L2 comes from the Taylor expansion of sin and cos, not from the robot "
-    "(it tends to L1 = (L1+L2)/3 whatever the truth). Read only L1+L2 from those rows."
-)
+__all__ = ["print_analysis", "render_analysis"]
 
 
-PM_MEANING = "(+/- is one standard error; [95 %: lo, hi] the 95 % interval.)"
-
-
-def _pm(value: float, std: float, digits: int = 3) -> str:
-    if value is None or not math.isfinite(value):
-        return "-"
-    if std is None or not math.isfinite(std) or std == 0:
-        return f"{value:.{digits}f}"
-    return f"{value:.{digits}f} ± {std:.{digits}f}"
-
-
-def _cn(value: float) -> str:
-    return "-" if value is None or not math.isfinite(value) else f"{value:.4g}"
-
-
-def _methods_table(rows: Iterable[MethodResult], label: str, truth: dict[str, float]) -> Table:
-    table = Table(title=f"Methods on segment type: {label}", title_justify="left", expand=False)
-    for col in ("method", "family", "L1 (m)", "L2 (m)", "L1+L2 (m)", "PM slope a (m)", "cond."):
-        table.add_column(col, justify="left" if col in ("method", "family") else "right")
-    for m in rows:
-        total = m.L1 + m.L2 if math.isfinite(m.L1) and math.isfinite(m.L2) else math.nan
-        a = m.extra.get("a", math.nan)
-        split_style = "dim" if m.family == "CLS" else ""
-        table.add_row(
-            m.name,
-            m.family,
-            Text(_pm(m.L1, m.L1_std), style=split_style),
-            Text(_pm(m.L2, m.L2_std), style=split_style),
-            _pm(total, 0.0),
-            _pm(a, m.extra.get("a_std", math.nan)),
-            _cn(m.condition_number),
-        )
-    if truth.get("L1") is not None and truth.get("L2") is not None:
-        t1, t2 = float(truth["L1"]), float(truth["L2"])
-        table.add_row("truth (from the log)", "", f"{t1:.3f}", f"{t2:.3f}", f"{t1 + t2:.3f}")
-    return table
-
-
-def _segments_table(result: AnalysisResult) -> Table:
-    table = Table(title="Segments by curvature command", title_justify="left")
-    for col in ("#", "start (s)", "end (s)", "type", "template"):
-        table.add_column(col, justify="right" if col != "type" else "left")
-    for i, s in enumerate(result.segments, 1):
-        params = ", ".join(f"{k}={v:.3g}" for k, v in s.parameters.items())
-        table.add_row(str(i), f"{s.start_s:.2f}", f"{s.end_s:.2f}", str(s.command_type), params)
-    return table
-
-
-def _ci(result: AnalysisResult, name: str) -> str:
-    est = result.estimate
-    if est is None:
-        return "-"
-    e = est.parameters[name]
+def _ci(e: Estimate) -> str:
     if not e.identifiable:
         return f"{e.value:.3f} (not determined)"
     return f"{e.value:.3f} [{e.ci95[0]:.3f}, {e.ci95[1]:.3f}]"
 
 
 def _runs_table(result: AnalysisResult) -> Table:
+    names: list[str] = []
+    for r in result.runs:
+        for name in r.estimate.parameters if r.estimate else ():
+            if name not in names:
+                names.append(name)
     table = Table(title="Each run on its own (95 % intervals)", title_justify="left")
-    for col in ("run", "estimate", "L1 (m)", "L2 (m)", "stages not run"):
+    units = {}
+    for r in result.runs:
+        for name, e in (r.estimate.parameters.items() if r.estimate else ()):
+            units.setdefault(name, e.unit)
+    for col in ("run", "estimate", *(f"{n} ({units[n]})" for n in names), "stages not run"):
         table.add_column(col)
     for r in result.runs:
         skipped = ", ".join(s.stage for s in r.stages if s.status != "ok") or "-"
+        params = r.estimate.parameters if r.estimate else {}
         table.add_row(
             str(r.source.get("path", "")),
             r.estimate.method if r.estimate else "none",
-            _ci(r, "L1"),
-            _ci(r, "L2"),
+            *(_ci(params[n]) if n in params else "-" for n in names),
             skipped,
         )
     return table
 
 
-def render_analysis(result: AnalysisResult, *, per_segment: bool = True) -> RenderableType:
-    """Everything a person reads after ``logcal analyze``, as one rich renderable."""
-    if result.runs:
-        return _render_pooled(result)
-    parts: list[RenderableType] = []
-    src = result.source
-    head = f"[bold]{src.get('path', '')}[/bold]  robot: {result.robot}"
-    if "duration_s" in src:
-        head += f"  duration: {src['duration_s']:.1f} s  samples: {src.get('samples', '?')}"
-    parts.append(Text.from_markup(head))
-    if src.get("signals"):
-        found = ", ".join(f"{k} <- {v}" for k, v in src["signals"].items())
-        parts.append(Text("signals: " + found))
-    parts.append(_segments_table(result))
-    labels = ["all"] + (
-        sorted({m.segment for m in result.methods} - {"all"}) if per_segment else []
-    )
-    truth = {k: v for k, v in result.truth.items() if k in ("L1", "L2")}
-    for label in labels:
-        rows = [m for m in result.methods if m.segment == label]
-        if rows:
-            parts.append(_methods_table(rows, label, truth))
-    parts.append(Text(CLS_SPLIT_NOTE, style="yellow"))
+def _tail(result: AnalysisResult, parts: list[RenderableType], title: str) -> None:
     if result.estimate is not None:
         parts.append(
-            Panel(result.estimate.report() + "\n  " + PM_MEANING, title="Recommended estimate",
-                  expand=False)
+            Panel(result.estimate.report() + "\n  " + PM_MEANING, title=title, expand=False)
         )
     else:
-        parts.append(Text("No link-length estimate: no calibration stage could run (see below).",
+        parts.append(Text("No estimate: no calibration stage could run (see below).",
                           style="bold red"))
     not_ok = [s for s in result.stages if s.status != "ok"]
     if not_ok:
@@ -139,6 +67,23 @@ def render_analysis(result: AnalysisResult, *, per_segment: bool = True) -> Rend
         parts.append(Panel(result.discovery.report(), title="Model mismatch", expand=False))
     if result.warnings:
         parts.append(Text("Notes:\n" + "\n".join(f"- {w}" for w in result.warnings), style="dim"))
+
+
+def render_analysis(result: AnalysisResult) -> RenderableType:
+    """Everything a person reads after ``logcal analyze``, as one rich renderable."""
+    if result.runs:
+        return _render_pooled(result)
+    parts: list[RenderableType] = []
+    src = result.source
+    head = f"[bold]{src.get('path', '')}[/bold]  robot: {result.robot}"
+    if "duration_s" in src:
+        head += f"  duration: {src['duration_s']:.1f} s  samples: {src.get('samples', '?')}"
+    parts.append(Text.from_markup(head))
+    if src.get("signals"):
+        found = ", ".join(f"{k} <- {v}" for k, v in src["signals"].items())
+        parts.append(Text("signals: " + found))
+    parts += plugin_for(result.robot).report(result)
+    _tail(result, parts, "Recommended estimate")
     return Group(*parts)
 
 
@@ -150,19 +95,7 @@ def _render_pooled(result: AnalysisResult) -> RenderableType:
         ),
         _runs_table(result),
     ]
-    if result.estimate is not None:
-        parts.append(
-            Panel(result.estimate.report() + "\n  " + PM_MEANING,
-                  title="Recommended estimate (all runs pooled)", expand=False)
-        )
-    else:
-        parts.append(Text("No pooled estimate.", style="bold red"))
-    not_ok = [s for s in result.stages if s.status != "ok"]
-    if not_ok:
-        parts.append(Text("\n".join(f"- {s.stage}: {s.status} ({s.reason})" for s in not_ok),
-                          style="yellow"))
-    if result.warnings:
-        parts.append(Text("Notes:\n" + "\n".join(f"- {w}" for w in result.warnings), style="dim"))
+    _tail(result, parts, "Recommended estimate (all runs pooled)")
     return Group(*parts)
 
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 from logtools.channel_map import ResolvedSignals
 from logtools.errors import LogcalInputError, NoDriveSignalsError
 from logtools.readers import LogData
-from logtools.signals import Robot
 
 __all__ = ["METADATA_RECORD", "explain_robot", "infer_robot"]
 
@@ -13,13 +12,12 @@ METADATA_RECORD = "logcal"
 """Name of the MCAP metadata record that carries ``robot`` and the nominal parameters."""
 
 
-def infer_robot(log: LogData, signals: ResolvedSignals) -> Robot:
-    """The robot type of ``log``.
+def infer_robot(log: LogData, signals: ResolvedSignals) -> str:
+    """The robot type of ``log`` (a plugin's name, see :mod:`logtools.robots`).
 
     A channel map's ``[robot] type`` wins, then the ``robot`` entry of the ``logcal`` metadata
-    record; otherwise the signals decide:
-    ``psi`` -> tractor_trailer, ``wheel_left`` and ``wheel_right`` -> diff_drive, joint signals
-    (``q1``, …) -> manipulator_2link.
+    record; otherwise the plugins decide from the signals found, in registration order
+    (``psi`` -> tractor_trailer, ...).
 
     Raises:
         LogcalInputError: the metadata names an unknown robot.
@@ -28,29 +26,28 @@ def infer_robot(log: LogData, signals: ResolvedSignals) -> Robot:
     return explain_robot(log, signals)[0]
 
 
-def explain_robot(log: LogData, signals: ResolvedSignals) -> tuple[Robot, str]:
+def explain_robot(log: LogData, signals: ResolvedSignals) -> tuple[str, str]:
     """:func:`infer_robot` and why: e.g. ``metadata record 'logcal'`` or ``signal psi``.
 
     A channel map's ``[robot] type`` comes first (the user says so), then the metadata record,
     then the signals.
     """
+    from logtools.robots import UnknownRobotError, identify_robot, plugin_for, plugins
+
     if signals.robot.type is not None:
         return signals.robot.type, "channel map [robot] type"
     named = log.metadata.get(METADATA_RECORD, {}).get("robot")
     if named is not None:
         try:
-            return Robot(named), f"metadata record {METADATA_RECORD!r}"
-        except ValueError:
+            return plugin_for(named).name, f"metadata record {METADATA_RECORD!r}"
+        except UnknownRobotError as err:
             raise LogcalInputError(
                 f"{log.path}: the {METADATA_RECORD!r} metadata record names robot {named!r}; "
-                f"expected one of {', '.join(r.value for r in Robot)}."
+                f"expected one of {', '.join(err.known)}."
             ) from None
-    found = signals.signals
-    if "psi" in found:
-        return Robot.TRACTOR_TRAILER, "signal psi"
-    if "wheel_left" in found and "wheel_right" in found:
-        return Robot.DIFF_DRIVE, "signals wheel_left, wheel_right"
-    joints = sorted(n for n in found if n.startswith(("q", "tau")) and n[-1].isdigit())
-    if joints:
-        return Robot.MANIPULATOR_2LINK, f"signals {', '.join(joints)}"
-    raise NoDriveSignalsError(log.path, log.topic_names())
+    found = identify_robot(frozenset(signals.signals))
+    if found is not None:
+        return found[0].name, found[1]
+    raise NoDriveSignalsError(
+        log.path, log.topic_names(), {p.name: list(p.required) for p in plugins()}
+    )

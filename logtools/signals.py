@@ -26,23 +26,15 @@ __all__ = [
     "DEFAULT_ROS_MAP",
     "DERIVED_TOPIC",
     "FORMULA_FUNCTIONS",
-    "ROBOT_REQUIRED_SIGNALS",
     "SIGNAL_UNITS",
     "UNIT_FACTORS",
     "Formula",
     "FormulaError",
-    "Robot",
     "RobotConfig",
     "SignalSource",
     "Stamp",
     "default_candidates",
 ]
-
-
-class Robot(StrEnum):
-    TRACTOR_TRAILER = "tractor_trailer"
-    DIFF_DRIVE = "diff_drive"
-    MANIPULATOR_2LINK = "manipulator_2link"
 
 
 SIGNAL_UNITS: dict[str, str] = {
@@ -82,12 +74,6 @@ UNIT_FACTORS: dict[str, tuple[str, float]] = {
     "1/m": ("1/m", 1.0),
 }
 """Units a channel map may give a field in: unit -> (SI unit of the signal, factor to SI)."""
-
-ROBOT_REQUIRED_SIGNALS: dict[Robot, tuple[str, ...]] = {
-    Robot.TRACTOR_TRAILER: ("psi",),  # plus kappa, derived from (omega, v) or (x, y)
-    Robot.DIFF_DRIVE: ("wheel_left", "wheel_right"),
-    Robot.MANIPULATOR_2LINK: ("q", "tau"),
-}
 
 DERIVED_TOPIC = "(derived)"
 """The ``topic`` of a :class:`SignalSource` computed from other signals (``field``: formula)."""
@@ -159,15 +145,18 @@ class RobotConfig:
     """The ``[robot]`` table of a channel map.
 
     Attributes:
-        type: robot type, None: from the log's metadata or its signals.
+        type: robot type (a plugin's name, see ``logtools.robots``), None: from the log's
+            metadata or its signals.
         wheelbase: distance (m) from the steered axle to the fixed axle of a car-like tractor;
             turns a steering angle into a curvature, kappa = tan(delta) / wheelbase.
         params: other nominal parameters by name (``L1``, ``L2``, …; m or rad).
+        urdf: an arm's URDF file or ``example-robot-data`` model name.
     """
 
-    type: Robot | None = None
+    type: str | None = None
     wheelbase: float | None = None
     params: dict[str, float] = dc_field(default_factory=dict)
+    urdf: str | None = None
 
     def constants(self) -> dict[str, float]:
         """Named numbers a formula may use: ``wheelbase`` and the nominal parameters."""

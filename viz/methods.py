@@ -14,7 +14,7 @@ import numpy as np
 import rerun as rr
 from numpy.typing import ArrayLike
 
-from calib.results import AnalysisResult, MethodResult
+from calib.results import AnalysisResult, MethodResult, format_pm
 from viz.style import COLORS
 
 __all__ = [
@@ -147,13 +147,12 @@ def log_methods(rec: rr.RecordingStream, result: AnalysisResult) -> list[str]:
 
 
 def _pm(v: float, s: float) -> str:
-    if not math.isfinite(v):
-        return "–"
-    return f"{v:.4f} ± {s:.2g}" if math.isfinite(s) else f"{v:.4f}"
+    return format_pm(v, s, digits=4)
 
 
 def methods_table(result: AnalysisResult) -> str:
-    """Markdown table: every method row with L1, L2 (m) +/- std and condition number."""
+    """Markdown table: every method row with L1, L2 (m) ± spread over repeats and condition
+    number (± as ``calib.results.PM_MEANING`` says)."""
     lines = []
     if result.truth:
         lines.append(

@@ -9,6 +9,8 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from calib.results import Baseline
+
 __all__ = ["register"]
 
 
@@ -28,9 +30,14 @@ def register(app: typer.Typer) -> None:
             None, "--png", help="Save a static PNG of the main views (default: beside --rrd)."
         ),
         repeats: int = typer.Option(10, "--repeats", min=1, help="Bootstrap repeats per method."),
-        baseline: str = typer.Option(
-            "transient", "--baseline",
-            help="Discovery baseline: transient (default) or steady (the patent's view).",
+        baseline: Baseline = typer.Option(
+            Baseline.TRANSIENT, "--baseline",
+            help="Discovery baseline of the tractor-trailer: transient (default) or steady "
+            "(the patent's view).",
+        ),
+        urdf: str | None = typer.Option(
+            None, "--urdf",
+            help="An arm's URDF file, or a model name of example-robot-data (e.g. panda).",
         ),
         channel_map: Path | None = typer.Option(
             None, "--channel-map", help="TOML mapping topics/fields to logical signals."
@@ -41,20 +48,16 @@ def register(app: typer.Typer) -> None:
         """Calibrate the robot's parameters from LOG(s) and explain model mismatch."""
         from logtools.analyze import AnalysisConfig, analyze_logs
         from logtools.channel_map import load_channel_map
-        from logtools.errors import LogcalInputError
         from logtools.report import print_analysis
+        from logtools.robots import plugin_for
+        from logtools.robots.base import load_view
         from logtools.runs import expand_runs
 
-        if baseline not in ("steady", "transient"):
-            raise LogcalInputError(
-                f"--baseline {baseline!r}: expected 'steady' (the patent's steady-state model) "
-                "or 'transient' (off-axle trailer kinematics)."
-            )
         runs = expand_runs(logs)
         cmap = load_channel_map(channel_map) if channel_map else None
         cfg = AnalysisConfig(
             repeats=repeats, baseline=baseline, seed=seed, discovery=not no_discovery,
-            debug=_debug(),
+            debug=_debug(), extra={"urdf": urdf} if urdf else {},
         )
         err = Console(stderr=True)
         if sys.stderr.isatty():
@@ -65,21 +68,23 @@ def register(app: typer.Typer) -> None:
         else:
             loadeds, result = analyze_logs(runs, channel_map=cmap, config=cfg)
         if rrd is not None or png is not None:
-            from viz.plots import write_report_png
-            from viz.recording import write_recording
-
+            plugin = plugin_for(result.robot)
             per_run = result.runs or [result]
+            png_path = png or (rrd.with_suffix(".png") if rrd is not None else None)
             for i, (loaded, res) in enumerate(zip(loadeds, per_run, strict=True)):
                 tag = "" if len(per_run) == 1 else f"_run{i + 1}"
-                if rrd is not None:
-                    out = rrd.with_name(rrd.stem + tag + rrd.suffix)
-                    write_recording(out, loaded.frame, res)
-                    err.print(f"rerun recording saved: {out}")
-                png_path = png or (rrd.with_suffix(".png") if rrd is not None else None)
-                if png_path is not None:
-                    out = png_path.with_name(png_path.stem + tag + png_path.suffix)
-                    write_report_png(out, loaded.frame, res)
-                    err.print(f"report image saved: {out}")
+                for target, view, what in (
+                    (rrd, plugin.views, "rerun recording"),
+                    (png_path, plugin.png, "report image"),
+                ):
+                    if target is None:
+                        continue
+                    if view is None:
+                        err.print(f"logcal: the {plugin.title} has no {what} yet; not written")
+                        continue
+                    out = target.with_name(target.stem + tag + target.suffix)
+                    load_view(view)(out, loaded, res)
+                    err.print(f"{what} saved: {out}")
         if as_json:
             sys.stdout.write(json.dumps(result.to_dict(), indent=2) + "\n")
         else:

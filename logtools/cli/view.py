@@ -33,15 +33,19 @@ def register(app: typer.Typer) -> None:
         from logtools.analyze import AnalysisConfig, analyze_log
         from logtools.channel_map import load_channel_map
         from logtools.errors import LogcalInputError
-        from viz.recording import write_recording
+        from logtools.robots import plugin_for
+        from logtools.robots.base import load_view
         from viz.viewer import open_viewer
 
         cmap = load_channel_map(channel_map) if channel_map else None
         loaded, result = analyze_log(log, channel_map=cmap, config=AnalysisConfig(repeats=repeats))
+        plugin = plugin_for(result.robot)
+        if plugin.views is None:
+            raise LogcalInputError(f"{log}: the {plugin.title} has no rerun views yet.")
+        options = {"method_for_psi": method} if method else {}
         try:
-            out = write_recording(
-                rrd or log.with_suffix(".rrd"), loaded.frame, result, method_for_psi=method
-            )
+            out = load_view(plugin.views)(rrd or log.with_suffix(".rrd"), loaded, result,
+                                          **options)
         except KeyError as err:
             raise LogcalInputError(f"--method {method!r}: {err.args[0]}") from err
         proc = None if no_viewer else open_viewer(out)

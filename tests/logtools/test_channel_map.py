@@ -13,7 +13,7 @@ from logtools.channel_map import load_channel_map, resolve_signals
 from logtools.errors import ChannelMapError, LogcalInputError, NoDriveSignalsError
 from logtools.readers import read_log
 from logtools.robot import explain_robot, infer_robot
-from logtools.signals import Robot, SignalSource
+from logtools.signals import SignalSource
 
 DRIVE = ("kappa_cmd", "v", "omega", "x", "y", "yaw", "psi")
 
@@ -28,7 +28,7 @@ def test_json_defaults(tmp_path, truth, mcap_writers):
     assert res.sources["psi"] == SignalSource("/hitch/angle", "angle")
     assert "wheel_left" in res.missing
     assert res.problems == []
-    assert infer_robot(log, res) is Robot.TRACTOR_TRAILER
+    assert infer_robot(log, res) == "tractor_trailer"
 
 
 def test_ros2_defaults_yaw_from_quaternion(tmp_path, truth, mcap_writers):
@@ -110,7 +110,7 @@ def test_csv_columns_by_logical_name(tmp_path):
     assert res.signals["tau2"]["value"].to_list() == [2.0, 2.5]
     assert "q" not in res.missing
     assert "qd" in res.missing
-    assert explain_robot(log, res) == (Robot.MANIPULATOR_2LINK, "signals q1, q2, tau1, tau2")
+    assert explain_robot(log, res) == ("manipulator", "signals q1, q2, tau1, tau2")
 
 
 def test_joint_states_arrays_become_per_joint_signals(tmp_path):
@@ -127,7 +127,7 @@ def test_joint_states_arrays_become_per_joint_signals(tmp_path):
     res = resolve_signals(log)
     assert sorted(res.signals) == ["q1", "q2", "qd1", "qd2", "tau1", "tau2"]
     assert res.signals["tau2"]["value"].to_list() == [0.0, 2.0, 4.0, 6.0, 8.0]
-    assert infer_robot(log, res) is Robot.MANIPULATOR_2LINK
+    assert infer_robot(log, res) == "manipulator"
 
 
 def test_diff_drive_inferred_from_wheels(tmp_path, truth, mcap_writers):
@@ -136,12 +136,12 @@ def test_diff_drive_inferred_from_wheels(tmp_path, truth, mcap_writers):
     log = read_log(mcap_writers.json(tmp_path / "dd.mcap", data, topics=topics))
     res = resolve_signals(log)
     assert {"wheel_left", "wheel_right", "v_cmd", "omega_cmd"} <= set(res.signals)
-    assert infer_robot(log, res) is Robot.DIFF_DRIVE
+    assert infer_robot(log, res) == "diff_drive"
 
 
 def test_metadata_robot_wins_and_is_checked(tmp_path, truth, mcap_writers):
     log = read_log(mcap_writers.json(tmp_path / "m.mcap", truth, metadata={"robot": "diff_drive"}))
-    assert infer_robot(log, resolve_signals(log)) is Robot.DIFF_DRIVE
+    assert infer_robot(log, resolve_signals(log)) == "diff_drive"
     bad = read_log(mcap_writers.json(tmp_path / "b.mcap", truth, metadata={"robot": "boat"}))
     with pytest.raises(LogcalInputError, match="names robot 'boat'"):
         infer_robot(bad, resolve_signals(bad))

@@ -17,7 +17,7 @@ from logtools.curvature import KappaCmdKind
 from logtools.errors import ChannelMapEntryError, ChannelMapError, LogcalInputError
 from logtools.load import load_log
 from logtools.readers import read_log
-from logtools.signals import Formula, FormulaError, Robot, SignalSource, Stamp
+from logtools.signals import Formula, FormulaError, SignalSource, Stamp
 
 TOPICS = {
     "/enc": {"deg": "psi_deg"},
@@ -77,7 +77,7 @@ off = true
 def test_scale_offset_unit_formula_and_off(tmp_path, truth, log_path):
     cmap = load_channel_map(_toml(tmp_path, GOOD))
     assert isinstance(cmap, ChannelMap)
-    assert cmap.robot.type is Robot.TRACTOR_TRAILER
+    assert cmap.robot.type == "tractor_trailer"
     assert cmap.robot.wheelbase == 2.0
     assert cmap.robot.params == {"L2": 2.5}
     assert cmap.off == frozenset({"omega"})

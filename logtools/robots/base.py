@@ -1,0 +1,130 @@
+"""The shape every robot fills in: a :class:`RobotPlugin` declares its signals, how to tell its
+logs apart, its analysis (segmentation, methods, estimators, discovery), its pooled analysis of
+several runs, its readable report and its rerun views.
+
+``logcal analyze``, ``info``, the report, the JSON and the .rrd go through this interface only, so
+a new robot adds its own files plus one line in :mod:`logtools.robots` (``PLUGINS``). Modelled on
+evo's one entry point per trajectory kind and pysindy's pluggable feature libraries: the pipeline
+is generic, what differs between robots is declared in one object.
+
+A plugin's numerics live in ``calib`` (e.g. ``calib.diff_drive``), its views in ``viz`` (named by
+an import path, so that ``logtools`` never imports rerun); the plugin module in
+``logtools.robots`` only wires them together.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Protocol
+
+from logtools.signals import SignalSource
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    import polars as pl
+    from rich.console import RenderableType
+
+    from calib.results import AnalysisResult
+    from logtools.load import LoadedLog
+    from logtools.signals import RobotConfig
+
+__all__ = ["AnalyzeFn", "PoolFn", "Progress", "RobotPlugin", "SignalSpec", "load_view"]
+
+Progress = Callable[[str], None]
+
+
+class AnalyzeFn(Protocol):
+    """Analyse one loaded log: ``(loaded, config, progress) -> AnalysisResult``.
+
+    ``config`` is a :class:`logtools.analyze.AnalysisConfig`. Each stage runs inside its own
+    boundary (``logtools.stages.Stages``): a stage that lacks data or fails numerically says so
+    in ``AnalysisResult.stages`` and the others still report. Raises ``LogcalInputError`` (or a
+    subclass naming file, topic and field) only when the log cannot be analysed at all.
+    """
+
+    def __call__(self, loaded: LoadedLog, config: Any, progress: Progress) -> AnalysisResult: ...
+
+
+class PoolFn(Protocol):
+    """Pool several runs of one robot: ``(runs, config, progress) -> AnalysisResult`` where
+    ``runs`` pairs each loaded log with its own analysis; the result's ``runs`` holds those."""
+
+    def __call__(
+        self,
+        runs: Sequence[tuple[LoadedLog, AnalysisResult]],
+        config: Any,
+        progress: Progress,
+    ) -> AnalysisResult: ...
+
+
+@dataclass(frozen=True)
+class SignalSpec:
+    """One logical signal a robot reads: canonical name, SI unit and meaning (LOG_FORMAT.md).
+
+    ``sources`` are default topic/field places to find it (tried after LOG_FORMAT.md's own, in
+    order); a CSV column of the signal's name is always read.
+    """
+
+    name: str
+    unit: str
+    meaning: str
+    required: bool = False
+    sources: tuple[SignalSource, ...] = ()
+
+
+@dataclass(frozen=True)
+class RobotPlugin:
+    """One robot type.
+
+    Attributes:
+        name: the robot type as written in the ``logcal`` metadata record and the channel map's
+            ``[robot] type`` (``tractor_trailer``, ``diff_drive``, ``manipulator``).
+        title: what a person calls it ("tractor with an off-axle trailer").
+        signals: the logical signals it reads; ``required`` ones must be present to analyse.
+        identify: given the names of the logical signals found in a log, a short reason
+            ("signals wheel_left, wheel_right") when they identify this robot, else None. Asked
+            in ``PLUGINS`` order when neither channel map nor metadata names the robot.
+        analyze: analyse one log.
+        report: the robot's own part of the readable report (rich renderables: tables, text);
+            the header, estimate, stages, discovery and notes are drawn around it.
+        pool: analyse several runs together (None: each run is reported on its own).
+        views: import path ``"viz.module:function"`` of the rerun views, a function
+            ``(out_path, loaded, result, **options) -> Path`` returning the file written;
+            None: no views yet.
+        png: the same for a static PNG report image; None: none.
+        aliases: other names accepted for ``name`` (older metadata).
+        span_signals: signals whose common time span sets the aligned frame (a joint signal
+            ``q3`` matches ``q``; none present: all signals).
+        prepare: completes the aligned frame after reading, given the channel map's
+            ``[robot]`` table (e.g. the tractor-trailer derives the measured curvature).
+    """
+
+    name: str
+    title: str
+    signals: tuple[SignalSpec, ...]
+    identify: Callable[[frozenset[str]], str | None]
+    analyze: AnalyzeFn
+    report: Callable[[AnalysisResult], list[RenderableType]]
+    pool: PoolFn | None = None
+    views: str | None = None
+    png: str | None = None
+    aliases: tuple[str, ...] = ()
+    span_signals: tuple[str, ...] = ()
+    prepare: Callable[[pl.DataFrame, RobotConfig], pl.DataFrame] | None = None
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def required(self) -> tuple[str, ...]:
+        """Names of the signals this robot cannot be analysed without."""
+        return tuple(s.name for s in self.signals if s.required)
+
+
+def load_view(path: str) -> Callable[..., Path]:
+    """The function named by a ``"module:function"`` import path (``RobotPlugin.views``)."""
+    import importlib
+
+    module, _, name = path.partition(":")
+    fn: Callable[..., Path] = getattr(importlib.import_module(module), name)
+    return fn
