@@ -16,6 +16,7 @@ from logtools.errors import NoDriveSignalsError
 from logtools.load import gap_notes
 from logtools.readers import TopicInfo, read_log
 from logtools.robot import explain_robot
+from logtools.safe_text import printable
 from logtools.signals import SignalSource
 
 __all__ = ["LogSummary", "SignalSummary", "summarize_log"]
@@ -171,7 +172,9 @@ class LogSummary:
         if self.problems:
             lines.append(f"problems ({len(self.problems)}):")
             lines += [f"  - {p}" for p in self.problems]
-        return "\n".join(lines)
+        # names and values come from the log: each line is escaped before the lines are joined,
+        # so a control character or newline in a topic name cannot reach the terminal
+        return "\n".join(printable(line) for line in lines)
 
 
 def summarize_log(

@@ -11,6 +11,7 @@ from rich.text import Text
 
 from calib.results import PM_MEANING, AnalysisResult, Estimate
 from logtools.robots import plugin_for
+from logtools.safe_text import printable
 
 __all__ = ["print_analysis", "render_analysis"]
 
@@ -38,7 +39,7 @@ def _runs_table(result: AnalysisResult) -> Table:
         skipped = ", ".join(s.stage for s in r.stages if s.status != "ok") or "-"
         params = r.estimate.parameters if r.estimate else {}
         table.add_row(
-            str(r.source.get("path", "")),
+            printable(r.source.get("path", "")),
             r.estimate.method if r.estimate else "none",
             *(_ci(params[n]) if n in params else "-" for n in names),
             skipped,
@@ -59,14 +60,17 @@ def _tail(result: AnalysisResult, parts: list[RenderableType], title: str) -> No
         parts.append(
             Text(
                 "Stages that did not run:\n"
-                + "\n".join(f"- {s.stage}: {s.status} ({s.reason})" for s in not_ok),
+                + "\n".join(
+                    f"- {s.stage}: {s.status} ({printable(s.reason)})" for s in not_ok
+                ),
                 style="yellow",
             )
         )
     if result.discovery is not None:
         parts.append(Panel(result.discovery.report(), title="Model mismatch", expand=False))
     if result.warnings:
-        parts.append(Text("Notes:\n" + "\n".join(f"- {w}" for w in result.warnings), style="dim"))
+        parts.append(Text("Notes:\n" + "\n".join(f"- {printable(w)}" for w in result.warnings),
+                          style="dim"))
 
 
 def render_analysis(result: AnalysisResult) -> RenderableType:
@@ -75,12 +79,13 @@ def render_analysis(result: AnalysisResult) -> RenderableType:
         return _render_pooled(result)
     parts: list[RenderableType] = []
     src = result.source
-    head = f"[bold]{src.get('path', '')}[/bold]  robot: {result.robot}"
+    head = Text(printable(src.get("path", "")), style="bold")
+    head.append(f"  robot: {result.robot}")
     if "duration_s" in src:
-        head += f"  duration: {src['duration_s']:.1f} s  samples: {src.get('samples', '?')}"
-    parts.append(Text.from_markup(head))
+        head.append(f"  duration: {src['duration_s']:.1f} s  samples: {src.get('samples', '?')}")
+    parts.append(head)
     if src.get("signals"):
-        found = ", ".join(f"{k} <- {v}" for k, v in src["signals"].items())
+        found = ", ".join(f"{k} <- {printable(v)}" for k, v in src["signals"].items())
         parts.append(Text("signals: " + found))
     parts += plugin_for(result.robot).report(result)
     _tail(result, parts, "Recommended estimate")
@@ -89,9 +94,9 @@ def render_analysis(result: AnalysisResult) -> RenderableType:
 
 def _render_pooled(result: AnalysisResult) -> RenderableType:
     parts: list[RenderableType] = [
-        Text.from_markup(
-            f"[bold]{len(result.runs)} runs[/bold]  robot: {result.robot}  pooled: "
-            f"{result.source.get('runs_pooled', 0)}"
+        Text.assemble(
+            (f"{len(result.runs)} runs", "bold"),
+            f"  robot: {result.robot}  pooled: {result.source.get('runs_pooled', 0)}",
         ),
         _runs_table(result),
     ]

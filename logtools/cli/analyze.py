@@ -48,12 +48,19 @@ def register(app: typer.Typer) -> None:
         """Calibrate the robot's parameters from LOG(s) and explain model mismatch."""
         from logtools.analyze import AnalysisConfig, analyze_logs
         from logtools.channel_map import load_channel_map
+        from logtools.outputs import check_output, write_atomically
         from logtools.report import print_analysis
         from logtools.robots import plugin_for
         from logtools.robots.base import load_view
         from logtools.runs import expand_runs
+        from logtools.safe_text import printable
 
         runs = expand_runs(logs)
+        inputs = [Path(r) for r in runs] + list(logs)
+        if rrd is not None:
+            check_output(rrd, option="--rrd", suffixes=(".rrd",), inputs=inputs)
+        if png is not None:
+            check_output(png, option="--png", suffixes=(".png",), inputs=inputs)
         cmap = load_channel_map(channel_map) if channel_map else None
         cfg = AnalysisConfig(
             repeats=repeats, baseline=baseline, seed=seed, discovery=not no_discovery,
@@ -73,18 +80,23 @@ def register(app: typer.Typer) -> None:
             png_path = png or (rrd.with_suffix(".png") if rrd is not None else None)
             for i, (loaded, res) in enumerate(zip(loadeds, per_run, strict=True)):
                 tag = "" if len(per_run) == 1 else f"_run{i + 1}"
-                for target, view, what in (
-                    (rrd, plugin.views, "rerun recording"),
-                    (png_path, plugin.png, "report image"),
+                for target, view, what, option in (
+                    (rrd, plugin.views, "rerun recording", "--rrd"),
+                    (png_path, plugin.png, "report image", "--png"),
                 ):
                     if target is None:
                         continue
                     if view is None:
-                        err.print(f"logcal: the {plugin.title} has no {what} yet; not written")
+                        err.print(f"logcal: the {plugin.title} has no {what} yet; not written",
+                                  markup=False)
                         continue
-                    out = target.with_name(target.stem + tag + target.suffix)
-                    load_view(view)(out, loaded, res)
-                    err.print(f"{what} saved: {out}")
+                    out = check_output(
+                        target.with_name(target.stem + tag + target.suffix), option=option,
+                        suffixes=(target.suffix.lower(),), inputs=inputs,
+                    )
+                    draw = load_view(view)
+                    write_atomically(out, lambda tmp, d=draw, lo=loaded, r=res: d(tmp, lo, r))
+                    err.print(f"{what} saved: {printable(out)}", markup=False, highlight=False)
         if as_json:
             sys.stdout.write(json.dumps(result.to_dict(), indent=2) + "\n")
         else:
@@ -92,7 +104,8 @@ def register(app: typer.Typer) -> None:
         bad = result.source.get("errors") or []
         if bad:
             for message in bad:
-                err.print(f"logcal: error: {message}", markup=False, highlight=False)
+                err.print(f"logcal: error: {printable(message)}", markup=False,
+                          highlight=False)
             raise typer.Exit(2)
 
 

@@ -10,8 +10,9 @@ import typer
 
 from calib.errors import CalibError
 from logtools.errors import LogcalError
+from logtools.safe_text import printable
 
-__all__ = ["app", "debug_enabled", "main", "run"]
+__all__ = ["KNOWN_ERRORS", "app", "debug_enabled", "launch", "main", "run"]
 
 app = typer.Typer(
     name="logcal",
@@ -46,50 +47,28 @@ def _register() -> None:
 _register()
 
 
-def _click_exception_types() -> tuple[
-    tuple[type[BaseException], ...], tuple[type[BaseException], ...]
-]:
-    """(usage-error types, abort types) of typer's vendored click and of click, when present."""
-    usage: list[type[BaseException]] = []
-    abort: list[type[BaseException]] = [typer.Abort]
-    try:  # typer >= 0.2x vendors its own copy of click
-        from typer._click import exceptions as vendored
-
-        usage.append(vendored.ClickException)
-    except ImportError:  # pragma: no cover - depends on the typer version
-        pass
-    try:  # older typer runs on the click package
-        import click  # type: ignore[import-not-found, unused-ignore]
-
-        usage.append(click.ClickException)
-        abort.append(click.exceptions.Abort)
-    except ImportError:
-        pass
-    return tuple(usage), tuple(abort)
+KNOWN_ERRORS: tuple[type[Exception], ...] = (LogcalError, CalibError)
+"""Errors that are the input's fault or a stated limit of the data: one line, exit code 2."""
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI in-process with ``argv`` (without the program name); return the exit code."""
+def launch(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI in-process with ``argv`` (without the program name); return the exit code.
+
+    The one place errors become exit codes: usage errors (typer/click) exit 2 with their own
+    message; ``KNOWN_ERRORS`` print one line ``logcal: error: ...`` and exit 2; anything else
+    is a bug of ours: one line, exit 1 (``--debug`` shows the traceback of either).
+    """
     args = list(sys.argv[1:] if argv is None else argv)
     _state["debug"] = "--debug" in args
-    usage_errors, aborts = _click_exception_types()
     try:
-        app(args=args, prog_name="logcal", standalone_mode=False)
-    except (LogcalError, CalibError) as err:
+        app(args=args, prog_name="logcal", standalone_mode=True)
+    except SystemExit as ex:  # standalone typer/click ends every run with SystemExit
+        return int(ex.code or 0) if isinstance(ex.code, int) else 1
+    except KNOWN_ERRORS as err:
         if _state["debug"]:
             traceback.print_exc()
-        print(f"logcal: error: {err}", file=sys.stderr)
+        print(f"logcal: error: {printable(err)}", file=sys.stderr)
         return 2
-    except typer.Exit as ex:
-        return int(ex.exit_code or 0)
-    except SystemExit as ex:
-        return int(ex.code or 0) if isinstance(ex.code, int) else 1
-    except usage_errors as ex:
-        ex.show()  # type: ignore[attr-defined]  # a click ClickException
-        return int(getattr(ex, "exit_code", 2))
-    except aborts:
-        print("Aborted.", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("Interrupted.", file=sys.stderr)
         return 130
@@ -97,7 +76,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if _state["debug"]:
             traceback.print_exc()
         print(
-            f"logcal: internal error: {type(err).__name__}: {err} (run with --debug for the "
+            f"logcal: internal error: {type(err).__name__}: {printable(err)} (run with --debug "
+            "for the "
             "traceback, and please report it)",
             file=sys.stderr,
         )
@@ -105,9 +85,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
+main = launch
+"""Former name of :func:`launch` (tests and scripts call ``main([...])``)."""
+
+
 def run() -> None:
     """Console-script entry point."""
-    raise SystemExit(main())
+    raise SystemExit(launch())
 
 
 if __name__ == "__main__":

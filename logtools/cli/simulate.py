@@ -110,8 +110,10 @@ def register(app: typer.Typer) -> None:
         from calib.sim.presets import preset as make_preset
         from calib.sim.tractor_trailer import Effects, simulate_tractor_trailer
         from calib.sim.validation import SimParameterError
+        from logtools.outputs import check_output, write_atomically
         from logtools.writers.tractor_trailer import run_metadata, write_run
 
+        check_output(out, option="--out", suffixes=(".mcap", ".csv"))
         enc = encoding or LogEncoding.for_path(out)
         kwargs: dict[str, object] = {
             "L1": L1,
@@ -135,7 +137,9 @@ def register(app: typer.Typer) -> None:
             raise input_error(err) from err
         with _status(f"writing {out}"):
             meta = run_metadata(run, include_effects=include_effects, extra={"preset": preset})
-            n = write_run(out, run, encoding=enc, metadata=meta)
+            n = write_atomically(
+                out, lambda tmp: write_run(tmp, run, encoding=enc, metadata=meta)
+            )
         unit = "rows" if enc is LogEncoding.CSV else "messages"
         print(
             f"wrote {out} ({enc}): {n} {unit}, {cfg.commands.duration_s:g} s, "

@@ -33,23 +33,31 @@ def register(app: typer.Typer) -> None:
         from logtools.analyze import AnalysisConfig, analyze_log
         from logtools.channel_map import load_channel_map
         from logtools.errors import LogcalInputError
+        from logtools.outputs import check_output, write_atomically
         from logtools.robots import plugin_for
         from logtools.robots.base import load_view
         from viz.viewer import open_viewer
 
+        target = check_output(
+            rrd or log.with_suffix(".rrd"), option="--rrd", suffixes=(".rrd",), inputs=[log]
+        )
         cmap = load_channel_map(channel_map) if channel_map else None
         loaded, result = analyze_log(log, channel_map=cmap, config=AnalysisConfig(repeats=repeats))
         plugin = plugin_for(result.robot)
         if plugin.views is None:
             raise LogcalInputError(f"{log}: the {plugin.title} has no rerun views yet.")
         options = {"method_for_psi": method} if method else {}
+        draw = load_view(plugin.views)
         try:
-            out = load_view(plugin.views)(rrd or log.with_suffix(".rrd"), loaded, result,
-                                          **options)
+            write_atomically(target, lambda tmp: draw(tmp, loaded, result, **options))
+            out = target
         except KeyError as err:
             raise LogcalInputError(f"--method {method!r}: {err.args[0]}") from err
-        proc = None if no_viewer else open_viewer(out)
-        if proc is None:
+        viewer = None if no_viewer else open_viewer(out)
+        if viewer is None:
             typer.echo(f"rerun recording saved: {out} (open it with: rerun {out})")
         else:
-            typer.echo(f"rerun recording saved: {out}; viewer started (pid {proc.pid})")
+            typer.echo(
+                f"rerun recording saved: {out}; viewer started (pid {viewer.process.pid}, "
+                f"listening on {viewer.host}:{viewer.port} only)"
+            )
