@@ -18,8 +18,8 @@ __all__ = ["print_analysis", "render_analysis"]
 
 def _ci(e: Estimate) -> str:
     if not e.identifiable:
-        return f"{e.value:.3f} (not determined)"
-    return f"{e.value:.3f} [{e.ci95[0]:.3f}, {e.ci95[1]:.3f}]"
+        return f"{e.value:.4g} (not determined)"
+    return f"{e.value:.4g} [{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
 
 
 def _runs_table(result: AnalysisResult) -> Table:
@@ -67,7 +67,10 @@ def _tail(result: AnalysisResult, parts: list[RenderableType], title: str) -> No
             )
         )
     if result.discovery is not None:
-        parts.append(Panel(result.discovery.report(), title="Model mismatch", expand=False))
+        text = result.discovery.report()
+        if not isinstance(text, str):  # a list of lines
+            text = "\n".join(text)
+        parts.append(Panel(Text(text), title="Model mismatch", expand=False))
     if result.warnings:
         parts.append(Text("Notes:\n" + "\n".join(f"- {printable(w)}" for w in result.warnings),
                           style="dim"))
@@ -96,7 +99,8 @@ def _render_pooled(result: AnalysisResult) -> RenderableType:
     parts: list[RenderableType] = [
         Text.assemble(
             (f"{len(result.runs)} runs", "bold"),
-            f"  robot: {result.robot}  pooled: {result.source.get('runs_pooled', 0)}",
+            f"  robot: {result.robot}",
+            f"  pooled: {result.source['runs_pooled']}" if "runs_pooled" in result.source else "",
         ),
         _runs_table(result),
     ]

@@ -28,6 +28,7 @@ __all__ = [
 
 _PLUGIN_MODULES: tuple[str, ...] = (
     "logtools.robots.tractor_trailer",
+    "logtools.robots.diff_drive",
 )
 
 _registered: list[RobotPlugin] = []

@@ -1,0 +1,54 @@
+"""Cut runs into calibration segments: consecutive windows of fixed duration, each starting from
+the ground-truth pose, so that dead-reckoning errors do not carry from one to the next."""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from calib.diff_drive.data import DriveRun
+
+__all__ = ["SegmentIndex", "cut_segments"]
+
+MIN_WHEEL_TRAVEL_RAD = 0.5
+"""A segment counts only if a wheel turned at least this much (rad) in it: standing still
+carries nothing about the parameters, only noise."""
+
+
+@dataclass(frozen=True)
+class SegmentIndex:
+    """Samples ``start``..``stop`` (inclusive) of run number ``run``."""
+
+    run: int
+    start: int
+    stop: int
+
+
+def cut_segments(runs: Sequence[DriveRun], segment_s: float) -> list[SegmentIndex]:
+    """Windows of ``segment_s`` seconds (the last one of a run may be shorter, down to half),
+    in run order; windows where neither wheel turned ``MIN_WHEEL_TRAVEL_RAD`` are left out."""
+    if not segment_s > 0:
+        raise ValueError(f"segment length must be > 0 s, got {segment_s!r}")
+    out: list[SegmentIndex] = []
+    for k, run in enumerate(runs):
+        if run.n < 2:
+            continue
+        edges = np.arange(run.t[0], run.t[-1] + 1e-9, segment_s)
+        idx = np.unique(np.searchsorted(run.t, edges))
+        if idx[-1] != run.n - 1:
+            if run.t[-1] - run.t[idx[-1]] >= 0.5 * segment_s or idx.size == 1:
+                idx = np.append(idx, run.n - 1)
+            else:
+                idx[-1] = run.n - 1
+        for a, b in itertools.pairwise(idx):
+            travel = max(
+                abs(run.wheel_right[b] - run.wheel_right[a]),
+                abs(run.wheel_left[b] - run.wheel_left[a]),
+                float(np.sum(np.abs(np.diff(run.wheel_right[a : b + 1])))),
+            )
+            if b > a and travel >= MIN_WHEEL_TRAVEL_RAD:
+                out.append(SegmentIndex(k, int(a), int(b)))
+    return out
