@@ -138,4 +138,24 @@ def register(app: typer.Typer) -> None:
         else:
             Console(width=max(Console().width, 160)).print(render_reproduction(rep))
 
+    from logtools.cli.diff_drive import register_reproduce as _wmr
+
+    _wmr(group)
+    @group.command("momentum")
+    def momentum(
+        as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+        png: str | None = typer.Option(None, "--png", help="Save the trajectories as PNG."),
+    ) -> None:
+        """JKROS 2012: its constrained estimator vs RLS on the paper's 2-link arm."""
+        from calib.reproduce.momentum import reproduce_momentum, save_png
+        from logtools.cli.reproduce_momentum import render_momentum
+
+        rep = reproduce_momentum()
+        if png:
+            save_png(rep, png)
+        if as_json:
+            sys.stdout.write(json.dumps(rep.to_dict(), indent=1) + "\n")
+        else:
+            Console(width=max(Console().width, 160)).print(render_momentum(rep))
+
     app.add_typer(group, name="reproduce")

@@ -63,6 +63,9 @@ def register(app: typer.Typer) -> None:
         no_args_is_help=True,
     )
     app.add_typer(sim, name="simulate")
+    from logtools.cli.diff_drive import register_simulate as _diff_drive
+
+    _diff_drive(sim)
 
     @sim.command("tractor-trailer")
     def tractor_trailer(
@@ -146,6 +149,48 @@ def register(app: typer.Typer) -> None:
             f"L1 = {L1:g} m, L2 = {L2:g} m, |kappa_cmd| <= {cfg.commands.peak_abs():.3g} 1/m, "
             f"seed {seed}"
         )
+
+    @sim.command("manipulator")
+    def manipulator(
+        out: Path = typer.Option(..., "--out", "-o", help="Output log file."),
+        encoding: LogEncoding | None = typer.Option(
+            None, "--encoding", help="Log encoding (default: csv for *.csv, else json)."
+        ),
+        arm: str = typer.Option(
+            "planar2", "--arm", help="planar2 (the JKROS 2012 arm) or a URDF path / "
+            "example-robot-data name (e.g. panda)."
+        ),
+        duration: float = typer.Option(20.0, "--duration", help="Run length (s), > 1."),
+        rate: float | None = typer.Option(None, "--rate", help="Rate (Hz); default 500 / 1000."),
+        seed: int = typer.Option(0, "--seed", help="Seed (>= 0) of the trajectory and noise."),
+        torque_noise: float = typer.Option(0.05, "--torque-noise", help="Torque noise std (N·m)."),
+        payload: float = typer.Option(0.0, "--payload", help="Held payload (kg), >= 0."),
+        conceal: str | None = typer.Option(
+            None, "--conceal", help="friction | payload: leave it out of the log's declared model."
+        ),
+    ) -> None:
+        """Simulate a serial arm and write its /joint_states log (manipulator)."""
+        from logtools.errors import LogcalInputError
+        from logtools.writers.manipulator import write_simulated_arm
+
+        if duration <= 1 or torque_noise < 0 or payload < 0 or seed < 0:
+            raise LogcalInputError(
+                f"--duration {duration:g} --torque-noise {torque_noise:g} --payload {payload:g} "
+                f"--seed {seed}: expected duration > 1 s and non-negative noise, payload, seed"
+            )
+        if conceal not in (None, "friction", "payload"):
+            raise LogcalInputError(f"--conceal {conceal}: expected friction or payload")
+        from calib.errors import CalibError
+
+        try:
+            run, n = write_simulated_arm(
+                out, arm=arm, encoding=encoding or LogEncoding.for_path(out),
+                duration_s=duration, rate_hz=rate, seed=seed, torque_noise=torque_noise,
+                payload=payload, conceal=conceal,
+            )
+        except CalibError as err:
+            raise LogcalInputError(f"--arm {arm}: {err}") from err
+        print(f"wrote {out}: {n} messages, {len(run.joint_names)} joints, {duration:g} s, seed {seed}")
 
     @sim.command("samples")
     def samples(

@@ -29,6 +29,7 @@ __all__ = [
 _PLUGIN_MODULES: tuple[str, ...] = (
     "logtools.robots.tractor_trailer",
     "logtools.robots.diff_drive",
+    "logtools.robots.manipulator",
 )
 
 _registered: list[RobotPlugin] = []

@@ -1,0 +1,297 @@
+"""Any serial arm from its URDF, through pinocchio's joint-torque regressor.
+
+pinocchio's ``computeJointTorqueRegressor(q, qd, qdd)`` gives ``tau = Y theta`` with ten
+parameters per link (m, m*c, inertia about the joint frame). The momentum form is built from the
+same function, so no hand-derived dynamics are needed for a new arm:
+
+* ``p = M(q) qd`` is the regressor of the same model **without gravity** at zero velocity and
+  acceleration ``qd``: ``Y_p(q, qd) = Y_0g(q, 0, qd)``;
+* ``C(q, qd) qd + tau_g = Y(q, qd, 0)``, and ``M_dot qd`` is the directional derivative of
+  ``Y_p(., qd)`` along ``qd`` (central difference, step 1e-6 rad), so that the rest of the
+  momentum equation, ``-(C^T qd - tau_g) = C qd + tau_g - M_dot qd`` (using
+  ``M_dot = C + C^T``), is ``Y_r = Y(q, qd, 0) - d/de Y_p(q + e qd, qd)``.
+
+Each joint also gets a rotor (armature) inertia ``Ia`` on its own diagonal of M. A NAME instead of
+a path loads the model of that name from the ``example-robot-data`` package (its URDFs sit under
+``cmeel.prefix/share/example-robot-data/robots``). A URDF that welds to a link it never declares
+(e.g. ``world``) is repaired by declaring it, and the repair is noted.
+"""
+
+from __future__ import annotations
+
+import re
+from functools import cached_property
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from calib.manipulator.model import ArmModelError, ParameterInfo
+
+__all__ = ["SerialArm", "example_robot_urdf", "load_serial_arm", "movable_joints"]
+
+Array = NDArray[np.float64]
+
+_LINK_PARAMS = (
+    ("m", "kg"),
+    ("mx", "kg*m"),
+    ("my", "kg*m"),
+    ("mz", "kg*m"),
+    ("Ixx", "kg*m^2"),
+    ("Ixy", "kg*m^2"),
+    ("Iyy", "kg*m^2"),
+    ("Ixz", "kg*m^2"),
+    ("Iyz", "kg*m^2"),
+    ("Izz", "kg*m^2"),
+)
+_FD_STEP = 1e-6
+_TOOL_HINTS = ("tcp", "tool", "ee", "end_effector", "hand", "gripper")
+
+
+def _robots_dir() -> Path | None:
+    try:
+        dist = metadata.distribution("example-robot-data")
+    except metadata.PackageNotFoundError:
+        return None
+    path = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
+    return path if path.is_dir() else None
+
+
+def example_robot_urdf(name: str) -> Path:
+    """The URDF of ``name`` in example-robot-data (``panda``, ``tiago``, ``ur5_robot``, ...)."""
+    root = _robots_dir()
+    if root is None:
+        raise ArmModelError(
+            f"URDF {name!r}: not a file, and the example-robot-data package is not installed "
+            "(pip install example-robot-data) to look it up by name."
+        )
+    found = sorted(root.glob(f"*/**/{name}.urdf"))
+    if not found:
+        known = sorted({p.stem for p in root.glob("*/**/*.urdf")})
+        raise ArmModelError(
+            f"URDF {name!r}: not a file and not a model of example-robot-data; expected a path "
+            f"or one of {', '.join(known[:40])}, ..."
+        )
+    return found[0]
+
+
+def _build(path: Path) -> tuple[Any, list[str]]:
+    import pinocchio as pin
+
+    text = path.read_text(encoding="utf-8", errors="replace")
+    notes: list[str] = []
+    declared = set(re.findall(r"<link\s+name\s*=\s*\"([^\"]+)\"", text))
+    used = set(re.findall(r"<(?:parent|child)\s+link\s*=\s*\"([^\"]+)\"", text))
+    missing = sorted(used - declared)
+    if missing:  # repaired before parsing, so urdfdom does not print its own error
+        text = re.sub(
+            r"(<robot\b[^>]*>)",
+            lambda m: m.group(1) + "".join(f'<link name="{n}"/>' for n in missing),
+            text,
+            count=1,
+        )
+        notes.append(f"{path.name}: declared the missing link(s) {', '.join(missing)} to load it")
+    try:
+        return pin.buildModelFromXML(text), notes
+    except (RuntimeError, ValueError) as err:
+        raise ArmModelError(f"{path}: pinocchio cannot read this URDF ({err})") from err
+
+
+def movable_joints(urdf: str) -> tuple[str, ...]:
+    """Names of the URDF's moving joints, in its order (``urdf``: path or example-robot NAME)."""
+    path = Path(urdf).expanduser()
+    full, _ = _build(path if path.is_file() else example_robot_urdf(urdf))
+    return tuple(full.names[i] for i in range(1, full.njoints) if full.joints[i].nv > 0)
+
+
+def load_serial_arm(urdf: str, joint_names: tuple[str, ...] | None, n_joints: int) -> SerialArm:
+    """The arm of ``urdf`` (a path, or an example-robot-data NAME) reduced to the logged joints.
+
+    Args:
+        urdf: URDF path or example-robot-data model name.
+        joint_names: the log's joint names in column order; None: the first ``n_joints`` moving
+            joints of the URDF, in its order.
+        n_joints: how many joints the log has.
+
+    Raises:
+        ArmModelError: the URDF cannot be found or read, or the joints are not in it.
+    """
+    path = Path(urdf).expanduser()
+    if not path.is_file():
+        if any(sep in urdf for sep in ("/", "\\")) or urdf.endswith(".urdf"):
+            raise ArmModelError(f"URDF {urdf}: no such file")
+        path = example_robot_urdf(urdf)
+    full, notes = _build(path)
+    return SerialArm(full, joint_names, n_joints, source=str(path), notes=tuple(notes))
+
+
+class SerialArm:
+    """A pinocchio model reduced to the logged joints (others locked at their neutral value)."""
+
+    def __init__(
+        self,
+        full: Any,
+        joint_names: tuple[str, ...] | None,
+        n_joints: int,
+        source: str = "",
+        notes: tuple[str, ...] = (),
+    ) -> None:
+        import pinocchio as pin
+
+        movable = [full.names[i] for i in range(1, full.njoints) if full.joints[i].nv > 0]
+        if joint_names is None or not any(joint_names):
+            if len(movable) < n_joints:
+                raise ArmModelError(
+                    f"{source}: the log has {n_joints} joints, the URDF only {len(movable)}"
+                )
+            joint_names = tuple(movable[:n_joints])
+        missing = [j for j in joint_names if j not in movable]
+        if missing:
+            raise ArmModelError(
+                f"{source}: joint(s) {', '.join(missing)} of the log are not moving joints of "
+                f"the URDF; expected names among {', '.join(movable)}"
+            )
+        lock = [full.getJointId(j) for j in movable if j not in joint_names]
+        model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
+        for name in joint_names:
+            jid = model.getJointId(name)
+            if model.joints[jid].nq != 1 or model.joints[jid].nv != 1:
+                raise ArmModelError(
+                    f"{source}: joint {name} is not a 1-DOF revolute or prismatic joint"
+                )
+        self.model = model
+        self.source = source
+        self.notes = notes
+        self._names = tuple(joint_names)
+        order = [model.joints[model.getJointId(j)].idx_v for j in joint_names]
+        self._order = np.array(order)
+        if sorted(order) != list(range(model.nv)):
+            raise ArmModelError(f"{source}: the reduced model has joints the log does not name")
+        self._data = model.createData()
+        self._ng = pin.Model(model)
+        self._ng.gravity = pin.Motion.Zero()
+        self._ng_data = self._ng.createData()
+        self._links = [
+            model.names[model.getJointId(j)] for j in sorted(joint_names, key=model.getJointId)
+        ]
+
+    # ---------------------------------------------------------------- description
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return self._names
+
+    @cached_property
+    def parameters(self) -> tuple[ParameterInfo, ...]:
+        out = [
+            ParameterInfo(f"{p}[{self.model.names[j]}]", u)
+            for j in range(1, self.model.njoints)
+            for p, u in _LINK_PARAMS
+        ]
+        out += [ParameterInfo(f"Ia[{n}]", "kg*m^2") for n in self._names]
+        return tuple(out)
+
+    @cached_property
+    def nominal(self) -> Array:
+        dyn = [self.model.inertias[j].toDynamicParameters() for j in range(1, self.model.njoints)]
+        arm = np.asarray(self.model.armature, dtype=float)[self._order]
+        return np.concatenate([*dyn, arm])
+
+    def joint_kinds(self) -> tuple[str, ...]:
+        """``revolute`` or ``prismatic`` per logged joint."""
+        out = []
+        for n in self._names:
+            short = self.model.joints[self.model.getJointId(n)].shortname()
+            out.append("prismatic" if "P" in short.replace("JointModel", "")[:2] else "revolute")
+        return tuple(out)
+
+    def limits(self) -> tuple[Array, Array]:
+        lo = np.asarray(self.model.lowerPositionLimit, dtype=float)[self._order]
+        hi = np.asarray(self.model.upperPositionLimit, dtype=float)[self._order]
+        return lo, hi
+
+    @cached_property
+    def _tool(self) -> tuple[int, Array]:
+        """(joint id, position in that joint's frame) of the tool point."""
+        best: tuple[tuple[int, int, float], Array] | None = None
+        for f in self.model.frames:
+            score = int(any(h in f.name.lower() for h in _TOOL_HINTS))
+            p = np.array(f.placement.translation, dtype=float)
+            key = (f.parentJoint, score, float(np.linalg.norm(p)))
+            if best is None or key > best[0]:
+                best = (key, p)
+        if best is None:
+            raise ArmModelError(f"{self.source}: the model has no frames")
+        return best[0][0], best[1]
+
+    def payload_increment(self) -> Array:
+        import pinocchio as pin
+
+        joint, p = self._tool
+        out = np.zeros(len(self.parameters))
+        dyn = pin.Inertia(1.0, p, np.zeros((3, 3))).toDynamicParameters()
+        out[(joint - 1) * 10 : joint * 10] = dyn
+        return out
+
+    # ---------------------------------------------------------------- regressors
+    def _q(self, q: Array) -> Array:
+        """Logged joint order -> the model's velocity order."""
+        out = np.empty_like(q)
+        out[:, self._order] = q
+        return out
+
+    def _stack(self, model: Any, data: Any, q: Array, v: Array, a: Array) -> Array:
+        import pinocchio as pin
+
+        Q, V, A = self._q(q), self._q(v), self._q(a)
+        out = np.empty((len(q), q.shape[1], 10 * (self.model.njoints - 1)))
+        for k in range(len(q)):
+            out[k] = pin.computeJointTorqueRegressor(model, data, Q[k], V[k], A[k])
+        return out[:, self._order, :]
+
+    def _with_armature(self, Y: Array, x: Array) -> Array:
+        n = x.shape[1]
+        arm = np.zeros((len(x), n, n))
+        idx = np.arange(n)
+        arm[:, idx, idx] = x
+        return np.concatenate([Y, arm], axis=2)
+
+    def regressor(self, q: Array, qd: Array, qdd: Array) -> Array:
+        return self._with_armature(self._stack(self.model, self._data, q, qd, qdd), qdd)
+
+    def momentum(self, q: Array, qd: Array) -> Array:
+        Y = self._stack(self._ng, self._ng_data, q, np.zeros_like(qd), qd)
+        return self._with_armature(Y, qd)
+
+    def rest(self, q: Array, qd: Array) -> Array:
+        Ycg = self._stack(self.model, self._data, q, qd, np.zeros_like(qd))
+        speed = np.maximum(np.linalg.norm(qd, axis=1, keepdims=True), 1e-12)
+        eps = _FD_STEP / speed
+        zero = np.zeros_like(qd)
+        plus = self._stack(self._ng, self._ng_data, q + eps * qd, zero, qd)
+        minus = self._stack(self._ng, self._ng_data, q - eps * qd, zero, qd)
+        mdot = (plus - minus) / (2 * eps[:, :, None])
+        return self._with_armature(Ycg - mdot, np.zeros_like(qd))
+
+    # ---------------------------------------------------------------- drawing and simulation
+    def points(self, q: Array) -> Array:
+        import pinocchio as pin
+
+        Q = self._q(q)
+        joint, p = self._tool
+        ids = [self.model.getJointId(n) for n in self._names]
+        out = np.zeros((len(q), len(ids) + 2, 3))
+        for k in range(len(q)):
+            pin.forwardKinematics(self.model, self._data, Q[k])
+            for i, j in enumerate(ids):
+                out[k, i + 1] = self._data.oMi[j].translation
+            out[k, -1] = self._data.oMi[joint].act(p)
+        return out
+
+    def inverse_dynamics(
+        self, q: Array, qd: Array, qdd: Array, theta: Array | None = None
+    ) -> Array:
+        """(N, n) joint torques of the rigid body with parameters ``theta`` (default nominal)."""
+        th = self.nominal if theta is None else theta
+        return self.regressor(q, qd, qdd) @ th

@@ -1,0 +1,316 @@
+"""Serial arms (``manipulator``, n joints): dynamic parameters from joint logs.
+
+Reads ``q1..qn`` and ``tau1..n`` (``/joint_states``), the joint names, and picks the model: the
+URDF given by ``--urdf`` (``config.extra["urdf"]``), the channel map's ``[robot] urdf`` or the
+``logcal`` metadata ``urdf`` (a path or an example-robot-data NAME), else the planar 2-link arm
+when the metadata says ``model = planar2``. The numerics are :mod:`calib.manipulator`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from rich.console import RenderableType
+from rich.text import Text
+
+from calib.errors import CalibError
+from calib.manipulator.design import Term
+from calib.manipulator.discovery import ArmDiscovery, discover_arm
+from calib.manipulator.identify import ArmIdentification, IdentifyConfig, identify_arm
+from calib.manipulator.model import ArmModel
+from calib.manipulator.planar import Planar2Link, Planar2Params
+from calib.results import AnalysisResult
+from logtools.errors import LogcalInputError
+from logtools.load import LoadedLog
+from logtools.robots.base import Progress, RobotPlugin, SignalSpec
+from logtools.stages import Stages
+
+__all__ = ["PLUGIN", "analyze_manipulator", "report_lines", "report_text"]
+
+_MAX_DRAW = 400
+_DEFAULT_TERMS = (Term.COULOMB, Term.VISCOUS)
+
+
+def _identify(signals: frozenset[str]) -> str | None:
+    if "q1" in signals and "tau1" in signals:
+        n = sum(1 for s in signals if s.startswith("q") and s[1:].isdigit())
+        return f"joint signals q1..q{n}, tau1.."
+    return None
+
+
+def _joints(loaded: LoadedLog) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    frame = loaded.frame
+    n = 0
+    while f"q{n + 1}" in frame.columns:
+        n += 1
+    missing = [f"tau{j + 1}" for j in range(n) if f"tau{j + 1}" not in frame.columns]
+    if n == 0 or missing:
+        raise LogcalInputError(
+            f"{loaded.path}: /joint_states field 'effort' (tau1..tau{max(n, 1)}) is missing "
+            f"({', '.join(missing) or 'no q1'}); expected joint positions and torques per joint"
+        )
+    t = (frame["t_ns"].to_numpy() - frame["t_ns"][0]) / 1e9
+    q = np.column_stack([frame[f"q{j + 1}"].to_numpy() for j in range(n)]).astype(float)
+    tau = np.column_stack([frame[f"tau{j + 1}"].to_numpy() for j in range(n)]).astype(float)
+    ok = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(tau), axis=1)
+    return t[ok], q[ok], tau[ok], n
+
+
+def _joint_names(loaded: LoadedLog, meta: dict[str, str], n: int) -> tuple[str, ...] | None:
+    frame = loaded.log.topics.get("/joint_states")
+    if frame is not None and f"name.{n - 1}" in frame.columns and len(frame):
+        names = tuple(str(frame[f"name.{j}"][0]) for j in range(n))
+        if all(names):
+            return names
+    if meta.get("joints"):
+        names = tuple(s.strip() for s in meta["joints"].split(","))
+        if len(names) == n:
+            return names
+    return None
+
+
+def _meta_float(meta: dict[str, str], key: str, default: float) -> float:
+    try:
+        return float(meta[key])
+    except (KeyError, ValueError):
+        return default
+
+
+def _model(loaded: LoadedLog, config: Any, meta: dict[str, str], n: int) -> tuple[ArmModel, str]:
+    extra = getattr(config, "extra", None) or {}
+    robot_cfg = loaded.robot_config if hasattr(loaded, "robot_config") else None
+    urdf = extra.get("urdf") or getattr(robot_cfg, "urdf", None) or meta.get("urdf")
+    names = _joint_names(loaded, meta, n)
+    if urdf:
+        from calib.manipulator.serial import load_serial_arm
+
+        try:
+            return load_serial_arm(str(urdf), names, n), f"URDF {urdf}"
+        except CalibError as err:
+            raise LogcalInputError(f"{loaded.path}: {err}") from err
+    if meta.get("model") == "planar2" and n == 2:
+        nominal = {
+            k[len("nominal.") :]: float(v) for k, v in meta.items() if k.startswith("nominal.")
+        }
+        p = Planar2Params(
+            l1=_meta_float(meta, "l1", 0.5),
+            l2=_meta_float(meta, "l2", 0.5),
+            g=_meta_float(meta, "g", 9.8),
+            **{k: v for k, v in nominal.items() if k in ("m1", "m2", "r1", "r2", "I1", "I2")},
+            payload=nominal.get("payload", 0.0),
+        )
+        return Planar2Link(p, names or ("joint1", "joint2")), "planar 2-link arm (metadata)"
+    raise LogcalInputError(
+        f"{loaded.path}: an arm log with {n} joints needs its model: give --urdf PATH_OR_NAME "
+        "(a URDF file or an example-robot-data name such as panda), the channel map's "
+        "[robot] urdf, or a 'logcal' metadata entry 'urdf'"
+    )
+
+
+def _declared(meta: dict[str, str]) -> tuple[Term, ...] | None:
+    if "model_terms" not in meta:
+        return None
+    out = []
+    for s in meta["model_terms"].split(","):
+        s = s.strip()
+        if s:
+            try:
+                out.append(Term(s))
+            except ValueError as err:
+                raise LogcalInputError(
+                    f"'logcal' metadata model_terms: {s!r} is not one of "
+                    f"{', '.join(str(t) for t in Term)}"
+                ) from err
+    return tuple(out)
+
+
+def _truth_base(ident: ArmIdentification, truth: dict[str, float]) -> dict[str, float]:
+    d = ident.design
+    full = d.names_full
+    if d.rigid and all(n in truth for n in full):
+        base = d.to_base(np.array([truth[n] for n in full]))
+        return dict(zip(d.names, base.tolist(), strict=True))
+    return {}
+
+
+def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> AnalysisResult:
+    """Analyse one arm log (the plugin's ``analyze``)."""
+    meta = dict(loaded.log.metadata.get("logcal", {}))
+    t, q, tau, n = _joints(loaded)
+    model, model_source = _model(loaded, config, meta, n)
+    stages = Stages(bool(getattr(config, "debug", False)))
+    declared = _declared(meta)
+    terms = _DEFAULT_TERMS
+    extra = getattr(config, "extra", None) or {}
+    cutoff = float(extra.get("cutoff_hz", 10.0))
+    ident = stages.run(
+        "identification",
+        lambda: identify_arm(
+            model, t, q, tau, IdentifyConfig(terms=terms, cutoff_hz=cutoff), progress=progress
+        ),
+    )
+    disc: ArmDiscovery | None = None
+    if ident is not None and getattr(config, "discovery", True):
+        nominal = None
+        if meta.get("nominal") == "true" or any(k.startswith("nominal.") for k in meta):
+            nominal = model.nominal
+        baseline = declared if declared is not None else terms
+        sig = ident.sig
+        disc = stages.run(
+            "discovery",
+            lambda: discover_arm(
+                model, sig, baseline, nominal, IdentifyConfig(terms=terms, cutoff_hz=cutoff)
+            ),
+        )
+        extra_terms = tuple(
+            Term(f.effect)
+            for f in (disc.named if disc else [])
+            if Term(f.effect) is not Term.PAYLOAD
+        )
+        extra_terms = tuple(x for x in extra_terms if x not in terms)
+        if extra_terms:
+            refit = stages.run(
+                "refit with discovered terms",
+                lambda: identify_arm(
+                    model,
+                    t,
+                    q,
+                    tau,
+                    IdentifyConfig(terms=terms + extra_terms, cutoff_hz=cutoff),
+                    progress=progress,
+                ),
+            )
+            if refit is not None:
+                ident = refit
+    elif ident is None:
+        stages.skip("discovery", "identification did not run")
+    sections: dict[str, Any] = {
+        "joints": list(model.joint_names),
+        "model": {"source": model_source},
+    }
+    artifacts: dict[str, Any] = {}
+    methods: list[Any] = []
+    estimate = None
+    truth_base: dict[str, float] = {}
+    if ident is not None:
+        h = ident.holdout
+        names = model.joint_names
+        methods, estimate = ident.methods, ident.recommended
+        if extra_terms_used := [str(x) for x in ident.design.terms if x not in _DEFAULT_TERMS]:
+            estimate = _renamed(estimate, "momentum-WLS + " + " + ".join(extra_terms_used))
+        sections |= {
+            "excitation": {
+                "condition_number": ident.condition_number,
+                "condition_number_acceleration": ident.methods[1].details.get("condition_number"),
+                "n_base_parameters": len(ident.design.base),
+                "n_determined": int(ident.wls.identifiable.sum()),
+            },
+            "torque_rms_holdout": dict(zip(names, h.rms.tolist(), strict=True)),
+            "torque_rms_holdout_ratio": h.ratio,
+            "torque_rms": dict(zip(names, h.torque_rms.tolist(), strict=True)),
+            "feasibility": ident.feasibility.to_dict(),
+            "model": {
+                "source": model_source,
+                "terms": [str(x) for x in ident.design.terms],
+                "cutoff_hz": ident.sig.cutoff_hz,
+                "rate_hz": ident.sig.rate_hz,
+                "notes": list(getattr(model, "notes", ())) + ident.notes,
+            },
+        }
+        truth_base = _truth_base(ident, loaded.truth)
+        if truth_base:
+            sections["truth_base"] = truth_base
+        step = max(1, len(ident.sig) // _MAX_DRAW)
+        artifacts = {
+            "t_s": ident.sig.t_s[::step],
+            "points": model.points(ident.sig.q[::step]),
+            "holdout_t_s": h.t_s,
+            "holdout_measured": h.measured,
+            "holdout_predicted": h.predicted,
+            "trajectory_t_s": ident.trajectory_t,
+            "trajectories": ident.trajectory,
+            "parameter_names": list(ident.design.names),
+            "joint_names": list(names),
+        }
+    return AnalysisResult(
+        robot="manipulator",
+        segments=[],
+        methods=methods,
+        estimate=estimate,
+        discovery=disc,
+        truth=dict(loaded.truth),
+        source={"path": loaded.path},
+        warnings=[str(p) for p in loaded.problems],
+        stages=stages.status,
+        sections=sections,
+        artifacts=artifacts,
+    )
+
+
+def _renamed(est: Any, method: str) -> Any:
+    from dataclasses import replace
+
+    return replace(est, method=method)
+
+
+def report_lines(result: AnalysisResult) -> list[RenderableType]:
+    """The arm's own part of the report: joints, excitation, held-out RMS, feasibility,
+    discovery; plain lines as rich ``Text`` (parameter names hold brackets, not markup)."""
+    return [Text(line) for line in report_text(result)]
+
+
+def report_text(result: AnalysisResult) -> list[str]:
+    """:func:`report_lines` as plain strings."""
+    s = result.sections
+    lines = [
+        f"Arm: {len(s.get('joints', []))} joints ({', '.join(s.get('joints', []))}); "
+        f"model: {s.get('model', {}).get('source', '?')}"
+    ]
+    exc = s.get("excitation")
+    if exc:
+        lines.append(
+            f"Excitation: condition number {exc['condition_number']:.3g} (scaled momentum "
+            f"regressor); {exc['n_determined']} of {exc['n_base_parameters']} base parameters "
+            "determined"
+        )
+    hold = s.get("torque_rms_holdout")
+    if hold:
+        trms = s.get("torque_rms", {})
+        lines.append(
+            "Held-out torque (identified on the first 60 %, predicted on the last 40 %): "
+            f"error {100 * s['torque_rms_holdout_ratio']:.1f} % of the torque RMS"
+        )
+        for j, v in hold.items():
+            lines.append(
+                f"  {j}: error RMS {v:.4g} N·m of torque RMS {trms.get(j, float('nan')):.4g}"
+            )
+    feas = s.get("feasibility")
+    if feas:
+        lines.append(
+            "Physically feasible (M(q) positive definite, friction >= 0)"
+            if feas["feasible"]
+            else "NOT physically feasible: " + "; ".join(feas["problems"])
+        )
+    for note in s.get("model", {}).get("notes", []):
+        lines.append(f"Note: {note}")
+    if result.discovery is not None and hasattr(result.discovery, "report"):
+        lines += result.discovery.report()
+    return lines
+
+
+PLUGIN = RobotPlugin(
+    name="manipulator",
+    title="serial arm (manipulator)",
+    signals=(
+        SignalSpec("q", "rad", "joint positions (q1..qn; m for a prismatic joint)", required=True),
+        SignalSpec("qd", "rad/s", "joint velocities (not used: velocity is taken from q)"),
+        SignalSpec("tau", "N·m", "joint torques (tau1..n; N for a prismatic joint)", required=True),
+    ),
+    identify=_identify,
+    analyze=analyze_manipulator,
+    report=report_lines,
+    views="viz.manipulator:log_views",
+    aliases=("manipulator_2link",),
+    span_signals=("q", "tau"),
+)
