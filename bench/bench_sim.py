@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from calib.models.tractor_trailer import psi_rate
+from calib.models.hitch_kinematics import psi_rate
 from calib.sim.presets import patent_mixed
 from calib.sim.tractor_trailer import (
     Effects,

@@ -65,7 +65,7 @@ def one_run(job: tuple[float, float, int, dict[str, float]]) -> dict[str, float]
     t, k, v, p = measured(simulate_tractor_trailer(cfg, seed))
     res, _ = calibrate_link_lengths(t, k, p, v)
     out = {
-        "transient": float(res.method == "Transient-ML"),
+        "transient": float(res.method == TransientFit.name),
         "identifiable": float(res.identifiable),
         "L1": float(inside(*res.parameters["L1"].ci95, L1)),
         "L2": float(inside(*res.parameters["L2"].ci95, L2)),

@@ -8,16 +8,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from enum import StrEnum
-from typing import Any
+from typing import Any, ClassVar
 
 __all__ = [
     "PM_MEANING",
     "AnalysisResult",
+    "Baseline",
     "CalibrationResult",
     "CommandType",
     "Estimate",
+    "JsonRecord",
     "MethodResult",
     "Segment",
     "StageStatus",
@@ -85,8 +87,29 @@ def json_safe(value: Any) -> Any:
     return value
 
 
+class JsonRecord:
+    """The one ``to_dict`` of logcal's result dataclasses: every field by name, then the
+    properties named in ``json_properties``, made JSON-safe by :func:`json_safe` (NaN and inf
+    -> None, enums -> their value, arrays and tuples -> lists, nested records -> their dicts).
+    Fields named in ``json_skip`` are left out. A class whose JSON differs from its fields
+    overrides ``to_dict`` and says why."""
+
+    json_properties: ClassVar[tuple[str, ...]] = ()
+    json_skip: ClassVar[tuple[str, ...]] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            f.name: getattr(self, f.name)
+            for f in fields(self)  # type: ignore[arg-type]  # mixed into dataclasses only
+            if f.name not in self.json_skip
+        }
+        out.update({name: getattr(self, name) for name in self.json_properties})
+        safe: dict[str, Any] = json_safe(out)
+        return safe
+
+
 @dataclass(frozen=True)
-class Segment:
+class Segment(JsonRecord):
     """A stretch of the log with one curvature command type.
 
     Times in seconds from the first sample of the aligned log; ``start_index``/``end_index``
@@ -101,21 +124,9 @@ class Segment:
     end_index: int = 0
     parameters: Mapping[str, float] = field(default_factory=dict)
 
-    def to_dict(self) -> dict[str, Any]:
-        return json_safe(
-            {
-                "start_s": self.start_s,
-                "end_s": self.end_s,
-                "command_type": str(self.command_type),
-                "start_index": self.start_index,
-                "end_index": self.end_index,
-                "parameters": dict(self.parameters),
-            }
-        )
-
 
 @dataclass(frozen=True)
-class Estimate:
+class Estimate(JsonRecord):
     """One estimated quantity: value +/- standard error, 95 % interval, identifiability.
 
     ``identifiable`` is False when the data cannot determine the quantity; ``note`` says why.
@@ -140,22 +151,9 @@ class Estimate:
             f"[95 %: {lo:.4g}, {hi:.4g}]{tag}"
         )
 
-    def to_dict(self) -> dict[str, Any]:
-        return json_safe(
-            {
-                "name": self.name,
-                "value": self.value,
-                "std": self.std,
-                "ci95": list(self.ci95),
-                "identifiable": self.identifiable,
-                "unit": self.unit,
-                "note": self.note,
-            }
-        )
-
 
 @dataclass(frozen=True)
-class MethodResult:
+class MethodResult(JsonRecord):
     """One least-squares method on one segment type, over repeats.
 
     ``L1``/``L2`` (m) are means over repeats, ``L1_std``/``L2_std`` their standard deviations
@@ -175,23 +173,6 @@ class MethodResult:
     condition_number_std: float = math.nan
     n_repeats: int = 1
     extra: Mapping[str, float] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        return json_safe(
-            {
-                "name": self.name,
-                "family": self.family,
-                "segment": self.segment,
-                "L1": self.L1,
-                "L2": self.L2,
-                "L1_std": self.L1_std,
-                "L2_std": self.L2_std,
-                "condition_number": self.condition_number,
-                "condition_number_std": self.condition_number_std,
-                "n_repeats": self.n_repeats,
-                "extra": dict(self.extra),
-            }
-        )
 
 
 @dataclass(frozen=True)
@@ -242,7 +223,7 @@ class CalibrationResult:
 
 
 @dataclass(frozen=True)
-class StageStatus:
+class StageStatus(JsonRecord):
     """How one stage of an analysis ended: "ok", "skipped" (the log has too little for it) or
     "failed" (a numerical failure, caught at the stage's boundary); ``reason`` says why."""
 
@@ -250,8 +231,6 @@ class StageStatus:
     status: str
     reason: str = ""
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"stage": self.stage, "status": self.status, "reason": self.reason}
 
 
 @dataclass(frozen=True)

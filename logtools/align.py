@@ -34,6 +34,7 @@ from enum import StrEnum
 import numpy as np
 import polars as pl
 
+from calib.results import JsonRecord
 from logtools.errors import LogcalInputError, TimestampError
 
 __all__ = [
@@ -240,7 +241,7 @@ def resample_at(
 
 
 @dataclass(frozen=True)
-class Gap:
+class Gap(JsonRecord):
     """A stretch of time in which the named signals have no samples (dropout, recorder stall).
 
     Attributes:
@@ -252,6 +253,8 @@ class Gap:
         span_ns: (earliest last sample before, latest first sample after) over ``signals``: the
             whole stretch in which some listed signal is without samples.
     """
+
+    json_properties = ("duration_s",)
 
     t0_ns: int
     t1_ns: int
@@ -268,16 +271,6 @@ class Gap:
         t = np.asarray(t_ns)
         lo, hi = self.span_ns if self.span_ns != (0, 0) else (self.t0_ns, self.t1_ns)
         return (t > lo) & (t < hi)
-
-    def to_dict(self) -> dict[str, object]:
-        """JSON-safe dictionary."""
-        return {
-            "t0_ns": self.t0_ns,
-            "t1_ns": self.t1_ns,
-            "duration_s": self.duration_s,
-            "signals": list(self.signals),
-            "span_ns": list(self.span_ns),
-        }
 
 
 def find_gaps(

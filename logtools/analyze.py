@@ -9,7 +9,7 @@ never prints: progress goes to an optional callback ``progress(stage: str)``.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -89,7 +89,7 @@ def analyze_loaded(
 
 
 def analyze_logs(
-    paths: list[str | os.PathLike[str]],
+    paths: Sequence[str | os.PathLike[str]],
     *,
     channel_map: Mapping[str, SignalSource] | None = None,
     config: AnalysisConfig | None = None,

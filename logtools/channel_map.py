@@ -70,7 +70,7 @@ from logtools.errors import (
     LogcalInputError,
     UnknownEncodingError,
 )
-from logtools.readers import CSV_TOPIC, TIME_COLUMN, LogData, known_encodings
+from logtools.readers import CSV_TOPIC, TIME_COLUMN, LogData, ProblemKind, known_encodings
 from logtools.signals import (
     COMMAND_SIGNALS,
     DERIVED_TOPIC,
@@ -951,9 +951,10 @@ def _topic_frame(log: LogData, topic: str) -> pl.DataFrame | None:
     info = log.info.get(topic)
     if frame is not None or info is None or not info.message_count:
         return frame
-    if info.message_encoding not in known_encodings():
+    mine = [p for p in log.problems if p.topic == topic]
+    if any(p.kind is ProblemKind.UNKNOWN_ENCODING for p in mine):
         raise UnknownEncodingError(log.path, topic, info.message_encoding, known_encodings())
-    why = " ".join(p for p in log.problems if f"topic {topic!r}" in p)
+    why = " ".join(str(p) for p in mine)
     raise LogcalInputError(
         f"{log.path}: topic {topic!r} ({info.schema_name or 'no schema'}, "
         f"{info.message_encoding}) holds a signal logcal needs but could not be decoded. {why}"
@@ -1078,7 +1079,7 @@ def _chain(conds: list[pl.Expr], values: list[pl.Expr]) -> pl.Expr:
     expr: Any = pl.when(conds[0]).then(values[0])
     for cond, value in zip(conds[1:], values[1:], strict=True):
         expr = expr.when(cond).then(value)
-    return expr.otherwise(None)  # type: ignore[no-any-return]
+    return expr.otherwise(None)
 
 
 def _selects_by_name(frame: pl.DataFrame, name: str) -> bool:

@@ -41,6 +41,7 @@ from enum import StrEnum
 import numpy as np
 import polars as pl
 
+from calib.results import JsonRecord
 from logtools.errors import LogcalInputError
 
 __all__ = [
@@ -69,7 +70,7 @@ class KappaCmdKind(StrEnum):
 
 
 @dataclass(frozen=True)
-class KappaCmdOrigin:
+class KappaCmdOrigin(JsonRecord):
     """Where ``kappa_cmd`` came from.
 
     Attributes:
@@ -85,14 +86,6 @@ class KappaCmdOrigin:
     detail: str
     wheelbase: float | None = None
 
-    def to_dict(self) -> dict[str, object]:
-        """JSON-safe dictionary."""
-        return {
-            "kind": self.kind.value,
-            "expression": self.expression,
-            "detail": self.detail,
-            "wheelbase": self.wheelbase,
-        }
 
 
 def kappa_from_steering(

@@ -20,7 +20,8 @@ from logtools.align import AlignMethod, Gap, align_signals, find_gaps
 from logtools.channel_map import ResolvedSignals, resolve_signals
 from logtools.curvature import KappaCmdOrigin
 from logtools.errors import MissingSignalsError
-from logtools.readers import LogData, read_log
+from logtools.problems import Problem, ProblemKind
+from logtools.readers import DEFAULT_DECODERS, Decoders, LogData, read_log
 from logtools.robot import METADATA_RECORD, infer_robot
 from logtools.signals import RobotConfig, SignalSource
 
@@ -43,7 +44,8 @@ class LoadedLog:
         robot: the robot type, a plugin's name (channel map, metadata, else inferred from the
             signals).
         truth: true parameters from the ``logcal`` metadata record (simulated logs).
-        problems: what was lost or repaired, from reading to alignment.
+        problems: what was lost or repaired, from reading to alignment (``str(p)`` is the
+            sentence; the signal resolution's sentences are ``ProblemKind.SIGNAL`` records).
         gaps: recorder stalls and dropouts of the signals, one record per stretch of time.
     """
 
@@ -53,7 +55,7 @@ class LoadedLog:
     frame: pl.DataFrame
     robot: str
     truth: dict[str, float]
-    problems: list[str]
+    problems: list[Problem]
     gaps: list[Gap] = field(default_factory=list)
 
     @property
@@ -89,8 +91,9 @@ def _span_signals(span: tuple[str, ...], names: list[str]) -> list[str]:
     return chosen or names
 
 
-def gap_notes(path: str, gaps: list[Gap], names: list[str], origin_ns: int) -> list[str]:
-    """One sentence per gap for ``problems`` (times relative to ``origin_ns``)."""
+def gap_notes(path: str, gaps: list[Gap], names: list[str], origin_ns: int) -> list[Problem]:
+    """One ``GAP`` record per gap for ``problems`` (sentence times relative to ``origin_ns``;
+    ``topic`` is the one signal without samples, None when several are)."""
     notes = []
     for gap in gaps:
         who = (
@@ -99,14 +102,22 @@ def gap_notes(path: str, gaps: list[Gap], names: list[str], origin_ns: int) -> l
             else f"signals {', '.join(gap.signals)}"
         )
         notes.append(
-            f"{path}: no samples for {gap.duration_s:.2f} s from "
-            f"{(gap.t0_ns - origin_ns) * 1e-9:.3f} s to {(gap.t1_ns - origin_ns) * 1e-9:.3f} s "
-            f"(relative to the first sample) on {who}; aligned rows there are null"
+            Problem(
+                ProblemKind.GAP,
+                gap.signals[0] if len(gap.signals) == 1 else None,
+                gap.t0_ns,
+                gap.t1_ns,
+                count=len(gap.signals),
+                message=f"{path}: no samples for {gap.duration_s:.2f} s from "
+                f"{(gap.t0_ns - origin_ns) * 1e-9:.3f} s to "
+                f"{(gap.t1_ns - origin_ns) * 1e-9:.3f} s (relative to the first sample) on "
+                f"{who}; aligned rows there are null",
+            )
         )
     return notes
 
 
-def _null_notes(path: str, frame: pl.DataFrame, gaps: list[Gap]) -> list[str]:
+def _null_notes(path: str, frame: pl.DataFrame, gaps: list[Gap]) -> list[Problem]:
     """Null rows per signal that the gaps (reported once each) do not explain."""
     notes = []
     t = frame["t_ns"].to_numpy()
@@ -121,9 +132,14 @@ def _null_notes(path: str, frame: pl.DataFrame, gaps: list[Gap]) -> list[str]:
         k = int(np.count_nonzero(null))
         if k:
             notes.append(
-                f"{path}: signal {name!r} has no sample within the alignment tolerance on "
-                f"{k} of {frame.height} aligned rows (dropouts or a shorter recording); "
-                "those rows are null"
+                Problem(
+                    ProblemKind.DROPOUT,
+                    name,
+                    count=k,
+                    message=f"{path}: signal {name!r} has no sample within the alignment "
+                    f"tolerance on {k} of {frame.height} aligned rows (dropouts or a shorter "
+                    "recording); those rows are null",
+                )
             )
     return notes
 
@@ -134,6 +150,7 @@ def load_log(
     *,
     rate_hz: float | None = None,
     method: AlignMethod = AlignMethod.INTERPOLATE,
+    decoders: Decoders = DEFAULT_DECODERS,
 ) -> LoadedLog:
     """Read ``path`` (MCAP, ROS bag or CSV) and align its logical signals on one time base.
 
@@ -143,12 +160,13 @@ def load_log(
             overriding the default topic/field names.
         rate_hz: rate (Hz) of the aligned grid; None: the fastest signal's median rate.
         method: interpolation or nearest-sample for continuous signals (commands are held).
+        decoders: MCAP message encoding -> decoder, as :func:`logtools.readers.read_log`.
 
     Raises:
         LogcalInputError: the file cannot be read, no logical signal is found, or the signals
             cannot be put on one time base (subclasses name file, topic and field).
     """
-    log = read_log(path)
+    log = read_log(path, decoders=decoders)
     resolved = resolve_signals(log, channel_map)
     from logtools.robots import plugin_for
 
@@ -167,7 +185,7 @@ def load_log(
     origin = min((i.first_ns for i in log.info.values() if i.first_ns is not None), default=0)
     problems = [
         *log.problems,
-        *resolved.problems,
+        *(Problem(ProblemKind.SIGNAL, message=p) for p in resolved.problems),
         *gap_notes(log.path, gaps, names, origin),
         *_null_notes(log.path, frame, gaps),
     ]

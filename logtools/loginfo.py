@@ -219,9 +219,9 @@ def summarize_log(
         robot_reason=reason,
         metadata=log.metadata,
         problems=[
-            *log.problems,
+            *map(str, log.problems),
             *resolved.problems,
-            *gap_notes(log.path, gaps, list(resolved.signals), origin),
+            *map(str, gap_notes(log.path, gaps, list(resolved.signals), origin)),
         ],
         gaps=gaps,
         flat=resolved.flat,

@@ -29,7 +29,7 @@ def _runs_table(result: AnalysisResult) -> Table:
             if name not in names:
                 names.append(name)
     table = Table(title="Each run on its own (95 % intervals)", title_justify="left")
-    units = {}
+    units: dict[str, str] = {}
     for r in result.runs:
         for name, e in (r.estimate.parameters.items() if r.estimate else ()):
             units.setdefault(name, e.unit)

@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from logtools.errors import LogcalInputError
+from logtools.readers.optiodom import is_optiodom_metadata
 
 __all__ = ["LOG_SUFFIXES", "expand_runs"]
 
@@ -36,7 +37,7 @@ def expand_runs(paths: Sequence[Path]) -> list[Path]:
         found = sorted(
             q for q in p.rglob("*")
             if (q.is_file() and q.suffix.lower() in LOG_SUFFIXES
-                and not _is_rosbag2(q.parent))
+                and not _is_rosbag2(q.parent) and not is_optiodom_metadata(q))
             or _is_rosbag2(q)
         )
         if not found:

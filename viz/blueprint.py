@@ -21,7 +21,7 @@ def _whole_log() -> rrb.VisibleTimeRange:
 def _methods_tabs(result: AnalysisResult) -> list[rrb.Container]:
     """Per segment type a tab with the L1 and L2 forest plots side by side, zoomed on the
     bulk of the estimates (ill-conditioned outliers lie outside; zoom out to see them)."""
-    tabs = []
+    tabs: list[rrb.Container] = []
     for seg in segment_types(result):
         rows = [m for m in result.methods if m.segment == seg]
         views = []

@@ -2,23 +2,23 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 import polars as pl
 from numpy.typing import NDArray
 
-from calib.models.icr import icr_construction
-from calib.models.tractor_trailer import steady_state_psi
 from calib.results import AnalysisResult
-from viz._frame import column, has, kappa_measured, link_lengths, robust_limits, times_ns
+from calib.tractor_trailer.views_data import VIEWS
+from viz._frame import column, has, robust_limits, times_ns
 from viz.methods import PARAMS, robust_range, segment_types
 from viz.style import hex_color
 
 __all__ = ["write_report_png"]
 
 
-def _world(ax, frame: pl.DataFrame, lengths: tuple[float, float] | None) -> None:
+def _world(ax, frame: pl.DataFrame, c: Mapping[str, np.ndarray]) -> None:
     ax.set_title("World: paths, robot and ICR (last sample with a turn)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
@@ -27,29 +27,26 @@ def _world(ax, frame: pl.DataFrame, lengths: tuple[float, float] | None) -> None
         ax.text(0.5, 0.5, "no pose in this log", ha="center", transform=ax.transAxes)
         return
     x, y = column(frame, "x"), column(frame, "y")
-    kappa = kappa_measured(frame)
-    if lengths is None or kappa is None or not has(frame, "yaw", "psi"):
+    if "P" not in c:
         ax.plot(x, y, color=hex_color("C1"), lw=1, label="C1")
         ax.legend(loc="best", fontsize=8)
         return
-    c = icr_construction(x, y, column(frame, "yaw"), column(frame, "psi"), kappa, *lengths)
-    for name, pts in (("C2", c.C2), ("P", c.P), ("C1", c.C1)):
-        ax.plot(pts[:, 0], pts[:, 1], color=hex_color(name), lw=1.2, label=name)
-    idx = np.flatnonzero(c.valid)
+    for name in ("C2", "P", "C1"):
+        ax.plot(c[name][:, 0], c[name][:, 1], color=hex_color(name), lw=1.2, label=name)
+    idx = np.flatnonzero(c["icr_valid"])
     if idx.size:
         i = int(idx[-1])
-        o, q = c.O[i], c.Q[i]
-        ax.plot(*np.stack([c.C1[i], c.P[i], c.C2[i]]).T, color="k", lw=2.5, label="links")
+        c1, p, c2 = c["C1"][i], c["P"][i], c["C2"][i]
+        o, q = c["O"][i], c["Q"][i]
+        ax.plot(*np.stack([c1, p, c2]).T, color="k", lw=2.5, label="links")
+        ax.plot(*np.stack([o, q, c2, o]).T, color=hex_color("triangle_OQC2"), lw=1, label="O Q C2")
         ax.plot(
-            *np.stack([o, q, c.C2[i], o]).T, color=hex_color("triangle_OQC2"), lw=1, label="O Q C2"
-        )
-        ax.plot(
-            *np.stack([q, c.C1[i], c.P[i], q]).T,
+            *np.stack([q, c1, p, q]).T,
             color=hex_color("triangle_QC1P"),
             lw=1,
             label="Q C1 P",
         )
-        ax.plot(*o, "o", color=hex_color("O"), label=f"O (R = {c.R[i]:.2f} m)")
+        ax.plot(*o, "o", color=hex_color("O"), label=f"O (R = {c['R'][i]:.2f} m)")
         ax.plot(*q, "o", color=hex_color("Q"), label="Q")
     ax.legend(loc="best", fontsize=7)
 
@@ -75,13 +72,19 @@ def _segment_marks(ax, result: AnalysisResult, labels: bool) -> None:
             )
 
 
-def _kappa(ax, frame: pl.DataFrame, result: AnalysisResult, t: NDArray[np.float64]) -> None:
+def _kappa(
+    ax,
+    frame: pl.DataFrame,
+    result: AnalysisResult,
+    t: NDArray[np.float64],
+    views: Mapping[str, np.ndarray],
+) -> None:
     ax.set_ylabel("κ (1/m)")
     shown = []
     if has(frame, "kappa_cmd"):
         shown.append(column(frame, "kappa_cmd"))
         ax.plot(t, shown[-1], color=hex_color("kappa_cmd"), lw=2.8, label="κ command")
-    kappa = kappa_measured(frame)
+    kappa = views.get("kappa")
     if kappa is not None:
         shown.append(kappa)
         ax.plot(t, kappa, color=hex_color("kappa"), lw=0.8, label="κ measured")
@@ -91,21 +94,26 @@ def _kappa(ax, frame: pl.DataFrame, result: AnalysisResult, t: NDArray[np.float6
         ax.legend(loc="lower left", fontsize=7)
 
 
-def _psi(ax, frame: pl.DataFrame, result: AnalysisResult, t: NDArray[np.float64], lengths) -> None:
+def _psi(
+    ax,
+    frame: pl.DataFrame,
+    result: AnalysisResult,
+    t: NDArray[np.float64],
+    views: Mapping[str, np.ndarray],
+) -> None:
     ax.set_ylabel("ψ (rad)")
     ax.set_xlabel("time since start (s)")
     shown = []
     if has(frame, "psi"):
         shown.append(column(frame, "psi"))
         ax.plot(t, shown[-1], color=hex_color("psi"), lw=1, label="ψ measured")
-    kappa = kappa_measured(frame)
-    if kappa is not None and lengths is not None:
+    if "psi_steady" in views:
         label = "ψ steady state at " + (
             "the true L1, L2" if result.estimate is None else f"{result.estimate.method}'s L1, L2"
         )
         ax.plot(
             t,
-            steady_state_psi(kappa, *lengths),
+            views["psi_steady"],
             color=hex_color("psi_estimate"),
             lw=1,
             ls="--",
@@ -152,7 +160,12 @@ def _forest(ax, result: AnalysisResult, param: str) -> None:
 
 
 def write_report_png(
-    path: str | Path, frame: pl.DataFrame, result: AnalysisResult, *, dpi: int = 110
+    path: str | Path,
+    frame: pl.DataFrame,
+    result: AnalysisResult,
+    views: Mapping[str, np.ndarray] | None = None,
+    *,
+    dpi: int = 110,
 ) -> Path:
     """Save world + ICR, kappa/psi series and per-method error bars as one PNG.
 
@@ -160,6 +173,8 @@ def write_report_png(
         path: output .png (parent directories are created).
         frame: aligned log (``t_ns`` and whatever signals exist).
         result: the analysis.
+        views: the arrays drawn (``calib.tractor_trailer.views_data.tractor_views_data``);
+            None takes them from ``result.artifacts["views"]``.
         dpi: resolution (dots per inch) of the 14 x 9 inch figure.
 
     Returns:
@@ -169,17 +184,19 @@ def write_report_png(
 
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    lengths = link_lengths(result)
+    drawn: Mapping[str, np.ndarray] = (
+        result.artifacts.get(VIEWS, {}) if views is None else views
+    )
     fig = Figure(figsize=(14, 9), layout="constrained")
     axes = fig.subplot_mosaic(
         [["world", "kappa"], ["world", "psi"], ["L1", "L2"], ["L1", "L2"]],
         gridspec_kw={"height_ratios": [1, 1, 1, 1]},
     )
-    _world(axes["world"], frame, lengths)
+    _world(axes["world"], frame, drawn)
     if frame.height:
         t = (times_ns(frame) - times_ns(frame)[0]) / 1e9
-        _kappa(axes["kappa"], frame, result, t)
-        _psi(axes["psi"], frame, result, t, lengths)
+        _kappa(axes["kappa"], frame, result, t, drawn)
+        _psi(axes["psi"], frame, result, t, drawn)
     for p in PARAMS:
         _forest(axes[p], result, p)
     fig.suptitle(

@@ -1,16 +1,15 @@
 """Screenshot of a recording as a user sees it: rerun's web viewer in headless Chromium.
 
 ``rerun FILE --web-viewer --bind 127.0.0.1`` serves the viewer and the recording on free
-loopback ports; Chromium (software rasteriser: SwiftShader) opens it and is driven over the
-DevTools protocol until the plotted colours appear, then one screenshot is saved. Every process
-started here is stopped (its whole process group) before returning.
+loopback ports; Playwright drives Debian's Chromium (software rasteriser: SwiftShader; Playwright
+is a ``dev``/``test`` extra and its own browser downloads are not used) until the plotted
+colours appear, then one screenshot is saved. The viewer process group is stopped and the
+browser closed before returning.
 """
 
 from __future__ import annotations
 
-import base64
 import io
-import json
 import os
 import shutil
 import signal
@@ -22,18 +21,22 @@ import time
 import urllib.request
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 from urllib.parse import quote
 
 import numpy as np
 from numpy.typing import NDArray
 
-from viz._cdp import CdpClient
 from viz.style import COLORS
+
+if TYPE_CHECKING:
+    from playwright.sync_api import Page
 
 __all__ = [
     "CHROMIUM",
     "ViewerScreenshotError",
     "alive_in_group",
+    "browser_pids",
     "color_pixel_counts",
     "find_chromium",
     "screenshot_rrd",
@@ -98,14 +101,6 @@ def _wait_http(url: str, deadline: float) -> None:
     raise ViewerScreenshotError(f"{url} did not answer in time")
 
 
-def _wait_file(path: Path, deadline: float) -> str:
-    while time.monotonic() < deadline:
-        if path.exists() and path.read_text().strip():
-            return path.read_text()
-        time.sleep(0.1)
-    raise ViewerScreenshotError(f"Chromium did not write {path} in time")
-
-
 def alive_in_group(pgid: int) -> list[int]:
     """Pids of the non-zombie processes of process group ``pgid`` (Linux /proc)."""
     alive = []
@@ -143,32 +138,34 @@ def _stop(proc: subprocess.Popen[bytes] | None) -> None:
     proc.poll()
 
 
-def _page_ws_url(devtools_port: int, deadline: float) -> str:
-    url = f"http://127.0.0.1:{devtools_port}/json/list"
-    while time.monotonic() < deadline:
+def browser_pids(profile: str | Path) -> list[int]:
+    """Pids of the live (non-zombie) processes whose command line names the browser profile
+    ``profile`` (``--user-data-dir``): the browser Playwright started for one screenshot."""
+    needle = f"--user-data-dir={profile}".encode()
+    found = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
         try:
-            with urllib.request.urlopen(url, timeout=2) as r:
-                pages = [t for t in json.load(r) if t.get("type") == "page"]
-            if pages:
-                return str(pages[0]["webSocketDebuggerUrl"])
+            if needle not in cmdline.read_bytes():
+                continue
+            state = (cmdline.parent / "stat").read_text().rsplit(")", 1)[1].split()[0]
         except OSError:
-            pass
-        time.sleep(0.2)
-    raise ViewerScreenshotError("Chromium's DevTools endpoint did not list a page in time")
+            continue
+        if state != "Z":
+            found.append(int(cmdline.parent.name))
+    return sorted(found)
 
 
 def _capture_when_ready(
-    cdp: CdpClient, deadline: float, min_pixels: int, settle_s: float, ready: Sequence[str]
+    page: Page, deadline: float, min_pixels: int, settle_s: float, ready: Sequence[str]
 ) -> bytes:
     """Screenshots every second until each ready colour covers ``min_pixels``; then wait
     ``settle_s`` and take the final one."""
     last: dict[str, int] = {}
     while time.monotonic() < deadline:
-        shot = base64.b64decode(cdp.call("Page.captureScreenshot", format="png")["data"])
-        last = color_pixel_counts(shot, ready)
+        last = color_pixel_counts(page.screenshot(type="png"), ready)
         if min(last.values()) >= min_pixels:
             time.sleep(settle_s)
-            return base64.b64decode(cdp.call("Page.captureScreenshot", format="png")["data"])
+            return page.screenshot(type="png")
         time.sleep(1.0)
     raise ViewerScreenshotError(
         f"the viewer did not show the recording in time (colour pixel counts: {last})"
@@ -198,76 +195,82 @@ def screenshot_rrd(
         min_pixels: pixels each of ``ready_colors`` must cover before the final capture.
         settle_s: wait (s) between "ready" and the final capture.
         chromium: browser executable (default: :func:`find_chromium`).
-        pids: if given, the ids of the started processes (each leads its own process group)
-            are appended, so a caller can check that they are gone.
+        pids: if given, the ids of the started processes are appended (the viewer, which
+            leads its own process group, then the browser's processes), so a caller can check
+            that they are gone.
         ready_colors: names in ``viz.style.COLORS`` whose presence means "drawn" (default:
             the C1 and C2 paths, measured kappa and psi: the world view and two plots).
 
     Raises:
-        ViewerScreenshotError: no browser, or the viewer did not come up in time.
+        ViewerScreenshotError: no Playwright or no browser, or the viewer did not come up in
+            time.
     """
+    try:
+        from playwright.sync_api import Error as PlaywrightError
+        from playwright.sync_api import sync_playwright
+    except ImportError as err:
+        raise ViewerScreenshotError(
+            "Playwright is not installed (pip install 'logcal[dev]')"
+        ) from err
     browser = chromium or find_chromium()
     if browser is None:
         raise ViewerScreenshotError("no Chromium found (Debian: apt-get install chromium)")
     deadline = time.monotonic() + timeout_s
     web_port, grpc_port = _free_port(), _free_port()
-    viewer = chrome = cdp = None
-    with tempfile.TemporaryDirectory(prefix="logcal-chromium-") as profile:
-        try:
-            viewer = subprocess.Popen(
-                [
-                    sys.executable,
-                    "-m",
-                    "rerun",
-                    str(rrd),
-                    "--web-viewer",
-                    "--bind",
-                    "127.0.0.1",
-                    "--web-viewer-port",
-                    str(web_port),
-                    "--port",
-                    str(grpc_port),
-                ],
-                stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL,
-                start_new_session=True,
-                env={**os.environ, "BROWSER": "true"},
-            )
-            if pids is not None:
-                pids.append(viewer.pid)
-            _wait_http(f"http://127.0.0.1:{web_port}/", deadline)
-            proxy = quote(f"rerun+http://127.0.0.1:{grpc_port}/proxy", safe="")
-            chrome = subprocess.Popen(
-                [
-                    browser,
-                    "--headless",
-                    "--no-sandbox",
-                    "--enable-unsafe-swiftshader",
-                    "--use-angle=swiftshader",
-                    "--no-first-run",
-                    "--no-default-browser-check",
-                    f"--user-data-dir={profile}",
-                    "--remote-debugging-port=0",
-                    "--remote-allow-origins=*",
-                    f"--window-size={width},{height}",
-                    f"http://127.0.0.1:{web_port}/?url={proxy}",
-                ],
-                stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL,
-                start_new_session=True,
-            )
-            if pids is not None:
-                pids.append(chrome.pid)
-            port = int(_wait_file(Path(profile) / "DevToolsActivePort", deadline).split()[0])
-            cdp = CdpClient(_page_ws_url(port, deadline))
-            png = _capture_when_ready(cdp, deadline, min_pixels, settle_s, ready_colors)
-        finally:
-            if cdp is not None:
-                cdp.close()
-            _stop(chrome)
-            _stop(viewer)
+    viewer = None
+    try:
+        viewer = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "rerun",
+                str(rrd),
+                "--web-viewer",
+                "--bind",
+                "127.0.0.1",
+                "--web-viewer-port",
+                str(web_port),
+                "--port",
+                str(grpc_port),
+            ],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+            env={**os.environ, "BROWSER": "true"},
+        )
+        if pids is not None:
+            pids.append(viewer.pid)
+        _wait_http(f"http://127.0.0.1:{web_port}/", deadline)
+        proxy = quote(f"rerun+http://127.0.0.1:{grpc_port}/proxy", safe="")
+        url = f"http://127.0.0.1:{web_port}/?url={proxy}"
+        with (
+            tempfile.TemporaryDirectory(prefix="logcal-chromium-") as profile,
+            sync_playwright() as pw,
+        ):
+            try:
+                context = pw.chromium.launch_persistent_context(
+                    profile,
+                    executable_path=browser,
+                    headless=True,
+                    args=["--enable-unsafe-swiftshader", "--use-angle=swiftshader"],
+                    viewport={"width": width, "height": height},
+                    timeout=max(deadline - time.monotonic(), 1.0) * 1e3,
+                )
+            except PlaywrightError as err:
+                raise ViewerScreenshotError(f"{browser} did not start: {err.message}") from err
+            try:
+                if pids is not None:
+                    pids += browser_pids(profile)
+                page = context.pages[0] if context.pages else context.new_page()
+                page.goto(url, timeout=max(deadline - time.monotonic(), 1.0) * 1e3)
+                png = _capture_when_ready(page, deadline, min_pixels, settle_s, ready_colors)
+            except PlaywrightError as err:
+                raise ViewerScreenshotError(f"the viewer page failed: {err.message}") from err
+            finally:
+                context.close()
+    finally:
+        _stop(viewer)
     out = Path(out_png)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_bytes(png)

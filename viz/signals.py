@@ -5,14 +5,16 @@ All series go through ``rr.send_columns`` on the log's own timeline.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import polars as pl
 import rerun as rr
 from numpy.typing import NDArray
 
-from calib.models.tractor_trailer import steady_state_psi
-from calib.results import AnalysisResult, MethodResult
-from viz._frame import column, has, kappa_measured, times_ns
+from calib.results import AnalysisResult
+from calib.tractor_trailer.views_data import find_method
+from viz._frame import column, has, times_ns
 from viz.style import COLORS, TIMELINE
 
 __all__ = ["find_method", "log_segments", "log_signals", "send_series"]
@@ -39,37 +41,20 @@ def send_series(
     )
 
 
-def find_method(result: AnalysisResult, name: str) -> MethodResult:
-    """The method ``name`` (e.g. "EMLS/EM1"), preferring its row over all segments.
-
-    Raises:
-        KeyError: no method of that name; the message lists the available ones.
-    """
-    rows = [m for m in result.methods if m.name == name]
-    if not rows:
-        known = sorted({m.name for m in result.methods})
-        raise KeyError(f"method {name!r} not in the analysis; available: {', '.join(known)}")
-    return next((m for m in rows if m.segment == "all"), rows[0])
-
-
-def _psi_prediction(kappa: NDArray[np.float64], L1: float, L2: float) -> NDArray[np.float64]:
-    """Steady-state joint angle (rad) for the measured curvature, the patent's model."""
-    return steady_state_psi(kappa, L1, L2)
-
-
 def log_signals(
     rec: rr.RecordingStream,
     frame: pl.DataFrame,
     result: AnalysisResult,
-    lengths: tuple[float, float] | None,
+    views: Mapping[str, np.ndarray],
     method_for_psi: str | None = None,
 ) -> None:
     """Log kappa (1/m), psi (rad) measured and predicted, and residuals under ``signals/``.
 
-    Predictions are the steady-state psi of the measured curvature with the recommended
-    (L1, L2) and, when ``method_for_psi`` names a method, with that method's (L1, L2).
-    Residuals come from ``result.discovery.residuals`` when present, else measured minus the
-    recommended prediction.
+    Predictions come with the analysis (``views``, see ``calib.tractor_trailer.views_data``):
+    the steady-state psi of the measured curvature at the recommended (L1, L2) and, when
+    ``method_for_psi`` names a method, at that method's (L1, L2). Residuals come from
+    ``result.discovery.residuals`` when present, else measured minus the recommended
+    prediction.
     """
     t = times_ns(frame)
     if has(frame, "kappa_cmd"):
@@ -81,15 +66,15 @@ def log_signals(
             name="κ command",
             color="kappa_cmd",
         )
-    kappa = kappa_measured(frame)
-    if kappa is not None:
-        send_series(rec, "signals/kappa/measured", t, kappa, name="κ measured", color="kappa")
+    if "kappa" in views:
+        send_series(
+            rec, "signals/kappa/measured", t, views["kappa"], name="κ measured", color="kappa"
+        )
     psi = column(frame, "psi") if has(frame, "psi") else None
     if psi is not None:
         send_series(rec, "signals/psi/measured", t, psi, name="ψ measured", color="psi")
-    pred = None
-    if kappa is not None and lengths is not None:
-        pred = _psi_prediction(kappa, *lengths)
+    pred = views.get("psi_steady")
+    if pred is not None:
         label = result.estimate.method if result.estimate is not None else "truth"
         send_series(
             rec,
@@ -99,14 +84,13 @@ def log_signals(
             name=f"ψ steady state at {label}'s L1, L2",
             color="psi_estimate",
         )
-    if kappa is not None and method_for_psi is not None:
-        m = find_method(result, method_for_psi)
+    if method_for_psi is not None and "psi_steady_method" in views:
         send_series(
             rec,
             "signals/psi/predicted_method",
             t,
-            _psi_prediction(kappa, m.L1, m.L2),
-            name=f"ψ predicted ({m.name})",
+            views["psi_steady_method"],
+            name=f"ψ predicted ({method_for_psi})",
             color="psi_method",
         )
     _log_residuals(rec, result, t, psi, pred)

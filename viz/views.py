@@ -17,7 +17,8 @@ def tractor_trailer_rrd(
     out: Path, loaded: Any, result: AnalysisResult, method_for_psi: str | None = None
 ) -> Path:
     """The tractor-trailer's rerun recording (world, ICR construction, signals, methods);
-    ``method_for_psi`` names the method whose lengths draw the steady-state joint angle."""
+    ``method_for_psi`` names the method whose lengths drew the steady-state joint angle (the
+    analysis computed it: ``AnalysisConfig.extra["method_for_psi"]``)."""
     from viz.recording import write_recording
 
     return write_recording(out, loaded.frame, result, method_for_psi=method_for_psi)

@@ -3,10 +3,13 @@
 Time-varying data goes through ``rr.send_columns`` on the log's own timeline. Each time step
 costs one row per entity, so the robot (points C1, P, C2 and the two links) is one entity and
 the ICR construction (points O, Q; triangles O Q C2, Q C1 P; radius O C1) another, each
-carrying a Points2D and a LineStrips2D archetype.
+carrying a Points2D and a LineStrips2D archetype. The points come computed with the analysis
+(``calib.tractor_trailer.views_data``); this module only draws them.
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping
 
 import numpy as np
 import polars as pl
@@ -15,8 +18,7 @@ import rerun as rr
 from numpy.typing import NDArray
 from rerun.encodings import Vec2DBatch
 
-from calib.models.icr import KAPPA_MIN, ICRConstruction, icr_construction
-from viz._frame import column, has, kappa_measured, times_ns
+from viz._frame import column, has, times_ns
 from viz.style import COLORS, TIMELINE
 
 __all__ = ["ICR", "ICR_STRIPS", "ROBOT", "ROBOT_POINTS", "WORLD", "log_world"]
@@ -102,48 +104,32 @@ def _log_c1_only(rec: rr.RecordingStream, t: NDArray[np.int64], c1: NDArray[np.f
 
 
 def log_world(
-    rec: rr.RecordingStream,
-    frame: pl.DataFrame,
-    lengths: tuple[float, float] | None,
-    *,
-    kappa_min: float = KAPPA_MIN,
+    rec: rr.RecordingStream, frame: pl.DataFrame, views: Mapping[str, np.ndarray]
 ) -> None:
     """Log paths, robot and ICR under ``world/`` (m, world frame, drawn y up).
 
     Args:
         rec: the recording.
-        frame: aligned log with ``t_ns``, ``x``, ``y`` (m); ``yaw``, ``psi`` (rad) and a
-            curvature (``kappa`` or ``omega``/``v``) enable P, C2 and the ICR.
-        lengths: calibrated (L1, L2) in m, or None (then only C1 is drawn).
-        kappa_min: |kappa| (1/m) below which the ICR is hidden.
+        frame: aligned log with ``t_ns``, ``x``, ``y`` (m).
+        views: ``tractor_views_data``'s arrays; without ``P`` (no lengths, yaw, psi or
+            curvature) only C1 is drawn.
     """
     if not has(frame, "t_ns", "x", "y"):
         return
     # Rerun's 2D views draw y down: mirror the world once so that left turns look left.
     rec.log(WORLD, rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
     t = times_ns(frame)
-    c1 = np.stack([column(frame, "x"), column(frame, "y")], axis=-1)
-    kappa = kappa_measured(frame)
-    if lengths is None or not has(frame, "yaw", "psi") or kappa is None:
-        _log_c1_only(rec, t, c1)
+    if "P" not in views:
+        _log_c1_only(rec, t, np.stack([column(frame, "x"), column(frame, "y")], axis=-1))
         return
-    L1, L2 = lengths
-    c = icr_construction(
-        c1[:, 0],
-        c1[:, 1],
-        column(frame, "yaw"),
-        column(frame, "psi"),
-        kappa,
-        L1,
-        L2,
-        kappa_min=kappa_min,
-    )
-    _log_paths(rec, {"C1": c.C1, "P": c.P, "C2": c.C2})
-    _log_robot(rec, t, c)
-    _log_icr(rec, t, c)
+    _log_paths(rec, {n: views[n] for n in ROBOT_POINTS})
+    _log_robot(rec, t, views)
+    _log_icr(rec, t, views)
 
 
-def _log_robot(rec: rr.RecordingStream, t: NDArray[np.int64], c: ICRConstruction) -> None:
+def _log_robot(
+    rec: rr.RecordingStream, t: NDArray[np.int64], c: Mapping[str, np.ndarray]
+) -> None:
     """C1, P, C2 as points and C1-P-C2 as one strip at every time step."""
     rec.log(
         ROBOT,
@@ -153,12 +139,12 @@ def _log_robot(rec: rr.RecordingStream, t: NDArray[np.int64], c: ICRConstruction
         rr.LineStrips2D.from_fields(colors=[COLORS["links"]], radii=[0.05]),
         static=True,
     )
-    pts = np.stack([c.C1, c.P, c.C2], axis=1)
+    pts = np.stack([c["C1"], c["P"], c["C2"]], axis=1)
     ok = np.isfinite(pts).reshape(len(t), -1).all(axis=1)
     _send_points_and_strips(rec, ROBOT, t, pts, [pts], ok)
 
 
-def _log_icr(rec: rr.RecordingStream, t: NDArray[np.int64], c: ICRConstruction) -> None:
+def _log_icr(rec: rr.RecordingStream, t: NDArray[np.int64], c: Mapping[str, np.ndarray]) -> None:
     """O (labelled with R = 1/kappa) and Q; triangles O Q C2, Q C1 P and the radius O C1.
     Empty where the construction is not valid (|kappa| small)."""
     rec.log(
@@ -167,15 +153,17 @@ def _log_icr(rec: rr.RecordingStream, t: NDArray[np.int64], c: ICRConstruction) 
         rr.LineStrips2D.from_fields(colors=[COLORS[n] for n in ICR_STRIPS], radii=[0.02]),
         static=True,
     )
-    o, q = c.O, c.Q
+    o, q = c["O"], c["Q"]
     strips = [
-        np.stack([o, q, c.C2, o], axis=1),
-        np.stack([q, c.C1, c.P, q], axis=1),
-        np.stack([o, c.C1], axis=1),
+        np.stack([o, q, c["C2"], o], axis=1),
+        np.stack([q, c["C1"], c["P"], q], axis=1),
+        np.stack([o, c["C1"]], axis=1),
     ]
-    ok = c.valid & np.all([np.isfinite(s).reshape(len(t), -1).all(axis=1) for s in strips], axis=0)
+    ok = c["icr_valid"] & np.all(
+        [np.isfinite(s).reshape(len(t), -1).all(axis=1) for s in strips], axis=0
+    )
     labels = np.empty((int(ok.sum()), 2), dtype=object)
-    labels[:, 0] = np.char.mod("O: R = 1/κ = %.2f m", c.R[ok])
+    labels[:, 0] = np.char.mod("O: R = 1/κ = %.2f m", c["R"][ok])
     labels[:, 1] = "Q"
     _send_points_and_strips(
         rec, ICR, t, np.stack([o, q], axis=1), strips, ok, labels.reshape(-1).tolist()

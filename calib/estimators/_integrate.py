@@ -1,4 +1,4 @@
-"""Vectorised RK4 of the joint-angle kinematics for many parameter sets at once.
+"""RK4 of the joint-angle kinematics on binned inputs, for one or many parameter sets at once.
 
 The log is summarised per bin by the mean sample time, the mean and the least-squares slope of
 each input; inputs are linear within a bin (exact for the bin's mean and first moment, which
@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
+from calib.models.rk4 import rk4_batched, rk4_trajectory
 
 __all__ = ["StepPlan", "plan_steps", "simulate_psi"]
 
@@ -74,30 +76,34 @@ def plan_steps(
 
 _SCALAR_MAX = 8  # up to this many parameter sets, scalar loops beat numpy on tiny arrays
 
+#: (u, v) at the start, middle and end of each step.
+Stages = tuple[list[tuple[float, float]], list[tuple[float, float]], list[tuple[float, float]]]
 
-def _simulate_one(plan: StepPlan, L1: float, L2: float, psi0: float) -> FloatArray:
+
+def _stage_inputs(plan: StepPlan) -> Stages:
+    """(u, v) at the start, middle and end of each step, as Python floats."""
+    U, V = plan.u.tolist(), plan.v.tolist()
+    start = [(a[0], b[0]) for a, b in zip(U, V, strict=True)]
+    mid = [(a[1], b[1]) for a, b in zip(U, V, strict=True)]
+    end = [(a[2], b[2]) for a, b in zip(U, V, strict=True)]
+    return start, mid, end
+
+
+def _simulate_one(
+    plan: StepPlan, stages: Stages, L1: float, L2: float, psi0: float
+) -> FloatArray:
     """``simulate_psi`` for one parameter set with Python floats."""
     r, il2 = L1 / L2, 1.0 / L2
-    per = plan.per_node // 2
-    out = [psi0]
-    p = psi0
     cos, sin = math.cos, math.sin
-    hs, U, V = plan.h.tolist(), plan.u.tolist(), plan.v.tolist()
-    for s in range(len(hs)):
-        h = hs[s]
-        u0, uh, u1 = U[s]
-        v0, vh, v1 = V[s]
-        k1 = u0 + u0 * r * cos(p) - v0 * il2 * sin(p)
-        q = p + 0.5 * h * k1
-        k2 = uh + uh * r * cos(q) - vh * il2 * sin(q)
-        q = p + 0.5 * h * k2
-        k3 = uh + uh * r * cos(q) - vh * il2 * sin(q)
-        q = p + h * k3
-        k4 = u1 + u1 * r * cos(q) - v1 * il2 * sin(q)
-        p = p + h / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
-        if (s + 1) % per == 0:
-            out.append(p)
-    return np.asarray(out)
+
+    def rate(p: float, u: float, v: float) -> float:
+        return u + u * r * cos(p) - v * il2 * sin(p)
+
+    per = plan.per_node // 2
+    k = plan.h.size
+    return rk4_trajectory(
+        rate, psi0, plan.h.tolist(), *stages, keep=range(per, k + 1, per)
+    )
 
 
 def simulate_psi(
@@ -105,7 +111,8 @@ def simulate_psi(
 ) -> FloatArray:
     """Joint angle (rad) at the nodes and bin edges of ``plan`` for m parameter sets.
 
-    d psi/dt = u (1 + (L1/L2) cos psi) - v sin(psi) / L2 by classical RK4.
+    d psi/dt = u (1 + (L1/L2) cos psi) - v sin(psi) / L2 by classical RK4
+    (``calib.models.rk4``).
 
     Args:
         plan: steps and inputs from ``plan_steps``.
@@ -117,30 +124,22 @@ def simulate_psi(
     L1 = np.atleast_1d(np.asarray(L1, dtype=float))
     L2 = np.atleast_1d(np.asarray(L2, dtype=float))
     psi0 = np.broadcast_to(np.asarray(psi0, dtype=float), L1.shape)
+    stages = _stage_inputs(plan)
     if L1.size <= _SCALAR_MAX:
-        cols = [_simulate_one(plan, *map(float, x)) for x in zip(L1, L2, psi0, strict=True)]
+        cols = [
+            _simulate_one(plan, stages, *map(float, x)) for x in zip(L1, L2, psi0, strict=True)
+        ]
         return np.column_stack(cols)
     r = L1 / L2
     il2 = 1.0 / L2
-    k = plan.h.size
-    per = plan.per_node // 2
-    out = np.empty((k // per + 1, L1.size))
-    p = np.array(psi0, dtype=float, copy=True) * np.ones_like(L1)
-    out[0] = p
     cos, sin = np.cos, np.sin
-    hs, U, V = plan.h.tolist(), plan.u.tolist(), plan.v.tolist()
-    for s in range(k):
-        h = hs[s]
-        u0, uh, u1 = U[s]
-        v0, vh, v1 = V[s]
-        k1 = u0 + (u0 * r) * cos(p) - (v0 * il2) * sin(p)
-        q = p + (0.5 * h) * k1
-        k2 = uh + (uh * r) * cos(q) - (vh * il2) * sin(q)
-        q = p + (0.5 * h) * k2
-        k3 = uh + (uh * r) * cos(q) - (vh * il2) * sin(q)
-        q = p + h * k3
-        k4 = u1 + (u1 * r) * cos(q) - (v1 * il2) * sin(q)
-        p = p + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
-        if (s + 1) % per == 0:
-            out[(s + 1) // per] = p
-    return out
+
+    def rate(p: FloatArray, u: float, v: float) -> FloatArray:
+        return u + (u * r) * cos(p) - (v * il2) * sin(p)
+
+    per = plan.per_node // 2
+    k = plan.h.size
+    p0 = np.array(psi0, dtype=float, copy=True) * np.ones_like(L1)
+    return rk4_batched(
+        rate, p0, plan.h.tolist(), *stages, keep=range(per, k + 1, per)
+    )

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from calib.errors import SolverError
-from calib.results import Estimate, json_safe
+from calib.results import Estimate, JsonRecord
 
 __all__ = ["Z95", "IdentifiabilityVerdict", "identifiability", "make_estimate", "undetermined"]
 
@@ -61,7 +61,7 @@ def make_estimate(
 
 
 @dataclass(frozen=True)
-class IdentifiabilityVerdict:
+class IdentifiabilityVerdict(JsonRecord):
     """What one log determines about (L1, L2).
 
     Attributes:
@@ -82,21 +82,6 @@ class IdentifiabilityVerdict:
     best_direction: tuple[float, float]
     sentence: str
     details: dict[str, Any] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        return json_safe(
-            {
-                "L1": self.L1.to_dict(),
-                "L2": self.L2.to_dict(),
-                "sum_L1_L2": self.sum_L1_L2.to_dict(),
-                "split_determined": self.split_determined,
-                "sum_determined": self.sum_determined,
-                "correlation": self.correlation,
-                "best_direction": list(self.best_direction),
-                "sentence": self.sentence,
-                "details": self.details,
-            }
-        )
 
 
 def _pm(e: Estimate) -> str:

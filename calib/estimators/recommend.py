@@ -66,7 +66,7 @@ def calibrate_link_lengths(
 
     Returns:
         The recommended ``CalibrationResult`` and the ``MethodResult`` rows "EIV-ML" (family
-        "EIV") and "Transient-ML" (family "TRANSIENT") of the fits that ran.
+        "EIV") and ``TransientFit.name`` (family "TRANSIENT") of the fits that ran.
 
     Raises:
         InsufficientDataError: neither estimator could be fitted (the reasons are joined).
@@ -91,7 +91,7 @@ def calibrate_link_lengths(
             tr = TransientFit().fit(t[span], k[span], vv[span], p[span])
             rows.append(tr.method_result_)
         except CalibError as err:
-            problems.append(f"Transient-ML: {err}")
+            problems.append(f"{TransientFit.name}: {err}")
     if tr is not None and tr.sound_:
         res = tr.result_
         return replace(res, details={**res.details, "not_used": problems}), rows

@@ -34,6 +34,7 @@ class SteeringGeometry:
     samples: int
 
     def to_dict(self) -> dict[str, object]:
+        # JSON key "steering_offset" (the field is ``offset``): kept for JSON readers
         return {"wheelbase": self.wheelbase.to_dict(), "steering_offset": self.offset.to_dict(),
                 "samples": self.samples}
 

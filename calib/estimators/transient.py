@@ -1,6 +1,6 @@
 """Output-error fit of the transient joint-angle kinematics to a drive log.
 
-d psi/dt = v kappa (1 + (L1/L2) cos psi) - v sin(psi) / L2 (calib.models.tractor_trailer).
+d psi/dt = v kappa (1 + (L1/L2) cos psi) - v sin(psi) / L2 (calib.models.hitch_kinematics).
 psi is simulated forward from the measured yaw rate u = v kappa and speed v, and (L1, L2, psi0)
 minimise the squared difference to the measured psi. The joint angle relaxes towards the
 steady-state curve over a distance set by L2, which separates L2 from L1 where a steady-state
@@ -150,6 +150,10 @@ _ADVICE = (
 
 class TransientFit:
     """Output-error fit of (L1, L2, psi0) to the joint-angle time series.
+
+    Its rows and messages carry ``TransientFit.name`` ("Transient-ML", in the JSON ``name``)
+    and the family "TRANSIENT" it shares with ``PathTransientFit`` ("Transient-path"): refer
+    to it through ``TransientFit.name`` rather than retyping the string.
 
     Args:
         rate_hz: rate of the even grid the log is block-averaged onto (Hz).

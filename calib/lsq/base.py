@@ -41,15 +41,22 @@ def triangular_factor(C: ArrayLike) -> FloatArray:
     Returns:
         The m x m upper-triangular factor (row signs are arbitrary).
     """
-    C = np.asarray(C, dtype=float)
+    C = np.asarray(C, dtype=np.float64)
     p, m = C.shape
     if p < 2 * _BLOCK_ROWS:
-        return np.linalg.qr(C, mode="r")[:m]
+        return _r_factor(C)[:m]
     n_blocks = -(-p // _BLOCK_ROWS)
     padded = np.zeros((n_blocks * _BLOCK_ROWS, m))
     padded[:p] = C
-    blocks = np.linalg.qr(padded.reshape(n_blocks, _BLOCK_ROWS, m), mode="r")
-    return np.linalg.qr(blocks[:, :m, :].reshape(-1, m), mode="r")[:m]
+    blocks = _r_factor(padded.reshape(n_blocks, _BLOCK_ROWS, m))
+    return _r_factor(blocks[:, :m, :].reshape(-1, m))[:m]
+
+
+def _r_factor(a: FloatArray) -> FloatArray:
+    """R of ``a`` or of each matrix of a stack (numpy's stubs type ``mode="r"`` as a QRResult,
+    but it returns the R array)."""
+    r: Any = np.linalg.qr(a, mode="r")
+    return np.asarray(r, dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -168,4 +175,4 @@ def ols_on_factor(M: FloatArray, name: str) -> tuple[FloatArray, FloatArray]:
             f"{name}: the regressor matrix is rank deficient (singular values {sv.tolist()})"
         )
     beta, *_ = np.linalg.lstsq(Ma, my, rcond=None)
-    return beta, sv
+    return np.asarray(beta, dtype=np.float64), np.asarray(sv, dtype=np.float64)

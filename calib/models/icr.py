@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from calib.models.tractor_trailer import link_points
+from calib.models.hitch_kinematics import link_points
 from calib.results import json_safe
 
 __all__ = ["ICRConstruction", "icr_construction"]

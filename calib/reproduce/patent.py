@@ -19,7 +19,13 @@ import numpy as np
 from calib.reproduce.published import PublishedCell, half_unit, load_published
 from calib.reproduce.scenario import COMMANDS, PATENT_SCENARIO, PatentScenario
 from calib.results import MethodResult, json_safe
-from calib.tractor_trailer.methods import METHOD_NAMES, MethodEstimate, evaluate_methods
+from calib.tractor_trailer.methods import (
+    CLS_TABLE,
+    METHOD_NAMES,
+    MethodEstimate,
+    evaluate_methods,
+)
+from calib.tractor_trailer.patent_models import ExactModel
 from calib.tractor_trailer.repeats import methods_over_repeats
 
 __all__ = [
@@ -31,14 +37,12 @@ __all__ = [
 ]
 
 ROUND_OFF_RAD = 1e-6
-# CLS method whose error is shown beside each PM fit (the PM's LS + OLS1(EM1)).
+# CLS method whose error is shown beside each PM fit (the PM's LS + OLS1(EM1)), read from
+# patent Table 3 (``CLS_TABLE``): "OLS1(PM2)" -> "M1", ..., "TLS(PM1)" -> "M21".
 CLS_FOR_PM = {
-    "OLS1(PM2)": "M1",
-    "OLS2(PM2)": "M5",
-    "TLS(PM2)": "M9",
-    "OLS1(PM1)": "M13",
-    "OLS2(PM1)": "M17",
-    "TLS(PM1)": "M21",
+    f"{s.pm_solver}({s.pm})": s.name
+    for s in CLS_TABLE.values()
+    if s.em_solver == "OLS1" and s.em is ExactModel.EM1
 }
 NOISY_NAMES = tuple(n for n in METHOD_NAMES if not n.startswith("M"))
 SPLIT_TRUTHS = ((1.25, 2.48), (1.8, 1.8), (0.5, 3.2), (1.865, 1.865), (0.5, 3.23), (2.5, 1.23))

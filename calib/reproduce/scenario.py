@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from calib.models.tractor_trailer import steady_state_psi
+from calib.models.hitch_kinematics import steady_state_psi
 from calib.results import json_safe
 
 __all__ = [

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any, Literal
 
-from calib.models.tractor_trailer import steady_state_kappa
+from calib.models.hitch_kinematics import steady_state_kappa
 from calib.results import CommandType
 from calib.sim.choices import PresetName
 from calib.sim.commands import CommandSequence, CommandSpec

@@ -22,7 +22,8 @@ import numpy as np
 import polars as pl
 from scipy.signal import lfilter
 
-from calib.models.tractor_trailer import steady_state_psi
+from calib.models.hitch_kinematics import steady_state_psi
+from calib.models.rk4 import rk4_trajectory
 from calib.results import Segment
 from calib.sim.choices import HitchModel
 from calib.sim.commands import CommandSequence
@@ -287,28 +288,19 @@ def _psi_rk4(v: list[float], k: list[float], dt: float, L1: float, L2: float) ->
     """RK4 of d psi/dt = v (k (1 + L1/L2 cos psi) - sin(psi)/L2) from psi = 0.
 
     ``v`` and ``k`` are given on the half-step grid (length 2 n - 1); returns psi at the n full
-    steps. Scalar math in the loop: the only state-dependent part of the dynamics.
+    steps (``calib.models.rk4`` in Python floats: the only state-dependent part of the dynamics).
     """
-    n = (len(v) + 1) // 2
     r, i_l2 = L1 / L2, 1.0 / L2
-    h, h6 = dt / 2.0, dt / 6.0
     cos, sin = math.cos, math.sin
-    out = [0.0] * n
-    p = 0.0
-    for i in range(n - 1):
-        j = 2 * i
-        v0, vh, v1 = v[j], v[j + 1], v[j + 2]
-        k0, kh, k1 = k[j], k[j + 1], k[j + 2]
-        a1 = v0 * (k0 * (1.0 + r * cos(p)) - sin(p) * i_l2)
-        q = p + h * a1
-        a2 = vh * (kh * (1.0 + r * cos(q)) - sin(q) * i_l2)
-        q = p + h * a2
-        a3 = vh * (kh * (1.0 + r * cos(q)) - sin(q) * i_l2)
-        q = p + dt * a3
-        a4 = v1 * (k1 * (1.0 + r * cos(q)) - sin(q) * i_l2)
-        p = p + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-        out[i + 1] = p
-    return np.asarray(out)
+
+    def rate(p: float, vv: float, kk: float) -> float:
+        return vv * (kk * (1.0 + r * cos(p)) - sin(p) * i_l2)
+
+    n = (len(v) + 1) // 2
+    start = list(zip(v[0:-2:2], k[0:-2:2], strict=True))
+    mid = list(zip(v[1::2], k[1::2], strict=True))
+    end = list(zip(v[2::2], k[2::2], strict=True))
+    return rk4_trajectory(rate, 0.0, [dt] * (n - 1), start, mid, end)
 
 
 def _simpson_steps(f_half: np.ndarray, dt: float) -> np.ndarray:

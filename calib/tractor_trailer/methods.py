@@ -27,7 +27,7 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike
 from calib.errors import SolverError
 from calib.lsq import OLS1, OLS2, TLS, LeastSquares, triangular_factor
 from calib.results import json_safe
-from calib.tractor_trailer.models import (
+from calib.tractor_trailer.patent_models import (
     EXACT_MODELS,
     PREDICTION_MODELS,
     ExactModel,
@@ -47,6 +47,7 @@ from calib.tractor_trailer.models import (
 )
 
 __all__ = [
+    "CLS_ROWS",
     "CLS_TABLE",
     "METHOD_NAMES",
     "Family",
@@ -94,26 +95,42 @@ class MethodSpec:
         return " + ".join(s for s in (pm, em) if s)
 
 
-def _cls_table() -> dict[str, MethodSpec]:
-    """Patent Table 3: M1–M12 use PM2, M13–M24 PM1; PM solver OLS1, OLS2, TLS in blocks of 4."""
-    table: dict[str, MethodSpec] = {}
-    em_steps: list[tuple[str, ExactModel | None]] = [
-        ("OLS1", ExactModel.EM1),
-        ("OLS1", ExactModel.EM2),
-        ("OLS1", ExactModel.EM3),
-        ("TLS", None),
-    ]
-    i = 1
-    for pm in (PredictionModel.PM2, PredictionModel.PM1):
-        for pm_solver in ("OLS1", "OLS2", "TLS"):
-            for em_solver, em in em_steps:
-                name = f"M{i}"
-                table[name] = MethodSpec(name, Family.CLS, pm_solver, pm, em_solver, em)
-                i += 1
-    return table
+_PM1, _PM2 = PredictionModel.PM1, PredictionModel.PM2
+_EM1, _EM2, _EM3 = ExactModel.EM1, ExactModel.EM2, ExactModel.EM3
 
+#: Patent Table 3, one row per CLS method: name, PM step (solver, model), EM step (solver,
+#: model; None is TLS(EM1,2,3)). M1–M12 use PM2, M13–M24 PM1.
+CLS_ROWS: tuple[tuple[str, str, PredictionModel, str, ExactModel | None], ...] = (
+    ("M1",  "OLS1", _PM2, "OLS1", _EM1),
+    ("M2",  "OLS1", _PM2, "OLS1", _EM2),
+    ("M3",  "OLS1", _PM2, "OLS1", _EM3),
+    ("M4",  "OLS1", _PM2, "TLS",  None),
+    ("M5",  "OLS2", _PM2, "OLS1", _EM1),
+    ("M6",  "OLS2", _PM2, "OLS1", _EM2),
+    ("M7",  "OLS2", _PM2, "OLS1", _EM3),
+    ("M8",  "OLS2", _PM2, "TLS",  None),
+    ("M9",  "TLS",  _PM2, "OLS1", _EM1),
+    ("M10", "TLS",  _PM2, "OLS1", _EM2),
+    ("M11", "TLS",  _PM2, "OLS1", _EM3),
+    ("M12", "TLS",  _PM2, "TLS",  None),
+    ("M13", "OLS1", _PM1, "OLS1", _EM1),
+    ("M14", "OLS1", _PM1, "OLS1", _EM2),
+    ("M15", "OLS1", _PM1, "OLS1", _EM3),
+    ("M16", "OLS1", _PM1, "TLS",  None),
+    ("M17", "OLS2", _PM1, "OLS1", _EM1),
+    ("M18", "OLS2", _PM1, "OLS1", _EM2),
+    ("M19", "OLS2", _PM1, "OLS1", _EM3),
+    ("M20", "OLS2", _PM1, "TLS",  None),
+    ("M21", "TLS",  _PM1, "OLS1", _EM1),
+    ("M22", "TLS",  _PM1, "OLS1", _EM2),
+    ("M23", "TLS",  _PM1, "OLS1", _EM3),
+    ("M24", "TLS",  _PM1, "TLS",  None),
+)
 
-CLS_TABLE: dict[str, MethodSpec] = _cls_table()
+CLS_TABLE: dict[str, MethodSpec] = {
+    name: MethodSpec(name, Family.CLS, pm_solver, pm, em_solver, em)
+    for name, pm_solver, pm, em_solver, em in CLS_ROWS
+}
 
 _SPECS: dict[str, MethodSpec] = {}
 for _solver in ("OLS1", "TLS"):
@@ -181,6 +198,7 @@ class MethodEstimate:
 
 
 _NAN = math.nan
+_T = TypeVar("_T")
 
 
 class _Evaluator:
@@ -242,20 +260,29 @@ def _em_step(
 def _evaluate_one(ev: _Evaluator, spec: MethodSpec) -> MethodEstimate:
     fam = str(spec.family)
     if spec.family is Family.EMLS:
-        L1, L2, cn, extra = _em_step(ev.em_factor(), ev.n, spec.em_solver, spec.em)
+        em_solver = _required(spec.em_solver, spec)
+        L1, L2, cn, extra = _em_step(ev.em_factor(), ev.n, em_solver, spec.em)
         return MethodEstimate(spec.name, fam, L1, L2, cn, extra)
-    fit = ev.pm_fit(spec.pm_solver, spec.pm)
-    a, b = _line(fit, spec.pm)
-    pm_extra = {"a": a, "b": b} if spec.pm is PredictionModel.PM2 else {"a": a}
+    pm_solver, pm = _required(spec.pm_solver, spec), _required(spec.pm, spec)
+    fit = ev.pm_fit(pm_solver, pm)
+    a, b = _line(fit, pm)
+    pm_extra = {"a": a, "b": b} if pm is PredictionModel.PM2 else {"a": a}
     if spec.family is Family.PMLS:
         cn = fit.condition_number_
-        if spec.pm is PredictionModel.PM1 and spec.pm_solver != "TLS":
+        if pm is PredictionModel.PM1 and pm_solver != "TLS":
             pm_extra["mu1"] = cn
             cn = _NAN
         return MethodEstimate(spec.name, fam, _NAN, _NAN, cn, pm_extra)
-    factor, n = ev.cls_factor(spec.pm_solver, spec.pm)
-    L1, L2, cn, extra = _em_step(factor, n, spec.em_solver, spec.em)
+    factor, n = ev.cls_factor(pm_solver, pm)
+    L1, L2, cn, extra = _em_step(factor, n, _required(spec.em_solver, spec), spec.em)
     return MethodEstimate(spec.name, fam, L1, L2, cn, {**pm_extra, **extra})
+
+
+def _required(step: _T | None, spec: MethodSpec) -> _T:
+    """A step of ``spec`` its family requires (the tables above always set it)."""
+    if step is None:
+        raise AssertionError(f"{spec.name}: the {spec.family} method lacks a step")
+    return step
 
 
 def evaluate_methods(

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 
 from calib.results import MethodResult
 from calib.tractor_trailer.methods import METHOD_NAMES, evaluate_methods, family_of
-from calib.tractor_trailer.models import check_excitation
+from calib.tractor_trailer.patent_models import check_excitation
 
 __all__ = [
     "block_length",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -39,6 +40,10 @@ def register(app: typer.Typer) -> None:
             None, "--urdf",
             help="An arm's URDF file, or a model name of example-robot-data (e.g. panda).",
         ),
+        cutoff_hz: float | None = typer.Option(
+            None, "--cutoff-hz",
+            help="An arm's zero-phase low-pass cut-off for q, q', q'' and torque (Hz; default 10).",
+        ),
         channel_map: Path | None = typer.Option(
             None, "--channel-map", help="TOML mapping topics/fields to logical signals."
         ),
@@ -64,7 +69,9 @@ def register(app: typer.Typer) -> None:
         cmap = load_channel_map(channel_map) if channel_map else None
         cfg = AnalysisConfig(
             repeats=repeats, baseline=baseline, seed=seed, discovery=not no_discovery,
-            debug=_debug(), extra={"urdf": urdf} if urdf else {},
+            debug=_debug(),
+            extra=({"urdf": urdf} if urdf else {})
+            | ({"cutoff_hz": cutoff_hz} if cutoff_hz is not None else {}),
         )
         err = Console(stderr=True)
         if sys.stderr.isatty():
@@ -95,7 +102,11 @@ def register(app: typer.Typer) -> None:
                         suffixes=(target.suffix.lower(),), inputs=inputs,
                     )
                     draw = load_view(view)
-                    write_atomically(out, lambda tmp, d=draw, lo=loaded, r=res: d(tmp, lo, r))
+
+                    def write(tmp: Path, d: Any = draw, lo: Any = loaded, r: Any = res) -> Path:
+                        return d(tmp, lo, r)
+
+                    write_atomically(out, write)
                     err.print(f"{what} saved: {printable(out)}", markup=False, highlight=False)
         if as_json:
             sys.stdout.write(json.dumps(result.to_dict(), indent=2) + "\n")

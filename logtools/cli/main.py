@@ -42,6 +42,7 @@ def _register() -> None:
 
     for module in (info, simulate, analyze, reproduce, view):
         module.register(app)
+    __import__("logtools.cli.batch", fromlist=["register"]).register(app)  # batch, serve
 
 
 _register()

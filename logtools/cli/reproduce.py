@@ -62,8 +62,8 @@ def _figure_table(fig: FigureTable) -> Table:
     for (cmd, method, quantity), by_m in rows.items():
         cells: list[RenderableType] = [cmd, method, quantity]
         for M in amplitudes:
-            c = by_m.get(M)
-            cells += list(_cell_texts(c)) if c is not None else ["", "", ""]
+            cell = by_m.get(M)
+            cells += list(_cell_texts(cell)) if cell is not None else ["", "", ""]
         table.add_row(*cells)
     return table
 

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
+from calib.manipulator.choices import Conceal
 from calib.sim.choices import HitchModel, PresetName
 from logtools.writers.encoding import LogEncoding
 
@@ -165,8 +166,8 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", help="Seed (>= 0) of the trajectory and noise."),
         torque_noise: float = typer.Option(0.05, "--torque-noise", help="Torque noise std (N·m)."),
         payload: float = typer.Option(0.0, "--payload", help="Held payload (kg), >= 0."),
-        conceal: str | None = typer.Option(
-            None, "--conceal", help="friction | payload: leave it out of the log's declared model."
+        conceal: Conceal | None = typer.Option(
+            None, "--conceal", help="Leave friction or payload out of the log's declared model."
         ),
     ) -> None:
         """Simulate a serial arm and write its /joint_states log (manipulator)."""
@@ -178,8 +179,6 @@ def register(app: typer.Typer) -> None:
                 f"--duration {duration:g} --torque-noise {torque_noise:g} --payload {payload:g} "
                 f"--seed {seed}: expected duration > 1 s and non-negative noise, payload, seed"
             )
-        if conceal not in (None, "friction", "payload"):
-            raise LogcalInputError(f"--conceal {conceal}: expected friction or payload")
         from calib.errors import CalibError
 
         try:
@@ -190,7 +189,8 @@ def register(app: typer.Typer) -> None:
             )
         except CalibError as err:
             raise LogcalInputError(f"--arm {arm}: {err}") from err
-        print(f"wrote {out}: {n} messages, {len(run.joint_names)} joints, {duration:g} s, seed {seed}")
+        print(f"wrote {out}: {n} messages, {len(run.joint_names)} joints, {duration:g} s, "
+              f"seed {seed}")
 
     @sim.command("samples")
     def samples(

@@ -21,7 +21,7 @@ def register(app: typer.Typer) -> None:
             None, "--rrd", help="Where to save the recording (default: LOG with suffix .rrd)."
         ),
         method: str | None = typer.Option(
-            None, "--method", help="Also show psi predicted by this method (e.g. EMLS/EM1)."
+            None, "--method", help="Also show psi predicted by this method (e.g. OLS1(EM1))."
         ),
         no_viewer: bool = typer.Option(False, "--no-viewer", help="Only save the recording."),
         repeats: int = typer.Option(10, "--repeats", min=1, help="Bootstrap repeats per method."),
@@ -42,17 +42,16 @@ def register(app: typer.Typer) -> None:
             rrd or log.with_suffix(".rrd"), option="--rrd", suffixes=(".rrd",), inputs=[log]
         )
         cmap = load_channel_map(channel_map) if channel_map else None
-        loaded, result = analyze_log(log, channel_map=cmap, config=AnalysisConfig(repeats=repeats))
+        extra = {"method_for_psi": method} if method else {}
+        loaded, result = analyze_log(
+            log, channel_map=cmap, config=AnalysisConfig(repeats=repeats, extra=extra)
+        )
         plugin = plugin_for(result.robot)
         if plugin.views is None:
             raise LogcalInputError(f"{log}: the {plugin.title} has no rerun views yet.")
-        options = {"method_for_psi": method} if method else {}
         draw = load_view(plugin.views)
-        try:
-            write_atomically(target, lambda tmp: draw(tmp, loaded, result, **options))
-            out = target
-        except KeyError as err:
-            raise LogcalInputError(f"--method {method!r}: {err.args[0]}") from err
+        write_atomically(target, lambda tmp: draw(tmp, loaded, result, **extra))
+        out = target
         viewer = None if no_viewer else open_viewer(out)
         if viewer is None:
             typer.echo(f"rerun recording saved: {out} (open it with: rerun {out})")

@@ -5,8 +5,8 @@
 ``rosbags``; MCAP (magic ``0x89 MCAP0``); or CSV. Every frame has the int64 nanosecond time column
 ``t_ns`` (MCAP ``log_time``, the bag's record time) and the message fields flattened by path
 (``twist.twist.linear.x``; arrays as ``position.0``). Damage is repaired where possible and
-described in ``LogData.problems``; input that cannot be read at all raises a
-:class:`logtools.errors.LogcalInputError`.
+described in ``LogData.problems`` (:class:`logtools.problems.Problem` records); input that
+cannot be read at all raises a :class:`logtools.errors.LogcalInputError`.
 """
 
 from __future__ import annotations
@@ -17,31 +17,43 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from logtools.errors import LogFileNotFoundError, NotAnMcapError
+from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
 from logtools.readers.csv_reader import CSV_TOPIC, read_csv
-from logtools.readers.decoders import known_encodings, register_decoder
+from logtools.readers.decoders import DEFAULT_DECODERS, Decoders, MessageDecoder, known_encodings
 from logtools.readers.mcap_reader import read_mcap
 from logtools.readers.mcap_scan import MAGIC
 from logtools.readers.rosbag_reader import is_rosbag, read_rosbag
 
 __all__ = [
     "CSV_TOPIC",
+    "DEFAULT_DECODERS",
     "TIME_COLUMN",
+    "Decoders",
     "LogData",
+    "MessageDecoder",
+    "Problem",
+    "ProblemKind",
     "TopicInfo",
     "known_encodings",
     "read_log",
     "read_rosbag",
-    "register_decoder",
 ]
 
 
-def read_log(path: str | os.PathLike[str], *, topics: Iterable[str] | None = None) -> LogData:
+def read_log(
+    path: str | os.PathLike[str],
+    *,
+    topics: Iterable[str] | None = None,
+    decoders: Decoders = DEFAULT_DECODERS,
+) -> LogData:
     """Read an MCAP, ROS bag or CSV drive log.
 
     Args:
         path: the log file, a rosbag2 folder (or one of its ``.db3`` files), or a ROS 1 ``.bag``.
         topics: MCAP and bags: decode just these topics (``info`` still lists all); None: all.
+        decoders: MCAP message encoding -> decoder (default: JSON, ROS 2, ROS 1, protobuf);
+            e.g. ``{**DEFAULT_DECODERS, "cbor": decode_cbor}`` adds one for this read only.
 
     Returns:
         The log's frames, topic summaries, metadata records and the problems repaired.
@@ -68,7 +80,7 @@ def read_log(path: str | os.PathLike[str], *, topics: Iterable[str] | None = Non
             fh.seek(len(MAGIC))
             if head == MAGIC:  # mapped, not read: the scan touches each byte about once
                 with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mapped:
-                    return read_mcap(name, mapped, topics)
+                    return read_mcap(name, mapped, topics, decoders)
             buf = head + fh.read()
     except OSError as err:
         raise NotAnMcapError(name, f"cannot read it: {err.strerror or err}") from err
@@ -77,6 +89,10 @@ def read_log(path: str | os.PathLike[str], *, topics: Iterable[str] | None = Non
     if MAGIC.startswith(buf):
         raise NotAnMcapError(name, f"only {len(buf)} bytes of an MCAP header: truncated")
     if p.suffix.lower() == ".csv" or _looks_like_csv(buf):
+        from logtools.readers.optiodom import is_optiodom_run, read_optiodom
+
+        if is_optiodom_run(p, buf[:4096]):  # headerless run file with a type=diff sibling
+            return read_optiodom(name)
         return read_csv(name, buf)
     raise NotAnMcapError(name, f"it starts with the bytes {buf[:8]!r}")
 

@@ -7,7 +7,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import polars as pl
 
-__all__ = ["TIME_COLUMN", "LogData", "TopicInfo", "sorted_by_time"]
+from logtools.problems import Problem, ProblemKind
+
+__all__ = ["TIME_COLUMN", "LogData", "Problem", "ProblemKind", "TopicInfo", "sorted_by_time"]
 
 TIME_COLUMN = "t_ns"
 """The one time column of every frame: int64 nanoseconds (MCAP log_time; CSV t * 1e9)."""
@@ -54,14 +56,14 @@ class LogData:
             Topics whose encoding could not be decoded are absent here but listed in ``info``.
         info: topic -> :class:`TopicInfo`, for every topic of the file.
         metadata: MCAP metadata records by name (CSV: ``{}``).
-        problems: what was lost or repaired while reading, human-readable.
+        problems: what was lost or repaired while reading (``str(p)`` is the sentence).
     """
 
     path: str
     topics: dict[str, pl.DataFrame]
     info: dict[str, TopicInfo]
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
-    problems: list[str] = field(default_factory=list)
+    problems: list[Problem] = field(default_factory=list)
 
     def topic_names(self) -> list[str]:
         """All topic names of the file, sorted."""
@@ -69,7 +71,7 @@ class LogData:
 
 
 def sorted_by_time(
-    frame: pl.DataFrame, path: str, topic: str, problems: list[str], clock: str
+    frame: pl.DataFrame, path: str, topic: str, problems: list[Problem], clock: str
 ) -> pl.DataFrame:
     """``frame`` sorted by its time column where the recorder wrote messages out of order,
     saying so in ``problems`` (``clock`` names the time the reader uses, e.g. "log_time")."""
@@ -77,8 +79,13 @@ def sorted_by_time(
     backwards = int(np.count_nonzero(np.diff(t) < 0))
     if backwards:
         problems.append(
-            f"{path}: topic {topic!r}: {clock} went backwards {backwards} times; "
-            f"messages were sorted by {clock}"
+            Problem(
+                ProblemKind.UNSORTED,
+                topic,
+                count=backwards,
+                message=f"{path}: topic {topic!r}: {clock} went backwards {backwards} times; "
+                f"messages were sorted by {clock}",
+            )
         )
         frame = frame.sort(TIME_COLUMN, maintain_order=True)
     return frame

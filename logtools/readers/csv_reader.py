@@ -7,6 +7,7 @@ from io import BytesIO
 import polars as pl
 
 from logtools.errors import NotAnMcapError
+from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
 
 __all__ = ["CSV_TOPIC", "read_csv"]
@@ -34,15 +35,30 @@ def read_csv(path: str, buf: bytes) -> LogData:
     t = frame["t"].cast(pl.Float64, strict=False)
     if frame["t"].null_count() < t.null_count():
         raise NotAnMcapError(path, "the CSV time column 't' holds non-numeric values")
-    problems: list[str] = []
+    problems: list[Problem] = []
     keep = t.is_not_null() & t.is_finite()
     dropped = frame.height - int(keep.sum())
     if dropped:
-        problems.append(f"{path}: {dropped} CSV rows have no finite time 't'; dropped")
+        problems.append(
+            Problem(
+                ProblemKind.NO_TIME,
+                CSV_TOPIC,
+                count=dropped,
+                message=f"{path}: {dropped} CSV rows have no finite time 't'; dropped",
+            )
+        )
     t_ns = (t.filter(keep) * 1e9).round().cast(pl.Int64).alias(TIME_COLUMN)
     frame = frame.filter(keep).drop("t").insert_column(0, t_ns)
     if not frame[TIME_COLUMN].is_sorted():
-        problems.append(f"{path}: CSV time 't' is not increasing; rows were sorted by 't'")
+        backwards = int((frame[TIME_COLUMN].diff() < 0).sum())
+        problems.append(
+            Problem(
+                ProblemKind.UNSORTED,
+                CSV_TOPIC,
+                count=backwards,
+                message=f"{path}: CSV time 't' is not increasing; rows were sorted by 't'",
+            )
+        )
         frame = frame.sort(TIME_COLUMN, maintain_order=True)
     times = frame[TIME_COLUMN]
     info = TopicInfo(

@@ -4,7 +4,11 @@ A decoder takes all raw payloads of one channel at once and returns a polars fra
 per payload it could decode (fields flattened by path: ``twist.twist.linear.x``; arrays as numbered
 columns: ``position.0``) and the indices of those payloads. JSON is decoded in bulk by polars'
 NDJSON reader; ROS 2 (``cdr``), ROS 1 and protobuf go message by message through the ``mcap``
-support packages' decoder factories. Register another encoding with :func:`register_decoder`.
+support packages' decoder factories.
+
+The decoders a read uses are passed in (``read_log(path, decoders=...)``, a mapping from MCAP
+message encoding to decoder); :data:`DEFAULT_DECODERS` holds the four above. Nothing is
+registered at import time, so two reads with different decoders do not affect each other.
 """
 
 from __future__ import annotations
@@ -13,21 +17,23 @@ import json
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from io import BytesIO
+from types import MappingProxyType
 from typing import Any, Protocol
 
 import polars as pl
 from mcap.records import Channel, Schema
 
 __all__ = [
+    "DEFAULT_DECODERS",
     "MAX_ARRAY_ITEMS",
     "Decoded",
+    "Decoders",
     "MessageDecoder",
-    "decoder_for",
+    "decode_json",
     "flatten_frame",
     "flatten_object",
     "frame_from_rows",
     "known_encodings",
-    "register_decoder",
 ]
 
 MAX_ARRAY_ITEMS = 256
@@ -57,22 +63,13 @@ class MessageDecoder(Protocol):
         ...
 
 
-_REGISTRY: dict[str, MessageDecoder] = {}
+Decoders = Mapping[str, MessageDecoder]
+"""MCAP message encoding -> the decoder for its channels."""
 
 
-def register_decoder(message_encoding: str, decoder: MessageDecoder) -> None:
-    """Use ``decoder`` for channels whose MCAP message encoding is ``message_encoding``."""
-    _REGISTRY[message_encoding] = decoder
-
-
-def decoder_for(message_encoding: str) -> MessageDecoder | None:
-    """The decoder registered for ``message_encoding``, or None."""
-    return _REGISTRY.get(message_encoding)
-
-
-def known_encodings() -> list[str]:
-    """Message encodings with a registered decoder."""
-    return sorted(_REGISTRY)
+def known_encodings(decoders: Decoders | None = None) -> list[str]:
+    """Message encodings ``decoders`` (default: :data:`DEFAULT_DECODERS`) can decode, sorted."""
+    return sorted(DEFAULT_DECODERS if decoders is None else decoders)
 
 
 # ---------------------------------------------------------------- flattening
@@ -91,8 +88,8 @@ def flatten_frame(frame: pl.DataFrame) -> pl.DataFrame:
         exprs: list[pl.Expr] = []
         for name, dtype in frame.schema.items():
             if isinstance(dtype, pl.Struct):
-                col = pl.col(name).struct
-                exprs += [col.field(f.name).alias(f"{name}.{f.name}") for f in dtype.fields]
+                fields = pl.col(name).struct
+                exprs += [fields.field(f.name).alias(f"{name}.{f.name}") for f in dtype.fields]
             elif isinstance(dtype, (pl.List, pl.Array)):
                 col = pl.col(name) if isinstance(dtype, pl.List) else pl.col(name).arr.to_list()
                 longest = frame.select(col.list.len().max()).item() or 0
@@ -247,7 +244,13 @@ def _protobuf_factory() -> Any:
     return DecoderFactory()
 
 
-register_decoder("json", decode_json)
-register_decoder("cdr", _FactoryDecoder(_ros2_factory))
-register_decoder("ros1", _FactoryDecoder(_ros1_factory))
-register_decoder("protobuf", _FactoryDecoder(_protobuf_factory))
+DEFAULT_DECODERS: Decoders = MappingProxyType(
+    {
+        "json": decode_json,
+        "cdr": _FactoryDecoder(_ros2_factory),
+        "ros1": _FactoryDecoder(_ros1_factory),
+        "protobuf": _FactoryDecoder(_protobuf_factory),
+    }
+)
+"""The decoders ``read_log`` uses unless given others: JSON, ROS 2 (cdr), ROS 1 and protobuf.
+Add one with ``read_log(path, decoders={**DEFAULT_DECODERS, "cbor": my_decoder})``."""

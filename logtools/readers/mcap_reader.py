@@ -9,20 +9,27 @@ import polars as pl
 from mcap.records import Channel
 
 from logtools.errors import NotAnMcapError, UnknownEncodingError
+from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo, sorted_by_time
-from logtools.readers.decoders import decoder_for, known_encodings
+from logtools.readers.decoders import DEFAULT_DECODERS, Decoders, known_encodings
 from logtools.readers.mcap_scan import ChannelMessages, ScanResult, scan_mcap
 
 __all__ = ["read_mcap"]
 
 
-def read_mcap(path: str, buf: bytes | mmap.mmap, topics: Iterable[str] | None = None) -> LogData:
+def read_mcap(
+    path: str,
+    buf: bytes | mmap.mmap,
+    topics: Iterable[str] | None = None,
+    decoders: Decoders = DEFAULT_DECODERS,
+) -> LogData:
     """Decode the MCAP file ``buf`` (read from ``path``).
 
     Args:
         path: file name, for messages.
         buf: the file's bytes (starting with the MCAP magic), e.g. memory-mapped.
         topics: decode only these topics (all are still listed in ``info``); None: all.
+        decoders: MCAP message encoding -> decoder.
 
     Raises:
         NotAnMcapError: nothing could be read (e.g. cut right after the header).
@@ -47,10 +54,10 @@ def read_mcap(path: str, buf: bytes | mmap.mmap, topics: Iterable[str] | None = 
             continue
         parts = []
         for ch in chans:
-            frame, note = _decode_channel(scan, ch)
-            if note:
-                problems.append(f"{path}: topic {topic!r}: {note}")
-            if frame is None and decoder_for(ch.message_encoding) is None:
+            frame, problem = _decode_channel(path, scan, ch, decoders)
+            if problem is not None:
+                problems.append(problem)
+            if frame is None and ch.message_encoding not in decoders:
                 undecodable.append((topic, ch.message_encoding))
             if frame is not None:
                 parts.append(frame)
@@ -60,7 +67,7 @@ def read_mcap(path: str, buf: bytes | mmap.mmap, topics: Iterable[str] | None = 
             )
     if undecodable and not frames and any(info[t].message_count for t, _ in undecodable):
         topic, encoding = undecodable[0]
-        raise UnknownEncodingError(path, topic, encoding, known_encodings())
+        raise UnknownEncodingError(path, topic, encoding, known_encodings(decoders))
     return LogData(path, frames, info, dict(scan.metadata), problems)
 
 
@@ -86,32 +93,53 @@ def _topic_info(scan: ScanResult, chans: list[Channel]) -> TopicInfo:
     )
 
 
-def _decode_channel(scan: ScanResult, ch: Channel) -> tuple[pl.DataFrame | None, str | None]:
-    """Decode one channel; return (frame or None when undecodable, a note on what was lost)."""
+def _decode_channel(
+    path: str, scan: ScanResult, ch: Channel, decoders: Decoders
+) -> tuple[pl.DataFrame | None, Problem | None]:
+    """Decode one channel; return (frame or None when undecodable, what was lost)."""
     msgs = scan.messages.get(ch.id, ChannelMessages())
     t_ns = pl.Series(TIME_COLUMN, msgs.log_times, dtype=pl.Int64)
-    decode = decoder_for(ch.message_encoding)
+    where = f"{path}: topic {ch.topic!r}"
+    span = _span(msgs.log_times)
+    decode = decoders.get(ch.message_encoding)
     if decode is None:
-        return None, (
-            f"message encoding {ch.message_encoding!r} is unknown (known: "
-            f"{', '.join(known_encodings())}); its {len(msgs.log_times)} messages were not decoded"
+        n = len(msgs.log_times)
+        return None, Problem(
+            ProblemKind.UNKNOWN_ENCODING,
+            ch.topic,
+            *span,
+            count=n,
+            message=f"{where}: message encoding {ch.message_encoding!r} is unknown (known: "
+            f"{', '.join(known_encodings(decoders))}); its {n} messages were not decoded",
         )
     if not msgs.payloads:
         return pl.DataFrame([t_ns]), None
     try:
         decoded = decode(scan.schemas.get(ch.schema_id), ch, msgs.payloads)
     except ValueError as err:
-        return None, f"{len(msgs.payloads)} messages not decoded: {err}"
-    note = None
+        n = len(msgs.payloads)
+        return None, Problem(
+            ProblemKind.UNDECODABLE,
+            ch.topic,
+            *span,
+            count=n,
+            message=f"{where}: {n} messages not decoded: {err}",
+        )
+    problem = None
     if decoded.kept is not None:
         t_ns = t_ns.gather(decoded.kept)
         lost = len(msgs.payloads) - len(decoded.kept)
-        note = f"{lost} of {len(msgs.payloads)} messages did not decode and were dropped"
+        note = f"{where}: {lost} of {len(msgs.payloads)} messages did not decode and were dropped"
         note += f" (first error: {decoded.error})" if decoded.error else ""
+        problem = Problem(ProblemKind.DROPPED_MESSAGES, ch.topic, *span, count=lost, message=note)
     frame = decoded.frame
     if TIME_COLUMN in frame.columns:  # a field named like our time column keeps its value
         frame = frame.rename({TIME_COLUMN: f"{TIME_COLUMN}.field"})
-    return frame.insert_column(0, t_ns) if frame.width else pl.DataFrame([t_ns]), note
+    return frame.insert_column(0, t_ns) if frame.width else pl.DataFrame([t_ns]), problem
+
+
+def _span(log_times: list[int]) -> tuple[int | None, int | None]:
+    return (min(log_times), max(log_times)) if log_times else (None, None)
 
 
 def _fmt_s(t_ns: int, origin: int) -> str:
@@ -120,9 +148,9 @@ def _fmt_s(t_ns: int, origin: int) -> str:
 
 def _damage_problems(
     path: str, scan: ScanResult, info: dict[str, TopicInfo], origin: int
-) -> list[str]:
-    """Human-readable account of what the scan lost, with counts and time spans."""
-    out: list[str] = []
+) -> list[Problem]:
+    """What the scan lost, with counts and time spans."""
+    out: list[Problem] = []
     damage = scan.damage
     stats = scan.statistics
     if stats is not None:
@@ -131,41 +159,89 @@ def _damage_problems(
             got = len(scan.messages.get(cid, ChannelMessages()).log_times)
             if ch is not None and got < expected:
                 out.append(
-                    f"{path}: topic {ch.topic!r}: read {got} of the {expected} messages the "
-                    f"summary lists; {expected - got} lost"
+                    Problem(
+                        ProblemKind.LOST_MESSAGES,
+                        ch.topic,
+                        count=expected - got,
+                        message=f"{path}: topic {ch.topic!r}: read {got} of the {expected} "
+                        f"messages the summary lists; {expected - got} lost",
+                    )
                 )
     for t0, t1 in damage.lost_chunks:
         out.append(
-            f"{path}: a damaged chunk was skipped: messages logged from {_fmt_s(t0, origin)} "
-            f"to {_fmt_s(t1, origin)} (relative to the first message read) are missing there"
+            Problem(
+                ProblemKind.LOST_CHUNK,
+                t0_ns=t0,
+                t1_ns=t1,
+                message=f"{path}: a damaged chunk was skipped: messages logged from "
+                f"{_fmt_s(t0, origin)} to {_fmt_s(t1, origin)} (relative to the first message "
+                "read) are missing there",
+            )
         )
-    for start, end in damage.skipped:
+    for first_byte, last_byte in damage.skipped:
         out.append(
-            f"{path}: bytes {start}..{end} are corrupt and were skipped (reading resumed at the "
-            "next chunk listed in the summary)"
+            Problem(
+                ProblemKind.CORRUPT_BYTES,
+                count=last_byte - first_byte,
+                message=f"{path}: bytes {first_byte}..{last_byte} are corrupt and were skipped "
+                "(reading resumed at the next chunk listed in the summary)",
+            )
         )
     if damage.unreadable_tail_bytes:
         last = max((i.last_ns for i in info.values() if i.last_ns is not None), default=None)
         end = f"; the messages read end at {_fmt_s(last, origin)}" if last is not None else ""
         expected_end = ""
+        summary_end: int | None = None
         if stats is not None and last is not None and stats.message_end_time > last:
-            expected_end = (
-                f"; the summary says the log runs to {_fmt_s(stats.message_end_time, origin)}"
-            )
+            summary_end = stats.message_end_time
+            expected_end = f"; the summary says the log runs to {_fmt_s(summary_end, origin)}"
         salvaged = ""
         if damage.salvaged_messages:
             salvaged = f" ({damage.salvaged_messages} messages were recovered from that chunk)"
         out.append(
-            f"{path}: {damage.unreadable_tail_bytes} bytes after the last good record (offset "
-            f"{damage.last_good_offset} of {scan.size}) were unreadable{salvaged}: the file is "
-            f"truncated or corrupt{end}{expected_end}"
+            Problem(
+                ProblemKind.TRUNCATED,
+                t0_ns=last,
+                t1_ns=summary_end,
+                count=damage.unreadable_tail_bytes,
+                message=f"{path}: {damage.unreadable_tail_bytes} bytes after the last good record "
+                f"(offset {damage.last_good_offset} of {scan.size}) were unreadable{salvaged}: "
+                f"the file is truncated or corrupt{end}{expected_end}",
+            )
         )
     elif not scan.reached_footer:
-        out.append(f"{path}: the file ends without an MCAP footer: it was probably cut short")
+        out.append(
+            Problem(
+                ProblemKind.NO_FOOTER,
+                message=f"{path}: the file ends without an MCAP footer: it was probably cut short",
+            )
+        )
     if damage.bad_messages:
-        out.append(f"{path}: {damage.bad_messages} messages had an impossible log_time; dropped")
+        n = damage.bad_messages
+        out.append(
+            Problem(
+                ProblemKind.BAD_LOG_TIME,
+                count=n,
+                message=f"{path}: {n} messages had an impossible log_time; dropped",
+            )
+        )
     orphans = sum(len(m.log_times) for cid, m in scan.messages.items() if cid not in scan.channels)
     if orphans:
-        out.append(f"{path}: {orphans} messages name a channel the file does not define; dropped")
-    out += [f"{path}: {note}" for note in damage.notes]
+        out.append(
+            Problem(
+                ProblemKind.UNKNOWN_CHANNEL,
+                count=orphans,
+                message=f"{path}: {orphans} messages name a channel the file does not define; "
+                "dropped",
+            )
+        )
+    out += [
+        Problem(
+            ProblemKind.CHUNK_ERROR,
+            t0_ns=e.t0_ns,
+            t1_ns=e.t1_ns,
+            message=f"{path}: a {e.compression or 'plain'} chunk did not open: {e.error}",
+        )
+        for e in damage.chunk_errors
+    ]
     return out

@@ -13,8 +13,10 @@ from __future__ import annotations
 import mmap
 import struct
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from io import BytesIO
+from typing import Any
 
 import lz4.frame
 import zstandard
@@ -22,7 +24,7 @@ from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, ChunkIndex, Metadata, Schema, Statistics
 
-__all__ = ["MAGIC", "ChannelMessages", "Damage", "ScanResult", "scan_mcap"]
+__all__ = ["MAGIC", "ChannelMessages", "ChunkError", "Damage", "ScanResult", "scan_mcap"]
 
 MAGIC = b"\x89MCAP0\r\n"
 _RECORD_HEAD = struct.Struct("<BQ")  # opcode, body length
@@ -44,6 +46,25 @@ class ChannelMessages:
     payloads: list[bytes] = field(default_factory=list)
 
 
+@dataclass(frozen=True)
+class ChunkError:
+    """A chunk whose body did not decompress (a CRC mismatch is not one: it is only lost).
+
+    Attributes:
+        compression: the chunk's compression ("" for none).
+        t0_ns: its first message's log time (ns).
+        t1_ns: its last message's log time (ns).
+        error_type: the decompressor's exception class name.
+        error: its text.
+    """
+
+    compression: str
+    t0_ns: int
+    t1_ns: int
+    error_type: str
+    error: str
+
+
 @dataclass
 class Damage:
     """What the scan could not read.
@@ -54,8 +75,8 @@ class Damage:
         unreadable_tail_bytes: bytes after the last good record that could not be read.
         salvaged_messages: messages recovered from the chunk cut short there (they are read).
         last_good_offset: file offset just after the last record read in full.
-        bad_messages: messages dropped for an unknown channel or an impossible log_time.
-        notes: other damage, human-readable.
+        bad_messages: messages dropped for an impossible log_time.
+        chunk_errors: chunks whose decompression failed (they are also in ``lost_chunks``).
     """
 
     lost_chunks: list[tuple[int, int]] = field(default_factory=list)
@@ -64,7 +85,7 @@ class Damage:
     last_good_offset: int = 0
     salvaged_messages: int = 0
     bad_messages: int = 0
-    notes: list[str] = field(default_factory=list)
+    chunk_errors: list[ChunkError] = field(default_factory=list)
 
     @property
     def any(self) -> bool:
@@ -74,7 +95,7 @@ class Damage:
             or self.skipped
             or self.unreadable_tail_bytes
             or self.bad_messages
-            or self.notes
+            or self.chunk_errors
         )
 
 
@@ -209,12 +230,14 @@ def _read_chunk(buf: bytes | mmap.mmap, start: int, end: int, result: ScanResult
         raise _CorruptRecordError from err
     try:
         records = _decompress(compression, buf[at : at + rlen], size)
-        if crc and zlib.crc32(records) != crc:
-            raise ValueError("CRC mismatch")
     except (ValueError, RuntimeError, zstandard.ZstdError, MemoryError) as err:
         result.damage.lost_chunks.append((t0, t1))
-        if not isinstance(err, ValueError) or "CRC" not in str(err):
-            result.damage.notes.append(f"a {compression or 'plain'} chunk did not open: {err}")
+        result.damage.chunk_errors.append(
+            ChunkError(compression, t0, t1, type(err).__name__, str(err))
+        )
+        return
+    if crc and zlib.crc32(records) != crc:  # the chunk is lost; its time span says where
+        result.damage.lost_chunks.append((t0, t1))
         return
     if _scan_records(records, 0, len(records), result) is not None:
         result.damage.lost_chunks.append((t0, t1))
@@ -259,7 +282,7 @@ def _decompress(compression: str, data: bytes, size: int) -> bytes:
 
 def _read_other(opcode: int, body: bytes, result: ScanResult) -> None:
     """Parse the non-message records logcal uses; others are skipped."""
-    readers = {
+    readers: dict[int, Callable[[ReadDataStream], Any]] = {
         Opcode.SCHEMA: Schema.read,
         Opcode.CHANNEL: Channel.read,
         Opcode.METADATA: Metadata.read,

@@ -19,6 +19,7 @@ import numpy as np
 import polars as pl
 
 from logtools.errors import NotARosbagError
+from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo, sorted_by_time
 from logtools.readers.decoders import MAX_ARRAY_ITEMS, frame_from_rows
 
@@ -120,7 +121,7 @@ def _default_store(target: Path, is_ros1: bool) -> Any:
 def _read_open(
     name: str, reader: Any, store: Any, is_ros1: bool, topics: Iterable[str] | None
 ) -> LogData:
-    problems: list[str] = []
+    problems: list[Problem] = []
     _complete_typestore(reader, store)
     known = set(reader.typestore.fielddefs)
     conns_by_topic: dict[str, list[Any]] = {}
@@ -133,8 +134,14 @@ def _read_open(
         if missing:
             count = sum(c.msgcount for c in conns_by_topic[topic] if c.msgtype in missing)
             problems.append(
-                f"{name}: topic {topic!r}: message type {', '.join(missing)} is neither defined in "
-                f"the bag nor a standard type; its {count} messages were not decoded"
+                Problem(
+                    ProblemKind.UNKNOWN_TYPE,
+                    topic,
+                    count=count,
+                    message=f"{name}: topic {topic!r}: message type {', '.join(missing)} is "
+                    f"neither defined in the bag nor a standard type; its {count} messages were "
+                    "not decoded",
+                )
             )
     raw: dict[str, tuple[list[int], list[bytes], list[str]]] = {}
     times: dict[str, list[int]] = {t: [] for t in conns_by_topic}
@@ -146,9 +153,19 @@ def _read_open(
     frames: dict[str, pl.DataFrame] = {}
     for topic, (t_list, payloads, types) in sorted(raw.items()):
         times[topic] = t_list
-        frame, note = _decode(reader, t_list, payloads, types)
-        if note:
-            problems.append(f"{name}: topic {topic!r}: {note}")
+        frame, lost, error = _decode(reader, t_list, payloads, types)
+        if lost:
+            problems.append(
+                Problem(
+                    ProblemKind.DROPPED_MESSAGES,
+                    topic,
+                    min(t_list),
+                    max(t_list),
+                    count=lost,
+                    message=f"{name}: topic {topic!r}: {lost} of {len(payloads)} messages did "
+                    f"not decode and were dropped (first error: {error})",
+                )
+            )
         frames[topic] = sorted_by_time(frame, name, topic, problems, "record time")
     info = {
         topic: _topic_info(topic, conns, times.get(topic, []), is_ros1)
@@ -172,7 +189,8 @@ def _complete_typestore(reader: Any, default: Any) -> None:
 
 def _decode(
     reader: Any, t_list: list[int], payloads: list[bytes], types: list[str]
-) -> tuple[pl.DataFrame, str | None]:
+) -> tuple[pl.DataFrame, int, str | None]:
+    """The decoded frame, how many messages did not decode, and the first error."""
     rows: list[dict[str, Any]] = []
     kept: list[int] = []
     error: str | None = None
@@ -191,13 +209,7 @@ def _decode(
     if TIME_COLUMN in frame.columns:
         frame = frame.rename({TIME_COLUMN: f"{TIME_COLUMN}.field"})
     frame = frame.insert_column(0, t_ns) if frame.width else pl.DataFrame([t_ns])
-    note = None
-    if len(kept) < len(payloads):
-        note = (
-            f"{len(payloads) - len(kept)} of {len(payloads)} messages did not decode and were "
-            f"dropped (first error: {error})"
-        )
-    return frame, note
+    return frame, len(payloads) - len(kept), error
 
 
 _FIELDS: dict[type, tuple[str, ...]] = {}

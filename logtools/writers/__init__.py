@@ -1,8 +1,8 @@
 """Log writers: simulated runs -> MCAP (JSON or ROS 2) and CSV drive logs (LOG_FORMAT.md).
 
-The generic writers (:func:`write_frames_mcap_json`, :func:`write_frames_mcap_ros2`,
-:func:`write_frames_csv`) map sensor-group frames onto topics through :class:`TopicBinding`
-lists; the tractor-trailer writers declare theirs.
+The generic writers (:func:`write_frames_mcap` with a :class:`JsonEncoder` or
+:class:`CdrEncoder`, and :func:`write_frames_csv`) map sensor-group frames onto topics through
+:class:`TopicBinding` lists; the tractor-trailer writers declare theirs.
 
 The writers load numpy, polars and mcap on first use of a name exported here, so that
 ``logtools.writers.encoding`` (the :class:`LogEncoding` choices the CLI needs at start-up)
@@ -19,10 +19,11 @@ from logtools.writers.encoding import ENCODINGS, LogEncoding
 if TYPE_CHECKING:
     from logtools.writers.csv_writer import frames_to_table, write_frames_csv
     from logtools.writers.mcap_writer import (
+        CdrEncoder,
+        JsonEncoder,
         TopicBinding,
         json_schema,
-        write_frames_mcap_json,
-        write_frames_mcap_ros2,
+        write_frames_mcap,
     )
     from logtools.writers.ros2_msgdefs import MSGDEFS, msgdef
     from logtools.writers.tractor_trailer import (
@@ -36,6 +37,8 @@ if TYPE_CHECKING:
 __all__ = [
     "ENCODINGS",
     "MSGDEFS",
+    "CdrEncoder",
+    "JsonEncoder",
     "LogEncoding",
     "TopicBinding",
     "frames_to_table",
@@ -44,8 +47,7 @@ __all__ = [
     "run_metadata",
     "write_csv",
     "write_frames_csv",
-    "write_frames_mcap_json",
-    "write_frames_mcap_ros2",
+    "write_frames_mcap",
     "write_mcap_json",
     "write_mcap_ros2",
     "write_run",
@@ -54,10 +56,11 @@ __all__ = [
 _LAZY = {
     "frames_to_table": "csv_writer",
     "write_frames_csv": "csv_writer",
+    "CdrEncoder": "mcap_writer",
+    "JsonEncoder": "mcap_writer",
     "TopicBinding": "mcap_writer",
     "json_schema": "mcap_writer",
-    "write_frames_mcap_json": "mcap_writer",
-    "write_frames_mcap_ros2": "mcap_writer",
+    "write_frames_mcap": "mcap_writer",
     "MSGDEFS": "ros2_msgdefs",
     "msgdef": "ros2_msgdefs",
     "run_metadata": "tractor_trailer",

@@ -1,9 +1,14 @@
-"""Generic MCAP writer: sensor-group frames -> topics, driven by a list of topic bindings.
+"""The MCAP writer: sensor-group frames -> topics, driven by a list of topic bindings.
 
 A :class:`TopicBinding` says which frame (sensor group) feeds a topic and which column fills
 each message field (dotted paths for nested messages). Messages of all topics are written in
 time order (``log_time`` = ``publish_time`` = the frame's ``t_ns``). Robot-specific writers
 (tractor-trailer now, diff-drive and manipulator later) only declare their bindings.
+
+One writer, :func:`write_frames_mcap`, with two message encoders: :class:`JsonEncoder` (JSON
+messages, ``jsonschema`` schemas, through ``mcap``'s writer) and :class:`CdrEncoder` (ROS 2
+``cdr`` messages, ``ros2msg`` schemas, through ``mcap-ros2-support``'s writer, whose CDR
+serialiser is public only that way).
 """
 
 from __future__ import annotations
@@ -13,7 +18,7 @@ import math
 import os
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, BinaryIO, Literal, Protocol
 
 import numpy as np
 import polars as pl
@@ -24,11 +29,13 @@ from logtools.errors import LogWriteError
 from logtools.writers.ros2_msgdefs import msgdef
 
 __all__ = [
+    "CdrEncoder",
     "Compression",
+    "JsonEncoder",
+    "MessageEncoder",
     "TopicBinding",
     "json_schema",
-    "write_frames_mcap_json",
-    "write_frames_mcap_ros2",
+    "write_frames_mcap",
 ]
 
 Compression = Literal["zstd", "lz4", "none"]
@@ -135,31 +142,128 @@ def _messages(
         yield i, t_ns, msg
 
 
-def _open(path: str | os.PathLike[str]) -> Any:
+def _open(path: str | os.PathLike[str]) -> BinaryIO:
     try:
         return open(path, "wb")
     except OSError as err:
         raise LogWriteError(f"{os.fspath(path)}: cannot write the log ({err.strerror})") from err
 
 
-def write_frames_mcap_json(
+class MessageEncoder(Protocol):
+    """How messages of one encoding reach an MCAP file (one instance per file written)."""
+
+    nan_as_none: bool
+    """Whether NaN/inf become None (JSON has no NaN) or are written as floats (CDR)."""
+
+    def start(self, fh: BinaryIO, compression: CompressionType, chunked: bool) -> None:
+        """Begin the file."""
+        ...
+
+    def add_topic(self, binding: TopicBinding) -> None:
+        """Register the schema and channel of ``binding`` (called once per binding, in order)."""
+        ...
+
+    def write(self, index: int, t_ns: int, msg: dict[str, Any]) -> None:
+        """Write one message of the ``index``-th binding at log time ``t_ns``."""
+        ...
+
+    def add_metadata(self, name: str, data: dict[str, str]) -> None:
+        """Write one metadata record."""
+        ...
+
+    def finish(self) -> None:
+        """Write the summary and footer."""
+        ...
+
+
+class JsonEncoder:
+    """JSON messages (``json``) with a JSON schema per topic (``jsonschema``)."""
+
+    nan_as_none = True
+
+    def __init__(self) -> None:
+        self._writer: McapWriter | None = None
+        self._channels: list[int] = []
+        self._dumps = json.JSONEncoder(allow_nan=False, separators=(",", ":")).encode
+
+    def _w(self) -> McapWriter:
+        if self._writer is None:
+            raise RuntimeError("JsonEncoder used before start()")
+        return self._writer
+
+    def start(self, fh: BinaryIO, compression: CompressionType, chunked: bool) -> None:
+        self._writer = McapWriter(fh, compression=compression, use_chunking=chunked)
+        self._writer.start(profile="", library="logcal")
+
+    def add_topic(self, binding: TopicBinding) -> None:
+        schema = json.dumps(json_schema(binding)).encode()
+        sid = self._w().register_schema(binding.schema_name, "jsonschema", schema)
+        self._channels.append(self._w().register_channel(binding.topic, "json", sid))
+
+    def write(self, index: int, t_ns: int, msg: dict[str, Any]) -> None:
+        self._w().add_message(self._channels[index], t_ns, self._dumps(msg).encode(), t_ns)
+
+    def add_metadata(self, name: str, data: dict[str, str]) -> None:
+        self._w().add_metadata(name, data)
+
+    def finish(self) -> None:
+        self._w().finish()
+
+
+class CdrEncoder:
+    """ROS 2 messages (``cdr``) with the message definitions of
+    :data:`logtools.writers.ros2_msgdefs.MSGDEFS` (``ros2msg``); always chunked."""
+
+    nan_as_none = False
+
+    def __init__(self) -> None:
+        self._writer: Any = None
+        self._schemas: dict[str, Any] = {}
+        self._topics: list[tuple[str, Any]] = []
+
+    def start(self, fh: BinaryIO, compression: CompressionType, chunked: bool) -> None:
+        from mcap_ros2.writer import Writer as Ros2Writer
+
+        self._writer = Ros2Writer(fh, compression=compression)
+
+    def add_topic(self, binding: TopicBinding) -> None:
+        name = binding.schema_name
+        if name not in self._schemas:
+            self._schemas[name] = self._writer.register_msgdef(name, msgdef(name))
+        self._topics.append((binding.topic, self._schemas[name]))
+
+    def write(self, index: int, t_ns: int, msg: dict[str, Any]) -> None:
+        topic, schema = self._topics[index]
+        self._writer.write_message(topic, schema, msg, t_ns, t_ns)
+
+    def add_metadata(self, name: str, data: dict[str, str]) -> None:
+        self._writer.add_metadata(name, data)
+
+    def finish(self) -> None:
+        self._writer.finish()
+
+
+def write_frames_mcap(
     path: str | os.PathLike[str],
     frames: Mapping[str, pl.DataFrame],
     bindings: Sequence[TopicBinding],
+    encoder: MessageEncoder,
     *,
     metadata: Mapping[str, Mapping[str, str]] | None = None,
     compression: Compression = "zstd",
     chunked: bool = True,
 ) -> int:
-    """Write ``frames`` as an MCAP with JSON messages (schema encoding ``jsonschema``).
+    """Write ``frames`` as an MCAP file whose messages ``encoder`` encodes.
 
     Args:
         path: output file.
         frames: sensor group -> frame with ``t_ns`` (int64 ns) and value columns.
-        bindings: the topics to write.
+        bindings: the topics to write (for :class:`CdrEncoder`, ``schema_name`` must be a type
+            of :data:`logtools.writers.ros2_msgdefs.MSGDEFS`).
+        encoder: a fresh :class:`JsonEncoder` or :class:`CdrEncoder`.
         metadata: metadata records, name -> {key: string value}.
         compression: chunk compression.
-        chunked: write chunks (with a message index) or bare messages.
+        chunked: write chunks (with a message index) or bare messages (JSON only).
 
     Returns:
         The number of messages written.
@@ -169,52 +273,13 @@ def write_frames_mcap_json(
     """
     count = 0
     with _open(path) as fh:
-        writer = McapWriter(fh, compression=_COMPRESSION[compression], use_chunking=chunked)
-        writer.start(profile="", library="logcal")
-        channels = []
+        encoder.start(fh, _COMPRESSION[compression], chunked)
         for b in bindings:
-            schema = json.dumps(json_schema(b)).encode()
-            sid = writer.register_schema(b.schema_name, "jsonschema", schema)
-            channels.append(writer.register_channel(b.topic, "json", sid))
-        dumps = json.JSONEncoder(allow_nan=False, separators=(",", ":")).encode
-        for i, t_ns, msg in _messages(frames, bindings, nan_as_none=True):
-            writer.add_message(channels[i], t_ns, dumps(msg).encode(), t_ns)
+            encoder.add_topic(b)
+        for i, t_ns, msg in _messages(frames, bindings, nan_as_none=encoder.nan_as_none):
+            encoder.write(i, t_ns, msg)
             count += 1
         for name, data in (metadata or {}).items():
-            writer.add_metadata(name, dict(data))
-        writer.finish()
-    return count
-
-
-def write_frames_mcap_ros2(
-    path: str | os.PathLike[str],
-    frames: Mapping[str, pl.DataFrame],
-    bindings: Sequence[TopicBinding],
-    *,
-    metadata: Mapping[str, Mapping[str, str]] | None = None,
-    compression: Compression = "zstd",
-) -> int:
-    """Write ``frames`` as a ROS 2 MCAP (``cdr`` messages, ``ros2msg`` schemas, chunked).
-
-    ``schema_name`` of each binding must be a type of
-    :data:`logtools.writers.ros2_msgdefs.MSGDEFS`. Arguments, return and errors as
-    :func:`write_frames_mcap_json`.
-    """
-    from mcap_ros2.writer import Writer as Ros2Writer
-
-    count = 0
-    with _open(path) as fh:
-        writer = Ros2Writer(fh, compression=_COMPRESSION[compression])
-        schemas = {}
-        for b in bindings:
-            name = b.schema_name
-            if name not in schemas:
-                schemas[name] = writer.register_msgdef(name, msgdef(name))
-        for i, t_ns, msg in _messages(frames, bindings, nan_as_none=False):
-            b = bindings[i]
-            writer.write_message(b.topic, schemas[b.schema_name], msg, t_ns, t_ns)
-            count += 1
-        for name, data in (metadata or {}).items():
-            writer.add_metadata(name, dict(data))
-        writer.finish()
+            encoder.add_metadata(name, dict(data))
+        encoder.finish()
     return count

@@ -14,10 +14,11 @@ from logtools.errors import LogWriteError
 from logtools.writers.csv_writer import write_frames_csv
 from logtools.writers.encoding import ENCODINGS, Encoding, LogEncoding
 from logtools.writers.mcap_writer import (
+    CdrEncoder,
     Compression,
+    JsonEncoder,
     TopicBinding,
-    write_frames_mcap_json,
-    write_frames_mcap_ros2,
+    write_frames_mcap,
 )
 
 __all__ = [
@@ -154,10 +155,11 @@ def write_mcap_json(
         LogWriteError: the file cannot be written.
     """
     meta = run_metadata(run) if metadata is None else metadata
-    return write_frames_mcap_json(
+    return write_frames_mcap(
         path,
         run_frames(run),
         JSON_BINDINGS,
+        JsonEncoder(),
         metadata=meta,
         compression=compression,
         chunked=chunked,
@@ -175,8 +177,8 @@ def write_mcap_ros2(
     nav_msgs/Odometry as in LOG_FORMAT.md). Arguments as :func:`write_mcap_json`; ROS 2 files
     are always chunked."""
     meta = run_metadata(run) if metadata is None else metadata
-    return write_frames_mcap_ros2(
-        path, run_frames(run), ROS2_BINDINGS, metadata=meta, compression=compression
+    return write_frames_mcap(
+        path, run_frames(run), ROS2_BINDINGS, CdrEncoder(), metadata=meta, compression=compression
     )
 
 

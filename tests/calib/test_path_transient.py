@@ -60,7 +60,9 @@ def test_kernel_reaches_the_steady_state_relation() -> None:
         assert math.sin(end) - kappa * (L2 + L1 * math.cos(end)) == pytest.approx(0, abs=1e-9)
 
 
-@pytest.mark.parametrize("rate_hz", [5.0, 10.0, 50.0, 200.0])
+@pytest.mark.parametrize(
+    "rate_hz", [5.0, 10.0, 50.0, pytest.param(200.0, marks=pytest.mark.slow)]
+)
 @pytest.mark.parametrize("source", ["pose", "odometry"])
 def test_noise_free_logs_give_the_truth_at_any_rate(rate_hz: float, source: str) -> None:
     gen = generate(_clean_scenario(rate_hz), seed=1)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from calib.errors import InsufficientDataError
-from calib.models.tractor_trailer import steady_state_psi
+from calib.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.methods import evaluate_methods
 from calib.tractor_trailer.repeats import (
     block_length,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from calib.errors import CalibError
-from calib.models.tractor_trailer import kappa_limit, steady_state_kappa
+from calib.models.hitch_kinematics import kappa_limit, steady_state_kappa
 from calib.results import CommandType
 from calib.sim.commands import CommandSequence, CommandSpec
 from calib.sim.presets import (

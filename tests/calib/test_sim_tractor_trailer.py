@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from calib.models.tractor_trailer import (
+from calib.models.hitch_kinematics import (
     psi_rate,
     steady_state_psi,
     steady_state_residual,

@@ -9,7 +9,7 @@ import pytest
 
 from calib.errors import InsufficientDataError
 from calib.lsq import OLS1, OLS2, TLS
-from calib.models.tractor_trailer import steady_state_psi
+from calib.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.methods import (
     CLS_TABLE,
     METHOD_NAMES,
@@ -17,7 +17,7 @@ from calib.tractor_trailer.methods import (
     family_of,
     method_spec,
 )
-from calib.tractor_trailer.models import ExactModel, em_design, lengths_from_beta, pm_design
+from calib.tractor_trailer.patent_models import ExactModel, em_design, lengths_from_beta, pm_design
 
 L1, L2 = 1.25, 2.48
 EMLS = ("OLS1(EM1)", "OLS1(EM2)", "OLS1(EM3)", "TLS(EM1)", "TLS(EM2)", "TLS(EM3)")

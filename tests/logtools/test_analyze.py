@@ -81,6 +81,7 @@ def test_default_baseline_is_transient_and_names_nothing_on_a_clean_run(mixed_js
     assert mixed_json["discovery"]["effects"] == []
 
 
+@pytest.mark.slow
 def test_steady_baseline_names_the_hitch_transient(capsys: pytest.CaptureFixture[str]) -> None:
     """The patent's steady-state view leaves out the trailer's transient: discovery names it."""
     code = main(["analyze", str(SAMPLES / "tt_mixed.mcap"), "--json", "--repeats", "1",
@@ -90,6 +91,7 @@ def test_steady_baseline_names_the_hitch_transient(capsys: pytest.CaptureFixture
     assert "hitch_transient" in [e["id"] for e in doc["discovery"]["effects"]]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["tt_mixed_ros2.mcap", "tt_mixed.csv"])
 def test_other_encodings_give_the_same_estimate(
     name: str, capsys: pytest.CaptureFixture[str], mixed_json: dict
@@ -111,6 +113,7 @@ def test_terminal_report_warns_about_the_cls_split(capsys: pytest.CaptureFixture
     assert "Taylor expansion" in out
 
 
+@pytest.mark.slow
 def test_rrd_and_png_are_written(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rrd = tmp_path / "out.rrd"
     code = main(["analyze", str(SAMPLES / "tt_harmonic_clean.mcap"), "--repeats", "1",

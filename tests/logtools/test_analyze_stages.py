@@ -112,6 +112,7 @@ def test_debug_lets_a_failing_stage_raise(tmp_path: Path, monkeypatch: pytest.Mo
         analyze_loaded(_log(tmp_path), config=dc.replace(FAST, debug=True))
 
 
+@pytest.mark.slow
 @settings(
     max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )

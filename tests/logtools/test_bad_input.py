@@ -6,6 +6,7 @@ import json
 import math
 
 import numpy as np
+import polars as pl
 import pytest
 from mcap.writer import Writer
 
@@ -19,7 +20,8 @@ from logtools.errors import (
     TimestampError,
     UnknownEncodingError,
 )
-from logtools.readers import read_log
+from logtools.readers import DEFAULT_DECODERS, ProblemKind, read_log
+from logtools.readers.decoders import Decoded
 
 
 def _write(path, messages, topic="/hitch/angle", encoding="json"):
@@ -83,7 +85,7 @@ def test_all_nan_signal_is_an_error(tmp_path):
 def test_duplicate_and_decreasing_timestamps_sorted_and_deduplicated(tmp_path):
     msgs = [(0, {"angle": 0.0}), (2, {"angle": 0.2}), (1, {"angle": 0.1}), (2, {"angle": 0.25})]
     log = read_log(_write(tmp_path / "d.mcap", msgs))
-    assert any("went backwards 1 times" in p for p in log.problems)
+    assert [(p.kind, p.count) for p in log.problems] == [(ProblemKind.UNSORTED, 1)]
     res = resolve_signals(log)
     assert res.signals["psi"]["t_ns"].to_list() == [0, 1, 2]
     assert res.signals["psi"]["value"].to_list() == [0.0, 0.1, 0.2]  # first of the repeats
@@ -171,11 +173,24 @@ def test_unknown_encoding_on_one_topic_is_a_problem_until_a_signal_needs_it(tmp_
     log = read_log(path)
     assert "/hitch/angle" in log.info
     assert "/hitch/angle" not in log.topics
-    assert any(
-        "'cbor' is unknown" in p and "3 messages were not decoded" in p for p in log.problems
+    (problem,) = log.problems
+    assert (problem.kind, problem.topic, problem.count) == (
+        ProblemKind.UNKNOWN_ENCODING,
+        "/hitch/angle",
+        3,
     )
-    with pytest.raises(UnknownEncodingError, match="'/hitch/angle'"):
+    with pytest.raises(UnknownEncodingError) as info:
         resolve_signals(log)
+    assert info.value.topic == "/hitch/angle"
+
+    # a decoder passed in for this read decodes it; the defaults are left as they were
+    def decode_cbor(schema, channel, payloads):
+        return Decoded(pl.DataFrame({"angle": [float(p[0]) for p in payloads]}))
+
+    log = read_log(path, decoders={**DEFAULT_DECODERS, "cbor": decode_cbor})
+    assert log.problems == []
+    assert log.topics["/hitch/angle"]["angle"].to_list() == [1.0, 1.0, 1.0]
+    assert "cbor" not in DEFAULT_DECODERS
 
 
 def test_cli_bad_input_exit_2_without_traceback(tmp_path, capsys):
@@ -210,6 +225,11 @@ def test_schema_that_does_not_parse(tmp_path):
             w.add_message(ch, i, b"\x00\x01\x00\x00" + bytes(8), i)
         w.finish()
     log = read_log(path)
-    assert any("3 messages not decoded: its schema does not parse" in p for p in log.problems)
+    (problem,) = log.problems
+    assert (problem.kind, problem.topic, problem.count) == (
+        ProblemKind.UNDECODABLE,
+        "/hitch/angle",
+        3,
+    )
     with pytest.raises(LogcalInputError, match=r"'/hitch/angle' \(std_msgs/msg/Float64, cdr\)"):
         resolve_signals(log)

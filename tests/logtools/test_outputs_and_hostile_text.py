@@ -37,7 +37,8 @@ def test_bad_rrd_paths_are_refused_before_the_analysis(
     before = log.read_bytes()
     assert main(["analyze", str(log), "--rrd", str(tmp_path / name)]) == 2
     err = capsys.readouterr().err
-    assert why in err and "--rrd" in err
+    assert why in err
+    assert "--rrd" in err
     assert log.read_bytes() == before
 
 
@@ -50,7 +51,8 @@ def test_an_output_inside_the_input_or_over_it_is_refused(tmp_path: Path) -> Non
     same.write_bytes(b"x")
     with pytest.raises(OutputPathError) as info:
         check_output(same, option="--rrd", suffixes=(".rrd",), inputs=[same])
-    assert info.value.option == "--rrd" and info.value.path == same
+    assert info.value.option == "--rrd"
+    assert info.value.path == same
     with pytest.raises(OutputPathError, match="does not exist"):
         check_output(tmp_path / "no" / "x.rrd", option="--rrd", suffixes=(".rrd",))
 
@@ -96,6 +98,7 @@ def test_hostile_names_are_escaped_in_info_and_analyze(
     out = capsys.readouterr()
     assert "internal error" not in out.err
     text = out.out + out.err
-    assert "\x1b" not in text and "\x07" not in text
+    assert "\x1b" not in text
+    assert "\x07" not in text
     assert "\n- forged line" not in text
     assert "\\x1b]0;pwned" in text  # shown, visibly escaped

@@ -10,7 +10,7 @@ import polars as pl
 import pytest
 from mcap.writer import Writer
 
-from logtools.readers import CSV_TOPIC, LogData, read_log
+from logtools.readers import CSV_TOPIC, LogData, ProblemKind, read_log
 
 LAYOUTS = [
     pytest.param(chunked, compression, summary, id=f"{c_id}-{compression}-{s_id}")
@@ -167,7 +167,9 @@ def test_json_pretty_printed_and_undecodable_messages(tmp_path):
     log = read_log(_write_raw_json(tmp_path / "p.mcap", msgs))
     assert log.topics["/j"]["v"].to_list() == [1.0, 2.0, 4.0]
     assert log.topics["/j"]["t_ns"].to_list() == [1, 2, 4]
-    assert any("1 of 4 messages did not decode" in p for p in log.problems)
+    (dropped,) = log.problems
+    assert (dropped.kind, dropped.topic, dropped.count) == (ProblemKind.DROPPED_MESSAGES, "/j", 1)
+    assert (dropped.t0_ns, dropped.t1_ns) == (1, 4)
 
 
 def test_log_time_going_backwards_is_sorted_and_reported(tmp_path):
@@ -175,7 +177,7 @@ def test_log_time_going_backwards_is_sorted_and_reported(tmp_path):
     log = read_log(_write_raw_json(tmp_path / "b.mcap", msgs))
     assert log.topics["/j"]["t_ns"].to_list() == [10, 20, 30, 40]
     assert log.topics["/j"]["v"].to_list() == [10.0, 20.0, 30.0, 40.0]
-    assert any("went backwards 1 times" in p for p in log.problems)
+    assert [(p.kind, p.topic, p.count) for p in log.problems] == [(ProblemKind.UNSORTED, "/j", 1)]
 
 
 def test_csv(tmp_path):
@@ -187,7 +189,7 @@ def test_csv(tmp_path):
     assert frame["t_ns"].to_list() == [0, 20_000_000]
     assert frame["psi"].to_list() == [0.05, None]
     assert log.info[CSV_TOPIC].message_count == 2
-    assert any("1 CSV rows have no finite time" in p for p in log.problems)
+    assert [(p.kind, p.count) for p in log.problems] == [(ProblemKind.NO_TIME, 1)]
 
 
 def test_csv_detected_without_suffix(tmp_path):

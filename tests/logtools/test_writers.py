@@ -16,13 +16,16 @@ from mcap_ros2.decoder import DecoderFactory
 from calib.sim.presets import harmonic
 from calib.sim.tractor_trailer import Effects, SimulatedRun, simulate_tractor_trailer
 from logtools.errors import LogWriteError
+from logtools.readers import read_log
 from logtools.writers import (
+    CdrEncoder,
+    JsonEncoder,
     TopicBinding,
     json_schema,
     msgdef,
     run_metadata,
     write_csv,
-    write_frames_mcap_json,
+    write_frames_mcap,
     write_mcap_json,
     write_mcap_ros2,
 )
@@ -143,7 +146,7 @@ def test_generic_writer_other_robot_and_nan(tmp_path: Path) -> None:
         "/wheels", "wheels", "logcal/Wheels", {"left": "wheel_left", "right": "wheel_right"}
     )
     path = tmp_path / "w.mcap"
-    assert write_frames_mcap_json(path, frames, [binding], metadata={}) == 3
+    assert write_frames_mcap(path, frames, [binding], JsonEncoder(), metadata={}) == 3
     bodies = [json.loads(m.data) for _, _, m in _json_messages(path)]
     assert bodies == [
         {"left": 0.0, "right": 1.0},
@@ -153,10 +156,30 @@ def test_generic_writer_other_robot_and_nan(tmp_path: Path) -> None:
     assert json_schema(binding)["properties"]["left"] == {"type": ["number", "null"]}
 
 
+def test_one_writer_two_encoders_same_values(tmp_path: Path) -> None:
+    """The same frames through the JSON and the CDR encoder read back alike; CDR keeps NaN as a
+    float (JSON writes null, which the reader turns into a missing value)."""
+    frames = {"hitch": pl.DataFrame({"t_ns": [10, 20, 30], "psi": [0.25, np.nan, -0.5]})}
+    ros2 = TopicBinding("/hitch/angle", "hitch", "std_msgs/msg/Float64", {"data": "psi"})
+    json_b = TopicBinding("/hitch/angle", "hitch", "logcal/JointAngle", {"data": "psi"})
+    assert write_frames_mcap(tmp_path / "c.mcap", frames, [ros2], CdrEncoder()) == 3
+    assert write_frames_mcap(tmp_path / "j.mcap", frames, [json_b], JsonEncoder()) == 3
+    cdr = read_log(tmp_path / "c.mcap")
+    jsn = read_log(tmp_path / "j.mcap")
+    assert cdr.info["/hitch/angle"].message_encoding == "cdr"
+    assert jsn.info["/hitch/angle"].message_encoding == "json"
+    c = cdr.topics["/hitch/angle"]
+    j = jsn.topics["/hitch/angle"]
+    assert c["t_ns"].to_list() == j["t_ns"].to_list() == [10, 20, 30]
+    assert c["data"].to_list()[0::2] == j["data"].to_list()[0::2] == [0.25, -0.5]
+    assert np.isnan(c["data"][1])
+    assert j["data"][1] is None
+
+
 def test_writer_errors_name_what_is_wrong(run: SimulatedRun, tmp_path: Path) -> None:
     bad = TopicBinding("/odom", "odom", "x", {"v": "speed"})
     with pytest.raises(LogWriteError, match=r"topic '/odom': frame 'odom' has no column 'speed'"):
-        write_frames_mcap_json(tmp_path / "x.mcap", run.frames, [bad])
+        write_frames_mcap(tmp_path / "x.mcap", run.frames, [bad], JsonEncoder())
     with pytest.raises(LogWriteError, match="cannot write"):
         write_mcap_json(tmp_path / "no" / "dir" / "x.mcap", run)
     with pytest.raises(LogWriteError, match="cannot write"):

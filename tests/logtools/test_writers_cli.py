@@ -68,7 +68,8 @@ def test_unwritable_out_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[st
     out = tmp_path / "missing" / "x.mcap"
     assert main(["simulate", "tractor-trailer", "--duration", "2", "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "--out" in err and "does not exist" in err  # checked before simulating
+    assert "--out" in err
+    assert "does not exist" in err
 
 
 def test_simulate_end_to_end_subprocess(tmp_path: Path) -> None:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -19,6 +19,7 @@ from calib.results import (
 )
 from calib.sim.commands import CommandSequence, CommandSpec
 from calib.sim.tractor_trailer import SpeedProfile, TractorTrailerSim, simulate_tractor_trailer
+from calib.tractor_trailer.views_data import VIEWS, tractor_views_data
 
 L1_TRUE, L2_TRUE = 1.25, 2.48
 
@@ -99,7 +100,20 @@ def simulate(duration_each_s: float = 20.0, rate_hz: float = 50.0):
     return simulate_tractor_trailer(cfg, seed=1)
 
 
+def views_for(
+    frame: pl.DataFrame, result: AnalysisResult, method_for_psi: str | None = None
+) -> dict[str, np.ndarray]:
+    """The views data of ``frame`` (what the analysis attaches as ``artifacts["views"]``)."""
+    cols = {
+        c: frame[c].cast(pl.Float64).fill_null(np.nan).to_numpy()
+        for c in ("x", "y", "yaw", "psi", "kappa", "omega", "v")
+        if c in frame.columns
+    }
+    return tractor_views_data(cols, result, method_for_psi=method_for_psi)
+
+
 @pytest.fixture(scope="session")
 def case() -> VizCase:
     run = simulate()
-    return VizCase(run.truth, make_result(run))
+    result = make_result(run)
+    return VizCase(run.truth, replace(result, artifacts={VIEWS: views_for(run.truth, result)}))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import shutil
 from pathlib import Path
 
@@ -46,9 +45,7 @@ def test_viewer_only_with_a_display(monkeypatch):
     assert viewer.can_start_viewer()
 
 
-@pytest.mark.skipif(
-    importlib.util.find_spec("logtools.load") is None, reason="analysis pipeline not in tree"
-)
+@pytest.mark.slow  # the whole analysis of a sample log, then a .rrd
 def test_cli_view_saves_and_says_where(tmp_path, monkeypatch, capsys):
     from logtools.cli.main import main
 

@@ -7,9 +7,10 @@ import json
 import numpy as np
 import polars as pl
 import pytest
+from conftest import views_for
 from rrd_read import read_rrd
 
-from calib.models.tractor_trailer import steady_state_psi
+from calib.models.hitch_kinematics import steady_state_psi
 from viz.recording import write_recording
 from viz.style import COLORS
 
@@ -21,7 +22,8 @@ SCALARS = "Scalars:scalars"
 @pytest.fixture(scope="module")
 def recorded(case, tmp_path_factory):
     path = tmp_path_factory.mktemp("rrd") / "case.rrd"
-    write_recording(path, case.frame, case.result, method_for_psi="PMLS/PM1")
+    views = views_for(case.frame, case.result, "PMLS/PM1")
+    write_recording(path, case.frame, case.result, views, method_for_psi="PMLS/PM1")
     ents, n_blueprints = read_rrd(path)
     return ents, n_blueprints
 
@@ -180,7 +182,8 @@ def test_static_colours(recorded):
 def test_partial_frame_and_unknown_method(case, tmp_path):
     """A log with only command and joint angle: no world, the series that exist."""
     small = case.frame.select("t_ns", "kappa_cmd", "psi")
-    path = write_recording(tmp_path / "small.rrd", small, case.result)
+    views = views_for(small, case.result)
+    path = write_recording(tmp_path / "small.rrd", small, case.result, views)
     ents, _ = read_rrd(path)
     assert not any(e.startswith("/world/") for e in ents)
     assert {"/signals/kappa/command", "/signals/psi/measured"} <= set(ents)
@@ -192,7 +195,8 @@ def test_nan_samples_are_left_out(case, tmp_path):
     f = case.frame.with_columns(
         pl.when(pl.int_range(pl.len()) % 7 == 0).then(None).otherwise(pl.col("psi")).alias("psi")
     )
-    ents, _ = read_rrd(write_recording(tmp_path / "nan.rrd", f, case.result))
+    path = write_recording(tmp_path / "nan.rrd", f, case.result, views_for(f, case.result))
+    ents, _ = read_rrd(path)
     t, _ = ents["/signals/psi/measured"].rows(SCALARS)
     assert t.size == f["psi"].drop_nulls().len()
     _, links = ents["/world/robot"].rows(STRIPS)

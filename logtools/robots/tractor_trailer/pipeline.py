@@ -26,7 +26,7 @@ from calib.results import (
     Segment,
     StageStatus,
 )
-from logtools.errors import MissingSignalsError
+from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.load import LoadedLog
 from logtools.stages import Stages
 from logtools.tt_path import (
@@ -65,7 +65,7 @@ def _usable_rows(frame: pl.DataFrame, cols: tuple[str, ...]) -> pl.DataFrame:
 
 
 def _segments(t_s: np.ndarray, frame: pl.DataFrame) -> list[Segment]:
-    from logtools.segmentation import segment_command
+    from calib.segmentation import segment_command
 
     if "kappa_cmd" not in frame.columns:
         return [Segment(0.0, float(t_s[-1]), CommandType.OTHER, 0, len(t_s))]
@@ -217,7 +217,8 @@ def _unexplained(
         "before trusting it.)"
     )
     return replace(
-        estimate, parameters=params, sum_L1_L2=undetermined(estimate.sum_L1_L2, short),
+        estimate, parameters=params,
+        sum_L1_L2=None if estimate.sum_L1_L2 is None else undetermined(estimate.sum_L1_L2, short),
         verdict=verdict, details={**estimate.details, "unexplained_structure": model.describe()},
     )
 
@@ -437,10 +438,28 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
         discovery=discovery,
         truth=dict(loaded.truth),
         source=source,
-        warnings=list(loaded.problems) + notes,
+        warnings=[str(p) for p in loaded.problems] + notes,
         stages=stages.status,
     )
-    return replace(result, artifacts={PATH_INPUTS: path_out[0] if path_out else None})
+    from calib.tractor_trailer.views_data import VIEWS, tractor_views_data
+
+    columns: dict[str, np.ndarray] = {
+        c: loaded.frame[c].cast(pl.Float64).fill_null(np.nan).to_numpy()
+        for c in ("x", "y", "yaw", "psi", "kappa", "omega", "v") if c in loaded.frame.columns
+    }
+    method = cfg.extra.get("method_for_psi")
+    try:
+        views = tractor_views_data(columns, result, method_for_psi=method)
+    except KeyError as err:  # the user's --method names no method of this analysis: exit 2
+        raise LogcalInputError(f"--method {method!r}: {err.args[0]}") from None
+    except Exception as err:  # drawing data: a failure stays inside its own stage
+        if cfg.debug:
+            raise
+        views = {}
+        stages.status.append(StageStatus("views data", "failed", f"{type(err).__name__}: {err}"))
+    return replace(
+        result, artifacts={PATH_INPUTS: path_out[0] if path_out else None, VIEWS: views}
+    )
 
 
 def pool_tractor_trailer(

@@ -1,0 +1,116 @@
+"""The arrays the tractor-trailer's views draw, computed here so that ``viz`` computes no model.
+
+``tractor_views_data`` takes the aligned log's columns and the analysis and returns, per
+sample of the log (n samples):
+
+- ``kappa``: the measured curvature of C1 (1/m): ``kappa`` when logged, else omega / v (NaN
+  below 1 mm/s), the curvature every prediction below uses;
+- ``lengths``: (2,) the (L1, L2) (m) drawn: the recommended estimate's, else the truth's
+  (absent when neither has them; then only C1 is drawn and nothing is predicted);
+- ``psi_steady``: the steady-state joint angle (rad) at ``lengths`` for ``kappa``
+  (the patent's model; NaN where no steady state exists);
+- ``psi_steady_method``: the same at the lengths of the method named by ``method_for_psi``;
+- ``C1``, ``P``, ``C2`` (n, 2): link points (m, world frame); ``O``, ``Q`` (n, 2), ``R`` (n,)
+  and ``icr_valid`` (n,): the instantaneous-centre construction (``calib.models.icr``).
+
+The analysis keeps them in ``AnalysisResult.artifacts[VIEWS]`` (not part of the JSON).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from calib.models.hitch_kinematics import steady_state_psi
+from calib.models.icr import KAPPA_MIN, icr_construction
+from calib.results import AnalysisResult, MethodResult
+
+__all__ = ["VIEWS", "find_method", "measured_curvature", "tractor_views_data", "view_lengths"]
+
+#: Key of ``AnalysisResult.artifacts`` holding ``tractor_views_data``'s arrays.
+VIEWS = "views"
+
+FloatArray = NDArray[np.float64]
+
+
+def _col(arrays: Mapping[str, ArrayLike], name: str) -> FloatArray | None:
+    return np.asarray(arrays[name], dtype=float) if name in arrays else None
+
+
+def measured_curvature(arrays: Mapping[str, ArrayLike]) -> FloatArray | None:
+    """Curvature of C1 (1/m): ``kappa`` if present, else ``omega / v`` (NaN where |v| <= 1e-3
+    m/s); None if neither."""
+    kappa = _col(arrays, "kappa")
+    if kappa is not None:
+        return kappa
+    omega, v = _col(arrays, "omega"), _col(arrays, "v")
+    if omega is None or v is None:
+        return None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(np.abs(v) > 1e-3, omega / v, np.nan)
+
+
+def view_lengths(result: AnalysisResult) -> tuple[float, float] | None:
+    """(L1, L2) in m from the recommended estimate, else the truth; None when neither has them."""
+    est = result.estimate
+    if est is not None and "L1" in est.parameters and "L2" in est.parameters:
+        l1, l2 = est.parameters["L1"].value, est.parameters["L2"].value
+        if np.isfinite(l1) and np.isfinite(l2):
+            return float(l1), float(l2)
+    if "L1" in result.truth and "L2" in result.truth:
+        return float(result.truth["L1"]), float(result.truth["L2"])
+    return None
+
+
+def find_method(result: AnalysisResult, name: str) -> MethodResult:
+    """The method ``name`` (e.g. "OLS1(EM1)"), preferring its row over all segments.
+
+    Raises:
+        KeyError: no method of that name; the message lists the available ones.
+    """
+    rows = [m for m in result.methods if m.name == name]
+    if not rows:
+        known = sorted({m.name for m in result.methods})
+        raise KeyError(f"method {name!r} not in the analysis; available: {', '.join(known)}")
+    return next((m for m in rows if m.segment == "all"), rows[0])
+
+
+def tractor_views_data(
+    frame_arrays: Mapping[str, ArrayLike],
+    result: AnalysisResult,
+    *,
+    method_for_psi: str | None = None,
+    kappa_min: float = KAPPA_MIN,
+) -> dict[str, np.ndarray]:
+    """The arrays the tractor-trailer's views draw (see the module docstring for the keys).
+
+    Args:
+        frame_arrays: the aligned log's columns by name (whatever of x, y, yaw (m, m, rad),
+            psi (rad), kappa (1/m), omega (rad/s), v (m/s) it has), all of one length.
+        result: the analysis (its estimate, truth and methods give the lengths).
+        method_for_psi: also predict psi with this method's (L1, L2).
+        kappa_min: |kappa| (1/m) below which the ICR is not constructed.
+
+    Raises:
+        KeyError: ``method_for_psi`` is not a method of ``result``.
+    """
+    out: dict[str, np.ndarray] = {}
+    kappa = measured_curvature(frame_arrays)
+    lengths = view_lengths(result)
+    method = find_method(result, method_for_psi) if method_for_psi is not None else None
+    if kappa is None:
+        return out
+    out["kappa"] = kappa
+    if lengths is not None:
+        out["lengths"] = np.asarray(lengths, dtype=float)
+        out["psi_steady"] = steady_state_psi(kappa, *lengths)
+    if method is not None:
+        out["psi_steady_method"] = steady_state_psi(kappa, method.L1, method.L2)
+    pose = [_col(frame_arrays, n) for n in ("x", "y", "yaw", "psi")]
+    if lengths is not None and all(c is not None for c in pose):
+        x, y, yaw, psi = (np.asarray(c, dtype=float) for c in pose)
+        c = icr_construction(x, y, yaw, psi, kappa, *lengths, kappa_min=kappa_min)
+        out.update(C1=c.C1, P=c.P, C2=c.C2, O=c.O, Q=c.Q, R=c.R, icr_valid=c.valid)
+    return out
