@@ -19,6 +19,7 @@ __all__ = [
     "CalibrationResult",
     "CommandType",
     "Estimate",
+    "Family",
     "JsonRecord",
     "MethodResult",
     "Segment",
@@ -52,6 +53,23 @@ class Baseline(StrEnum):
     """The off-axle trailer kinematics (dynamic hitch angle); diagnoses best."""
     STEADY = "steady"
     """The patent's steady-state relation between curvature and hitch angle."""
+
+
+class Family(StrEnum):
+    """Families of link-length methods: the patent's three, and our estimators."""
+
+    EMLS = "EMLS"
+    """The patent's exact-model least squares."""
+    PMLS = "PMLS"
+    """The patent's prediction-model least squares (slope and intercept only)."""
+    CLS = "CLS"
+    """The patent's 24 combined least-squares methods M1-M24."""
+    EIV = "EIV"
+    """Errors-in-variables maximum likelihood on the steady-state relation."""
+    TRANSIENT = "TRANSIENT"
+    """Transient fits: the hitch angle simulated in time or along the measured path."""
+    NOSLIP = "NOSLIP"
+    """The trailer's no-side-slip regression from its own pose."""
 
 
 class CommandType(StrEnum):
@@ -157,13 +175,15 @@ class MethodResult(JsonRecord):
     """One least-squares method on one segment type, over repeats.
 
     ``L1``/``L2`` (m) are means over repeats, ``L1_std``/``L2_std`` their standard deviations
-    (0 for one repeat). ``condition_number`` is NaN where the method has none. ``extra`` holds
-    method-specific numbers (PM slope ``a`` and intercept ``b``, ``mu1``, per-model condition
-    numbers of TLS, each with ``_std``).
+    (0 for one repeat) when ``std_kind`` is "repeats"; for a single fit (``std_kind``
+    "standard_error") they are its standard errors. ``condition_number`` is NaN where the
+    method has none. ``extra`` holds method-specific numbers (PM slope ``a`` and intercept
+    ``b``, ``mu1``, per-model condition numbers of TLS, each with ``_std``); ``flags`` its
+    yes/no facts (``split_determined``).
     """
 
     name: str
-    family: str  # "EMLS" | "PMLS" | "CLS" | "EIV" | "TRANSIENT"
+    family: Family
     segment: str  # "all" or a CommandType value
     L1: float
     L2: float
@@ -173,6 +193,8 @@ class MethodResult(JsonRecord):
     condition_number_std: float = math.nan
     n_repeats: int = 1
     extra: Mapping[str, float] = field(default_factory=dict)
+    flags: Mapping[str, bool] = field(default_factory=dict)
+    std_kind: str = "repeats"
 
 
 @dataclass(frozen=True)

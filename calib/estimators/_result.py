@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from calib.estimators.identifiability import IdentifiabilityVerdict
-from calib.results import CalibrationResult, MethodResult
+from calib.results import CalibrationResult, Family, MethodResult
 
 __all__ = ["calibration_result", "information_criteria", "method_result"]
 
@@ -49,15 +49,15 @@ def calibration_result(
 
 def method_result(
     name: str,
-    family: str,
+    family: Family,
     verdict: IdentifiabilityVerdict,
     *,
     condition_number: float,
     extra: Mapping[str, float] | None = None,
 ) -> MethodResult:
     """A table row: ``L1_std``/``L2_std`` hold the standard errors of this single fit (there
-    are no repeats); ``extra`` holds the sum, its standard error, the 95 % bounds and
-    ``split_determined`` (1 or 0)."""
+    are no repeats: ``std_kind`` "standard_error"); ``extra`` holds the sum, its standard
+    error and the 95 % bounds, ``flags`` whether the split is determined."""
     e: dict[str, float] = {
         "sum_L1_L2": verdict.sum_L1_L2.value,
         "sum_L1_L2_se": verdict.sum_L1_L2.std,
@@ -65,8 +65,6 @@ def method_result(
         "L1_ci95_hi": verdict.L1.ci95[1],
         "L2_ci95_lo": verdict.L2.ci95[0],
         "L2_ci95_hi": verdict.L2.ci95[1],
-        "split_determined": float(verdict.split_determined),
-        "std_is_standard_error": 1.0,
     }
     e.update(extra or {})
     return MethodResult(
@@ -80,4 +78,6 @@ def method_result(
         condition_number=condition_number,
         n_repeats=1,
         extra=e,
+        flags={"split_determined": verdict.split_determined},
+        std_kind="standard_error",
     )

@@ -23,7 +23,7 @@ from calib.errors import InsufficientDataError, SolverError
 from calib.estimators._result import calibration_result, information_criteria, method_result
 from calib.estimators._stats import bartlett_bandwidth, hac_covariance, hf_noise_std
 from calib.estimators.identifiability import IdentifiabilityVerdict, identifiability
-from calib.results import CalibrationResult, MethodResult
+from calib.results import CalibrationResult, Family, MethodResult
 
 __all__ = ["SteadyStateEIV", "project_onto_curve"]
 
@@ -216,7 +216,7 @@ class SteadyStateEIV:
     def _method_row(self, J: np.ndarray) -> MethodResult:
         sv = np.linalg.svd(J, compute_uv=False)
         cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
-        return method_result(self.name, "EIV", self.verdict_, condition_number=cond)
+        return method_result(self.name, Family.EIV, self.verdict_, condition_number=cond)
 
     @property
     def verdict(self) -> IdentifiabilityVerdict:

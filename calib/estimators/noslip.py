@@ -27,7 +27,7 @@ from calib.estimators._result import calibration_result, information_criteria, m
 from calib.estimators._stats import bartlett_bandwidth, hac_covariance
 from calib.estimators.drive_path import default_gap_s
 from calib.estimators.identifiability import IdentifiabilityVerdict, identifiability
-from calib.results import CalibrationResult, MethodResult
+from calib.results import CalibrationResult, Family, MethodResult
 
 __all__ = ["NoSlipRegression"]
 
@@ -113,7 +113,7 @@ class NoSlipRegression:
         )
         sv = np.linalg.svd(A, compute_uv=False)
         self.method_result_: MethodResult = method_result(
-            self.name, "NOSLIP", self.verdict_,
+            self.name, Family.NOSLIP, self.verdict_,
             condition_number=float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf,
         )
         return self

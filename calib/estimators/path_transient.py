@@ -44,7 +44,7 @@ from calib.estimators._stats import (
 from calib.estimators.drive_path import DrivePath, default_gap_s
 from calib.estimators.identifiability import IdentifiabilityVerdict, identifiability
 from calib.models.hitch_path import advance_psi, rk4_substeps
-from calib.results import CalibrationResult, MethodResult
+from calib.results import CalibrationResult, Family, MethodResult
 
 __all__ = ["PathTransientFit"]
 
@@ -682,7 +682,7 @@ class PathTransientFit:
         sv = np.linalg.svd(Jc[np.all(np.isfinite(Jc), axis=1)], compute_uv=False)
         cond = float(sv[0] / sv[-1]) if sv.size == 2 and sv[-1] > 0 else math.inf
         self.method_result_: MethodResult = method_result(
-            self.name, "TRANSIENT", self.verdict_, condition_number=cond,
+            self.name, Family.TRANSIENT, self.verdict_, condition_number=cond,
             extra={"residual_rms_rad": self.residual_rms_, "misfit": self.misfit_},
         )
 

@@ -29,7 +29,7 @@ from calib.estimators._propagate import propagated_covariance
 from calib.estimators._result import calibration_result, information_criteria, method_result
 from calib.estimators._stats import bartlett_bandwidth, hac_covariance, hf_noise_std
 from calib.estimators.identifiability import IdentifiabilityVerdict, identifiability
-from calib.results import CalibrationResult, MethodResult
+from calib.results import CalibrationResult, Family, MethodResult
 
 __all__ = ["TransientFit", "block_average"]
 
@@ -411,7 +411,7 @@ class TransientFit:
         cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
         self.method_result_: MethodResult = method_result(
             self.name,
-            "TRANSIENT",
+            Family.TRANSIENT,
             self.verdict_,
             condition_number=cond,
             extra={"psi0_rad": self.psi0_, "residual_rms_rad": self.residual_rms_},

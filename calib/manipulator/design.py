@@ -7,7 +7,16 @@ above 1e-8 of the largest); the others are regrouped into the kept ones,
 ``theta_base = theta_kept + beta theta_dropped`` with ``beta = R_kk^-1 R_kd`` (Gautier 1990).
 Keeping the given order (link by link, friction last) names each base parameter after a physical
 one. The Coulomb term is ``Fc tanh(qd / 0.01)`` (sign(qd) above 0.01 rad/s, smooth through zero)
-in the simulator and the regressor alike.
+in the simulator and the regressor alike; the DFKI source's ``cf atan(100 qd)`` has the same
+velocity scale. ``coulomb_friction_smooth`` is the alternative ``Fcs tanh(qd / 0.1)``: friction
+that builds up over 0.1 rad/s (pre-sliding, a lubricated gear), an alternative *to*
+``coulomb_friction`` (discovery swaps one for the other and keeps the better held-out fit).
+
+Rotor inertia: each joint's armature ``Ia`` (gear ratio squared times rotor inertia) sits on its own
+diagonal of M. The gear coupling of a rotor carried by the previous link (the DFKI arm's
+``- gr Ir`` in M12) adds ``c qd_i (a_i . omega_{i-1})`` to the kinetic energy; when the joint axes
+are parallel that is a constant M_ij, which regroups into the link inertia and ``Ia`` (no new base
+parameter; a test checks the published DFKI model, coupling included, is exactly representable).
 """
 
 from __future__ import annotations
@@ -21,29 +30,58 @@ from numpy.typing import NDArray
 
 from calib.manipulator.model import ArmModel, ParameterInfo
 
-__all__ = ["COULOMB_SMOOTHING", "Design", "Term", "coulomb", "make_design"]
+__all__ = [
+    "ALTERNATIVES",
+    "COULOMB_SMOOTHING",
+    "COULOMB_SMOOTH_SCALE",
+    "FRICTION_TERMS",
+    "Design",
+    "Term",
+    "coulomb",
+    "make_design",
+]
 
 Array = NDArray[np.float64]
 
 COULOMB_SMOOTHING = 0.01
 """Velocity (rad/s or m/s) below which Coulomb friction is smoothed (tanh)."""
+COULOMB_SMOOTH_SCALE = 0.1
+"""Velocity scale (rad/s or m/s) of the ``coulomb_friction_smooth`` alternative."""
 
 
 class Term(StrEnum):
     """Per-joint terms beside the rigid body (also discovery's catalogue)."""
 
     COULOMB = "coulomb_friction"
+    COULOMB_SMOOTH = "coulomb_friction_smooth"
     VISCOUS = "viscous_friction"
     OFFSET = "torque_offset"
     PAYLOAD = "payload_mass"
 
 
-_PREFIX = {Term.COULOMB: "Fc", Term.VISCOUS: "Fv", Term.OFFSET: "tau0"}
-_UNIT = {Term.COULOMB: "N*m", Term.VISCOUS: "N*m*s/rad", Term.OFFSET: "N*m"}
+_PREFIX = {Term.COULOMB: "Fc", Term.COULOMB_SMOOTH: "Fcs", Term.VISCOUS: "Fv", Term.OFFSET: "tau0"}
+_UNIT = {
+    Term.COULOMB: "N*m",
+    Term.COULOMB_SMOOTH: "N*m",
+    Term.VISCOUS: "N*m*s/rad",
+    Term.OFFSET: "N*m",
+}
+FRICTION_TERMS = (Term.COULOMB, Term.COULOMB_SMOOTH, Term.VISCOUS)
+ALTERNATIVES = {Term.COULOMB: Term.COULOMB_SMOOTH, Term.COULOMB_SMOOTH: Term.COULOMB}
+"""Terms that model the same effect: a model holds at most one of each pair."""
 
 
-def coulomb(qd: Array) -> Array:
-    return np.tanh(qd / COULOMB_SMOOTHING)
+def coulomb(qd: Array, scale: float = COULOMB_SMOOTHING) -> Array:
+    """Coulomb friction's shape: ``tanh(qd / scale)``."""
+    return np.tanh(qd / scale)
+
+
+def _term_column(term: Term, qd: Array) -> Array | float:
+    if term is Term.COULOMB:
+        return coulomb(qd)
+    if term is Term.COULOMB_SMOOTH:
+        return coulomb(qd, COULOMB_SMOOTH_SCALE)
+    return qd if term is Term.VISCOUS else 1.0
 
 
 @dataclass(frozen=True)
@@ -119,7 +157,7 @@ class Design:
             if t is Term.PAYLOAD:
                 cols.append((Y @ self.model.payload_increment())[:, :, None])
             else:
-                x = coulomb(qd) if t is Term.COULOMB else qd if t is Term.VISCOUS else 1.0
+                x = _term_column(t, qd)
                 cols.append(np.broadcast_to(x, qd.shape)[:, :, None] * np.eye(qd.shape[1]))
         full = np.concatenate(cols, axis=2)
         return self._select(full), self._rigid_offset(Y)
@@ -136,7 +174,7 @@ class Design:
                 cp.append((Yp @ inc)[:, :, None])
                 cr.append((Yr @ inc)[:, :, None])
             else:
-                x = coulomb(qd) if t is Term.COULOMB else qd if t is Term.VISCOUS else 1.0
+                x = _term_column(t, qd)
                 cp.append(np.zeros((len(qd), n, n)))
                 cr.append(np.broadcast_to(x, qd.shape)[:, :, None] * np.eye(n))
         Xp, Xr = self._select(np.concatenate(cp, axis=2)), self._select(np.concatenate(cr, axis=2))

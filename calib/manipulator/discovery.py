@@ -1,10 +1,12 @@
 """Model-mismatch discovery for arms: which catalogue term did the log's model leave out?
 
-Catalogue: ``coulomb_friction``, ``viscous_friction``, ``torque_offset`` (per joint) and
-``payload_mass`` (a point mass at the tool point). The baseline is the model the log declares
-(its ``logcal`` metadata ``model_terms``; without one, the rigid body alone). Forward selection:
-each term not in the model is added in turn, fitted on the first 60 % (momentum windows, WLS with
-Newey-West intervals) and judged on the last 40 % (held-out torque RMS). A term is named only when
+Catalogue: ``coulomb_friction``, ``coulomb_friction_smooth`` (its alternative with a 0.1 rad/s
+velocity scale: when the model holds one, the other is tried *in its place*), ``viscous_friction``,
+``torque_offset`` (per joint) and ``payload_mass`` (a point mass at the tool point). The baseline
+is the model the log declares (its ``logcal`` metadata ``model_terms``; without one, the rigid
+body alone). Forward selection: each term not in the model is added in turn, fitted on the first
+60 % (momentum windows, WLS with Newey-West intervals) and judged on the last 40 % (held-out
+torque RMS). A term is named only when
 some coefficient's 95 % interval excludes 0 *and* the held-out RMS falls by at least
 ``MIN_IMPROVEMENT``; the best such term joins the model and the rest are tried again.
 
@@ -15,13 +17,13 @@ parameters the log declares), and reported as untestable otherwise.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from calib.errors import CalibError
-from calib.manipulator.design import Term, make_design
+from calib.manipulator.design import ALTERNATIVES, Term, make_design
 from calib.manipulator.identify import IdentifyConfig, fit_holdout
 from calib.manipulator.model import ArmModel
 from calib.manipulator.rows import compute_regressors
@@ -32,14 +34,21 @@ __all__ = ["CATALOGUE", "MIN_IMPROVEMENT", "ArmDiscovery", "EffectFinding", "dis
 
 Array = NDArray[np.float64]
 
-CATALOGUE: tuple[Term, ...] = (Term.COULOMB, Term.VISCOUS, Term.OFFSET, Term.PAYLOAD)
+CATALOGUE: tuple[Term, ...] = (
+    Term.COULOMB,
+    Term.COULOMB_SMOOTH,
+    Term.VISCOUS,
+    Term.OFFSET,
+    Term.PAYLOAD,
+)
 MIN_IMPROVEMENT = 0.05
 """Relative fall of the held-out torque RMS a term must bring to be named."""
 
 
 @dataclass(frozen=True)
 class EffectFinding:
-    """One catalogue term tried: its fitted coefficients, held-out RMS before/after (N*m)."""
+    """One catalogue term tried: its fitted coefficients, held-out RMS before/after (N*m), and
+    the term it was tried in place of (``replaces``), if any."""
 
     effect: str
     estimates: list[Estimate]
@@ -47,6 +56,7 @@ class EffectFinding:
     rms_after: float
     excludes_null: bool
     named: bool
+    replaces: str | None = None
 
     @property
     def improvement(self) -> float:
@@ -57,6 +67,7 @@ class EffectFinding:
             "effect": self.effect,
             "named": self.named,
             "excludes_null": self.excludes_null,
+            "replaces": self.replaces,
             "heldout_rms_before": self.rms_before,
             "heldout_rms_after": self.rms_after,
             "improvement": self.improvement,
@@ -92,8 +103,9 @@ class ArmDiscovery:
         if not self.named:
             lines.append("  no catalogue term improves the held-out fit: nothing named")
         for f in self.named:
+            instead = f" (in place of {f.replaces})" if f.replaces else ""
             lines.append(
-                f"  {f.effect}: held-out RMS {f.rms_before:.4g} -> {f.rms_after:.4g} N·m "
+                f"  {f.effect}{instead}: held-out RMS {f.rms_before:.4g} -> {f.rms_after:.4g} N·m "
                 f"({100 * f.improvement:.0f} % lower)"
             )
             lines += ["    " + e.report() for e in f.estimates]
@@ -159,28 +171,31 @@ def discover_arm(
     trials: list[EffectFinding] = []
     while candidates:
         best: EffectFinding | None = None
+        best_terms = current
         for t in candidates:
+            alt = ALTERNATIVES.get(t)
+            swap = alt if alt in current else None
+            trial = (*(x for x in current if x is not swap), t)
             try:
-                rms, per = _fit(model, sig, (*current, t), nominal, cfg)
+                rms, per = _fit(model, sig, trial, nominal, cfg)
             except (CalibError, np.linalg.LinAlgError) as err:
                 untestable.append(f"{t}: {err}")
                 continue
             ests = per[t]
             excl = any(e.identifiable and not (e.ci95[0] <= 0 <= e.ci95[1]) for e in ests)
-            f = EffectFinding(str(t), ests, rms0, rms, excl, False)
+            f = EffectFinding(str(t), ests, rms0, rms, excl, False, str(swap) if swap else None)
             trials.append(f)
             ok = excl and f.improvement >= MIN_IMPROVEMENT
             if ok and (best is None or f.rms_after < best.rms_after):
-                best = f
+                best, best_terms = f, trial
         if best is None:
             break
-        best = EffectFinding(
-            best.effect, best.estimates, best.rms_before, best.rms_after, best.excludes_null, True
-        )
+        best = replace(best, named=True)
         named.append(best)
         term = Term(best.effect)
-        current = (*current, term)
-        candidates = [t for t in candidates if t is not term]
+        current = best_terms
+        gone = {term, ALTERNATIVES.get(term)} if best.replaces else {term}
+        candidates = [t for t in candidates if t not in gone]
         rms0 = best.rms_after
     return ArmDiscovery(
         tuple(str(t) for t in declared), nominal is not None, named, trials, untestable

@@ -6,7 +6,12 @@ link inertias" cannot be checked on them one by one. What they do determine is c
 * the mass matrix M(q) they give must be positive definite at every checked configuration of the
   log (its kinetic energy is positive; this is what positive masses and PD link inertias imply
   for the data), computed from the momentum columns with unit joint velocities;
-* friction coefficients must not be negative beyond their 95 % interval.
+* friction coefficients must not be negative beyond their 95 % interval. A negative friction
+  coefficient whose interval excludes zero is not friction: the column is absorbing something
+  the model lacks that correlates with velocity (e.g. a torque estimated from motor current that
+  leaves out, or over-counts, what the rotor and gear dissipate; an unmodelled delay; the
+  inertia of a weakly excited joint), so the value must not be read as friction and the other
+  parameters are biased by the same cause. The problem text says so.
 
 Projecting onto the feasible set (e.g. an LMI on the full parameters) would move an estimate away
 from what the data say; we report a violation instead, and the verdict carries it.
@@ -19,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from calib.manipulator.design import Design, Term
+from calib.manipulator.design import FRICTION_TERMS, Design
 
 __all__ = ["Feasibility", "check_feasibility"]
 
@@ -60,8 +65,12 @@ def check_feasibility(
     if eig <= 0:
         problems.append(f"M(q) not positive definite along the log (smallest eigenvalue {eig:.3g})")
     names = design.names
-    for term in (Term.COULOMB, Term.VISCOUS):
+    for term in FRICTION_TERMS:
         for k in design.term_slice(term):
             if np.isfinite(std[k]) and th[k] + 1.96 * std[k] < 0:
-                problems.append(f"{names[k]} = {th[k]:.3g} < 0")
+                problems.append(
+                    f"{names[k]} = {th[k]:.3g} ± {1.96 * std[k]:.2g} < 0: not friction, the "
+                    "column absorbs an unmodelled velocity-correlated torque (e.g. the "
+                    "current-to-torque estimate or a delay); do not read it as friction"
+                )
     return Feasibility(not problems, eig, problems)

@@ -2,11 +2,12 @@
 excitation quality, held-out torque prediction and parameter trajectories.
 
 The log is split in time: the first ``train_fraction`` (60 %) identifies, the rest is predicted
-(torque from the classic form with the filtered acceleration, compared with the torque as
-logged). The reported estimate is then refitted on the whole log. Methods: momentum-integral
-batch WLS (the recommended one: no acceleration), acceleration-regressor batch WLS, and the
-paper's estimator and RLS over the momentum windows (their intervals are the batch OLS interval
-on the same rows, since a recursive estimator ends at that solution).
+(torque from the classic form with the filtered acceleration, interpolated onto the log's own
+time stamps and compared there with the torque as logged). The reported estimate is then
+refitted on the whole log. Methods: momentum-integral batch WLS (the recommended one: no
+acceleration), acceleration-regressor batch WLS, and the paper's estimator and RLS over the
+momentum windows (their intervals are the batch OLS interval on the same rows, since a recursive
+estimator ends at that solution).
 """
 
 from __future__ import annotations
@@ -26,7 +27,14 @@ from calib.manipulator.rows import Regressors, compute_regressors
 from calib.manipulator.signals import JointSignals, prepare_signals
 from calib.results import CalibrationResult, Estimate
 
-__all__ = ["ArmIdentification", "Holdout", "IdentifyConfig", "fit_holdout", "identify_arm"]
+__all__ = [
+    "ArmIdentification",
+    "Holdout",
+    "IdentifyConfig",
+    "at_stamps",
+    "fit_holdout",
+    "identify_arm",
+]
 
 Array = NDArray[np.float64]
 
@@ -46,8 +54,9 @@ class IdentifyConfig:
 
 @dataclass(frozen=True)
 class Holdout:
-    """Held-out torque prediction: per-joint RMS of the error and of the torque (N*m), the
-    pooled ratio (error RMS / torque RMS over all joints), and the arrays for plotting."""
+    """Held-out torque prediction at the logged stamps: per-joint RMS of the error and of the
+    torque (N*m), the pooled ratio (error RMS / torque RMS over all joints), and the arrays for
+    plotting."""
 
     rms: Array
     torque_rms: Array
@@ -130,13 +139,25 @@ def fit_holdout(reg: Regressors, config: IdentifyConfig) -> tuple[WLSResult, Hol
         w = WLSResult(e, np.zeros((0, 0)), e, e.astype(bool), e, np.ones(u.shape[1]), 0, 1.0, u)
     else:
         w = batch_wls(X, u)
-    pred = reg.predict(w.theta, cut, N)
-    meas = reg.sig.tau[cut:N]
+    t_s, meas, pred = at_stamps(reg.sig, reg.predict(w.theta, cut, N), cut)
     err = pred - meas
     rms = np.sqrt(np.mean(err**2, axis=0))
     trms = np.sqrt(np.mean(meas**2, axis=0))
     ratio = float(np.sqrt(np.sum(err**2)) / max(np.sqrt(np.sum(meas**2)), 1e-300))
-    return w, Holdout(rms, trms, ratio, reg.sig.t_s[cut:N], meas, pred)
+    return w, Holdout(rms, trms, ratio, t_s, meas, pred)
+
+
+def at_stamps(sig: JointSignals, pred: Array, start: int) -> tuple[Array, Array, Array]:
+    """(stamps, logged torque, predicted torque) on the logged samples inside the grid samples
+    ``[start, start + len(pred))`` that ``pred`` covers: the prediction is interpolated onto the
+    log's own stamps (module :mod:`calib.manipulator.signals`); without raw samples, the grid's."""
+    grid = sig.t_s[start : start + len(pred)]
+    if sig.raw_t_s is None or sig.raw_tau is None:
+        return grid, sig.tau[start : start + len(pred)], pred
+    inside = (sig.raw_t_s >= grid[0]) & (sig.raw_t_s <= grid[-1])
+    t = sig.raw_t_s[inside]
+    at = np.stack([np.interp(t, grid, pred[:, j]) for j in range(pred.shape[1])], axis=1)
+    return t, sig.raw_tau[inside], at
 
 
 def identify_arm(

@@ -6,7 +6,9 @@ than from a logged velocity: real drives log velocities that lag (TIAGo, ~0.16 s
 runs 01, 02), while positions are what the encoder measured. The filter is scipy's Butterworth
 ``sosfiltfilt`` (zero phase, so no lag between torque and motion); the torque used for fitting
 is filtered with the same filter ("consistent filtering"), the held-out prediction is compared
-with the torque as logged.
+with the torque as logged, at the log's own time stamps (``raw_t_s``, ``raw_tau``): the smooth
+prediction is interpolated onto the stamps, never the noisy torque onto the grid (interpolating
+between jittered samples averages their noise and flatters the comparison).
 """
 
 from __future__ import annotations
@@ -38,7 +40,9 @@ class JointSignals:
     """Joint signals on a uniform grid (``t_s`` from 0, s).
 
     ``q``/``qd``/``qdd`` are filtered (rad or m, /s, /s^2), ``tau`` is the torque as logged
-    (interpolated onto the grid), ``tau_f`` the same filtered. Shapes (N, n).
+    (interpolated onto the grid), ``tau_f`` the same filtered. Shapes (N, n). ``raw_t_s`` and
+    ``raw_tau`` are the distinct logged samples (stamps on the same time axis as ``t_s``), kept
+    whole by :meth:`slice` and :meth:`every`.
     """
 
     t_s: Array
@@ -49,6 +53,8 @@ class JointSignals:
     tau_f: Array
     rate_hz: float
     cutoff_hz: float
+    raw_t_s: Array | None = None
+    raw_tau: Array | None = None
 
     def slice(self, start: int, stop: int) -> JointSignals:
         return JointSignals(
@@ -60,6 +66,8 @@ class JointSignals:
             self.tau_f[start:stop],
             self.rate_hz,
             self.cutoff_hz,
+            self.raw_t_s,
+            self.raw_tau,
         )
 
     def every(self, step: int) -> JointSignals:
@@ -73,6 +81,8 @@ class JointSignals:
             self.tau_f[::step],
             self.rate_hz / step,
             self.cutoff_hz,
+            self.raw_t_s,
+            self.raw_tau,
         )
 
     def __len__(self) -> int:
@@ -127,8 +137,18 @@ def prepare_signals(
     tauf = zero_phase_lowpass(taug, rate, cutoff_hz)
     edge = min(int(np.ceil(rate / cutoff_hz)), len(grid) // 10)  # filter start-up at both ends
     cut = slice(edge, len(grid) - edge)
+    t0 = grid[edge]
     out = JointSignals(
-        grid[cut] - grid[edge], qf[cut], qdf[cut], qddf[cut], taug[cut], tauf[cut], rate, cutoff_hz
+        grid[cut] - t0,
+        qf[cut],
+        qdf[cut],
+        qddf[cut],
+        taug[cut],
+        tauf[cut],
+        rate,
+        cutoff_hz,
+        t - t0,
+        tau,
     )
     step = max(1, int(np.floor(rate / max_rate_hz)))
     return out.every(step) if step > 1 else out

@@ -26,15 +26,14 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from enum import StrEnum
-from typing import Any, TypeVar
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from calib.errors import SolverError
 from calib.lsq import OLS1, OLS2, TLS, LeastSquares, triangular_factor
-from calib.results import json_safe
+from calib.results import Family, JsonRecord
 from calib.tractor_trailer.patent_models import (
     EXACT_MODELS,
     PREDICTION_MODELS,
@@ -59,14 +58,6 @@ __all__ = [
 ]
 
 _SOLVERS: dict[str, type[LeastSquares]] = {"OLS1": OLS1, "OLS2": OLS2, "TLS": TLS}
-
-
-class Family(StrEnum):
-    """Method families of the patent."""
-
-    EMLS = "EMLS"
-    PMLS = "PMLS"
-    CLS = "CLS"
 
 
 @dataclass(frozen=True)
@@ -160,13 +151,13 @@ def method_spec(name: str) -> MethodSpec:
         ) from None
 
 
-def family_of(name: str) -> str:
+def family_of(name: str) -> Family:
     """ "EMLS" | "PMLS" | "CLS" for a method name."""
-    return str(method_spec(name).family)
+    return method_spec(name).family
 
 
 @dataclass(frozen=True)
-class MethodEstimate:
+class MethodEstimate(JsonRecord):
     """One method on one data set.
 
     Attributes:
@@ -177,24 +168,12 @@ class MethodEstimate:
     """
 
     name: str
-    family: str
+    family: Family
     L1: float
     L2: float
     condition_number: float
     extra: dict[str, float] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe dict."""
-        return json_safe(
-            {
-                "name": self.name,
-                "family": self.family,
-                "L1": self.L1,
-                "L2": self.L2,
-                "condition_number": self.condition_number,
-                "extra": dict(self.extra),
-            }
-        )
+    failed: bool = False
 
 
 _NAN = math.nan
@@ -258,7 +237,7 @@ def _em_step(
 
 
 def _evaluate_one(ev: _Evaluator, spec: MethodSpec) -> MethodEstimate:
-    fam = str(spec.family)
+    fam = spec.family
     if spec.family is Family.EMLS:
         em_solver = _required(spec.em_solver, spec)
         L1, L2, cn, extra = _em_step(ev.em_factor(), ev.n, em_solver, spec.em)
@@ -297,7 +276,7 @@ def evaluate_methods(
 
     Returns:
         name -> ``MethodEstimate``. A method whose solve fails numerically (e.g. a singular TLS
-        problem) gets NaN values and ``extra["failed"] = 1.0``.
+        problem) gets NaN values and ``failed`` True.
 
     Raises:
         InsufficientDataError: fewer than 3 samples, non-finite data, or no excitation.
@@ -312,6 +291,6 @@ def evaluate_methods(
             out[spec.name] = _evaluate_one(ev, spec)
         except SolverError:
             out[spec.name] = MethodEstimate(
-                spec.name, str(spec.family), _NAN, _NAN, _NAN, {"failed": 1.0}
+                spec.name, spec.family, _NAN, _NAN, _NAN, failed=True
             )
     return out

@@ -67,12 +67,12 @@ def _aggregate(name: str, ests: list[Any], segment: str) -> MethodResult:
     L1, L1s = _mean_std([e.L1 for e in ests])
     L2, L2s = _mean_std([e.L2 for e in ests])
     cn, cns = _mean_std([e.condition_number for e in ests])
-    keys = sorted({k for e in ests for k in e.extra if k != "failed"})
+    keys = sorted({k for e in ests for k in e.extra})
     extra: dict[str, float] = {}
     for key in keys:
         m, s = _mean_std([e.extra.get(key, math.nan) for e in ests])
         extra[key], extra[f"{key}_std"] = m, s
-    failed = sum(1 for e in ests if e.extra.get("failed"))
+    failed = sum(1 for e in ests if e.failed)
     if failed:
         extra["n_failed"] = float(failed)
     return MethodResult(

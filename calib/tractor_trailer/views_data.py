@@ -13,12 +13,22 @@ sample of the log (n samples):
 - ``C1``, ``P``, ``C2`` (n, 2): link points (m, world frame); ``O``, ``Q`` (n, 2), ``R`` (n,)
   and ``icr_valid`` (n,): the instantaneous-centre construction (``calib.models.icr``).
 
+and, when the recommended estimate is a transient fit along the path (``transient`` given),
+per joint-angle sample that fit used (m samples, on the joint angle's own stamps):
+
+- ``psi_model_t_ns`` (m,) int64: the sample's time stamp (ns, the log's clock);
+- ``psi_model`` (m,): the joint angle (rad) that fit's model simulates along the measured path
+  (``PathTransientFit.psi_fit_``: the transient kinematics, with its sensor offset if fitted);
+- ``psi_model_params`` (3,): the (L1, L2, psi offset) (m, m, rad) the simulation used (the
+  optimiser's values, before the first-order noise-bias correction of the reported estimate).
+
 The analysis keeps them in ``AnalysisResult.artifacts[VIEWS]`` (not part of the JSON).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,12 +37,47 @@ from calib.models.hitch_kinematics import steady_state_psi
 from calib.models.icr import KAPPA_MIN, icr_construction
 from calib.results import AnalysisResult, MethodResult
 
-__all__ = ["VIEWS", "find_method", "measured_curvature", "tractor_views_data", "view_lengths"]
+__all__ = [
+    "VIEWS",
+    "TransientPrediction",
+    "find_method",
+    "measured_curvature",
+    "tractor_views_data",
+    "transient_prediction",
+    "view_lengths",
+]
 
 #: Key of ``AnalysisResult.artifacts`` holding ``tractor_views_data``'s arrays.
 VIEWS = "views"
 
 FloatArray = NDArray[np.float64]
+
+
+class TransientPrediction(Protocol):
+    """What a fitted ``calib.estimators.path_transient.PathTransientFit`` offers the views."""
+
+    t_s_: np.ndarray
+    psi_fit_: np.ndarray
+    psi_offset_: float
+    L1_: float
+    L2_: float
+    bias_correction_: np.ndarray
+
+
+def transient_prediction(
+    fit: TransientPrediction, t0_ns: int, psi_shift_s: float = 0.0
+) -> dict[str, np.ndarray]:
+    """``psi_model_t_ns``, ``psi_model`` and ``psi_model_params`` of a transient path fit
+    (see the module docstring). ``t0_ns``: the fit's time origin; ``psi_shift_s``: the clock
+    offset (s) the fit took off the joint-angle stamps (added back: drawn at the stamps)."""
+    t_s = np.asarray(fit.t_s_, dtype=float) + psi_shift_s
+    # the simulation ran at the optimiser's lengths: the estimate minus its bias correction
+    l1, l2 = fit.L1_ - fit.bias_correction_[0], fit.L2_ - fit.bias_correction_[1]
+    return {
+        "psi_model_t_ns": (t0_ns + np.round(t_s * 1e9)).astype(np.int64),
+        "psi_model": np.asarray(fit.psi_fit_, dtype=float),
+        "psi_model_params": np.array([l1, l2, fit.psi_offset_], dtype=float),
+    }
 
 
 def _col(arrays: Mapping[str, ArrayLike], name: str) -> FloatArray | None:
@@ -83,6 +128,7 @@ def tractor_views_data(
     *,
     method_for_psi: str | None = None,
     kappa_min: float = KAPPA_MIN,
+    transient: Mapping[str, np.ndarray] | None = None,
 ) -> dict[str, np.ndarray]:
     """The arrays the tractor-trailer's views draw (see the module docstring for the keys).
 
@@ -92,11 +138,13 @@ def tractor_views_data(
         result: the analysis (its estimate, truth and methods give the lengths).
         method_for_psi: also predict psi with this method's (L1, L2).
         kappa_min: |kappa| (1/m) below which the ICR is not constructed.
+        transient: ``transient_prediction`` of the fit behind the recommended estimate (when
+            that estimate is a transient fit along the path); its arrays are passed on.
 
     Raises:
         KeyError: ``method_for_psi`` is not a method of ``result``.
     """
-    out: dict[str, np.ndarray] = {}
+    out: dict[str, np.ndarray] = dict(transient or {})
     kappa = measured_curvature(frame_arrays)
     lengths = view_lengths(result)
     method = find_method(result, method_for_psi) if method_for_psi is not None else None

@@ -35,7 +35,8 @@ _DEFAULT_TERMS = (Term.COULOMB, Term.VISCOUS)
 def _identify(signals: frozenset[str]) -> str | None:
     if "q1" in signals and "tau1" in signals:
         n = sum(1 for s in signals if s.startswith("q") and s[1:].isdigit())
-        return f"joint signals q1..q{n}, tau1.."
+        m = sum(1 for s in signals if s.startswith("tau") and s[3:].isdigit())
+        return f"joint signals q1..q{n}, tau1..tau{m}"
     return None
 
 
@@ -143,7 +144,7 @@ def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> A
     declared = _declared(meta)
     terms = _DEFAULT_TERMS
     extra = getattr(config, "extra", None) or {}
-    cutoff = float(extra.get("cutoff_hz", 10.0))
+    cutoff = _cutoff(extra.get("cutoff_hz"))
     ident = stages.run(
         "identification",
         lambda: identify_arm(
@@ -163,13 +164,8 @@ def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> A
                 model, sig, baseline, nominal, IdentifyConfig(terms=terms, cutoff_hz=cutoff)
             ),
         )
-        extra_terms = tuple(
-            Term(f.effect)
-            for f in (disc.named if disc else [])
-            if Term(f.effect) is not Term.PAYLOAD
-        )
-        extra_terms = tuple(x for x in extra_terms if x not in terms)
-        if extra_terms:
+        refit_terms = _with_named(terms, disc)
+        if refit_terms != terms:
             refit = stages.run(
                 "refit with discovered terms",
                 lambda: identify_arm(
@@ -177,7 +173,7 @@ def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> A
                     t,
                     q,
                     tau,
-                    IdentifyConfig(terms=terms + extra_terms, cutoff_hz=cutoff),
+                    IdentifyConfig(terms=refit_terms, cutoff_hz=cutoff),
                     progress=progress,
                 ),
             )
@@ -246,6 +242,33 @@ def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> A
         sections=sections,
         artifacts=artifacts,
     )
+
+
+def _cutoff(value: Any) -> float:
+    """The filter cut-off (``--cutoff-hz``): default 10 Hz; a positive finite number."""
+    if value is None:
+        return 10.0
+    try:
+        hz = float(value)
+    except (TypeError, ValueError):
+        hz = float("nan")
+    if not np.isfinite(hz) or hz <= 0:
+        raise LogcalInputError(f"--cutoff-hz {value!r}: expected a positive frequency in Hz")
+    return hz
+
+
+def _with_named(terms: tuple[Term, ...], disc: ArmDiscovery | None) -> tuple[Term, ...]:
+    """``terms`` with discovery's named terms added (or swapped in for their alternative)."""
+    out = list(terms)
+    for f in disc.named if disc else []:
+        term = Term(f.effect)
+        if term is Term.PAYLOAD or term in out:
+            continue
+        if f.replaces and Term(f.replaces) in out:
+            out[out.index(Term(f.replaces))] = term
+        else:
+            out.append(term)
+    return tuple(out)
 
 
 def _renamed(est: Any, method: str) -> Any:

@@ -72,3 +72,30 @@ def test_cli_exit_codes(tmp_path: Path, capsys) -> None:
     assert main(["reproduce", "momentum", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["omega_rank"] == 9
+
+
+def test_cutoff_option_and_conceal_choice(tmp_path: Path, capsys) -> None:
+    log = tmp_path / "arm.mcap"
+    assert main(["simulate", "manipulator", "--out", str(log), "--duration", "6"]) == 0
+    assert main(["simulate", "manipulator", "--out", str(log), "--conceal", "mass"]) == 2
+    capsys.readouterr()
+    assert main(["analyze", str(log), "--cutoff-hz", "5", "--no-discovery", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["model"]["cutoff_hz"] == 5.0
+    assert main(["analyze", str(log), "--cutoff-hz", "-1", "--json"]) == 2
+
+
+def test_holdout_is_at_the_logged_stamps() -> None:
+    from calib.manipulator.identify import identify_arm
+    from calib.manipulator.planar import PAPER_ARM, Planar2Link
+    from calib.manipulator.simulate import Friction, Sensors, simulate_planar
+
+    run = simulate_planar(PAPER_ARM, Friction(), duration_s=8.0, sensors=Sensors(jitter_s=4e-4))
+    res = identify_arm(Planar2Link(PAPER_ARM), run.t_s, run.q, run.tau)
+    h = res.holdout
+    assert res.sig.raw_t_s is not None
+    # every held-out time is a logged stamp, the torque compared is the logged one (not resampled)
+    assert np.all(np.isin(h.t_s, res.sig.raw_t_s))
+    assert not np.all(np.isin(h.t_s, res.sig.t_s))
+    assert np.all(np.isin(h.measured[:, 0], run.tau[:, 0]))
+    assert len(h.t_s) == len(h.measured) == len(h.predicted) > 0.35 * len(run.t_s)
