@@ -1,6 +1,9 @@
 """Real recordings (../shared/realworld_drive/optiodom): calibrate on one session, dead-reckon
 the runs of the other sessions (and its own), end-point error before (nominal) / after per
-run; parameters of each session with their 95 % intervals.
+run; parameters of each session with their 95 % intervals; and, per run, the end-point error
+the calibration's own uncertainty implies (median and 95th percentile over the LSQ bootstrap
+replicates of the calibrating session): a run whose nominal error is already below that cannot
+show a 5x improvement whatever the method.
 
     python bench/diff_drive_real.py [OPTIODOM_DIR]
 """
@@ -67,10 +70,12 @@ def main() -> None:
     }
     data = {name: load(folder) for name, folder in sessions.items()}
     fits = {}
+    boots = {}
     print("== parameters per session (LSQ, 95 % block-bootstrap intervals; UMBmark on squares)")
     for name, (runs, nominal, side) in data.items():
         res, fit = calibrate_lsq(runs, seed=0)
         fits[name] = res
+        boots[name] = fit.boot[:100, :3]
         print(f"{name}: {len(runs)} runs, {fit.n_segments} segments")
         for e in res.parameters.values():
             print("   ", e.report())
@@ -98,6 +103,15 @@ def main() -> None:
                 if not own:
                     summary.append((cal_name, name, e0, e1))
             print(f"  {name}{own}: " + ", ".join(cells))
+    print("\n== end-point error (m) implied by the LSQ parameter uncertainty: median / p95")
+    for cal_name, boot in boots.items():
+        print(f"calibrated on {cal_name}:")
+        for name, (runs, _, _) in data.items():
+            cells = []
+            for r in runs:
+                eb = np.array([end_error(r, DiffDriveParams(*row)) for row in boot])
+                cells.append(f"{np.median(eb):.3f}/{np.percentile(eb, 95):.3f}")
+            print(f"  {name}: " + ", ".join(cells))
     print("\n== out-of-session summary: median factor, runs with >= 5x")
     for cal_name in fits:
         rows = [(e0, e1) for c, _, e0, e1 in summary if c == cal_name]

@@ -50,6 +50,10 @@ class SimConfig:
         nominal: what the robot's software believes (commands use it; logged as nominal).
         track_factor: effective / geometric track (skid steer: > 1; 1 for two driven wheels).
         slip_std: relative std of each wheel's ground speed per logging interval (white).
+        slip_per_speed: systematic longitudinal slip growing with speed: each wheel's ground
+            travel is its rolling travel times (1 - slip_per_speed * |wheel ground speed|),
+            slip_per_speed in 1 / (m/s). (A constant slip fraction is not offered: it is
+            exactly a smaller wheel radius, and calibrates as one.)
         counts_per_rev: encoder counts per wheel revolution (0: no quantisation).
         pose_noise: std of the ground-truth pose noise (m, m, rad).
         gyro_noise: std of the logged yaw rate (rad/s).
@@ -60,6 +64,7 @@ class SimConfig:
     nominal: DiffDriveParams
     track_factor: float = 1.0
     slip_std: float = 0.0
+    slip_per_speed: float = 0.0
     counts_per_rev: int = 0
     pose_noise: tuple[float, float, float] = (0.0, 0.0, 0.0)
     gyro_noise: float = 0.0
@@ -188,6 +193,10 @@ def simulate_diff_drive(
     # slip: the ground sees a perturbed wheel turn; the encoder sees the commanded one
     slip_r = 1.0 + config.slip_std * rng.standard_normal(d_r.size)
     slip_l = 1.0 + config.slip_std * rng.standard_normal(d_l.size)
+    if config.slip_per_speed:
+        k_s, eff0 = config.slip_per_speed, config.effective
+        slip_r *= 1.0 - k_s * np.abs(eff0.r_R * commands.w_right[:-1])
+        slip_l *= 1.0 - k_s * np.abs(eff0.r_L * commands.w_left[:-1])
     k = max(1, int(config.substeps))
     g_r = np.repeat(d_r * slip_r / k, k)
     g_l = np.repeat(d_l * slip_l / k, k)

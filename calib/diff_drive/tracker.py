@@ -1,15 +1,26 @@
-"""PD path tracking through the inverse kinematics (paper Eqs. 40-44).
+"""PD path tracking through the inverse kinematics (paper Eqs. 40-44), two laws:
 
-The pose error of the control point (``l_c`` ahead of the axle, where the robot is
-controllable, Eqs. 31-34) is formed in the world frame, the PD law plus the reference velocity
-is rotated into the body frame (Eq. 42) and divided by the control point's Jacobian (Eq. 43)
-to give body speed and yaw rate, and the inverse kinematics (nominal parameters) gives the
-wheel rates. The robot knows its pose only by dead reckoning from its encoders (Eqs. 38-39).
+* ``"paper"`` (Eqs. 40-44 as printed): the world-frame pose error e = (x, y, heading) of the
+  axle centre, u = Kp e(nT) + Kd (e(nT) - e((n-1)T)) (Eq. 41: Kd multiplies the step
+  difference) plus the reference velocity (the text beside Eq. 41), rotated into the body
+  frame by M^T (Eq. 42) and through the inverse kinematics (Eq. 44): the body speed is the
+  forward component of u, the yaw rate its heading component. The body-lateral component is
+  dropped (a wheel cannot move sideways), so a lateral offset from the reference is never
+  fed back: once the heading matches the reference's, an offset stays. That is why the paper
+  needs the planned path.
+* ``"control_point"``: the error of the control point ``l_c`` ahead of the axle (Eqs. 31-34),
+  where the robot is controllable, divided by that point's Jacobian (Eq. 43 with the
+  control-point kinematics): lateral offsets are fed back through the heading.
+
+The inverse kinematics uses the nominal parameters; wheel rates beyond the motor's limit are
+scaled down together (keeping the commanded curvature). The robot knows its pose only by dead
+reckoning from its encoders (Eqs. 38-39).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,10 +34,15 @@ __all__ = ["TrackerGains", "TrackingRun", "track"]
 Array = NDArray[np.float64]
 
 
+TrackingLaw = Literal["paper", "control_point"]
+
+
 @dataclass(frozen=True)
 class TrackerGains:
-    """Proportional (1/s) and derivative (dimensionless, per step difference / T) gains,
-    control point distance ``l_c`` (m) and wheel-rate limit (rad/s)."""
+    """Proportional gain ``kp`` (1/s); derivative gain ``kd`` (``"paper"`` law: 1/s, times the
+    step difference of the error as in Eq. 41; ``"control_point"``: dimensionless, times the
+    error rate); control point distance ``l_c`` (m, ``"control_point"`` only) and wheel-rate
+    limit ``w_max`` (rad/s)."""
 
     kp: float = 1.0
     kd: float = 0.1
@@ -57,10 +73,13 @@ def track(
     nominal: DiffDriveParams,
     gains: TrackerGains = TrackerGains(),
     counts_per_rev: int = 0,
+    law: TrackingLaw = "control_point",
 ) -> TrackingRun:
     """Follow ``ref`` from the true pose ``start`` with a robot of parameters ``true`` whose
     controller believes ``nominal`` (dead reckoning with quantised encoders when
-    ``counts_per_rev`` > 0)."""
+    ``counts_per_rev`` > 0), by the tracking ``law`` (see the module docstring)."""
+    if law not in ("paper", "control_point"):
+        raise ValueError(f"unknown tracking law {law!r}: 'paper' or 'control_point'")
     t = ref.t
     n = t.size
     lc = gains.l_c
@@ -75,14 +94,25 @@ def track(
     q = 2 * np.pi / counts_per_rev if counts_per_rev > 0 else 0.0
     e_prev = None
     wr_log, wl_log = np.zeros(n), np.zeros(n)
+    vxa, vya = ref.v * np.cos(ref.yaw), ref.v * np.sin(ref.yaw)
     for k in range(n - 1):
         T = t[k + 1] - t[k]
         xe, ye, the = E[k]
-        e = np.array([px_r[k] - (xe + lc * np.cos(the)), py_r[k] - (ye + lc * np.sin(the))])
-        de = np.zeros(2) if e_prev is None else (e - e_prev) / T
-        e_prev = e
-        u = np.array([vx_r[k], vy_r[k]]) + gains.kp * e + gains.kd * de
-        v, om = control_point_inverse(u[0], u[1], the, lc)
+        if law == "paper":
+            e = np.array(
+                [ref.x[k] - xe, ref.y[k] - ye, float(np.angle(np.exp(1j * (ref.yaw[k] - the))))]
+            )
+            de = np.zeros(3) if e_prev is None else e - e_prev  # Eq. 41: step difference
+            e_prev = e
+            u = np.array([vxa[k], vya[k], ref.omega[k]]) + gains.kp * e + gains.kd * de
+            v = np.cos(the) * u[0] + np.sin(the) * u[1]  # Eq. 42: M^T, forward row
+            om = u[2]
+        else:
+            e = np.array([px_r[k] - (xe + lc * np.cos(the)), py_r[k] - (ye + lc * np.sin(the))])
+            de = np.zeros(2) if e_prev is None else (e - e_prev) / T
+            e_prev = e
+            u = np.array([vx_r[k], vy_r[k]]) + gains.kp * e + gains.kd * de
+            v, om = control_point_inverse(u[0], u[1], the, lc)
         w_r, w_l = inverse(nominal, v, om)
         scale = max(1.0, abs(float(w_r)) / gains.w_max, abs(float(w_l)) / gains.w_max)
         wr, wl = float(w_r) / scale, float(w_l) / scale

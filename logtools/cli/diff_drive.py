@@ -24,6 +24,13 @@ class DrivePattern(StrEnum):
     SQUARE_CCW = "square-ccw"
 
 
+class TrackingLawOption(StrEnum):
+    """Tracking law of ``reproduce wmr``."""
+
+    PAPER = "paper"
+    CONTROL_POINT = "control-point"
+
+
 class DriveStyle(StrEnum):
     LOGCAL = "logcal"
     TURTLEBOT = "turtlebot"
@@ -127,18 +134,27 @@ def register_reproduce(group: typer.Typer) -> None:
     """Add ``wmr`` to the ``reproduce`` group."""
 
     @group.command("wmr")
-    def wmr(as_json: bool = typer.Option(False, "--json", help="Print one JSON document.")) -> None:
+    def wmr(
+        as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+        law: TrackingLawOption = typer.Option(
+            TrackingLawOption.PAPER,
+            "--law",
+            help="Tracking law: the paper's Eqs. 40-44, or the control point ahead of the axle.",
+        ),
+    ) -> None:
         """Table 1 of the 1997 4-wheeled mobile robot paper: feedback only vs planned path."""
         from rich.console import Console
         from rich.table import Table
 
         from calib.reproduce.wmr import reproduce_wmr
 
-        rep = reproduce_wmr()
+        rep = reproduce_wmr("paper" if law is TrackingLawOption.PAPER else "control_point")
         if as_json:
             sys.stdout.write(json.dumps(rep.to_dict(), indent=1) + "\n")
             return
-        table = Table(title="Table 1 (Kim, Chung, Park 1997) reproduced: ours | published")
+        table = Table(
+            title=f"Table 1 (Kim, Chung, Park 1997) reproduced, {rep.law} law: ours | published"
+        )
         for col in ("case", "X error m", "Y error m", "heading conv. s", "position conv. s"):
             table.add_column(col, justify="left" if col == "case" else "right")
         for r in rep.rows:
