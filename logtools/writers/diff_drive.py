@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 import polars as pl
@@ -123,29 +123,6 @@ def run_metadata(
     }
 
 
-def _listify(msg: Any) -> Any:
-    """Dicts keyed 0..n-1 (array elements written by path) become lists (CDR needs arrays)."""
-    if isinstance(msg, dict):
-        if msg and all(k.isdigit() for k in msg):
-            return [_listify(msg[str(i)]) for i in range(len(msg))]
-        return {k: _listify(v) for k, v in msg.items()}
-    return msg
-
-
-class _ArrayJson(JsonEncoder):
-    """JSON messages with array fields (``position.0`` ...) written as arrays."""
-
-    def write(self, index: int, t_ns: int, msg: dict[str, Any]) -> None:
-        super().write(index, t_ns, _listify(msg))
-
-
-class _ArrayCdr(CdrEncoder):
-    """ROS 2 messages with array fields written as arrays (CDR sequences)."""
-
-    def write(self, index: int, t_ns: int, msg: dict[str, Any]) -> None:
-        super().write(index, t_ns, _listify(msg))
-
-
 def write_run(
     path: str | os.PathLike[str],
     sim: DiffDriveSim,
@@ -181,7 +158,7 @@ def write_run(
         bindings = JSON_BINDINGS if style == "logcal" else _TURTLE_JSON
         if gyro:
             bindings = (*bindings, _GYRO_JSON)
-        return write_frames_mcap(path, frames, bindings, _ArrayJson(), metadata=meta)
+        return write_frames_mcap(path, frames, bindings, JsonEncoder(), metadata=meta)
     if enc == "ros2":
         wheels = (
             TopicBinding(
@@ -209,5 +186,5 @@ def write_run(
             _POSE_ROS2,
             *((_ODOM_ROS2,) if gyro else ()),
         )
-        return write_frames_mcap(path, frames, ros2, _ArrayCdr(), metadata=meta)
+        return write_frames_mcap(path, frames, ros2, CdrEncoder(), metadata=meta)
     raise LogWriteError(f"unknown log encoding {encoding!r}; expected json, ros2 or csv")

@@ -1,39 +1,26 @@
 """Write a simulated arm run (:class:`calib.manipulator.simulate.ArmRun`) per LOG_FORMAT.md:
 ``/joint_states`` with ``name``, ``position``, ``velocity``, ``effort`` arrays, as a JSON MCAP,
-a ROS 2 MCAP (``sensor_msgs/msg/JointState``) or a CSV (``t``, ``q1..``, ``qd1..``, ``tau1..``).
-
-Written here rather than through :class:`~logtools.writers.mcap_writer.TopicBinding`, whose
-fields are scalars: a JointState's fields are arrays.
+a ROS 2 MCAP (``sensor_msgs/msg/JointState``), both through the one MCAP writer
+(:func:`logtools.writers.mcap_writer.write_frames_mcap`), or a CSV (``t``, ``q1..``, ``qd1..``,
+``tau1..``).
 """
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Mapping
-from typing import BinaryIO
 
 import numpy as np
+import polars as pl
 
 from calib.manipulator.simulate import ArmRun
 from logtools.errors import LogWriteError
 from logtools.writers.encoding import Encoding
-from logtools.writers.ros2_msgdefs import msgdef
+from logtools.writers.mcap_writer import CdrEncoder, JsonEncoder, TopicBinding, write_frames_mcap
 
 __all__ = ["JOINT_TOPIC", "arm_metadata", "write_arm_run"]
 
 JOINT_TOPIC = "/joint_states"
-_JSON_SCHEMA = {
-    "type": "object",
-    "properties": {
-        "name": {"type": "array", "items": {"type": "string"}},
-        "position": {"type": "array", "items": {"type": "number"}},
-        "velocity": {"type": "array", "items": {"type": "number"}},
-        "effort": {"type": "array", "items": {"type": "number"}},
-    },
-}
-
-
 def arm_metadata(
     run: ArmRun,
     *,
@@ -69,13 +56,6 @@ def _stamps_ns(run: ArmRun) -> np.ndarray:
     return ns
 
 
-def _open(path: str | os.PathLike[str]) -> BinaryIO:
-    try:
-        return open(path, "wb")
-    except OSError as err:
-        raise LogWriteError(f"{os.fspath(path)}: cannot write the log ({err.strerror})") from err
-
-
 def write_arm_run(
     path: str | os.PathLike[str],
     run: ArmRun,
@@ -94,56 +74,26 @@ def write_arm_run(
     meta = arm_metadata(run) if metadata is None else metadata
     if str(encoding) == "csv":
         return _write_csv(path, run, ns)
+    n = run.q.shape[1]
+    columns: dict[str, np.ndarray] = {"t_ns": ns}
+    fields: dict[str, str] = {}
+    for array, values in (("position", run.q), ("velocity", run.qd), ("effort", run.tau)):
+        for j in range(n):
+            columns[f"{array}{j}"] = values[:, j]
+            fields[f"{array}.{j}"] = f"{array}{j}"
+    frames = {"joints": pl.DataFrame(columns)}
     if str(encoding) == "ros2":
-        from mcap_ros2.writer import Writer as Ros2Writer
-
-        with _open(path) as fh:
-            rwriter = Ros2Writer(fh)
-            schema = rwriter.register_msgdef(
-                "sensor_msgs/msg/JointState", msgdef("sensor_msgs/msg/JointState")
-            )
-            for k, t in enumerate(ns):
-                msg = {
-                    "header": {
-                        "stamp": {
-                            "sec": int(t // 1_000_000_000),
-                            "nanosec": int(t % 1_000_000_000),
-                        },
-                        "frame_id": "",
-                    },
-                    "name": names,
-                    "position": run.q[k].tolist(),
-                    "velocity": run.qd[k].tolist(),
-                    "effort": run.tau[k].tolist(),
-                }
-                rwriter.write_message(JOINT_TOPIC, schema, msg, int(t), int(t))
-            for name, data in meta.items():
-                rwriter.add_metadata(name, dict(data))
-            rwriter.finish()
-        return len(ns)
-    from mcap.writer import CompressionType
-    from mcap.writer import Writer as McapWriter
-
-    dumps = json.JSONEncoder(allow_nan=False, separators=(",", ":")).encode
-    with _open(path) as fh:
-        writer = McapWriter(fh, compression=CompressionType.ZSTD)
-        writer.start(profile="", library="logcal")
-        sid = writer.register_schema(
-            "sensor_msgs/JointState", "jsonschema", json.dumps(_JSON_SCHEMA).encode()
+        binding = TopicBinding(
+            JOINT_TOPIC, "joints", "sensor_msgs/msg/JointState", fields,
+            constants={"name": names, "header.frame_id": ""}, stamp_field="header.stamp",
         )
-        ch = writer.register_channel(JOINT_TOPIC, "json", sid)
-        for k, t in enumerate(ns):
-            msg = {
-                "name": names,
-                "position": run.q[k].tolist(),
-                "velocity": run.qd[k].tolist(),
-                "effort": run.tau[k].tolist(),
-            }
-            writer.add_message(ch, int(t), dumps(msg).encode(), int(t))
-        for name, data in meta.items():
-            writer.add_metadata(name, dict(data))
-        writer.finish()
-    return len(ns)
+        return write_frames_mcap(path, frames, [binding], CdrEncoder(), metadata=meta)
+    if str(encoding) == "json":
+        binding = TopicBinding(
+            JOINT_TOPIC, "joints", "sensor_msgs/JointState", fields, constants={"name": names}
+        )
+        return write_frames_mcap(path, frames, [binding], JsonEncoder(), metadata=meta)
+    raise LogWriteError(f"unknown log encoding {encoding!r}; expected json, ros2 or csv")
 
 
 def _write_csv(path: str | os.PathLike[str], run: ArmRun, ns: np.ndarray) -> int:

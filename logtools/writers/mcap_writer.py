@@ -55,7 +55,8 @@ class TopicBinding:
         topic: MCAP topic name.
         group: key of the frame that feeds it.
         schema_name: message type name (``nav_msgs/msg/Odometry``; for JSON a descriptive name).
-        fields: message field path (dots for nesting) -> frame column (float values).
+        fields: message field path (dots for nesting; a numeric part is an array element, e.g.
+            ``position.0``) -> frame column (float values).
         constants: field path -> fixed value (e.g. ``header.frame_id``).
         stamp_field: field path of a ``builtin_interfaces/Time`` filled from ``t_ns``; None: none.
     """
@@ -68,12 +69,35 @@ class TopicBinding:
     stamp_field: str | None = None
 
 
+def _constant_schema(value: Any) -> dict[str, Any]:
+    if isinstance(value, str):
+        return {"type": "string"}
+    if isinstance(value, list | tuple):
+        return {"type": "array", "items": _constant_schema(value[0]) if value else {}}
+    return {"type": ["number", "null"]}
+
+
 def json_schema(binding: TopicBinding) -> dict[str, Any]:
-    """A JSON schema (draft 2020-12) for the messages of ``binding``: nested objects of numbers."""
+    """A JSON schema (draft 2020-12) for the messages of ``binding``: nested objects of numbers;
+    a field path with a numeric part (``position.0``) is an array of numbers; constants get the
+    type of their value (``name``: an array of strings)."""
     root: dict[str, Any] = {"type": "object", "properties": {}, "required": []}
     for path in binding.fields:
         node = root
         *parents, leaf = path.split(".")
+        if leaf.isdigit():  # an element of an array field
+            *parents, array = parents
+            target = root
+            for name in parents:
+                target = target["properties"].setdefault(
+                    name, {"type": "object", "properties": {}, "required": []}
+                )
+            if array not in target["properties"]:
+                target["properties"][array] = {
+                    "type": "array", "items": {"type": ["number", "null"]}
+                }
+                target["required"].append(array)
+            continue
         for name in parents:
             if name not in node["properties"]:
                 node["properties"][name] = {"type": "object", "properties": {}, "required": []}
@@ -81,9 +105,22 @@ def json_schema(binding: TopicBinding) -> dict[str, Any]:
             node = node["properties"][name]
         node["properties"][leaf] = {"type": ["number", "null"]}
         node["required"].append(leaf)
+    for dotted, value in binding.constants.items():
+        if "." not in dotted and dotted not in root["properties"]:
+            root["properties"][dotted] = _constant_schema(value)
+            root["required"].append(dotted)
     root["$schema"] = "https://json-schema.org/draft/2020-12/schema"
     root["title"] = binding.schema_name
     return root
+
+
+def _listify(msg: Any) -> Any:
+    """Dicts keyed "0".."n-1" (array elements written by path) become lists."""
+    if isinstance(msg, dict):
+        if msg and all(k.isdigit() for k in msg):
+            return [_listify(msg[str(i)]) for i in range(len(msg))]
+        return {k: _listify(v) for k, v in msg.items()}
+    return msg
 
 
 def _set(msg: dict[str, Any], path: tuple[str, ...], value: Any) -> None:
@@ -128,6 +165,7 @@ def _messages(
     row = np.concatenate([np.arange(t.size) for t in times]) if times else t_all
     order = np.lexsort((which, t_all))
     paths = [[tuple(p.split(".")) for p in b.fields] for b in bindings]
+    arrays = [any(part.isdigit() for p in ps for part in p) for ps in paths]
     for k in order.tolist():
         i, r, t_ns = int(which[k]), int(row[k]), int(t_all[k])
         b = bindings[i]
@@ -139,7 +177,7 @@ def _messages(
             _set(msg, tuple(b.stamp_field.split(".")), {"sec": sec, "nanosec": nsec})
         for path, values in zip(paths[i], cols[i], strict=True):
             _set(msg, path, values[r])
-        yield i, t_ns, msg
+        yield i, t_ns, (_listify(msg) if arrays[i] else msg)
 
 
 def _open(path: str | os.PathLike[str]) -> BinaryIO:
