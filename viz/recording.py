@@ -9,7 +9,7 @@ import numpy as np
 import polars as pl
 import rerun as rr
 
-from calib.results import AnalysisResult
+from calib.results import PM_MEANING, AnalysisResult
 from calib.tractor_trailer.views_data import VIEWS
 from viz._frame import column, has, robust_limits
 from viz.blueprint import default_blueprint
@@ -21,7 +21,7 @@ __all__ = ["summary_markdown", "write_recording"]
 
 
 def summary_markdown(result: AnalysisResult) -> str:
-    """Markdown summary: robot, recommended estimate, truth, warnings."""
+    """Markdown summary: robot, recommended estimate, truth, what ± means, warnings."""
     parts = [f"# {result.robot}"]
     if result.estimate is not None:
         parts.append("```\n" + result.estimate.report() + "\n```")
@@ -30,6 +30,7 @@ def summary_markdown(result: AnalysisResult) -> str:
     if result.segments:
         kinds = ", ".join(sorted({str(s.command_type) for s in result.segments}))
         parts.append(f"{len(result.segments)} segments ({kinds})")
+    parts.append(PM_MEANING)
     parts += [f"- warning: {w}" for w in result.warnings]
     return "\n\n".join(parts)
 
@@ -101,7 +102,7 @@ def write_recording(
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     rec = rr.RecordingStream(application_id)
-    blueprint = default_blueprint(result, _time_range(frame), _y_ranges(frame, drawn))
+    blueprint = default_blueprint(result, _time_range(frame), _y_ranges(frame, drawn), drawn)
     rec.save(out, default_blueprint=blueprint)
     try:
         rec.log(

@@ -19,7 +19,7 @@ import sys
 import tempfile
 import time
 import urllib.request
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 from urllib.parse import quote
@@ -39,13 +39,38 @@ __all__ = [
     "browser_pids",
     "color_pixel_counts",
     "find_chromium",
+    "panel_problems",
     "screenshot_rrd",
 ]
 
 CHROMIUM = "/usr/bin/chromium"
 
-#: Colours that only appear once the viewer has drawn the data (not in its own UI).
-READY_COLORS: tuple[str, ...] = ("C1", "C2", "kappa", "psi")
+#: Colours that only appear once the viewer has drawn the data (not in its own UI): the world
+#: view's C1 and C2 paths and the curvature plot. (The measured joint angle is drawn under the
+#: recommended model's curve, so its colour may rightly cover almost nothing.)
+READY_COLORS: tuple[str, ...] = ("C1", "C2", "kappa")
+
+
+def panel_problems(
+    png: bytes | NDArray[np.uint8], names: Sequence[str], min_pixels: int = 20, edge_px: int = 2
+) -> list[str]:
+    """What is wrong with a screenshot, per colour (panel) in ``names``: "empty" (fewer than
+    ``min_pixels`` pixels of it) or "clipped" (its pixels touch the image's outer ``edge_px``
+    rows or columns: geometry cut by the window). Empty list: every panel drew, inside."""
+    img = _read_png(png) if isinstance(png, bytes) else png
+    problems = []
+    for name in names:
+        rgb = np.array(COLORS[name][:3], dtype=np.int16)
+        hit = np.all(np.abs(img[..., :3].astype(np.int16) - rgb) <= 10, axis=-1)
+        if int(hit.sum()) < min_pixels:
+            problems.append(f"{name}: empty ({int(hit.sum())} pixels)")
+            continue
+        border = np.zeros_like(hit)
+        border[:edge_px, :] = border[-edge_px:, :] = True
+        border[:, :edge_px] = border[:, -edge_px:] = True
+        if bool((hit & border).any()):
+            problems.append(f"{name}: clipped (touches the window's edge)")
+    return problems
 
 
 class ViewerScreenshotError(RuntimeError):
@@ -156,19 +181,27 @@ def browser_pids(profile: str | Path) -> list[int]:
 
 
 def _capture_when_ready(
-    page: Page, deadline: float, min_pixels: int, settle_s: float, ready: Sequence[str]
+    page: Page, deadline: float, min_pixels: int, settle_s: float, ready: Sequence[str],
+    progress: Callable[[str], None],
 ) -> bytes:
     """Screenshots every second until each ready colour covers ``min_pixels``; then wait
-    ``settle_s`` and take the final one."""
+    ``settle_s`` and take the final one, which must show every ready colour, none clipped."""
     last: dict[str, int] = {}
+    t0 = time.monotonic()
     while time.monotonic() < deadline:
         last = color_pixel_counts(page.screenshot(type="png"), ready)
+        progress(f"waiting for the panels to draw ({time.monotonic() - t0:.0f} s): {last}")
         if min(last.values()) >= min_pixels:
             time.sleep(settle_s)
-            return page.screenshot(type="png")
+            png = page.screenshot(type="png")
+            bad = panel_problems(png, ready, min_pixels)
+            if bad:
+                raise ViewerScreenshotError("the screenshot fails its check: " + "; ".join(bad))
+            return png
         time.sleep(1.0)
+    empty = [n for n, c in last.items() if c < min_pixels]
     raise ViewerScreenshotError(
-        f"the viewer did not show the recording in time (colour pixel counts: {last})"
+        f"the viewer did not draw {', '.join(empty)} in time (colour pixel counts: {last})"
     )
 
 
@@ -184,6 +217,7 @@ def screenshot_rrd(
     chromium: str | None = None,
     pids: list[int] | None = None,
     ready_colors: Sequence[str] = READY_COLORS,
+    progress: Callable[[str], None] | None = None,
 ) -> Path:
     """Serve ``rrd`` with rerun's web viewer, open it in headless Chromium, save a PNG.
 
@@ -199,7 +233,9 @@ def screenshot_rrd(
             leads its own process group, then the browser's processes), so a caller can check
             that they are gone.
         ready_colors: names in ``viz.style.COLORS`` whose presence means "drawn" (default:
-            the C1 and C2 paths, measured kappa and psi: the world view and two plots).
+            the C1 and C2 paths and measured kappa: the world view and a plot); the final
+            capture must show each, none touching the window's edge (:func:`panel_problems`).
+        progress: called with one line per step (viewer, browser, waiting, capture).
 
     Raises:
         ViewerScreenshotError: no Playwright or no browser, or the viewer did not come up in
@@ -215,6 +251,7 @@ def screenshot_rrd(
     browser = chromium or find_chromium()
     if browser is None:
         raise ViewerScreenshotError("no Chromium found (Debian: apt-get install chromium)")
+    say = progress or (lambda _: None)
     deadline = time.monotonic() + timeout_s
     web_port, grpc_port = _free_port(), _free_port()
     viewer = None
@@ -241,7 +278,9 @@ def screenshot_rrd(
         )
         if pids is not None:
             pids.append(viewer.pid)
+        say(f"rerun web viewer starting on 127.0.0.1:{web_port}")
         _wait_http(f"http://127.0.0.1:{web_port}/", deadline)
+        say("viewer answers; starting headless Chromium")
         proxy = quote(f"rerun+http://127.0.0.1:{grpc_port}/proxy", safe="")
         url = f"http://127.0.0.1:{web_port}/?url={proxy}"
         with (
@@ -264,7 +303,10 @@ def screenshot_rrd(
                     pids += browser_pids(profile)
                 page = context.pages[0] if context.pages else context.new_page()
                 page.goto(url, timeout=max(deadline - time.monotonic(), 1.0) * 1e3)
-                png = _capture_when_ready(page, deadline, min_pixels, settle_s, ready_colors)
+                png = _capture_when_ready(
+                    page, deadline, min_pixels, settle_s, ready_colors, say
+                )
+                say("captured")
             except PlaywrightError as err:
                 raise ViewerScreenshotError(f"the viewer page failed: {err.message}") from err
             finally:

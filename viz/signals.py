@@ -17,7 +17,7 @@ from calib.tractor_trailer.views_data import find_method
 from viz._frame import column, has, times_ns
 from viz.style import COLORS, TIMELINE
 
-__all__ = ["find_method", "log_segments", "log_signals", "send_series"]
+__all__ = ["find_method", "log_segments", "log_signals", "psi_curve_names", "send_series"]
 
 
 def send_series(
@@ -28,17 +28,50 @@ def send_series(
     *,
     name: str,
     color: str,
+    width: float = 1.5,
 ) -> None:
     """A named, coloured scalar series; non-finite samples are left out (gaps)."""
     ok = np.isfinite(values)
     if not ok.any():
         return
-    rec.log(path, rr.SeriesLines(colors=[COLORS[color]], names=[name], widths=[1.5]), static=True)
+    rec.log(path, rr.SeriesLines(colors=[COLORS[color]], names=[name], widths=[width]), static=True)
     rec.send_columns(
         path,
         indexes=[rr.TimeColumn(TIMELINE, timestamp=t_ns[ok].astype("datetime64[ns]"))],
         columns=rr.Scalars.columns(scalars=values[ok]),
     )
+
+
+def _lengths_text(l1: float, l2: float) -> str:
+    return f"L1 = {l1:.3f} m, L2 = {l2:.3f} m"
+
+
+def psi_curve_names(
+    result: AnalysisResult, views: Mapping[str, np.ndarray], method_for_psi: str | None = None
+) -> dict[str, str]:
+    """Name of each predicted joint-angle curve in ``views`` (keys ``psi_model``,
+    ``psi_steady``, ``psi_steady_method``): which model and which parameters drew it."""
+    names = {}
+    est = result.estimate
+    if "psi_model" in views and est is not None:
+        l1, l2, off = (float(x) for x in views["psi_model_params"])
+        tail = f", ψ offset {off:+.4f} rad" if off else ""
+        names["psi_model"] = (
+            f"ψ of {est.method} (recommended): transient kinematics simulated along the "
+            f"measured path, {_lengths_text(l1, l2)}{tail}"
+        )
+    if "psi_steady" in views and "lengths" in views:
+        l1, l2 = (float(x) for x in views["lengths"])
+        whose = "the truth" if est is None else f"{est.method}'s estimate"
+        names["psi_steady"] = (
+            f"ψ steady-state relation (patent) at {whose}, {_lengths_text(l1, l2)}"
+        )
+    if method_for_psi is not None and "psi_steady_method" in views:
+        m = find_method(result, method_for_psi)
+        names["psi_steady_method"] = (
+            f"ψ steady-state relation at {method_for_psi}, {_lengths_text(m.L1, m.L2)}"
+        )
+    return names
 
 
 def log_signals(
@@ -51,10 +84,12 @@ def log_signals(
     """Log kappa (1/m), psi (rad) measured and predicted, and residuals under ``signals/``.
 
     Predictions come with the analysis (``views``, see ``calib.tractor_trailer.views_data``):
-    the steady-state psi of the measured curvature at the recommended (L1, L2) and, when
-    ``method_for_psi`` names a method, at that method's (L1, L2). Residuals come from
-    ``result.discovery.residuals`` when present, else measured minus the recommended
-    prediction.
+    the recommended model's own prediction when it is a transient fit along the path
+    (``psi_model``, on the joint angle's stamps), the steady-state relation of the measured
+    curvature at the recommended (L1, L2) and, when ``method_for_psi`` names a method, at that
+    method's (L1, L2); each series is named by ``psi_curve_names``. Residuals come from
+    ``result.discovery.residuals`` when present (joint angle only: one unit per plot), else
+    measured minus the recommended model's prediction.
     """
     t = times_ns(frame)
     if has(frame, "kappa_cmd"):
@@ -72,28 +107,39 @@ def log_signals(
         )
     psi = column(frame, "psi") if has(frame, "psi") else None
     if psi is not None:
-        send_series(rec, "signals/psi/measured", t, psi, name="ψ measured", color="psi")
+        send_series(
+            rec, "signals/psi/measured", t, psi, name="ψ measured", color="psi", width=3.0
+        )
+    names = psi_curve_names(result, views, method_for_psi)
+    if "psi_model" in names:
+        send_series(
+            rec,
+            "signals/psi/predicted_model",
+            np.asarray(views["psi_model_t_ns"], dtype=np.int64),
+            views["psi_model"],
+            name=names["psi_model"],
+            color="psi_estimate",
+        )
     pred = views.get("psi_steady")
-    if pred is not None:
-        label = result.estimate.method if result.estimate is not None else "truth"
+    if pred is not None and "psi_steady" in names:
         send_series(
             rec,
             "signals/psi/predicted_estimate",
             t,
             pred,
-            name=f"ψ steady state at {label}'s L1, L2",
-            color="psi_estimate",
+            name=names["psi_steady"],
+            color="psi_steady",
         )
-    if method_for_psi is not None and "psi_steady_method" in views:
+    if "psi_steady_method" in names:
         send_series(
             rec,
             "signals/psi/predicted_method",
             t,
             views["psi_steady_method"],
-            name=f"ψ predicted ({method_for_psi})",
+            name=names["psi_steady_method"],
             color="psi_method",
         )
-    _log_residuals(rec, result, t, psi, pred)
+    _log_residuals(rec, result, t, psi, views)
 
 
 def _log_residuals(
@@ -101,25 +147,27 @@ def _log_residuals(
     result: AnalysisResult,
     t: NDArray[np.int64],
     psi: NDArray[np.float64] | None,
-    pred: NDArray[np.float64] | None,
+    views: Mapping[str, np.ndarray],
 ) -> None:
     res = getattr(result.discovery, "residuals", None)
     if res and "t_ns" in res:
         rt = np.asarray(res["t_ns"], dtype=np.int64)
-        for key in sorted(k for k in res if k != "t_ns"):
+        for key in sorted(k for k in res if k.startswith("psi")):
             vals = np.asarray(res[key], dtype=float)
             if vals.shape == rt.shape:
-                color = "residual" if key.endswith("_before") else "psi_estimate"
-                send_series(rec, f"signals/residuals/{key}", rt, vals, name=key, color=color)
-    elif psi is not None and pred is not None:
-        send_series(
-            rec,
-            "signals/residuals/psi",
-            t,
-            psi - pred,
-            name="ψ measured − predicted",
-            color="residual",
-        )
+                before = key.endswith("_before")
+                name = "ψ residual of the baseline" if before else (
+                    "ψ residual with the effects discovery accepted")
+                send_series(rec, f"signals/residuals/{key}", rt, vals, name=name,
+                            color="residual" if before else "psi_estimate")
+        return
+    if "psi_model_residual" in views:
+        send_series(rec, "signals/residuals/psi", np.asarray(views["psi_model_t_ns"], np.int64),
+                    views["psi_model_residual"], name="ψ measured − recommended model",
+                    color="residual")
+    elif psi is not None and "psi_steady" in views:
+        send_series(rec, "signals/residuals/psi", t, psi - views["psi_steady"],
+                    name="ψ measured − steady-state relation", color="residual")
 
 
 def log_segments(rec: rr.RecordingStream, frame: pl.DataFrame, result: AnalysisResult) -> None:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["COLORS", "TIMELINE", "hex_color"]
+__all__ = ["COLORS", "TIMELINE", "hex_color", "ui_points"]
 
 #: Name of the rerun timeline: log time (absolute, ns) as ``datetime64[ns]``.
 TIMELINE = "log_time"
@@ -23,10 +23,14 @@ COLORS: dict[str, tuple[int, int, int]] = {
     "psi": (40, 80, 255),  # blue-violet
     "psi_estimate": (0, 210, 140),
     "psi_method": (200, 120, 255),
+    "psi_steady": (255, 120, 190),  # pink: the steady-state relation
     "residual": (220, 190, 255),
     "truth": (250, 250, 250),
     "L1": (230, 25, 75),
     "L2": (0, 130, 200),
+    # the differential drive's paths (viz.diff_drive draws them; the screenshot looks for them)
+    "dd_nominal": (220, 60, 60),
+    "dd_calibrated": (40, 120, 220),
 }
 
 
@@ -34,3 +38,9 @@ def hex_color(name: str) -> str:
     """The colour ``name`` as ``#rrggbb`` (for matplotlib)."""
     r, g, b = COLORS[name]
     return f"#{r:02x}{g:02x}{b:02x}"
+
+
+def ui_points(points: float) -> float:
+    """A radius in screen points: rerun reads a negative radius as UI points (the value
+    ``rr.Radius.ui_points`` returns; spelled here as a float for the type checker)."""
+    return -abs(points)

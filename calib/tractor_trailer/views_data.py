@@ -20,7 +20,8 @@ per joint-angle sample that fit used (m samples, on the joint angle's own stamps
 - ``psi_model`` (m,): the joint angle (rad) that fit's model simulates along the measured path
   (``PathTransientFit.psi_fit_``: the transient kinematics, with its sensor offset if fitted);
 - ``psi_model_params`` (3,): the (L1, L2, psi offset) (m, m, rad) the simulation used (the
-  optimiser's values, before the first-order noise-bias correction of the reported estimate).
+  optimiser's values, before the first-order noise-bias correction of the reported estimate);
+- ``psi_model_residual`` (m,): measured minus ``psi_model`` (rad).
 
 The analysis keeps them in ``AnalysisResult.artifacts[VIEWS]`` (not part of the JSON).
 """
@@ -62,6 +63,7 @@ class TransientPrediction(Protocol):
     L1_: float
     L2_: float
     bias_correction_: np.ndarray
+    residual_: np.ndarray
 
 
 def transient_prediction(
@@ -74,8 +76,9 @@ def transient_prediction(
     # the simulation ran at the optimiser's lengths: the estimate minus its bias correction
     l1, l2 = fit.L1_ - fit.bias_correction_[0], fit.L2_ - fit.bias_correction_[1]
     return {
-        "psi_model_t_ns": (t0_ns + np.round(t_s * 1e9)).astype(np.int64),
+        "psi_model_t_ns": np.int64(t0_ns) + np.round(t_s * 1e9).astype(np.int64),
         "psi_model": np.asarray(fit.psi_fit_, dtype=float),
+        "psi_model_residual": np.asarray(fit.residual_, dtype=float),
         "psi_model_params": np.array([l1, l2, fit.psi_offset_], dtype=float),
     }
 

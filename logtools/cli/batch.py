@@ -10,7 +10,7 @@ from pathlib import Path
 import typer
 
 from calib.results import Baseline
-from logtools.batch.engines import Engine
+from logtools.batch.choices import Engine
 
 __all__ = ["register"]
 
@@ -92,8 +92,14 @@ def register(app: typer.Typer) -> None:
                                        help="Do not start rerun's web viewer."),
     ) -> None:
         """Serve a batch report on 127.0.0.1, with rerun's web viewer for each log's .rrd."""
+        import signal
+
         from logtools.batch.serve import start_server
 
+        def _stop(*_: object) -> None:
+            raise KeyboardInterrupt  # SIGTERM: stop the viewer too, as on Ctrl-C
+
+        signal.signal(signal.SIGTERM, _stop)
         server = start_server(out, port=port, viewer=not no_viewer)
         print(f"report: {server.url}", flush=True)
         print(f"rerun web viewer: {server.viewer_url or 'not running'}", flush=True)

@@ -38,11 +38,10 @@ def debug_enabled() -> bool:
 
 
 def _register() -> None:
-    from logtools.cli import analyze, info, reproduce, simulate, view
+    from logtools.cli import analyze, batch, info, reproduce, simulate, view
 
-    for module in (info, simulate, analyze, reproduce, view):
+    for module in (info, simulate, analyze, reproduce, view, batch):
         module.register(app)
-    __import__("logtools.cli.batch", fromlist=["register"]).register(app)  # batch, serve
 
 
 _register()

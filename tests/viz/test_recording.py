@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import json
+from types import SimpleNamespace
 
 import numpy as np
 import polars as pl
@@ -11,6 +11,9 @@ from conftest import views_for
 from rrd_read import read_rrd
 
 from calib.models.hitch_kinematics import steady_state_psi
+from calib.results import PM_MEANING
+from calib.tractor_trailer.views_data import transient_prediction
+from viz.methods import forest_rows
 from viz.recording import write_recording
 from viz.style import COLORS
 
@@ -40,6 +43,8 @@ def test_entity_paths_and_blueprint(recorded):
         "/world/paths/C2",
         "/world/robot",
         "/world/icr",
+        "/world/labels",
+        "/world/follow",
         "/signals/kappa/command",
         "/signals/kappa/measured",
         "/signals/psi/measured",
@@ -50,8 +55,8 @@ def test_entity_paths_and_blueprint(recorded):
         "/methods/table",
     }
     for seg in ("all", "harmonic", "curve"):
-        for p in ("L1", "L2"):
-            expected |= {f"/methods/{seg}/{p}/{k}" for k in ("value", "bar", "truth")}
+        expected |= {f"/methods/{seg}/{k}" for k in ("names", "bars", "bars_value", "lines",
+                                                     "ticks", "titles")}
     assert expected <= set(ents)
 
 
@@ -143,27 +148,23 @@ def test_psi_predictions(recorded, case):
     np.testing.assert_allclose(np.concatenate(vals), want[np.isfinite(want)])
 
 
-def test_error_bars_equal_the_analysis_json(recorded, case):
+def test_error_bars_name_every_row_and_keep_the_order_of_values(recorded, case):
     ents, _ = recorded
-    doc = json.loads(json.dumps(case.result.to_dict()))
+    table = ents["/methods/table"].static["TextDocument:text"][0]
+    assert PM_MEANING in table
     for seg in ("all", "harmonic", "curve"):
-        rows = [m for m in doc["methods"] if m["segment"] == seg]
-        for p in ("L1", "L2"):
-            base = f"/methods/{seg}/{p}"
-            bars = ents[f"{base}/bar"].static[STRIPS]
-            values = ents[f"{base}/value"].static[POS]
-            labels = ents[f"{base}/value"].static["Points2D:labels"]
-            assert len(bars) == len(values) == len(rows)
-            for m, bar, val, label in zip(rows, bars, values, labels, strict=True):
-                assert label.startswith(m["name"])
-                assert val[0] == pytest.approx(m[p], rel=1e-6)
-                lo, hi = sorted(pt[0] for pt in bar)
-                assert lo == pytest.approx(m[p] - m[f"{p}_std"], rel=1e-6)
-                assert hi == pytest.approx(m[p] + m[f"{p}_std"], rel=1e-6)
-                if m["condition_number"] is not None:
-                    assert f"cond {m['condition_number']:.3g}" in label
-            truth = ents[f"{base}/truth"].static[STRIPS][0]
-            np.testing.assert_allclose([pt[0] for pt in truth], doc["truth"][p], rtol=1e-6)
+        rows = forest_rows([m for m in case.result.methods if m.segment == seg])
+        det = [r for r in rows if r.apart is None]
+        base = f"/methods/{seg}"
+        assert ents[f"{base}/names"].static["Points2D:labels"] == [r.label for r in det]
+        bars = ents[f"{base}/bars"].static[STRIPS]
+        assert len(bars) == 4 * len(det)  # L1, L1 zoomed, L2, L2 zoomed
+        centres = [np.mean([pt[0] for pt in b]) for b in bars[: len(det)]]  # L1, full range
+        assert np.argsort(centres).tolist() == np.argsort([r.L1 for r in det]).tolist()
+        # truth and recommended lines in all four panels (both lie inside each range)
+        assert len(ents[f"{base}/lines"].static[STRIPS]) == 8
+        for r in rows:
+            assert r.names[0] in table
 
 
 def test_static_colours(recorded):
@@ -176,7 +177,7 @@ def test_static_colours(recorded):
     assert ents["/world/icr"].static["Points2D:colors"] == [packed("O"), packed("Q")]
     strips = ents["/world/icr"].static["LineStrips2D:colors"]
     assert strips == [packed(n) for n in ("triangle_OQC2", "triangle_QC1P", "radius")]
-    assert ents["/world/robot"].static["Points2D:labels"] == ["C1", "P", "C2"]
+    assert "Points2D:labels" not in ents["/world/robot"].static  # labels: world/labels
 
 
 def test_partial_frame_and_unknown_method(case, tmp_path):
@@ -212,7 +213,7 @@ def test_icr_triangles_radius_and_label(recorded, case):
     kappa = f["kappa"].to_numpy()
     _, strips = ents["/world/icr"].rows(STRIPS)
     _, points = ents["/world/icr"].rows(POS)
-    _, labels = ents["/world/icr"].rows("Points2D:labels")
+    _, labels = ents["/world/labels"].rows("Points2D:labels")
     _, robot = ents["/world/robot"].rows(POS)
     i = int(np.argmax(np.abs(kappa)))
     o, q = np.asarray(points[i])
@@ -222,7 +223,34 @@ def test_icr_triangles_radius_and_label(recorded, case):
     np.testing.assert_allclose(tri2, [q, c1, p, q], rtol=1e-6)
     np.testing.assert_allclose(radius, [o, c1], rtol=1e-6)
     assert np.linalg.norm(o - c1) == pytest.approx(1 / abs(kappa[i]), rel=1e-5)
-    assert labels[i] == [f"O: R = 1/κ = {1 / kappa[i]:.2f} m", "Q"]
+    assert labels[i] == ["C1", "P", "C2", f"O: R = 1/κ = {1 / kappa[i]:.2f} m", "Q"]
     j = int(np.argmin(np.abs(kappa)))
     assert strips[j] == []
     assert points[j] == []
+    assert labels[j] == ["C1", "P", "C2"]
+
+
+def test_recommended_transient_prediction_is_drawn_as_that_model(case, tmp_path):
+    """The transient fit's own prediction goes on its stamps, named with its model and the
+    lengths it was simulated with (not the steady-state relation)."""
+    t_ns = case.frame["t_ns"].to_numpy()
+    t0 = int(t_ns[0])
+    t_s = (t_ns[::5] - t0) / 1e9
+    fit = SimpleNamespace(
+        t_s_=t_s, psi_fit_=np.sin(t_s), residual_=0.01 * np.cos(t_s), psi_offset_=0.0,
+        L1_=1.26, L2_=2.47, bias_correction_=np.array([0.01, -0.01]),
+    )
+    pred = transient_prediction(fit, t0)
+    np.testing.assert_array_equal(pred["psi_model_t_ns"], t_ns[::5])
+    np.testing.assert_allclose(pred["psi_model_params"], [1.25, 2.48, 0.0])
+    views = views_for(case.frame, case.result) | pred
+    path = write_recording(tmp_path / "m.rrd", case.frame, case.result, views)
+    ents, _ = read_rrd(path)
+    _t, vals = ents["/signals/psi/predicted_model"].rows(SCALARS)
+    np.testing.assert_allclose(np.concatenate(vals), np.sin(t_s))
+    name = ents["/signals/psi/predicted_model"].static["SeriesLines:names"][0]
+    assert "transient" in name
+    assert "L1 = 1.250 m, L2 = 2.480 m" in name
+    assert case.result.estimate.method in name
+    steady = ents["/signals/psi/predicted_estimate"].static["SeriesLines:names"][0]
+    assert steady.startswith("ψ steady-state relation")

@@ -393,6 +393,7 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
             if status == "not_run":
                 discovery = None
     offset, shift, used = _sensor_effects(discovery)
+    shown_fit, shown_shift = path_fit, 0.0  # the fit whose prediction the views draw
     if used and path_fit is not None:
         progress("refit with the effects discovery named")
         joint = stages.run(
@@ -400,6 +401,7 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
             lambda: _path_fit(loaded, psi_offset=offset, psi_shift_s=shift)[1],
         )
         if joint is not None and joint.sound_:
+            shown_fit, shown_shift = joint, shift
             res = joint.result_
             model = f"{res.method} + " + " + ".join(used)
             estimate = replace(
@@ -441,7 +443,8 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
         warnings=[str(p) for p in loaded.problems] + notes,
         stages=stages.status,
     )
-    from calib.tractor_trailer.views_data import VIEWS, tractor_views_data
+    from calib.tractor_trailer.views_data import VIEWS, tractor_views_data, transient_prediction
+
 
     columns: dict[str, np.ndarray] = {
         c: loaded.frame[c].cast(pl.Float64).fill_null(np.nan).to_numpy()
@@ -449,7 +452,12 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
     }
     method = cfg.extra.get("method_for_psi")
     try:
-        views = tractor_views_data(columns, result, method_for_psi=method)
+        transient = None  # the recommended transient fit's own prediction, when it is one
+        if path_out and shown_fit is not None and estimate is not None and (
+            estimate.method.startswith(shown_fit.name)
+        ):
+            transient = transient_prediction(shown_fit, path_out[0].t0_ns, shown_shift)
+        views = tractor_views_data(columns, result, method_for_psi=method, transient=transient)
     except KeyError as err:  # the user's --method names no method of this analysis: exit 2
         raise LogcalInputError(f"--method {method!r}: {err.args[0]}") from None
     except Exception as err:  # drawing data: a failure stays inside its own stage

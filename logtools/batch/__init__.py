@@ -1,0 +1,17 @@
+"""Batch analysis of a log archive (``logcal batch``, ``logcal serve``): every log analysed in
+parallel and resumably, fleet results in one Parquet table, pooled estimates and drift per
+robot, and an HTML report. See docs/batch.md.
+
+Modules: :mod:`~logtools.batch.settings` (``logcal.toml``), :mod:`~logtools.batch.archive`
+(walk, content hash), :mod:`~logtools.batch.worker` (one log), :mod:`~logtools.batch.engines`
+(process pool, Ray), :mod:`~logtools.batch.runner` (resume, atomic writes),
+:mod:`~logtools.batch.table` (fleet table), :mod:`~logtools.batch.pooling` and
+:mod:`~logtools.batch.drift` (statistics), :mod:`~logtools.batch.fleet`,
+:mod:`~logtools.batch.plots`, :mod:`~logtools.batch.report_html`, :mod:`~logtools.batch.serve`.
+
+Nothing heavy is imported here: worker processes import only what they use.
+"""
+
+from __future__ import annotations
+
+__all__: list[str] = []

@@ -1,0 +1,163 @@
+"""What one worker does with one log: read, analyse, draw its views; never raises.
+
+The function runs in another process (a local pool) or on another machine (Ray), so it takes
+and returns plain picklable values, writes nothing into the output folder (the driver writes,
+atomically) and returns the view files' bytes. Any failure, ours or the log's, becomes the
+outcome's ``error``: one bad log never stops a batch.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from logtools.batch.archive import LogJob
+
+__all__ = ["AnalysisOptions", "LogOutcome", "analyse_job"]
+
+
+@dataclass(frozen=True)
+class AnalysisOptions:
+    """Settings every log of a batch is analysed with (``logcal analyze``'s options).
+
+    Attributes:
+        repeats: bootstrap repeats per method-table row.
+        seed: seed of the bootstrap draws (the same for every log: reproducible reports).
+        discovery: run model-mismatch discovery.
+        baseline: discovery baseline (``transient`` | ``steady``; tractor-trailer only).
+        views: also draw each log's rerun recording (``.rrd``) and static image (``.png``) when
+            its robot plugin has them.
+    """
+
+    repeats: int = 10
+    seed: int = 0
+    discovery: bool = True
+    baseline: str = "transient"
+    views: bool = True
+
+    def fingerprint(self) -> str:
+        """The settings that change a result, as text (part of each log's manifest key)."""
+        return (f"repeats={self.repeats};seed={self.seed};discovery={self.discovery};"
+                f"baseline={self.baseline};views={self.views}")
+
+
+@dataclass(frozen=True)
+class LogOutcome:
+    """What became of one log.
+
+    Attributes:
+        job: the log.
+        status: ``ok`` (analysed) or ``failed`` (``error`` says why).
+        error: the error message (names file, topic or field for a bad log).
+        error_kind: ``input`` (the log's or its settings' fault: a ``LogcalInputError`` or a
+            stated limit of the data) or ``internal`` (a bug of ours; ``detail`` holds the
+            traceback).
+        detail: traceback of an internal error.
+        result: the analysis as JSON (``AnalysisResult.to_dict()``).
+        robot: the robot type analysed.
+        start_ns, end_ns: first and last time of the aligned log (ns since the Unix epoch).
+        views: suffix (``.rrd``, ``.png``) -> the file's bytes.
+        notes: what was not drawn and why.
+        seconds: wall time spent on the log.
+    """
+
+    job: LogJob
+    status: str
+    error: str | None = None
+    error_kind: str | None = None
+    detail: str | None = None
+    result: dict[str, Any] | None = None
+    robot: str | None = None
+    start_ns: int | None = None
+    end_ns: int | None = None
+    views: dict[str, bytes] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+
+def _known_errors() -> tuple[type[Exception], ...]:
+    from calib.errors import CalibError
+    from logtools.errors import LogcalError
+
+    return (LogcalError, CalibError)
+
+
+def _draw_views(loaded: Any, result: Any, plugin: Any) -> tuple[dict[str, bytes], list[str]]:
+    from logtools.robots.base import load_view
+
+    views: dict[str, bytes] = {}
+    notes: list[str] = []
+    for suffix, target, what in ((".rrd", plugin.views, "rerun recording"),
+                                 (".png", plugin.png, "report image")):
+        if target is None:
+            notes.append(f"the {plugin.title} has no {what} yet")
+            continue
+        with tempfile.TemporaryDirectory(prefix="logcal-batch-") as tmp:
+            out = Path(tmp) / f"view{suffix}"
+            try:
+                written = load_view(target)(out, loaded, result)
+                views[suffix] = Path(written or out).read_bytes()
+            except Exception as err:  # a view that fails leaves the analysis standing
+                notes.append(f"{what} not drawn: {type(err).__name__}: {err}")
+    return views, notes
+
+
+EPOCH_FLOOR_NS = 946_684_800 * 10**9
+"""2000-01-01 UTC: earlier first stamps are taken as relative times (a CSV's ``t`` from 0, a
+simulation clock), not as when the log was recorded; such a log has no start time."""
+
+
+def _time_span(t_ns: list[int]) -> tuple[int | None, int | None]:
+    if not t_ns or min(t_ns) < EPOCH_FLOOR_NS:
+        return None, None
+    return int(min(t_ns)), int(max(t_ns))
+
+
+def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
+    """Analyse ``job`` with ``options``; every failure is returned, never raised."""
+    t0 = time.perf_counter()
+    if job.settings is None:
+        return LogOutcome(job, "failed", error=job.settings_error, error_kind="input",
+                          seconds=time.perf_counter() - t0)
+    try:
+        from dataclasses import replace
+
+        from calib.results import Baseline
+        from logtools.analyze import AnalysisConfig, analyze_log
+        from logtools.channel_map import ChannelMap, load_channel_map
+        from logtools.robots import plugin_for
+
+        s = job.settings
+        cmap: ChannelMap | None = load_channel_map(s.channel_map) if s.channel_map else None
+        if s.robot is not None:
+            plugin = plugin_for(s.robot, where=f"{s.robot_from}: [robot]")
+            base = cmap if cmap is not None else ChannelMap()
+            cmap = replace(base, robot=replace(base.robot, type=plugin.name))
+        config = AnalysisConfig(
+            repeats=options.repeats, seed=options.seed, discovery=options.discovery,
+            baseline=Baseline(options.baseline),
+            extra={"urdf": s.urdf} if s.urdf else {},
+        )
+        loaded, result = analyze_log(job.path, channel_map=cmap, config=config)
+        start_ns, end_ns = _time_span(loaded.frame["t_ns"].to_list())
+        views: dict[str, bytes] = {}
+        notes: list[str] = []
+        if options.views:
+            views, notes = _draw_views(loaded, result, plugin_for(result.robot))
+        return LogOutcome(
+            job, "ok", result=result.to_dict(), robot=result.robot, start_ns=start_ns,
+            end_ns=end_ns, views=views, notes=notes, seconds=time.perf_counter() - t0,
+        )
+    except _known_errors() as err:
+        return LogOutcome(job, "failed", error=str(err), error_kind="input",
+                          seconds=time.perf_counter() - t0)
+    except Exception as err:  # a bug of ours on this log: recorded, the batch goes on
+        return LogOutcome(
+            job, "failed", error=f"internal error: {type(err).__name__}: {err}",
+            error_kind="internal", detail=traceback.format_exc(),
+            seconds=time.perf_counter() - t0,
+        )
