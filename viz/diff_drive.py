@@ -1,6 +1,10 @@
-"""Rerun views of a differential-drive analysis: ground truth vs dead-reckoned paths (nominal
-and calibrated) per run, and each method's parameters with 95 % intervals. Draws only what the
-analysis carries (``result.artifacts["trajectories"]``, ``result.methods``)."""
+"""Views of a differential-drive analysis: ground truth vs dead-reckoned paths (nominal and
+calibrated parameters) per run, and each method's parameters with 95 % intervals, in a rerun
+recording laid out for a 1600 x 900 window and in a static PNG.
+
+Draws only what the analysis carries (``result.artifacts["trajectories"]``: run -> label ->
+x, y arrays; ``result.methods``: one ``CalibrationResult`` per method).
+"""
 
 from __future__ import annotations
 
@@ -10,65 +14,158 @@ from typing import Any
 
 import numpy as np
 import rerun as rr
+import rerun.blueprint as rrb
 
-from calib.results import AnalysisResult
+from calib.results import PM_MEANING, AnalysisResult, CalibrationResult
+from viz.style import COLORS
 
-__all__ = ["log_views"]
+__all__ = ["log_views", "write_png"]
 
-_COLOURS = {"truth": (40, 40, 40), "nominal": (220, 60, 60), "calibrated": (40, 120, 220)}
+_COLOURS = {
+    "truth": (40, 40, 40),
+    "nominal": COLORS["dd_nominal"][:3],
+    "calibrated": COLORS["dd_calibrated"][:3],
+}
+_MM = 1e3
 
 
 def _path_name(name: str) -> str:
-    return Path(name).stem.replace(".", "_") or "run"
+    return "".join(c if c.isalnum() or c in "_-" else "_" for c in Path(name).stem) or "run"
+
+
+def _trajectories(result: AnalysisResult) -> dict[str, dict[str, Any]]:
+    out: dict[str, dict[str, Any]] = result.artifacts.get("trajectories", {}) or {}
+    return out
+
+
+def _methods(result: AnalysisResult) -> list[CalibrationResult]:
+    return [m for m in result.methods if isinstance(m, CalibrationResult)]
+
+
+def _table(result: AnalysisResult) -> str:
+    """Markdown: each method's parameters (mm) ± one standard error and 95 % interval."""
+    methods = _methods(result)
+    names = sorted({n for m in methods for n in m.parameters})
+    lines = [
+        "| method | " + " | ".join(f"{n} (mm)" for n in names) + " |",
+        "|---|" + "---|" * len(names),
+    ]
+    for m in methods:
+        cells = []
+        for n in names:
+            e = m.parameters.get(n)
+            if e is None or not math.isfinite(e.value):
+                cells.append("–")
+            elif not e.identifiable or not all(math.isfinite(v) for v in e.ci95):
+                cells.append(f"{e.value * _MM:.3f} (not determined)")
+            else:
+                cells.append(
+                    f"{e.value * _MM:.3f} ± {e.std * _MM:.3f} "
+                    f"[{e.ci95[0] * _MM:.3f}, {e.ci95[1] * _MM:.3f}]"
+                )
+        lines.append(f"| {m.method} | " + " | ".join(cells) + " |")
+    lines.append("")
+    lines.append(PM_MEANING)
+    return "\n".join(lines)
 
 
 def log_views(recording_path: Path, loaded: Any, result: AnalysisResult, **_: Any) -> Path:
-    """Write the .rrd to ``recording_path`` and return it."""
+    """Write the .rrd to ``recording_path`` (a view per run and the methods table) and return
+    it."""
     out = Path(recording_path)
-    out.parent.mkdir(parents=True, exist_ok=True)
     rec = rr.RecordingStream("logcal_diff_drive")
     rec.save(out)
+    views: list[rrb.View] = []
     try:
-        trajectories = result.artifacts.get("trajectories", {})
-        for run_name, paths in trajectories.items():
+        for run_name, paths in _trajectories(result).items():
             base = f"world/{_path_name(run_name)}"
             for label, arr in paths.items():
                 xy = np.column_stack([np.asarray(arr["x"]), np.asarray(arr["y"])])
-                rec.log(
-                    f"{base}/{label}",
-                    rr.LineStrips2D([xy], colors=[_COLOURS.get(label, (0, 0, 0))], labels=[label]),
-                    static=True,
-                )
-        for m in result.methods:
-            for name, e in m.parameters.items():
-                if not math.isfinite(e.value):
+                ok = np.all(np.isfinite(xy), axis=1)
+                if not ok.any():
                     continue
-                lo, hi = e.ci95
-                rec.log(
-                    f"methods/{name}/{m.method}",
-                    rr.TextLog(
-                        f"{e.value * 1e3:.3f} mm [95 %: {lo * 1e3:.3f}, {hi * 1e3:.3f}]"
-                        if math.isfinite(lo) and math.isfinite(hi)
-                        else f"{e.value * 1e3:.3f} mm (no interval)"
-                    ),
+                colour = _COLOURS.get(label, (0, 0, 0))
+                rec.log(f"{base}/{label}", rr.LineStrips2D([xy[ok]], colors=[colour]),
+                        static=True)
+                rec.log(  # where the path ends: where the drift shows
+                    f"{base}/{label}_end",
+                    rr.Points2D([xy[ok][-1]], colors=[colour], radii=[-4.0]),
                     static=True,
                 )
-                rec.log(
-                    f"method_bars/{name}",
-                    rr.Points2D(
-                        [[len(result.methods) and result.methods.index(m), e.value]],
-                        labels=[m.method],
-                    ),
-                    static=True,
-                )
-                if math.isfinite(lo) and math.isfinite(hi):
-                    x = result.methods.index(m)
-                    rec.log(
-                        f"method_bars/{name}/{m.method}_ci",
-                        rr.LineStrips2D([[[x, lo], [x, hi]]]),
-                        static=True,
-                    )
+            views.append(rrb.Spatial2DView(
+                name=f"run {Path(run_name).name}: black truth, red nominal, blue calibrated "
+                "(dead reckoning; dots: end points)",
+                origin=base,
+            ))
+        rec.log("methods", rr.TextDocument(_table(result), media_type="text/markdown"),
+                static=True)
     finally:
         rec.flush()
-        rec.disconnect()
+    grid = rrb.Grid(*views[:6]) if views else rrb.TextDocumentView(origin="methods")
+    rec.send_blueprint(
+        rrb.Blueprint(
+            rrb.Vertical(
+                grid,
+                rrb.TextDocumentView(name="methods: parameters (mm)", origin="methods"),
+                row_shares=[3, 1],
+            ),
+            rrb.BlueprintPanel(state="collapsed"),
+            rrb.SelectionPanel(state="collapsed"),
+            rrb.TimePanel(state="collapsed"),
+        )
+    )
+    rec.flush()
+    rec.disconnect()
+    return out
+
+
+def write_png(out: Path, loaded: Any, result: AnalysisResult) -> Path:
+    """Static report image: up to six runs' paths (truth, nominal, calibrated dead reckoning)
+    and one error-bar panel per parameter (each method's value and 95 % interval, mm)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs = list(_trajectories(result).items())[:6]
+    methods = _methods(result)
+    names = sorted({n for m in methods for n in m.parameters})
+    n_top = max(1, len(runs))
+    fig = plt.figure(figsize=(16, 9), dpi=100)
+    grid = fig.add_gridspec(2, max(n_top, len(names), 1), height_ratios=[3, 2])
+    for i, (run_name, paths) in enumerate(runs):
+        ax = fig.add_subplot(grid[0, i])
+        for label, arr in paths.items():
+            c = np.array(_COLOURS.get(label, (0, 0, 0))) / 255
+            ax.plot(arr["x"], arr["y"], color=c, lw=1.2, label=label)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(Path(run_name).name, fontsize=9)
+        ax.set_xlabel("x (m)")
+        if i == 0:
+            ax.set_ylabel("y (m)")
+            ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.15), ncol=3, fontsize=8)
+    for j, name in enumerate(names):
+        ax = fig.add_subplot(grid[1, j])
+        rows = [(m.method, m.parameters[name]) for m in methods if name in m.parameters]
+        for k, (_label, e) in enumerate(rows):
+            lo, hi = e.ci95
+            if math.isfinite(lo) and math.isfinite(hi):
+                ax.errorbar([e.value * _MM], [k], xerr=[[(e.value - lo) * _MM],
+                            [(hi - e.value) * _MM]], fmt="o", color="C0", capsize=3)
+            elif math.isfinite(e.value):
+                ax.plot([e.value * _MM], [k], "x", color="grey")
+        for key, style, what in (("nominal", "--", "nominal"), ("truth", "-", "truth")):
+            ref = (result.sections.get(key) if key == "nominal" else result.truth) or {}
+            if isinstance(ref, dict) and math.isfinite(float(ref.get(name, math.nan))):
+                ax.axvline(float(ref[name]) * _MM, ls=style, color="k", lw=0.8, label=what)
+        if j == 0:
+            ax.legend(loc="upper left", fontsize=8)
+        ax.set_yticks(range(len(rows)), [r[0] for r in rows], fontsize=8)
+        ax.set_ylim(-0.5, len(rows) - 0.5)
+        ax.set_xlabel(f"{name} (mm); bars: 95 % interval")
+        ax.grid(axis="x", alpha=0.3)
+    fig.suptitle(f"differential drive: {len(runs)} run(s), {len(methods)} method(s)")
+    fig.tight_layout()
+    fig.savefig(out)
+    plt.close(fig)
     return out

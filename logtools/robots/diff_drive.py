@@ -361,6 +361,7 @@ PLUGIN = RobotPlugin(
     report=report_lines,
     pool=pool_diff_drive,
     views="viz.diff_drive:log_views",
+    png="viz.diff_drive:write_png",
     aliases=("diff", "differential_drive"),
     span_signals=("wheel_right", "wheel_left", "x", "y", "yaw"),
 )
