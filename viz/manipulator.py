@@ -9,10 +9,11 @@ from typing import Any
 
 import numpy as np
 import rerun as rr
+import rerun.blueprint as rrb
 
 from calib.results import AnalysisResult
 
-__all__ = ["log_views"]
+__all__ = ["log_views", "write_png"]
 
 
 def log_views(recording_path: str | Path, loaded: Any, result: AnalysisResult) -> Path:
@@ -50,7 +51,63 @@ def log_views(recording_path: str | Path, loaded: Any, result: AnalysisResult) -
                         rec.log(f"convergence/{est}/{_safe(name)}", rr.Scalars(v))
     finally:
         rec.flush()
-        rec.disconnect()
+    torque: list[rrb.View] = [
+        rrb.TimeSeriesView(name=f"{name}: measured vs predicted torque (N·m, held-out 40 %)",
+                           origin=f"torque/{name}")
+        for name in names
+    ]
+    conv: list[rrb.View] = [rrb.TimeSeriesView(name=f"{est}: parameter convergence", origin=f"convergence/{est}")
+            for est in art.get("trajectories", {})]
+    rec.send_blueprint(
+        rrb.Blueprint(
+            rrb.Horizontal(
+                rrb.Vertical(
+                    rrb.Spatial3DView(name="arm (forward kinematics of the logged q)",
+                                      origin="arm"),
+                    rrb.TextDocumentView(name="summary", origin="summary"),
+                ),
+                rrb.Vertical(*(torque[:4] or [rrb.TextDocumentView(origin="summary")])),
+                *([rrb.Vertical(*conv[:3])] if conv else []),
+            ),
+            rrb.BlueprintPanel(state="collapsed"),
+            rrb.SelectionPanel(state="collapsed"),
+        )
+    )
+    rec.flush()
+    rec.disconnect()
+    return out
+
+
+def write_png(out: Path, loaded: Any, result: AnalysisResult) -> Path:
+    """Static report image: held-out torque, measured vs predicted, per joint (up to 8)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    art = result.artifacts
+    names = list(art.get("joint_names", []))[:8]
+    fig, axes = plt.subplots(max(1, len(names)), 1, figsize=(16, 9), dpi=100, sharex=True,
+                             squeeze=False)
+    if "holdout_t_s" in art:
+        t = np.asarray(art["holdout_t_s"])
+        meas, pred = np.asarray(art["holdout_measured"]), np.asarray(art["holdout_predicted"])
+        for j, name in enumerate(names):
+            ax = axes[j, 0]
+            ax.plot(t, meas[:, j], color="0.3", lw=0.8, label="measured")
+            ax.plot(t, pred[:, j], color="C1", lw=1.0, label="predicted (identified model)")
+            ax.set_ylabel(f"{name}\n(N·m)", fontsize=8)
+            if j == 0:
+                ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
+        axes[-1, 0].set_xlabel("time (s), held-out last 40 % of the log")
+    ratio = result.sections.get("torque_rms_holdout_ratio")
+    title = "arm: held-out torque"
+    if isinstance(ratio, float) and np.isfinite(ratio):
+        title += f" (error RMS {100 * ratio:.1f} % of the torque RMS)"
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(out)
+    plt.close(fig)
     return out
 
 

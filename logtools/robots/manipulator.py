@@ -334,6 +334,7 @@ PLUGIN = RobotPlugin(
     analyze=analyze_manipulator,
     report=report_lines,
     views="viz.manipulator:log_views",
+    png="viz.manipulator:write_png",
     aliases=("manipulator_2link",),
     span_signals=("q", "tau"),
 )
