@@ -56,8 +56,10 @@ def log_views(recording_path: str | Path, loaded: Any, result: AnalysisResult) -
                            origin=f"torque/{name}")
         for name in names
     ]
-    conv: list[rrb.View] = [rrb.TimeSeriesView(name=f"{est}: parameter convergence", origin=f"convergence/{est}")
-            for est in art.get("trajectories", {})]
+    conv: list[rrb.View] = [
+        rrb.TimeSeriesView(name=f"{est}: parameter convergence", origin=f"convergence/{est}")
+        for est in art.get("trajectories", {})
+    ]
     rec.send_blueprint(
         rrb.Blueprint(
             rrb.Horizontal(
