@@ -9,24 +9,31 @@ generator (tests/indgen: MCAP JSON and ROS 2, CSV, ROS 1 bag) and by logcal's ow
   concatenation of two files;
 - CSV-level: numbers replaced by 1e308, -1e308, nan, inf, empty, text; time in epoch ms/ns;
   rows shuffled or duplicated;
-- value-level (``--analyze``): structurally valid logs whose values are hostile (a huge speed
-  sample, duplicates 1 us apart, constant signals), run through the whole ``analyze``.
+- value-level (``--values``): structurally valid logs written by tests/indgen's writers (MCAP
+  JSON, MCAP ROS 2, CSV) whose values are hostile -- one sample of 100, 1e4, 1e7, +-1e308, NaN
+  or inf; every message duplicated 1 us or 1 ns after the original; a constant, zero or 1e300-
+  scaled field; one stamp 11 days off; or nothing changed (to count false outlier reports) --
+  run through the whole ``analyze``;
+- ``--analyze``: the byte-level mutations above, through the whole ``analyze``.
 
 Each input runs in a worker process with ``RLIMIT_AS`` (``--mem-gib``) and an alarm
 (``--timeout-s``); a worker that dies is a memory blow-up or crash, an alarm a hang. Inputs that
-fail are saved under ``--save`` with their traceback for replay.
+fail are saved under ``--save`` with their traceback for replay. ``--workers K`` runs K
+harnesses with seeds ``seed * 1000 + j`` and adds up their counts. The same seed gives the same
+inputs (every random byte comes from the seeded generator).
 
-    python bench/fuzz_logs.py --n 100000 --seed 1            # readers (read_log + load_log)
-    python bench/fuzz_logs.py --n 300 --analyze --seed 2     # whole analyze, hostile values
+    python bench/fuzz_logs.py --n 100000 --seed 1 --workers 2    # readers (read_log + load_log)
+    python bench/fuzz_logs.py --n 300 --values --seed 2          # whole analyze, hostile values
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import io
+import json
 import multiprocessing as mp
-import os
 import random
 import resource
 import signal
@@ -46,8 +53,13 @@ KINDS = ("mcap_json", "mcap_ros2", "csv", "bag1")
 def seed_logs(folder: Path) -> dict[str, bytes]:
     """Small valid logs of each kind (bytes), from the independent generator."""
     import numpy as np
-    from indgen import generate, random_scenario
-    from indgen.writers import write_csv, write_mcap_json, write_mcap_ros2, write_rosbag1
+    from indgen import generate, random_scenario  # type: ignore[import-not-found]
+    from indgen.writers import (  # type: ignore[import-not-found]
+        write_csv,
+        write_mcap_json,
+        write_mcap_ros2,
+        write_rosbag1,
+    )
 
     out: dict[str, bytes] = {}
     gen = generate(random_scenario(np.random.default_rng(3), duration_s=6.0), seed=3)
@@ -85,11 +97,11 @@ def mutate_bytes(rng: random.Random, data: bytes, other: bytes) -> bytes:
             buf[at] ^= 1 << rng.randrange(8)
         elif op == "overwrite":
             k = rng.randint(1, 16)
-            buf[at:at + k] = os.urandom(k)
+            buf[at:at + k] = rng.randbytes(k)
         elif op == "truncate":
             del buf[at:]
         elif op == "insert":
-            buf[at:at] = os.urandom(rng.randint(1, 64))
+            buf[at:at] = rng.randbytes(rng.randint(1, 64))
         elif op == "dup":
             k = rng.randint(1, 4096)
             buf[at:at] = buf[at:at + k]
@@ -141,6 +153,64 @@ def mutate_csv(rng: random.Random, data: bytes) -> bytes:
     return ("\n".join([head, *rows]) + "\n").encode()
 
 
+VALUE_OPS = ("spike", "dup_1us", "dup_1ns", "constant", "zeros", "scale", "stamp_jump", "none")
+SPIKES = (100.0, -100.0, 1e4, 1e7, 1e308, -1e308, float("nan"), float("inf"))
+
+
+def value_bases() -> list[object]:
+    """Small valid generated logs (indgen) that the value-level mode spoils."""
+    import numpy as np
+    from indgen import generate, random_scenario
+
+    return [
+        generate(random_scenario(np.random.default_rng(s), duration_s=30.0), seed=s)
+        for s in (3, 4, 5)
+    ]
+
+
+def mutate_values(rng: random.Random, gen: object) -> tuple[object, str]:
+    """``gen`` (an indgen ``Generated``) with one hostile change of its values or stamps."""
+    import numpy as np
+
+    op = rng.choice(VALUE_OPS)
+    topics = dict(gen.topics)  # type: ignore[attr-defined]
+    name = rng.choice(sorted(topics))
+    td = topics[name]
+    fields = {f: a.copy() for f, a in td.fields.items()}
+    stamps = td.stamps_ns.copy()
+    f = rng.choice(sorted(fields))
+    n = stamps.size
+    if op == "spike" and n:
+        fields[f][rng.randrange(n)] = rng.choice(SPIKES)
+    elif op in ("dup_1us", "dup_1ns"):
+        step = 1000 if op == "dup_1us" else 1
+        order = np.argsort(np.concatenate([stamps, stamps + step]), kind="stable")
+        stamps = np.concatenate([stamps, stamps + step])[order]
+        fields = {k: np.concatenate([a, a])[order] for k, a in fields.items()}
+    elif op == "constant":
+        fields[f][:] = fields[f][0] if n else 0.0
+    elif op == "zeros":
+        fields = {k: np.zeros_like(a) for k, a in fields.items()}
+    elif op == "scale":
+        fields[f] = fields[f] * 1e300
+    elif op == "stamp_jump" and n:
+        stamps[rng.randrange(n)] += 10**15
+    topics[name] = dataclasses.replace(td, stamps_ns=stamps, fields=fields)
+    return dataclasses.replace(gen, topics=topics), f"{op} {name}.{f}"  # type: ignore[type-var]
+
+
+def write_value_log(rng: random.Random, gen: object, folder: Path) -> Path:
+    from indgen.writers import write_csv, write_mcap_json, write_mcap_ros2
+
+    kind, write, suffix = rng.choice(
+        (("json", write_mcap_json, ".mcap"), ("ros2", write_mcap_ros2, ".mcap"),
+         ("csv", write_csv, ".csv"))
+    )
+    path = folder / f"value_{kind}{suffix}"
+    write(path, gen)
+    return path
+
+
 def _classify(exc: BaseException) -> str:
     from calib.errors import CalibError
     from logtools.errors import LogcalError
@@ -148,23 +218,25 @@ def _classify(exc: BaseException) -> str:
     return "clean_error" if isinstance(exc, LogcalError | CalibError) else "traceback"
 
 
-def _run_one(path: Path, analyze: bool) -> None:
+def _run_one(path: Path, analyze: bool) -> str:
+    """Run one input; return "outlier" when the analysis excluded outliers, else ""."""
     from logtools.load import load_log
     from logtools.readers import read_log
 
     if analyze:
         from logtools.analyze import AnalysisConfig, analyze_log
 
-        _, result = analyze_log(path, config=AnalysisConfig(repeats=1, discovery=True))
+        loaded, result = analyze_log(path, config=AnalysisConfig(repeats=1, discovery=True))
         result.to_dict()
         from rich.console import Console
 
         from logtools.report import render_analysis
 
         Console(file=io.StringIO()).print(render_analysis(result))
-    else:
-        read_log(path)
-        load_log(path)
+        return "outlier" if any(p.kind == "outlier" for p in loaded.problems) else ""
+    read_log(path)
+    load_log(path)
+    return ""
 
 
 class _AlarmError(Exception):
@@ -192,8 +264,7 @@ def worker(tasks: mp.Queue, results: mp.Queue, mem_gib: float, timeout_s: int,
         t0 = time.perf_counter()
         signal.alarm(timeout_s)
         try:
-            _run_one(Path(path), analyze)
-            outcome, detail = "data", ""
+            outcome, detail = "data", _run_one(Path(path), analyze)
         except _AlarmError:
             outcome, detail = "hang", f"over {timeout_s} s"
         except MemoryError:
@@ -211,20 +282,29 @@ def main() -> int:
     ap.add_argument("--n", type=int, default=2000, help="inputs to try")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--analyze", action="store_true", help="run the whole analyze")
+    ap.add_argument("--values", action="store_true",
+                    help="valid logs with hostile values, through the whole analyze")
+    ap.add_argument("--workers", type=int, default=1, help="harnesses run side by side")
+    ap.add_argument("--json", type=Path, default=None, help="write the counts here")
     ap.add_argument("--mem-gib", type=float, default=3.0, help="address-space cap per worker")
     ap.add_argument("--timeout-s", type=int, default=20, help="time bound per input")
     ap.add_argument("--save", type=Path, default=Path("/tmp/logcal_fuzz_failures"))
     args = ap.parse_args()
+    if args.workers > 1:
+        return run_parallel(args)
+    args.analyze = args.analyze or args.values
 
     rng = random.Random(args.seed)
     work = Path(tempfile.mkdtemp(prefix="logcal_fuzz_"))
     seeds = seed_logs(work)
+    bases = value_bases() if args.values else []
+    outlier_notes: Counter[str] = Counter()
     args.save.mkdir(parents=True, exist_ok=True)
     ctx = mp.get_context("fork")
     tasks: mp.Queue = ctx.Queue()
     results: mp.Queue = ctx.Queue()
 
-    def start() -> mp.Process:
+    def start() -> mp.process.BaseProcess:
         p = ctx.Process(target=worker,
                         args=(tasks, results, args.mem_gib, args.timeout_s, args.analyze))
         p.start()
@@ -236,15 +316,20 @@ def main() -> int:
     t_start = time.perf_counter()
     slowest = 0.0
     for i in range(args.n):
-        kind = rng.choice(KINDS)
-        data = seeds[kind]
-        if kind == "csv" and rng.random() < 0.5:
-            data = mutate_csv(rng, data)
+        if args.values:
+            gen, what = mutate_values(rng, rng.choice(bases))
+            path = write_value_log(rng, gen, work)
+            kind, suffix, data = what.split()[0], path.suffix, path.read_bytes()
         else:
-            data = mutate_bytes(rng, data, seeds[rng.choice(KINDS)])
-        suffix = {"csv": ".csv", "bag1": ".bag"}.get(kind, ".mcap")
-        path = work / f"in{suffix}"
-        path.write_bytes(data)
+            kind = rng.choice(KINDS)
+            data = seeds[kind]
+            if kind == "csv" and rng.random() < 0.5:
+                data = mutate_csv(rng, data)
+            else:
+                data = mutate_bytes(rng, data, seeds[rng.choice(KINDS)])
+            suffix = {"csv": ".csv", "bag1": ".bag"}.get(kind, ".mcap")
+            path = work / f"in{suffix}"
+            path.write_bytes(data)
         tasks.put((i, str(path)))
         outcome = None
         while outcome is None:
@@ -257,6 +342,8 @@ def main() -> int:
                 proc.join()
                 proc = start()
         slowest = max(slowest, dt)
+        if outcome == "data" and detail:
+            outlier_notes[kind] += 1
         counts[outcome] += 1
         per_kind[(kind, outcome)] += 1
         if outcome in ("traceback", "hang", "memory"):
@@ -271,12 +358,51 @@ def main() -> int:
     print(f"\ninputs: {args.n} ({'analyze' if args.analyze else 'read + load'}), "
           f"seed {args.seed}, cap {args.mem_gib} GiB, bound {args.timeout_s} s")
     print(f"outcomes: {dict(counts)}; slowest input {slowest:.2f} s")
-    for kind in KINDS:
+    for kind in VALUE_OPS if args.values else KINDS:
         row = {o: c for (k, o), c in per_kind.items() if k == kind}
         print(f"  {kind:10s} {row}")
+    if args.values:
+        print(f"analyses that reported outliers, per change: {dict(outlier_notes)}")
     bad = counts["traceback"] + counts["hang"] + counts["memory"]
+    if args.json is not None:
+        args.json.write_text(json.dumps({
+            "n": args.n, "seed": args.seed, "counts": dict(counts), "slowest_s": slowest,
+            "per_kind": {f"{k}:{o}": c for (k, o), c in per_kind.items()},
+            "outlier_reports": dict(outlier_notes)}))
     print(f"failures saved under {args.save}" if bad else "no tracebacks, hangs or blow-ups")
     return 1 if bad else 0
+
+
+def run_parallel(args: argparse.Namespace) -> int:
+    """Run ``args.workers`` harnesses (seeds ``seed * 1000 + j``) and add up their counts."""
+    import subprocess
+
+    out = Path(tempfile.mkdtemp(prefix="logcal_fuzz_par_"))
+    procs = []
+    for j in range(args.workers):
+        n = args.n // args.workers + (1 if j < args.n % args.workers else 0)
+        cmd = [sys.executable, __file__, "--n", str(n), "--seed", str(args.seed * 1000 + j),
+               "--mem-gib", str(args.mem_gib), "--timeout-s", str(args.timeout_s),
+               "--save", str(args.save / f"w{j}"), "--json", str(out / f"w{j}.json")]
+        cmd += ["--values"] if args.values else ["--analyze"] if args.analyze else []
+        procs.append(subprocess.Popen(cmd))
+    codes = [p.wait() for p in procs]
+    total: Counter[str] = Counter()
+    per: Counter[str] = Counter()
+    slowest = 0.0
+    for j in range(args.workers):
+        rec = json.loads((out / f"w{j}.json").read_text())
+        total.update(rec["counts"])
+        per.update(rec["per_kind"])
+        slowest = max(slowest, rec["slowest_s"])
+    print(f"\nALL {args.workers} workers: inputs {sum(total.values())}, outcomes {dict(total)}, "
+          f"slowest input {slowest:.2f} s")
+    for key in sorted(per):
+        print(f"  {key:28s} {per[key]}")
+    if args.json is not None:
+        args.json.write_text(json.dumps({"counts": dict(total), "per_kind": dict(per),
+                                         "slowest_s": slowest}))
+    return max(codes)
 
 
 if __name__ == "__main__":

@@ -3,8 +3,14 @@
 Method (documented choice):
 
 * The grid is uniform, ``t0 + round(k * 1e9 / rate_hz)`` ns, over the common span of the
-  signals (latest first sample to earliest last sample). ``rate_hz=None`` takes the median
+  signals (latest first sample to earliest last sample). ``rate_hz=None`` takes the typical
   sample rate of the fastest signal, so already-uniform signals at that rate map onto themselves.
+  The typical period (:func:`median_rate_hz`) is the median of the sample intervals longer than
+  a tenth of the mean interval: a duplicate of every message 1 us (or 1 ns) after the original
+  halves the mean but does not make the period 1 us, so the grid stays at the log's own rate
+  (issue #13: such a log asked for 446 GiB). The grid never has more than
+  :data:`MAX_GRID_FACTOR` times the rows of the most-sampled signal (or
+  :data:`MAX_GRID_FLOOR` rows); a ``rate_hz`` that asks for more is refused.
 * Continuous signals are **linearly interpolated** (``AlignMethod.INTERPOLATE``) or take the
   **nearest** sample (``AlignMethod.ASOF``, an as-of join with strategy "nearest").
 * Angles in ``wrap`` (default ``yaw``) are unwrapped before interpolation and wrapped back to
@@ -52,6 +58,10 @@ DEFAULT_HOLD = ("kappa_cmd", "v_cmd", "omega_cmd", "steer_cmd")
 DEFAULT_WRAP = ("yaw", "yaw2")
 GAP_PERIODS = 5.0
 GAP_MIN_S = 0.5
+MAX_GRID_FACTOR = 10
+"""The aligned grid has at most this many times the samples of the most-sampled signal..."""
+MAX_GRID_FLOOR = 1_000_000
+"""...or this many rows, whichever is more (a few MB per column)."""
 
 
 class AlignMethod(StrEnum):
@@ -93,9 +103,16 @@ def _clean(name: str, t_ns: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def median_rate_hz(t_ns: np.ndarray) -> float:
-    """Median sample rate (Hz) of sorted, distinct time stamps ``t_ns`` (ns)."""
-    dt = np.diff(np.asarray(t_ns, dtype=np.int64))
-    return 1e9 / float(np.median(dt))
+    """Typical sample rate (Hz) of sorted, distinct time stamps ``t_ns`` (ns): one over the
+    median of the intervals longer than a tenth of the mean interval (near-duplicate stamps do
+    not count as periods; see the module docstring)."""
+    t = np.asarray(t_ns, dtype=np.int64)
+    dt = np.diff(t).astype(float)
+    if dt.size == 0:
+        raise TimestampError("median_rate_hz: fewer than 2 time stamps")
+    mean = (float(t[-1]) - float(t[0])) / dt.size
+    periods = dt[dt > 0.1 * mean]
+    return 1e9 / float(np.median(periods if periods.size else dt))
 
 
 def _grid(start_ns: int, end_ns: int, rate_hz: float) -> np.ndarray:
@@ -190,6 +207,14 @@ def align_signals(
         )
     if rate_hz is None:
         rate_hz = max(median_rate_hz(t) for _, t, _ in series.values())
+    most = max(t.size for _, t, _ in series.values())
+    rows = (float(end) - float(start)) * 1e-9 * rate_hz + 1
+    if rows > max(MAX_GRID_FACTOR * most, MAX_GRID_FLOOR):
+        raise LogcalInputError(
+            f"align_signals: a grid at {rate_hz:.6g} Hz over {(end - start) * 1e-9:.6g} s has "
+            f"{rows:.3g} rows, more than {MAX_GRID_FACTOR} times the {most} samples of the "
+            "most-sampled signal; choose a rate near the log's own sample rates"
+        )
     grid = _grid(int(start), int(end), rate_hz)
     out: dict[str, np.ndarray] = {"t_ns": grid}
     for key, (name, t, v) in series.items():

@@ -68,8 +68,11 @@ from logtools.errors import (
     ChannelMapEntryError,
     ChannelMapError,
     LogcalInputError,
+    SignalValueError,
     UnknownEncodingError,
 )
+from logtools.outliers import drop_outliers
+from logtools.problems import Problem
 from logtools.readers import CSV_TOPIC, TIME_COLUMN, LogData, ProblemKind, known_encodings
 from logtools.signals import (
     COMMAND_SIGNALS,
@@ -89,6 +92,7 @@ __all__ = [
     "JOINT_ARRAYS",
     "JOINT_TOPIC",
     "LOGICAL_SIGNALS",
+    "PLAUSIBLE_LIMITS",
     "TRANSFORMS",
     "ChannelMap",
     "FlatSignal",
@@ -225,6 +229,22 @@ class ResolvedSignals:
     flat: list[FlatSignal] = field(default_factory=list)
     kappa_cmd_origin: KappaCmdOrigin | None = None
     robot: RobotConfig = field(default_factory=RobotConfig)
+    outliers: list[Problem] = field(default_factory=list)
+    """Single-sample outliers excluded from the signals (:mod:`logtools.outliers`), with times."""
+
+
+PLAUSIBLE_LIMITS: dict[str, float] = {
+    "m/s": 1e3,
+    "rad/s": 1e4,
+    "1/m": 1e3,
+    "m": 1e8,
+    "rad": 1e9,
+    "N·m": 1e7,
+}
+"""Largest |value| a logical signal can physically hold, per SI unit (a speed of 1 km/s, a
+position 1e8 m from the origin, 1e9 rad of accumulated yaw or wheel angle): beyond it (after
+outliers are excluded) the values are not in the unit the channel map says, and every
+integration step count downstream would grow with them (issue #13)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -579,7 +599,14 @@ def resolve_signals(
             )
     missing = [s for s in LOGICAL_SIGNALS if s not in signals and not _any_joint(s, signals)]
     return ResolvedSignals(
-        signals, sources, missing, notes, state.flat, state.kappa_cmd_origin, state.robot
+        signals,
+        sources,
+        missing,
+        notes,
+        state.flat,
+        state.kappa_cmd_origin,
+        state.robot,
+        state.outliers,
     )
 
 
@@ -594,13 +621,22 @@ class _Resolution:
         self.flat: list[FlatSignal] = []
         self.kappa_cmd_origin: KappaCmdOrigin | None = None
         self.robot, self.wheelbase_from = _robot_config(log, cmap, self.notes)
+        self.outliers: list[Problem] = []
+        firsts = [i.first_ns for i in log.info.values() if i.first_ns is not None]
+        self.origin = min(firsts, default=0)
 
     def take(self, name: str, frame: pl.DataFrame, src: SignalSource) -> bool:
-        """Clean and keep the signal; False (and a record) when it is empty or carries nothing."""
+        """Clean and keep the signal; False (and a record) when it is empty or carries nothing.
+
+        Outliers are excluded (and recorded); values beyond :data:`PLAUSIBLE_LIMITS` refused."""
         cleaned, repaired = clean_signal(frame, path=self.log.path, name=name, source=src)
         self.notes += repaired
         if not cleaned.height:
             return False
+        kept, found = drop_outliers(self.log.path, {name: cleaned}, self.origin)
+        cleaned = kept[name]
+        self.outliers += found
+        _check_plausible(self.log.path, name, cleaned, src)
         flat = _flatness(name, cleaned, src)
         if flat is not None:
             self.flat.append(flat)
@@ -867,6 +903,25 @@ def _joint_family_mapped(name: str, user: Mapping[str, SignalSource]) -> bool:
     return m is not None and any(
         (u := _JOINT_SIGNAL.match(k)) and u.group(1) == m.group(1) for k in user
     )
+
+
+def _check_plausible(path: str, name: str, frame: pl.DataFrame, src: SignalSource) -> None:
+    """Refuse a signal holding values no robot produces in its SI unit (see PLAUSIBLE_LIMITS)."""
+    family = m.group(1) if (m := _JOINT_SIGNAL.match(name)) else name
+    unit = SIGNAL_UNITS.get(family) or {"q": "rad", "qd": "rad/s", "tau": "N·m"}.get(family)
+    limit = PLAUSIBLE_LIMITS.get(unit or "")
+    if limit is None or not frame.height:
+        return
+    values = frame["value"].to_numpy()
+    beyond = np.flatnonzero(np.abs(values) > limit)
+    if beyond.size:
+        first = float(values[beyond[0]])
+        raise SignalValueError(
+            f"{path}: signal {name!r} (topic {src.topic!r}, field {src.field!r}): {beyond.size} "
+            f"of {values.size} samples are beyond +-{limit:g} {unit} (first: {first:.4g}); "
+            f"expected {unit}. Set the unit or scale in the channel map if the field holds "
+            "another unit."
+        )
 
 
 def _any_joint(family: str, signals: Mapping[str, pl.DataFrame]) -> bool:

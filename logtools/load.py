@@ -4,6 +4,8 @@
 :func:`logtools.channel_map.resolve_signals`, :func:`logtools.robot.infer_robot`,
 :func:`logtools.align.align_signals` (its module docstring gives the alignment method and
 tolerance), :func:`logtools.align.find_gaps` and :func:`logtools.curvature.derive_kappa`.
+The signal resolution excludes single-sample outliers (:mod:`logtools.outliers`); they are
+listed in ``problems`` with their times.
 """
 
 from __future__ import annotations
@@ -186,6 +188,7 @@ def load_log(
     problems = [
         *log.problems,
         *(Problem(ProblemKind.SIGNAL, message=p) for p in resolved.problems),
+        *resolved.outliers,
         *gap_notes(log.path, gaps, names, origin),
         *_null_notes(log.path, frame, gaps),
     ]

@@ -50,6 +50,15 @@ class ProblemKind(StrEnum):
     """Aligned rows of a signal left null beyond the gaps (``count`` rows)."""
     SIGNAL = "signal"
     """A repair or choice made while resolving the logical signals (channel map)."""
+    OUTLIER = "outlier"
+    """Samples of a signal that jump away and back (robust rate-of-change test), excluded
+    (``count``; ``t0_ns``..``t1_ns``: first and last such sample)."""
+    TIME_UNIT = "time_unit"
+    """A CSV time column in epoch milliseconds, microseconds or nanoseconds, rescaled to s."""
+    CONCATENATED = "concatenated"
+    """A second MCAP file appended after the first one's footer (``count`` bytes), not read."""
+    DUPLICATE_CHANNEL = "duplicate_channel"
+    """A channel id defined twice with different topics or encodings (``count`` redefinitions)."""
 
 
 @dataclass(frozen=True)

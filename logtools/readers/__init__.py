@@ -7,12 +7,17 @@
 (``twist.twist.linear.x``; arrays as ``position.0``). Damage is repaired where possible and
 described in ``LogData.problems`` (:class:`logtools.problems.Problem` records); input that
 cannot be read at all raises a :class:`logtools.errors.LogcalInputError`.
+
+A file is read into memory once (``st_size`` bytes, taken before opening), not memory-mapped:
+a log truncated by another process while it is read then gives a short read, which the readers
+handle as truncation, instead of a SIGBUS that kills the process. Only regular files are read:
+``/dev/zero``, a FIFO or a socket are refused before they are opened (opening a FIFO blocks).
 """
 
 from __future__ import annotations
 
-import mmap
 import os
+import stat
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -73,17 +78,21 @@ def read_log(
             return read_rosbag(name, topics)
         raise NotAnMcapError(name, "it is a directory without a rosbag2 metadata.yaml")
     try:
+        st = p.stat()
+        if not stat.S_ISREG(st.st_mode):
+            raise NotAnMcapError(name, f"it is not a regular file ({_file_kind(st.st_mode)})")
         with p.open("rb") as fh:
             head = fh.read(len(MAGIC))
             if head != MAGIC and is_rosbag(p, head + fh.read(16)):
                 return read_rosbag(name, topics)
             fh.seek(len(MAGIC))
-            if head == MAGIC:  # mapped, not read: the scan touches each byte about once
-                with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mapped:
-                    return read_mcap(name, mapped, topics, decoders)
-            buf = head + fh.read()
+            buf = head + fh.read(max(0, st.st_size - len(MAGIC)))
     except OSError as err:
         raise NotAnMcapError(name, f"cannot read it: {err.strerror or err}") from err
+    except MemoryError as err:
+        raise NotAnMcapError(name, f"{st.st_size} bytes do not fit in memory") from err
+    if head == MAGIC:
+        return read_mcap(name, buf, topics, decoders)
     if not buf:
         raise NotAnMcapError(name, "the file is empty")
     if MAGIC.startswith(buf):
@@ -95,6 +104,16 @@ def read_log(
             return read_optiodom(name)
         return read_csv(name, buf)
     raise NotAnMcapError(name, f"it starts with the bytes {buf[:8]!r}")
+
+
+def _file_kind(mode: int) -> str:
+    kinds = (
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    )
+    return next((text for test, text in kinds if test(mode)), "not a regular file")
 
 
 def _looks_like_csv(buf: bytes) -> bool:

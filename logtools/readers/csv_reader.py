@@ -1,4 +1,11 @@
-"""Read a CSV drive log (LOG_FORMAT.md): a header row, time ``t`` in seconds, signals as columns."""
+"""Read a CSV drive log (LOG_FORMAT.md): a header row, time ``t`` in seconds, signals as columns.
+
+A time column in epoch milliseconds, microseconds or nanoseconds (loggers that write their clock
+as is) is recognised by its magnitude (seconds since 1970 are ~1.7e9; nothing in seconds is above
+1e11) and rescaled, with a problem saying so. A time that does not fit the int64 nanosecond
+clock (e.g. one ``t = 1e300``) is refused with its row. A last row cut short (fewer fields than
+the header and no final newline: the writer was stopped mid-row) is dropped with a warning.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +13,7 @@ from io import BytesIO
 
 import polars as pl
 
-from logtools.errors import NotAnMcapError
+from logtools.errors import NotAnMcapError, TimestampError
 from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
 
@@ -14,6 +21,11 @@ __all__ = ["CSV_TOPIC", "read_csv"]
 
 CSV_TOPIC = "csv"
 """The one pseudo-topic of a CSV log."""
+
+_UNITS = ((1e11, 1.0, "s"), (1e14, 1e-3, "ms"), (1e17, 1e-6, "us"), (1e20, 1e-9, "ns"))
+"""(largest median |t|, factor to seconds, unit name): the time unit told by the magnitude."""
+_INT64_NS_LIMIT_S = 9.2e9
+"""|t| (s) beyond which t * 1e9 does not fit an int64 nanosecond count."""
 
 
 def read_csv(path: str, buf: bytes) -> LogData:
@@ -36,6 +48,18 @@ def read_csv(path: str, buf: bytes) -> LogData:
     if frame["t"].null_count() < t.null_count():
         raise NotAnMcapError(path, "the CSV time column 't' holds non-numeric values")
     problems: list[Problem] = []
+    cut = _cut_last_row(buf, len(frame.columns))
+    if cut and frame.height:
+        frame, t = frame.head(frame.height - 1), t.head(frame.height - 1)
+        problems.append(
+            Problem(
+                ProblemKind.TRUNCATED,
+                CSV_TOPIC,
+                count=1,
+                message=f"{path}: the last CSV row has {cut} of {len(frame.columns)} fields and "
+                "no final newline: the file was cut short; that row was dropped",
+            )
+        )
     keep = t.is_not_null() & t.is_finite()
     dropped = frame.height - int(keep.sum())
     if dropped:
@@ -47,7 +71,8 @@ def read_csv(path: str, buf: bytes) -> LogData:
                 message=f"{path}: {dropped} CSV rows have no finite time 't'; dropped",
             )
         )
-    t_ns = (t.filter(keep) * 1e9).round().cast(pl.Int64).alias(TIME_COLUMN)
+    t_s = _to_seconds(path, t.filter(keep), problems)
+    t_ns = (t_s * 1e9).round().cast(pl.Int64).alias(TIME_COLUMN)
     frame = frame.filter(keep).drop("t").insert_column(0, t_ns)
     if not frame[TIME_COLUMN].is_sorted():
         backwards = int((frame[TIME_COLUMN].diff() < 0).sum())
@@ -71,3 +96,48 @@ def read_csv(path: str, buf: bytes) -> LogData:
         last_ns=int(times.max()) if frame.height else None,  # type: ignore[arg-type]
     )
     return LogData(path, {CSV_TOPIC: frame}, {CSV_TOPIC: info}, {}, problems)
+
+
+def _cut_last_row(buf: bytes, n_fields: int) -> int:
+    """Fields of the last row when it is cut short (fewer than ``n_fields``, no final newline);
+    0 when the last row is whole."""
+    if not buf or buf.endswith((b"\n", b"\r")):
+        return 0
+    last = buf.rsplit(b"\n", 1)[-1]
+    k = last.count(b",") + 1
+    return k if k < n_fields else 0
+
+
+def _to_seconds(path: str, t: pl.Series, problems: list[Problem]) -> pl.Series:
+    """``t`` in seconds: epoch ms/us/ns told by the magnitude and rescaled (with a problem);
+    a value that cannot be a time on the int64 ns clock is refused."""
+    if t.len() == 0:
+        return t
+    median = float(t.abs().median())  # type: ignore[arg-type]
+    unit = next((u for u in _UNITS if median < u[0]), None)
+    if unit is None:
+        raise TimestampError(
+            f"{path}: CSV column 't' has a median of {median:.3g}, too large for a time in s, ms, "
+            "us or ns; expected seconds (see LOG_FORMAT.md)"
+        )
+    _, factor, name = unit
+    if factor != 1.0:
+        t = t * factor
+        problems.append(
+            Problem(
+                ProblemKind.TIME_UNIT,
+                CSV_TOPIC,
+                count=t.len(),
+                message=f"{path}: CSV column 't' holds epoch {name} (median {median:.4g}), not "
+                f"seconds; it was divided by {1 / factor:.0e}",
+            )
+        )
+    bad = (t.abs() > _INT64_NS_LIMIT_S).arg_true()
+    if bad.len():
+        first = float(t[int(bad[0])]) / factor
+        raise TimestampError(
+            f"{path}: CSV column 't' holds {first:.6g}, which is no "
+            f"time in {name} (beyond +-{_INT64_NS_LIMIT_S / factor:.3g}); "
+            f"{bad.len()} such rows. Expected seconds (see LOG_FORMAT.md)"
+        )
+    return t

@@ -29,6 +29,8 @@ __all__ = [
     "Decoded",
     "Decoders",
     "MessageDecoder",
+    "decode_cdr",
+    "decode_cdr_each",
     "decode_json",
     "flatten_frame",
     "flatten_object",
@@ -244,10 +246,22 @@ def _protobuf_factory() -> Any:
     return DecoderFactory()
 
 
+decode_cdr_each: MessageDecoder = _FactoryDecoder(_ros2_factory)
+"""ROS 2 message by message (mcap_ros2): the fallback of :func:`decode_cdr`."""
+
+
+def decode_cdr(schema: Schema | None, channel: Channel, payloads: list[bytes]) -> Decoded:
+    """ROS 2: fixed-layout messages in bulk (``cdr_bulk``), anything else message by message."""
+    from logtools.readers.cdr_bulk import decode_cdr_bulk
+
+    frame = decode_cdr_bulk(schema, channel.message_encoding, payloads)
+    return Decoded(frame) if frame is not None else decode_cdr_each(schema, channel, payloads)
+
+
 DEFAULT_DECODERS: Decoders = MappingProxyType(
     {
         "json": decode_json,
-        "cdr": _FactoryDecoder(_ros2_factory),
+        "cdr": decode_cdr,
         "ros1": _FactoryDecoder(_ros1_factory),
         "protobuf": _FactoryDecoder(_protobuf_factory),
     }

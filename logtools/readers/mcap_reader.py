@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import mmap
 from collections.abc import Iterable
 
 import polars as pl
@@ -19,7 +18,7 @@ __all__ = ["read_mcap"]
 
 def read_mcap(
     path: str,
-    buf: bytes | mmap.mmap,
+    buf: bytes,
     topics: Iterable[str] | None = None,
     decoders: Decoders = DEFAULT_DECODERS,
 ) -> LogData:
@@ -27,7 +26,7 @@ def read_mcap(
 
     Args:
         path: file name, for messages.
-        buf: the file's bytes (starting with the MCAP magic), e.g. memory-mapped.
+        buf: the file's bytes (starting with the MCAP magic).
         topics: decode only these topics (all are still listed in ``info``); None: all.
         decoders: MCAP message encoding -> decoder.
 
@@ -37,10 +36,12 @@ def read_mcap(
     """
     scan = scan_mcap(buf)
     if not scan.channels and scan.damage.any:
+        why = f"{scan.damage.unreadable_tail_bytes} of them unreadable (truncated or corrupt)"
+        if scan.damage.chunk_errors:
+            e = scan.damage.chunk_errors[0]
+            why = f"a {e.compression or 'plain'} chunk did not open: {e.error}"
         raise NotAnMcapError(
-            path,
-            f"MCAP magic found, but no channel could be read: {len(buf)} bytes, "
-            f"{scan.damage.unreadable_tail_bytes} of them unreadable (truncated or corrupt)",
+            path, f"MCAP magic found, but no channel could be read: {len(buf)} bytes, {why}"
         )
     by_topic = _channels_by_topic(scan)
     info = {topic: _topic_info(scan, chans) for topic, chans in by_topic.items()}
@@ -233,6 +234,28 @@ def _damage_problems(
                 count=orphans,
                 message=f"{path}: {orphans} messages name a channel the file does not define; "
                 "dropped",
+            )
+        )
+    out += [
+        Problem(
+            ProblemKind.DUPLICATE_CHANNEL,
+            c.kept,
+            count=1,
+            message=f"{path}: channel id {c.channel_id} is defined for topic {c.kept!r} and again "
+            f"for topic {c.other!r}; its messages are read as {c.kept!r} (a writer reusing channel "
+            "ids: the topics may be mixed)",
+        )
+        for c in scan.channel_conflicts
+    ]
+    if scan.after_footer is not None:
+        at, n = scan.after_footer
+        what = "a second MCAP file" if scan.appended_mcap else "data that is not MCAP"
+        out.append(
+            Problem(
+                ProblemKind.CONCATENATED if scan.appended_mcap else ProblemKind.CORRUPT_BYTES,
+                count=n,
+                message=f"{path}: {n} bytes after the MCAP footer (from offset {at}) hold {what}; "
+                "they were not read (split concatenated logs and read each on its own)",
             )
         )
     out += [

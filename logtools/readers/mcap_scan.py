@@ -6,6 +6,14 @@ channel the MCAP ``log_time`` values and the raw payloads, so that decoders can 
 bulk. The summary section is read first through the footer when it is intact: its statistics give
 the expected message count per channel and its chunk index lets the scan skip over a damaged
 region to the next chunk. What could not be read is described in ``ScanResult.damage``.
+
+Bounds (issue #13): a chunk is decompressed by streaming, never beyond its declared
+uncompressed size (zstd frames may declare their own size, which is not trusted) nor beyond
+what is left of a budget for the whole file, :data:`DECOMPRESS_BASE_BYTES` +
+:data:`DECOMPRESS_RATIO` times the file size; a chunk beyond either is lost with a
+:class:`ChunkError` saying why. Opcode 0 is reserved in MCAP: zero-filled bytes are corruption,
+not millions of empty records. A second MCAP file appended after the footer and a channel id
+defined twice are recorded (``ScanResult.after_footer``, ``channel_conflicts``).
 """
 
 from __future__ import annotations
@@ -24,7 +32,17 @@ from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, ChunkIndex, Metadata, Schema, Statistics
 
-__all__ = ["MAGIC", "ChannelMessages", "ChunkError", "Damage", "ScanResult", "scan_mcap"]
+__all__ = [
+    "DECOMPRESS_BASE_BYTES",
+    "DECOMPRESS_RATIO",
+    "MAGIC",
+    "ChannelConflict",
+    "ChannelMessages",
+    "ChunkError",
+    "Damage",
+    "ScanResult",
+    "scan_mcap",
+]
 
 MAGIC = b"\x89MCAP0\r\n"
 _RECORD_HEAD = struct.Struct("<BQ")  # opcode, body length
@@ -32,6 +50,11 @@ _MESSAGE_HEAD = struct.Struct("<BQHIQQ")  # opcode, length, channel id, sequence
 _CHUNK_HEAD = struct.Struct("<QQQI")  # start, end, uncompressed size, uncompressed crc
 _FOOTER = struct.Struct("<BQQQI")
 _INT64_MAX = 2**63 - 1
+DECOMPRESS_BASE_BYTES = 64 * 2**20
+"""Decompressed bytes every file may produce, whatever its size (64 MiB)."""
+DECOMPRESS_RATIO = 32
+"""Further decompressed bytes per byte of file (real logs compress 2-10 times)."""
+_STREAM_STEP = 1 << 20
 
 
 class _CorruptRecordError(Exception):
@@ -63,6 +86,25 @@ class ChunkError:
     t1_ns: int
     error_type: str
     error: str
+
+
+@dataclass(frozen=True)
+class ChannelConflict:
+    """A channel id defined a second time with another topic, encoding or schema.
+
+    Attributes:
+        channel_id: the id.
+        kept: the topic of the first definition (the one the id's messages are read as).
+        other: the topic of the later definition (ignored).
+    """
+
+    channel_id: int
+    kept: str
+    other: str
+
+
+class _BudgetError(Exception):
+    """Decompression beyond the declared size or the file's budget."""
 
 
 @dataclass
@@ -112,6 +154,13 @@ class ScanResult:
     chunk_indexes: list[ChunkIndex] = field(default_factory=list)
     reached_footer: bool = False
     damage: Damage = field(default_factory=Damage)
+    after_footer: tuple[int, int] | None = None
+    """(offset, bytes) of data after the footer's closing magic; None when the file ends there."""
+    appended_mcap: bool = False
+    """The data after the footer starts with the MCAP magic: a second file was appended."""
+    channel_conflicts: list[ChannelConflict] = field(default_factory=list)
+    budget: int = 0
+    """Decompressed bytes the scan may still produce."""
 
 
 def scan_mcap(buf: bytes | mmap.mmap) -> ScanResult:
@@ -124,13 +173,13 @@ def scan_mcap(buf: bytes | mmap.mmap) -> ScanResult:
         The schemas, channels, raw messages per channel, metadata records, summary statistics
         (when readable) and a description of any damage.
     """
-    result = ScanResult(size=len(buf))
+    result = ScanResult(size=len(buf), budget=DECOMPRESS_BASE_BYTES + DECOMPRESS_RATIO * len(buf))
     summary_start = _read_summary(buf, result)
     data_end = summary_start or len(buf)  # with a good summary, the data section ends there
     resume_points = sorted(ci.chunk_start_offset for ci in result.chunk_indexes)
     pos = len(MAGIC)
     while True:
-        stop = _scan_records(buf, pos, data_end, result)
+        stop = _scan_records(buf, pos, data_end, result, top=True)
         if stop is None:
             result.reached_footer = result.reached_footer or bool(summary_start)
             return result
@@ -158,17 +207,23 @@ def _read_summary(buf: bytes | mmap.mmap, result: ScanResult) -> int:
     if opcode != Opcode.FOOTER or length != 20 or not len(MAGIC) <= summary_start < at:
         return 0
     probe = ScanResult(size=n)
-    if _scan_records(buf, summary_start, at, probe) is not None:
-        return 0  # a damaged summary is ignored as a whole
+    if _scan_records(buf, summary_start, at, probe) is not None or probe.reached_footer:
+        return 0  # a damaged summary is ignored as a whole (a footer inside it: concatenation)
     result.schemas.update(probe.schemas)
     result.channels.update(probe.channels)
+    result.channel_conflicts += probe.channel_conflicts
     result.statistics = probe.statistics
     result.chunk_indexes = probe.chunk_indexes
     return summary_start
 
 
-def _scan_records(buf: bytes | mmap.mmap, pos: int, end: int, result: ScanResult) -> int | None:
+def _scan_records(
+    buf: bytes | mmap.mmap, pos: int, end: int, result: ScanResult, *, top: bool = False
+) -> int | None:
     """Read records from ``pos`` up to ``end``; return None when done, else the failing offset.
+
+    ``top``: ``buf`` is the file itself (not a chunk's records or the summary), so bytes after a
+    footer are the file's.
 
     Message records, by far the most frequent, are handled inline (this loop is the reader's hot
     path): one struct unpack, one slice and two list appends per message.
@@ -206,7 +261,11 @@ def _scan_records(buf: bytes | mmap.mmap, pos: int, end: int, result: ScanResult
                 _read_chunk(buf, pos + 9, body_end, result)
             elif opcode == Opcode.FOOTER:
                 result.reached_footer = True
+                if top:
+                    _note_after_footer(buf, body_end, result)
                 return None
+            elif opcode == 0:  # reserved: zero-filled or overwritten bytes
+                raise _CorruptRecordError
             elif opcode != Opcode.MESSAGE:
                 _read_other(opcode, buf[pos + 9 : body_end], result)
             else:
@@ -229,8 +288,15 @@ def _read_chunk(buf: bytes | mmap.mmap, start: int, end: int, result: ScanResult
     except (struct.error, UnicodeDecodeError) as err:
         raise _CorruptRecordError from err
     try:
-        records = _decompress(compression, buf[at : at + rlen], size)
-    except (ValueError, RuntimeError, zstandard.ZstdError, MemoryError) as err:
+        records = _decompress(compression, buf[at : at + rlen], size, result)
+    except (
+        ValueError,
+        RuntimeError,
+        OverflowError,
+        zstandard.ZstdError,
+        MemoryError,
+        _BudgetError,
+    ) as err:
         result.damage.lost_chunks.append((t0, t1))
         result.damage.chunk_errors.append(
             ChunkError(compression, t0, t1, type(err).__name__, str(err))
@@ -247,16 +313,21 @@ def _salvage_chunk(buf: bytes | mmap.mmap, start: int, end: int, result: ScanRes
     """Messages recovered from a chunk cut short (by the end of the file or a bad length)."""
     try:
         compression, at = _chunk_compression(buf, start)
+        (size,) = struct.unpack_from("<Q", buf, start + 16)
         data = buf[at + 8 : end]
-        if compression == "":
-            records = data
-        elif compression == "zstd":
-            records = zstandard.ZstdDecompressor().decompressobj().decompress(data)
-        elif compression == "lz4":
-            records = lz4.frame.LZ4FrameDecompressor().decompress(data)
-        else:
+        if compression not in ("", "zstd", "lz4"):
             return 0
-    except (struct.error, UnicodeDecodeError, ValueError, RuntimeError, zstandard.ZstdError):
+        records = _decompress(compression, data, size, result, partial=True)
+    except (
+        struct.error,
+        UnicodeDecodeError,
+        ValueError,
+        RuntimeError,
+        OverflowError,
+        zstandard.ZstdError,
+        MemoryError,
+        _BudgetError,
+    ):
         return 0
     before = sum(len(m.log_times) for m in result.messages.values())
     _scan_records(records, 0, len(records), result)
@@ -270,14 +341,54 @@ def _chunk_compression(buf: bytes | mmap.mmap, start: int) -> tuple[str, int]:
     return buf[at : at + clen].decode("utf-8"), at + clen
 
 
-def _decompress(compression: str, data: bytes, size: int) -> bytes:
+def _decompress(
+    compression: str, data: bytes, size: int, result: ScanResult, *, partial: bool = False
+) -> bytes:
+    """Decompress a chunk's records by streaming, to at most ``size`` bytes and the budget.
+
+    ``partial``: the data is cut short (salvage): what decompresses before the cut is returned.
+    """
     if compression == "":
         return data
+    if compression not in ("zstd", "lz4"):
+        raise ValueError(f"unknown chunk compression {compression!r}")
+    if size > result.budget:
+        raise _BudgetError(
+            f"it declares {size} bytes uncompressed, beyond the {result.budget} bytes left of "
+            f"the decompression budget ({DECOMPRESS_BASE_BYTES} + {DECOMPRESS_RATIO} x the "
+            "file size): corrupt or a decompression bomb"
+        )
+    out = bytearray()
     if compression == "zstd":
-        return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
-    if compression == "lz4":
-        return lz4.frame.decompress(data)
-    raise ValueError(f"unknown chunk compression {compression!r}")
+        reader = zstandard.ZstdDecompressor().stream_reader(data, read_across_frames=True)
+        try:
+            while len(out) <= size:
+                piece = reader.read(min(_STREAM_STEP, size + 1 - len(out)))
+                if not piece:
+                    break
+                out += piece
+        except zstandard.ZstdError:
+            if not partial:
+                raise
+    else:
+        lz4d = lz4.frame.LZ4FrameDecompressor()
+        try:
+            out += lz4d.decompress(data, max_length=size + 1)
+        except RuntimeError:
+            if not partial:
+                raise
+    if len(out) > size:
+        raise _BudgetError(f"it decompresses to more than the {size} bytes it declares")
+    result.budget -= len(out)
+    return bytes(out)
+
+
+def _note_after_footer(buf: bytes | mmap.mmap, footer_end: int, result: ScanResult) -> None:
+    """Record bytes after the footer and its closing magic."""
+    tail = footer_end + len(MAGIC)
+    if tail < len(buf):
+        result.after_footer = (tail, len(buf) - tail)
+        result.appended_mcap = buf[tail : tail + len(MAGIC)] == MAGIC
 
 
 def _read_other(opcode: int, body: bytes, result: ScanResult) -> None:
@@ -302,7 +413,15 @@ def _read_other(opcode: int, body: bytes, result: ScanResult) -> None:
     if isinstance(record, Schema):
         result.schemas[record.id] = record
     elif isinstance(record, Channel):
-        result.channels[record.id] = record
+        known = result.channels.get(record.id)
+        if known is None:
+            result.channels[record.id] = record
+        elif (known.topic, known.message_encoding, known.schema_id) != (
+            record.topic,
+            record.message_encoding,
+            record.schema_id,
+        ):
+            result.channel_conflicts.append(ChannelConflict(record.id, known.topic, record.topic))
     elif isinstance(record, Metadata):
         result.metadata[record.name] = dict(record.metadata)
     elif isinstance(record, Statistics):

@@ -5,12 +5,19 @@ every topic into the same frames as the MCAP reader (``t_ns`` = the bag's record
 flattened by path, arrays as numbered columns). Message types come from the definitions stored
 in the bag; where a bag stores none (rosbag2 before Humble, e.g. Foxy), from ``rosbags``' type
 store of the bag's distribution (``ros_distro`` in metadata.yaml), else of ROS 2 Foxy.
+
+A ROS 1 bag's top-level records are walked first (:func:`check_ros1_records`): ``rosbags`` reads
+each record's 32-bit length and allocates that much before reading, so one damaged length field
+asks for up to 4 GiB. The walk checks that every record fits in the file, that the index
+position is the start of a record, and that no chunk declares more uncompressed bytes than the
+decompression budget of the MCAP reader; a bag that fails is refused with the offset.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import os
+import struct
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -22,10 +29,20 @@ from logtools.errors import NotARosbagError
 from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo, sorted_by_time
 from logtools.readers.decoders import MAX_ARRAY_ITEMS, frame_from_rows
+from logtools.readers.mcap_scan import DECOMPRESS_BASE_BYTES, DECOMPRESS_RATIO
 
-__all__ = ["ROS1_MAGIC", "SQLITE_MAGIC", "bag_path", "is_rosbag", "read_rosbag"]
+__all__ = [
+    "ROS1_MAGIC",
+    "SQLITE_MAGIC",
+    "bag_path",
+    "check_ros1_records",
+    "is_rosbag",
+    "read_rosbag",
+]
 
 ROS1_MAGIC = b"#ROSBAG V2.0"
+_ROS1_OP_BAG_HEADER = 0x03
+_ROS1_OP_CHUNK = 0x05
 SQLITE_MAGIC = b"SQLite format 3\x00"
 METADATA_FILE = "metadata.yaml"
 CUSTOM_DATA_PREFIX = "logcal."
@@ -74,19 +91,107 @@ def read_rosbag(path: str | os.PathLike[str], topics: Iterable[str] | None = Non
     is_ros1 = target.is_file() and _head(target).startswith(ROS1_MAGIC)
     if target.is_file() and target.suffix.lower() != ".bag" and is_ros1:
         raise NotARosbagError(name, "a ROS 1 bag must be named *.bag for rosbags to read it")
-    errors = (AnyReaderError, Ros1ReaderError, Ros2ReaderError, OSError, ValueError, KeyError)
+    # rosbags checks some invariants of damaged bags with assert and indexes past short
+    # buffers: those are damaged bags too, not bugs of the caller
+    errors = (
+        AnyReaderError,
+        Ros1ReaderError,
+        Ros2ReaderError,
+        OSError,
+        ValueError,
+        KeyError,
+        AssertionError,
+        IndexError,
+        EOFError,
+        RuntimeError,
+        struct.error,
+    )
+    if is_ros1:
+        check_ros1_records(name, target)
     try:
         store = _default_store(target, is_ros1)
         reader = AnyReader([target], default_typestore=store)
         reader.open()
     except errors as err:
-        raise NotARosbagError(name, f"{type(err).__name__}: {err}") from err
+        raise NotARosbagError(name, _describe(err)) from err
+    except MemoryError as err:  # a length field the checks above do not reach
+        raise NotARosbagError(name, "a length field asks for more memory than there is") from err
     try:
         return _read_open(name, reader, store, is_ros1, topics)
     except errors as err:
-        raise NotARosbagError(name, f"{type(err).__name__}: {err}") from err
+        raise NotARosbagError(name, _describe(err)) from err
+    except MemoryError as err:
+        raise NotARosbagError(name, "a length field asks for more memory than there is") from err
     finally:
         reader.close()
+
+
+def _describe(err: BaseException) -> str:
+    text = str(err) or "a consistency check failed (a record does not match the bag's index)"
+    return f"{type(err).__name__}: {text}"
+
+
+def check_ros1_records(name: str, path: Path) -> None:
+    """Walk a ROS 1 bag's top-level records and refuse lengths that do not fit (see module doc).
+
+    Raises:
+        NotARosbagError: a record runs past the end of the file, the index position is not a
+            record, or a chunk declares more uncompressed bytes than the budget.
+    """
+    size = path.stat().st_size
+    budget = DECOMPRESS_BASE_BYTES + DECOMPRESS_RATIO * size
+    starts: set[int] = set()
+    index_pos: int | None = None
+    with path.open("rb") as fh:
+        first = fh.readline(64)
+        pos = len(first)
+        while pos < size:
+            starts.add(pos)
+            fh.seek(pos)
+            head = fh.read(4)
+            (hlen,) = struct.unpack("<I", head) if len(head) == 4 else (size,)
+            if pos + 4 + hlen + 4 > size:
+                raise NotARosbagError(
+                    name, f"the record at offset {pos} has a {hlen}-byte header: past the end "
+                    f"of the {size}-byte file (truncated or corrupt)"
+                )
+            fields = _ros1_header_fields(fh.read(hlen))
+            (dlen,) = struct.unpack("<I", fh.read(4))
+            end = pos + 4 + hlen + 4 + dlen
+            if end > size:
+                raise NotARosbagError(
+                    name, f"the record at offset {pos} holds {dlen} data bytes: past the end of "
+                    f"the {size}-byte file (truncated or corrupt)"
+                )
+            op = fields.get("op", b"\xff")[:1]
+            if op == bytes([_ROS1_OP_BAG_HEADER]) and len(fields.get("index_pos", b"")) == 8:
+                (index_pos,) = struct.unpack("<Q", fields["index_pos"])
+            if op == bytes([_ROS1_OP_CHUNK]) and len(fields.get("size", b"")) == 4:
+                (unpacked,) = struct.unpack("<I", fields["size"])
+                if unpacked > budget:
+                    raise NotARosbagError(
+                        name, f"the chunk at offset {pos} declares {unpacked} bytes uncompressed, "
+                        f"beyond the decompression budget of {budget} bytes"
+                    )
+            pos = end
+    if index_pos is not None and index_pos not in starts and index_pos != size:
+        raise NotARosbagError(
+            name, f"its header puts the index at offset {index_pos}, where no record starts"
+        )
+
+
+def _ros1_header_fields(header: bytes) -> dict[str, bytes]:
+    """``name=value`` fields of a ROS 1 record header (a malformed tail is ignored)."""
+    out: dict[str, bytes] = {}
+    at = 0
+    while at + 4 <= len(header):
+        (n,) = struct.unpack_from("<I", header, at)
+        field_bytes = header[at + 4 : at + 4 + n]
+        at += 4 + n
+        key, sep, value = field_bytes.partition(b"=")
+        if sep:
+            out[key.decode("latin-1")] = value
+    return out
 
 
 def _head(path: Path) -> bytes:
