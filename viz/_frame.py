@@ -6,13 +6,9 @@ import numpy as np
 import polars as pl
 from numpy.typing import NDArray
 
-from calib.results import AnalysisResult
-
 __all__ = [
     "column",
     "has",
-    "kappa_measured",
-    "link_lengths",
     "robust_limits",
     "times_ns",
 ]
@@ -31,29 +27,6 @@ def column(frame: pl.DataFrame, name: str) -> NDArray[np.float64]:
 def times_ns(frame: pl.DataFrame) -> NDArray[np.int64]:
     """The ``t_ns`` column (int64, absolute ns)."""
     return frame["t_ns"].cast(pl.Int64).to_numpy().astype(np.int64)
-
-
-def kappa_measured(frame: pl.DataFrame) -> NDArray[np.float64] | None:
-    """Measured curvature of C1 (1/m): ``kappa`` if present, else ``omega / v``; None if neither."""
-    if has(frame, "kappa"):
-        return column(frame, "kappa")
-    if has(frame, "omega", "v"):
-        v = column(frame, "v")
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(np.abs(v) > 1e-3, column(frame, "omega") / v, np.nan)
-    return None
-
-
-def link_lengths(result: AnalysisResult) -> tuple[float, float] | None:
-    """(L1, L2) in m from the recommended estimate, else the truth; None when neither has them."""
-    est = result.estimate
-    if est is not None and "L1" in est.parameters and "L2" in est.parameters:
-        l1, l2 = est.parameters["L1"].value, est.parameters["L2"].value
-        if np.isfinite(l1) and np.isfinite(l2):
-            return float(l1), float(l2)
-    if "L1" in result.truth and "L2" in result.truth:
-        return float(result.truth["L1"]), float(result.truth["L2"])
-    return None
 
 
 def robust_limits(*series: NDArray[np.float64]) -> tuple[float, float] | None:

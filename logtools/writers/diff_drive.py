@@ -21,7 +21,13 @@ from calib.diff_drive.sim import DiffDriveSim
 from logtools.errors import LogWriteError
 from logtools.writers.csv_writer import write_frames_csv
 from logtools.writers.encoding import Encoding
-from logtools.writers.mcap_writer import CdrEncoder, JsonEncoder, TopicBinding, write_frames_mcap
+from logtools.writers.mcap_writer import (
+    POSE_ODOMETRY_ROS2,
+    CdrEncoder,
+    JsonEncoder,
+    TopicBinding,
+    write_frames_mcap,
+)
 
 __all__ = ["JSON_BINDINGS", "Style", "run_frames", "run_metadata", "write_run"]
 
@@ -50,19 +56,7 @@ _TURTLE_JSON: tuple[TopicBinding, ...] = (
     TopicBinding("/pose", "pose", "logcal/Pose2D", {"x": "x", "y": "y", "yaw": "yaw"}),
 )
 
-_POSE_ROS2 = TopicBinding(
-    "/pose",
-    "pose",
-    "nav_msgs/msg/Odometry",
-    {
-        "pose.pose.position.x": "x",
-        "pose.pose.position.y": "y",
-        "pose.pose.orientation.z": "qz",
-        "pose.pose.orientation.w": "qw",
-    },
-    constants={"header.frame_id": "map", "child_frame_id": "base_link"},
-    stamp_field="header.stamp",
-)
+_POSE_ROS2 = POSE_ODOMETRY_ROS2
 _TWIST = {"linear.x": "v_cmd", "angular.z": "omega_cmd"}
 _ODOM_ROS2 = TopicBinding(
     "/odom",

@@ -69,6 +69,23 @@ class TopicBinding:
     stamp_field: str | None = None
 
 
+POSE_ODOMETRY_ROS2 = TopicBinding(
+    "/pose",
+    "pose",
+    "nav_msgs/msg/Odometry",
+    {
+        "pose.pose.position.x": "x",
+        "pose.pose.position.y": "y",
+        "pose.pose.orientation.z": "qz",
+        "pose.pose.orientation.w": "qw",
+    },
+    constants={"header.frame_id": "map", "child_frame_id": "base_link"},
+    stamp_field="header.stamp",
+)
+"""LOG_FORMAT.md's ``/pose`` in ROS 2 (planar: yaw as the quaternion (0, 0, sin yaw/2,
+cos yaw/2)), from a ``pose`` frame with columns x, y, qz, qw; shared by every robot's writer."""
+
+
 def _constant_schema(value: Any) -> dict[str, Any]:
     if isinstance(value, str):
         return {"type": "string"}

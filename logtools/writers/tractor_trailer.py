@@ -14,6 +14,7 @@ from logtools.errors import LogWriteError
 from logtools.writers.csv_writer import write_frames_csv
 from logtools.writers.encoding import ENCODINGS, Encoding, LogEncoding
 from logtools.writers.mcap_writer import (
+    POSE_ODOMETRY_ROS2,
     CdrEncoder,
     Compression,
     JsonEncoder,
@@ -62,19 +63,7 @@ ROS2_BINDINGS: tuple[TopicBinding, ...] = (
         constants=_ODOM_CONST,
         stamp_field="header.stamp",
     ),
-    TopicBinding(
-        "/pose",
-        "pose",
-        "nav_msgs/msg/Odometry",
-        {
-            "pose.pose.position.x": "x",
-            "pose.pose.position.y": "y",
-            "pose.pose.orientation.z": "qz",
-            "pose.pose.orientation.w": "qw",
-        },
-        constants={"header.frame_id": "map", "child_frame_id": "base_link"},
-        stamp_field="header.stamp",
-    ),
+    POSE_ODOMETRY_ROS2,
     TopicBinding("/hitch/angle", "hitch", "std_msgs/msg/Float64", {"data": "psi"}),
 )
 """The ROS 2 topics of LOG_FORMAT.md (yaw as the quaternion (0, 0, sin yaw/2, cos yaw/2))."""
