@@ -151,7 +151,7 @@ def test_discovered_effects_become_table_rows(tmp_path: Path) -> None:
     import dataclasses
 
     import polars as pl
-    from conftest import FAST, T0_NS
+    from batch_archive import FAST, T0_NS
 
     from calib.sim.presets import preset
     from calib.sim.tractor_trailer import Effects, simulate_tractor_trailer

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import polars as pl
 import pytest
-from conftest import FAST, small_archive
+from batch_archive import FAST, small_archive
 
 from logtools.batch.engines import Engine
 from logtools.batch.runner import read_records, run_batch

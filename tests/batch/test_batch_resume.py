@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import polars as pl
-from conftest import FAST, sim_log, small_archive
+from batch_archive import FAST, sim_log, small_archive
 
 from logtools.batch.runner import MANIFEST, run_batch
 

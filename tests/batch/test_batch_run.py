@@ -11,7 +11,7 @@ from urllib.parse import unquote, urlsplit
 
 import polars as pl
 import pytest
-from conftest import HOSTILE_FILE, HOSTILE_ROBOT_ID, HOSTILE_TOPIC
+from batch_archive import HOSTILE_FILE, HOSTILE_ROBOT_ID, HOSTILE_TOPIC
 
 from logtools.batch.runner import BatchSummary, read_records
 

@@ -7,8 +7,8 @@ from types import SimpleNamespace
 import numpy as np
 import polars as pl
 import pytest
-from conftest import views_for
 from rrd_read import read_rrd
+from viz_cases import views_for
 
 from calib.models.hitch_kinematics import steady_state_psi
 from calib.results import PM_MEANING
