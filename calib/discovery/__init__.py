@@ -100,14 +100,15 @@ def _effect_fit(
     effect: Effect, conf: Confirmed, data: DiscoveryData, alternatives: Sequence[str]
 ) -> EffectFit:
     """Parameters of ``effect`` in the final joint fit, with Fisher 95 % intervals (a time
-    shift's include the sampling resolution dt / sqrt(12)), and its evidence."""
+    shift's include the time resolution / sqrt(12): the grid's period, or the command's where
+    it jumps; ``DiscoveryData.time_resolution_s``), and its evidence."""
     final, cov = conf.final, conf.cov
     ev = conf.evidence[effect.key]
     pars, std, ci, units = {}, {}, {}, {}
     for p in effect.params:
         name = f"{effect.key}.{p.name}"
         v = float(final.theta[final.names.index(name)])
-        sd = param_std(final, cov, name, p.time_shift, data.dt_s)
+        sd = param_std(final, cov, name, p.time_shift, data.time_resolution_s)
         pars[p.name], std[p.name], units[p.name] = v, sd, p.unit
         ci[p.name] = (v - 1.96 * sd, v + 1.96 * sd)
     return EffectFit(

@@ -12,13 +12,13 @@ Two passes after the greedy rounds (``selection``):
    accepted set, the other side is fitted in its place (jointly with the link lengths and the
    other effects, on the training blocks). If it is better by more than ``EQUIVALENCE_MARGIN``
    BIC units and no worse on the held-out blocks, it replaces the accepted side; if the two are
-   within the margin (or both fit the held-out blocks to within ``data.RESOLUTION``), the
+   within the margin (or their held-out RMS differ by less than ``data.RESOLUTION``), the
    explanation with fewer effects (one physical cause rather than two)
    is reported, on equal counts the lower BIC (a replacement's held-out error at most
    ``TIE_HOLDOUT_SLACK`` times larger), and the other is listed as an alternative. An
    alternative is listed only if its own parameters are significant.
 2. Each remaining effect must earn its place in the final model: its 95 % interval (Fisher,
-   on the final joint fit over all valid rows; a time shift's includes the sampling resolution)
+   on the final joint fit over all valid rows; a time shift's includes the time resolution)
    excludes the value at which it does nothing, and removing it (refitting the rest on the
    training blocks) makes the noise-weighted held-out error larger and the held-out RMS of one
    of its channels larger. Effects that fail are dropped one at a time (the weakest evidence
@@ -227,7 +227,7 @@ def _ci95(fit: ModelFit, data: DiscoveryData) -> dict[str, dict[str, tuple[float
     for e in fit.spec.effects:
         out[e.key] = {}
         for p in e.params:
-            sd = param_std(fit, cov, f"{e.key}.{p.name}", p.time_shift, data.dt_s)
+            sd = param_std(fit, cov, f"{e.key}.{p.name}", p.time_shift, data.time_resolution_s)
             v = vals[e.key][p.name]
             out[e.key][p.name] = (v - 1.96 * sd, v + 1.96 * sd)
     return out
@@ -297,11 +297,14 @@ def _equivalences(
             h_new = holdout_rms(g.spec, g.theta, data, test)
             h_cur = holdout_rms(train.spec, train.theta, data, test)
             w_new, w_cur = weighted_holdout(h_new, data), weighted_holdout(h_cur, data)
-            # both fit the held-out blocks to within the resolution: no log can tell them apart
-            # (on a noise-free log BIC differences of numerical error are large)
-            below = all(max(h_new[c], h_cur[c]) < RESOLUTION[c] for c in h_cur)
+            # they differ on the held-out blocks by less than the resolution (the finest misfit
+            # worth explaining, as in ``is_material``): this log cannot tell them apart (on a
+            # noise-free log BIC differences of numerical error are large)
+            below = all(
+                math.sqrt(abs(h_new[c] ** 2 - h_cur[c] ** 2)) < RESOLUTION[c] for c in h_cur
+            )
             tie = abs(d_bic) <= EQUIVALENCE_MARGIN or below
-            better = d_bic < -EQUIVALENCE_MARGIN and w_new <= w_cur
+            better = d_bic < -EQUIVALENCE_MARGIN and w_new <= w_cur and not below
             switch = better or (
                 tie and (fewer or (same and d_bic < 0)) and w_new <= TIE_HOLDOUT_SLACK * w_cur
             )
@@ -372,7 +375,7 @@ def _evidence(
         hold_g = holdout_rms(g.spec, g.theta, data, test)
         ci_ok = True
         for p in e.params:
-            sd = param_std(final, cov, f"{e.key}.{p.name}", p.time_shift, data.dt_s)
+            sd = param_std(final, cov, f"{e.key}.{p.name}", p.time_shift, data.time_resolution_s)
             v = fvals[e.key][p.name]
             if not (math.isfinite(sd) and abs(v - p.null) > 1.96 * sd):
                 ci_ok = False

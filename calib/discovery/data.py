@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import polars as pl
@@ -103,7 +103,9 @@ class DiscoveryData:
     of travel, where the modelled joint angle still forgets its assumed initial state, and
     ``REANCHOR_M`` after each restart of the joint-angle model: ``anchors`` (aligned rows) and
     ``anchors_d`` (fitting rows) map where it restarts from the recorded angle (reversing,
-    gaps longer than ``GAP_S``) to that angle.
+    gaps longer than ``GAP_S``) to that angle. ``sampled``: per output whose aligned values are
+    the linear interpolation of its own samples (checked), those samples' times (s from the
+    first row): the model is then recorded the same way (``model.as_recorded``).
     """
 
     t_ns: NDArray[np.int64]
@@ -125,6 +127,7 @@ class DiscoveryData:
     anchors: dict[int, float]
     anchors_d: dict[int, float]
     command: CommandSignal
+    sampled: dict[str, FloatArray] = field(default_factory=dict)
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -134,6 +137,12 @@ class DiscoveryData:
     def dt_s(self) -> float:
         """Median sample period of the aligned grid (s)."""
         return float(np.median(np.diff(self.t_s)))
+
+    @property
+    def time_resolution_s(self) -> float:
+        """How well a time shift can be known (s): the aligned grid's period, or the command's
+        sample period where it jumps (a jump is only known to lie between two samples)."""
+        return max(self.dt_s, self.command.jump_period_s)
 
     @property
     def n_fit(self) -> int:
@@ -162,10 +171,16 @@ def _half_grid(t_s: FloatArray, y: FloatArray) -> FloatArray:
 class CommandSignal:
     """The recorded command as a function of continuous time.
 
-    Linear between samples, except across a jump (``jump_intervals``), where it holds the old
-    value until the next sample (zero-order hold). ``at`` averages it over [t, t + eps]
-    (eps = 1/50 of the sample period): continuous in a time shift, yet a jump that falls on a
-    sample is seen at that sample.
+    Linear between samples, except across a jump (``jump_intervals``): a jump is only known
+    to lie between the two samples that show it, and is placed at their midpoint, its
+    expected place (holding the old value to the later sample would make every jump late by
+    half a period on average, which a fitted dead time or clock offset takes up). ``at``
+    averages it over the window
+    [t - eps/2, t + eps/2], eps the period of the grid it is evaluated on (``prepare_data``:
+    the aligned grid's; default 1/50 of the command's period): each row stands for its own
+    sample interval, as the block means of the fitting grid do, so the modelled outputs are
+    continuous in a time shift (a dead time, a clock offset) even across a held jump, where a
+    point sample would give the fit a zero gradient and leave the shift where it started.
     """
 
     t_s: FloatArray
@@ -173,19 +188,45 @@ class CommandSignal:
     slope: FloatArray
     cum: FloatArray
     eps: float
+    jump_period_s: float = 0.0
 
     @classmethod
     def from_samples(
-        cls, t_s: FloatArray, y: FloatArray, *, hold_jumps: bool = True
+        cls,
+        t_s: FloatArray,
+        y: FloatArray,
+        *,
+        hold_jumps: bool = True,
+        window_s: float | None = None,
     ) -> CommandSignal:
         """``hold_jumps=False``: linear across jumps too (a jump recorded by a slow command
-        topic is only known to lie between two samples; the ramp is its expected place)."""
+        topic is only known to lie between two samples; the ramp is its expected place).
+        ``window_s``: width (s) of the window ``at`` averages over (default 1/50 of the
+        command's median period). ``jump_period_s``: the median sample period across the
+        command's jumps (0 without jumps), the uncertainty of their times."""
         dt = np.diff(t_s)
-        jumps = jump_intervals(y) if hold_jumps else np.zeros(dt.size, dtype=bool)
+        eps = float(np.median(dt)) / 50.0 if dt.size else 1e-6
+        jumps = jump_intervals(y) if dt.size else np.zeros(0, dtype=bool)
+        # across a gap in the topic (a dropout, a stall) a change is no jump that can be
+        # placed: linear is its expected course
+        if dt.size:
+            jumps &= dt <= 1.5 * float(np.median(dt))
+        jump_period = float(np.median(dt[jumps])) if jumps.any() else 0.0
+        if not hold_jumps:
+            jumps[:] = False
+        if jumps.any():  # a knot at each jump's midpoint: old value before, new value after
+            j = np.flatnonzero(jumps)
+            t_s = np.insert(t_s, j + 1, 0.5 * (t_s[j] + t_s[j + 1]))
+            y = np.insert(y, j + 1, y[j + 1])
+            jumps = np.zeros(t_s.size - 1, dtype=bool)
+            jumps[j + np.arange(j.size)] = True
+            jumps[j + np.arange(j.size) + 1] = True
+            dt = np.diff(t_s)
         slope = np.where(jumps, 0.0, np.diff(y) / np.where(dt > 0, dt, 1.0))
         cum = np.concatenate([[0.0], np.cumsum(y[:-1] * dt + 0.5 * slope * dt * dt)])
-        eps = float(np.median(dt)) / 50.0 if dt.size else 1e-6
-        return cls(t_s, y, slope, cum, eps)
+        if window_s is not None and window_s > 0:
+            eps = float(window_s)
+        return cls(t_s, y, slope, cum, eps, jump_period)
 
     def integral(self, tq: FloatArray) -> FloatArray:
         """Integral from t_s[0] to ``tq`` (held constant outside the samples)."""
@@ -198,8 +239,9 @@ class CommandSignal:
         return np.where(tq < t[0], before, np.where(tq > t[-1], after, inside))
 
     def at(self, tq: FloatArray) -> FloatArray:
-        """Mean over [tq, tq + eps] (units of y)."""
-        return (self.integral(tq + self.eps) - self.integral(tq)) / self.eps
+        """Mean over [tq - eps/2, tq + eps/2] (units of y)."""
+        h = 0.5 * self.eps
+        return (self.integral(tq + h) - self.integral(tq - h)) / self.eps
 
 
 def command_samples(t_s: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -258,6 +300,44 @@ def _raw(
     ok = np.isfinite(y)
     order = np.argsort(t[ok], kind="stable")
     return t[ok][order], y[ok][order]
+
+
+def _interpolated_from(
+    signals: Mapping[str, pl.DataFrame] | None,
+    name: str,
+    t_ns: NDArray[np.int64],
+    y: FloatArray,
+) -> FloatArray | None:
+    """Times (s from ``t_ns[0]``) of output ``name``'s own samples if its aligned values ``y``
+    at ``t_ns`` are their linear interpolation (RMS difference under 1 % of the RMS change
+    between consecutive samples: a zero-order hold would differ by about that change) and
+    they are sparser than the aligned grid, else None.
+
+    Why: a slow topic interpolated onto a faster grid turns a jump of the yaw rate (a step
+    command) into a ramp over its sample period, and bends the joint angle's fast transients;
+    compared with the model at every row, that ramp is a misfit of many times the noise that
+    no catalogue effect explains (a clock offset fitted to it drifts with the conditions).
+    Recording the model the same way removes it.
+    """
+    raw = _raw(signals, name)
+    if raw is None:
+        return None
+    t_raw, y_raw = raw
+    keep = np.concatenate([[True], np.diff(t_raw) > 0])
+    t_raw, y_raw = t_raw[keep], y_raw[keep]
+    if t_raw.size < 4 or t_raw.size >= 0.8 * t_ns.size:
+        return None
+    base = float(t_ns[0])
+    ts = (t_raw - base) / 1e9
+    t_s = (t_ns - t_ns[0]) / 1e9
+    inside = (t_s >= ts[0]) & (t_s <= ts[-1])
+    if not inside.any():
+        return None
+    rebuilt = np.interp(t_s[inside], ts, y_raw)
+    step = float(np.sqrt(np.mean(np.diff(y_raw) ** 2)))
+    if float(np.sqrt(np.mean((rebuilt - y[inside]) ** 2))) > 0.01 * step + 1e-12:
+        return None
+    return np.asarray(ts, dtype=float)
 
 
 def prepare_data(
@@ -321,6 +401,11 @@ def prepare_data(
             f"{FIT_RATE_HZ:g} Hz; need at least {MIN_FIT_SAMPLES}"
         )
     outputs = {c: _column(df, c) for c in outs}
+    sampled = {}
+    for c, y in outputs.items():
+        ts = _interpolated_from(signals, c, t_ns, y)
+        if ts is not None:
+            sampled[c] = ts
     sigma, sigma_d = {}, {}
     for c, y in outputs.items():
         raw = _raw(signals, c)
@@ -371,7 +456,9 @@ def prepare_data(
         tk = (cmd.get_column("t_ns").cast(pl.Int64).to_numpy() - t_ns[0]) / 1e9
         tk, yk = command_samples(tk, _column(cmd, "kappa_cmd"))
     period = float(np.median(np.diff(tk))) if tk.size > 1 else 0.0
-    command = CommandSignal.from_samples(tk, yk, hold_jumps=period <= HOLD_JUMPS_MAX_PERIOD_S)
+    command = CommandSignal.from_samples(
+        tk, yk, hold_jumps=period <= HOLD_JUMPS_MAX_PERIOD_S, window_s=dt
+    )
     kc = command.at(t_s)
     block = np.minimum((np.arange(nb) * N_TIME_BLOCKS) // nb, N_TIME_BLOCKS - 1).astype(np.int64)
     return DiscoveryData(
@@ -394,4 +481,5 @@ def prepare_data(
         anchors=anchors,
         anchors_d=anchors_d,
         command=command,
+        sampled=sampled,
     )

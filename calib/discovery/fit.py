@@ -258,8 +258,9 @@ def _hac_covariance(
 
 
 def param_std(fit: ModelFit, cov: FloatArray, name: str, time_shift: bool, dt_s: float) -> float:
-    """Standard error of parameter ``name``: the Fisher variance, plus for a time shift the
-    sampling resolution dt^2 / 12 (a jump is only known to lie within one sample period)."""
+    """Standard error of parameter ``name``: the Fisher variance, plus for a time shift (a
+    dead time, a clock offset, a lag's time constant) the resolution dt^2 / 12 (a jump is only
+    known to lie within one sample period; ``DiscoveryData.time_resolution_s``)."""
     i = fit.names.index(name)
     var = max(float(cov[i, i]), 0.0) + (dt_s**2 / 12.0 if time_shift else 0.0)
     return math.sqrt(var) if var > 0 and math.isfinite(var) else math.nan

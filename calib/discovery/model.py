@@ -17,11 +17,13 @@ from numpy.typing import NDArray
 
 from calib.discovery.data import DiscoveryData, block_mean
 from calib.discovery.effects import Effect, ParamSpec
+from calib.models.rk4 import rk4_trajectory
 
 __all__ = [
     "BASE_PARAMS",
     "ModelSpec",
     "Vector",
+    "as_recorded",
     "integrate_hitch",
     "integrate_hitch_half",
     "predict",
@@ -136,52 +138,50 @@ def integrate_hitch_half(
     at those samples: where the model cannot run open loop (reversing, where the joint angle
     is unstable), it restarts from the recorded angle.
     """
-    tl, kl, vl = th_s.tolist(), kappa_h.tolist(), v_h.tolist()
     sin, cos = math.sin, math.cos
-    p = float(steady_psi(np.array([kl[0]]), L1, L2)[0]) if psi0 is None else psi0
-    n = (len(tl) + 1) // 2
-    out = [0.0] * n
+    p = float(steady_psi(kappa_h[:1], L1, L2)[0]) if psi0 is None else psi0
     inv = 1.0 / lam if lam > 0 else 1e9
     reset = dict(anchors) if anchors else {}
     if 0 in reset:
         p = reset[0]
-    out[0] = p
 
     def f(q: float, k: float, v: float) -> float:
         return v * (k * (L2 + L1 * cos(q)) - sin(q)) * inv
 
-    for i in range(n - 1):
-        j = 2 * i
-        h = tl[j + 2] - tl[j]
-        k0, km, k1 = kl[j], kl[j + 1], kl[j + 2]
-        v0, vm, v1 = vl[j], vl[j + 1], vl[j + 2]
-        travel = h * max(abs(v0), abs(vm), abs(v1)) * inv
-        if travel <= MAX_STEP_LENGTHS:
-            f1 = f(p, k0, v0)
-            f2 = f(p + 0.5 * h * f1, km, vm)
-            f3 = f(p + 0.5 * h * f2, km, vm)
-            f4 = f(p + h * f3, k1, v1)
-            p = p + h / 6.0 * (f1 + 2.0 * f2 + 2.0 * f3 + f4)
-        else:  # sub-steps; inputs linear on each half of the step
-            ns = math.ceil(travel / MAX_STEP_LENGTHS)
-            hs = h / ns
+    h = th_s[2::2] - th_s[:-2:2]
+    k0, km, k1 = kappa_h[:-2:2], kappa_h[1::2], kappa_h[2::2]
+    v0, vm, v1 = v_h[:-2:2], v_h[1::2], v_h[2::2]
+    travel = h * np.maximum(np.maximum(np.abs(v0), np.abs(vm)), np.abs(v1)) * inv
+    ns = np.where(travel > MAX_STEP_LENGTHS, np.ceil(travel / MAX_STEP_LENGTHS), 1).astype(int)
+    ends = np.cumsum(ns)  # RK4 steps done at each sample after the first
+    step = np.repeat(np.arange(ns.size), ns)  # the sample step each RK4 step belongs to
+    nss = ns[step]
+    j = np.arange(step.size) - (ends - ns)[step]
 
-            def at(u: float, a: float, b: float, c: float) -> float:
-                return a + (b - a) * 2.0 * u if u <= 0.5 else b + (c - b) * (2.0 * u - 1.0)
+    def stage(u: FloatArray, x: tuple[FloatArray, ...], exact: FloatArray) -> list[float]:
+        """Input at fraction u of the sample step; sub-steps take it linear on each half."""
+        a, b, c = x[0][step], x[1][step], x[2][step]
+        sub = np.where(u <= 0.5, a + (b - a) * 2.0 * u, b + (c - b) * (2.0 * u - 1.0))
+        return np.where(nss > 1, sub, exact[step]).tolist()
 
-            for s_ in range(ns):
-                u0, uh, u1 = s_ / ns, (s_ + 0.5) / ns, (s_ + 1) / ns
-                ka, kb, kc = at(u0, k0, km, k1), at(uh, k0, km, k1), at(u1, k0, km, k1)
-                va, vb, vc = at(u0, v0, vm, v1), at(uh, v0, vm, v1), at(u1, v0, vm, v1)
-                f1 = f(p, ka, va)
-                f2 = f(p + 0.5 * hs * f1, kb, vb)
-                f3 = f(p + 0.5 * hs * f2, kb, vb)
-                f4 = f(p + hs * f3, kc, vc)
-                p = p + hs / 6.0 * (f1 + 2.0 * f2 + 2.0 * f3 + f4)
-        if reset and (i + 1) in reset:
-            p = reset[i + 1]
-        out[i + 1] = p
-    return np.asarray(out)
+    kx, vx = (k0, km, k1), (v0, vm, v1)
+    u0, uh, u1 = j / nss, (j + 0.5) / nss, (j + 1) / nss
+    start = list(zip(stage(u0, kx, k0), stage(u0, vx, v0), strict=True))
+    mid = list(zip(stage(uh, kx, km), stage(uh, vx, vm), strict=True))
+    end = list(zip(stage(u1, kx, k1), stage(u1, vx, v1), strict=True))
+    marks = ends.tolist()
+    resets = {marks[i - 1]: float(x) for i, x in reset.items() if 1 <= i <= len(marks)}
+    return rk4_trajectory(
+        f, p, (h[step] / nss).tolist(), start, mid, end, keep=marks, resets=resets
+    )
+
+
+def _true_psi(y: float, stage2: Sequence[tuple[Effect, dict[str, float]]]) -> float:
+    """The true joint angle (rad) behind a recorded one: the output effects undone, last
+    applied first."""
+    for e, p in sorted(stage2, key=lambda x: x[0].order, reverse=True):
+        y = e.true_from_recorded("psi", y, p)
+    return y
 
 
 def predict(
@@ -220,22 +220,37 @@ def predict(
         om = v * kappa
         for e, p in sorted(stage2, key=lambda x: x[0].order):
             om = e.modify_output("omega", data.t_s, om, p)
-        out["omega"] = block_mean(om, m)
+        out["omega"] = block_mean(as_recorded(data, "omega", om), m)
     if "psi" in data.outputs:
         lam = L2 if spec.baseline == "transient" else None
         for e, p in pairs:
             lam_e = e.relaxation_length(p)
             lam = lam_e if lam_e is not None else lam
+        # restarts take the recorded angle with the joint-angle sensor's effects taken out
+        psi0 = _true_psi(data.psi0, stage2)
         if lam is None:
             out["psi"] = block_mean(steady_psi(kappa, L1, L2), m)
         elif full_rate:
-            out["psi"] = integrate_hitch_half(
-                data.th_s, kh, vh, L1, L2, lam, data.psi0, data.anchors
-            )
+            anchors = {i: _true_psi(y, stage2) for i, y in data.anchors.items()}
+            out["psi"] = integrate_hitch_half(data.th_s, kh, vh, L1, L2, lam, psi0, anchors)
         else:
             k_d, v_d = block_mean(kappa, m), block_mean(v, m)
-            out["psi"] = integrate_hitch(t, k_d, v_d, L1, L2, lam, data.psi0, data.anchors_d)
+            anchors = {i: _true_psi(y, stage2) for i, y in data.anchors_d.items()}
+            out["psi"] = integrate_hitch(t, k_d, v_d, L1, L2, lam, psi0, anchors)
     if "psi" in out:
         for e, p in sorted(stage2, key=lambda x: x[0].order):
             out["psi"] = e.modify_output("psi", t, out["psi"], p)
+        if full_rate:  # on the fitting grid the joint angle is modelled at block means already
+            out["psi"] = as_recorded(data, "psi", out["psi"])
     return out
+
+
+def as_recorded(data: DiscoveryData, name: str, y: FloatArray) -> FloatArray:
+    """Output ``name`` modelled on the aligned grid (``y``) as the log records it: sampled at
+    its own topic's times and linearly interpolated back onto the grid, as the aligned frame
+    was built (``data.sampled``; unchanged when the output is not known to be sampled so)."""
+    ts = data.sampled.get(name)
+    if ts is None:
+        return y
+    t = data.t_s[: y.size]
+    return np.interp(t, ts, np.interp(ts, t, y))

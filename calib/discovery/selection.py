@@ -116,9 +116,9 @@ class SelectionStep:
 
 def z_scores(fit: ModelFit, effect: Effect, data: DiscoveryData) -> dict[str, float]:
     """Distance of the effect's parameters from their null values, in the standard errors that
-    are reported (a time shift's include the sampling resolution; ``fit.param_std``)."""
+    are reported (a time shift's include the time resolution; ``fit.param_std``)."""
     cov = covariance(fit, data)
-    dt = data.dt_s
+    dt = data.time_resolution_s
     out = {}
     for p in effect.params:
         name = f"{effect.key}.{p.name}"
@@ -164,7 +164,7 @@ def _stability(
         for j, p in enumerate(e.params):
             a, b = vals[0][j], vals[1][j]
             split[p.name] += [a, b]
-            res2 = (data.dt_s**2 / 6.0) if p.time_shift else 0.0
+            res2 = (data.time_resolution_s**2 / 6.0) if p.time_shift else 0.0
             sd = math.sqrt(sds[0][j] ** 2 + sds[1][j] ** 2 + res2)
             scale = max(abs(a - p.null), abs(b - p.null))
             if abs(a - b) > rules.max_split_z * sd and abs(a - b) > rules.max_split_rel * scale:

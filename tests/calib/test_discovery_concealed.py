@@ -16,6 +16,8 @@ from mcap.reader import make_reader
 from calib.discovery import DiscoveryResult, discover
 from calib.results import CommandType, Segment
 
+pytestmark = pytest.mark.slow  # discovery on twelve fixed logs: about a minute in all
+
 TRUTH = load_truth()
 _CACHE: dict[tuple[str, str], DiscoveryResult] = {}
 

@@ -12,6 +12,7 @@ import inspect
 import json
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Literal
 
@@ -19,10 +20,10 @@ import numpy as np
 import polars as pl
 import pytest
 from discovery_logs import LOG_DIR, read_aligned
+from sim_frame import aligned_frame_from_run  # type: ignore[import-not-found]
 
 from calib.discovery import DEFAULT_BASELINE, DiscoveryResult, catalogue, discover
 from calib.discovery.model import BASE_PARAMS
-from calib.discovery.simframe import aligned_frame_from_run
 from calib.results import CommandType
 from calib.sim.commands import CommandSequence, CommandSpec
 from calib.sim.tractor_trailer import (
@@ -123,6 +124,7 @@ def test_L1_may_be_negative_or_zero() -> None:
     assert BASE_PARAMS[0].lower < -0.5 < 0.0 < BASE_PARAMS[0].upper
 
 
+@pytest.mark.slow
 def test_hitch_clock_late_at_high_speed_is_named() -> None:
     """Issue 8: a joint-angle topic stamped 0.4 s late at 5-8 m/s was not named."""
     scn = scenario(indgen.Effects(clock_offset_s={"hitch": 0.4}), random_speed(5.0, 8.0), M=0.05)
@@ -141,6 +143,7 @@ def test_understeer_with_varying_speed_is_named() -> None:
     assert inside(res, "understeer", "K", 0.05)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("baseline", ["transient", "steady"])
 def test_dead_time_is_one_cause_with_clock_offsets_as_alternative(baseline: str) -> None:
     """Issue 8: a 0.6 s actuator dead time was reported as two clock offsets. At constant
@@ -174,6 +177,39 @@ def test_understeer_at_constant_speed_lists_the_yaw_rate_gain() -> None:
     assert other in res.effects[0].alternatives, res.report()
 
 
+def step_scenario(effects: indgen.Effects) -> indgen.Scenario:
+    """Curvature steps (true jumps between command samples) at 2 m/s, 50 Hz topics."""
+    base = scenario(effects, indgen.Speed(base=2.0), duration_s=80.0)
+    steps = indgen.Command(
+        "steps",
+        M=0.1,
+        step_times=(12.0, 24.0, 36.0, 48.0, 60.0, 72.0),
+        step_levels=(0.0, 0.08, -0.05, 0.1, -0.08, 0.03, -0.1),
+    )
+    return replace(base, command=steps)
+
+
+@pytest.mark.slow
+def test_dead_time_on_step_commands_is_fitted() -> None:
+    """A dead time across held command jumps: with point samples of the command the fit had
+    no gradient and stayed at its start; averaged over each row's interval it is continuous."""
+    frame, raw = indgen_log(step_scenario(indgen.Effects(actuator_delay_s=0.15)), seed=6)
+    res = discover(frame, 1.3, 2.4, signals=raw)
+    assert labels(res) == ["actuator_delay"], res.report()
+    assert inside(res, "actuator_delay", "delay", 0.15), res.report()
+
+
+@pytest.mark.slow
+def test_steering_lag_of_a_few_samples_is_named_as_a_lag() -> None:
+    """A first-order lag of 0.06 s (three samples at 50 Hz) on step commands: the lag's exact
+    discretisation fits it; the trapezoidal one smeared it so that a dead time fitted better
+    and was named instead."""
+    frame, raw = indgen_log(step_scenario(indgen.Effects(actuator_lag_s=0.06)), seed=7)
+    res = discover(frame, 1.3, 2.4, signals=raw)
+    assert labels(res) == ["actuator_lag"], res.report()
+    assert inside(res, "actuator_lag", "time_constant", 0.06), res.report()
+
+
 def test_clean_indgen_log_reports_nothing() -> None:
     scn = scenario(indgen.Effects(), random_speed(0.5, 3.0))
     frame, raw = indgen_log(scn, seed=5)
@@ -182,6 +218,7 @@ def test_clean_indgen_log_reports_nothing() -> None:
     assert res.status == "ok"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("baseline", ["transient", "steady"])
 def test_noise_free_sample_log_reports_only_effects_that_exclude_their_null(
     baseline: str,
@@ -200,6 +237,7 @@ def test_noise_free_sample_log_reports_only_effects_that_exclude_their_null(
             assert not lo <= nulls[(e.label, name)] <= hi
 
 
+@pytest.mark.slow
 def test_reported_effects_exclude_null_and_improve_holdout() -> None:
     """The acceptance rule on a log with two effects: every reported effect's interval
     excludes its null value and removing it makes the held-out RMS of a channel worse."""
@@ -224,6 +262,7 @@ def test_reported_effects_exclude_null_and_improve_holdout() -> None:
         assert e.delta_bic < 0
 
 
+@pytest.mark.slow
 def test_joint_fit_carries_the_model_with_its_effects() -> None:
     """A hitch 2 cm ahead of the axle (L1 < 0) with a joint-angle offset: the joint fit holds
     L1, L2 with intervals and covariance from the model with the accepted effect."""

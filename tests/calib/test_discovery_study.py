@@ -10,6 +10,8 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -26,6 +28,7 @@ def _study() -> ModuleType:
     return mod
 
 
+@pytest.mark.slow
 def test_tiny_slice_runs_and_tabulates(tmp_path: Path) -> None:
     study = _study()
     out_json = tmp_path / "records.json"
@@ -89,6 +92,7 @@ def test_scoring_counts_exact_and_equivalent_names() -> None:
     assert "single: actuator_delay" in text
 
 
+@pytest.mark.slow
 def test_detectable_means_after_refitting_the_link_lengths() -> None:
     """Log 89 of seed 0 (fixed draw of the independent generator): a joint-angle scale 1.131
     with a joint-angle offset. At small angles the scale is a change of L1 + L2, so with the

@@ -31,8 +31,9 @@ class ParamSpec:
         lower, upper: bounds of the fit.
         null: value at which the effect does nothing (tested against for significance).
         starts: extra starting values tried (for parameters with several local minima).
-        time_shift: the parameter shifts a signal in time; its interval then includes the
-            sampling resolution (a jump is only known to lie within one sample period).
+        time_shift: the parameter is a time (a shift, a lag's time constant); its interval
+            then includes the time resolution (a jump is only known to lie within one sample
+            period; ``DiscoveryData.time_resolution_s``).
     """
 
     name: str
@@ -96,6 +97,13 @@ class Effect:
         self, name: str, t_s: FloatArray, y: FloatArray, p: Mapping[str, float]
     ) -> FloatArray:
         """What the sensor of output ``name`` records, given the modelled truth ``y``."""
+        return y
+
+    def true_from_recorded(self, name: str, y: float, p: Mapping[str, float]) -> float:
+        """The inverse of ``modify_output`` at one value: the true output ``name`` behind a
+        recorded ``y`` (the joint-angle model restarts from a recorded angle; a sensor effect
+        must be taken out of it first). Default: the effect does not change what is recorded
+        (a time shift is left in: the angle barely moves within one)."""
         return y
 
     def __repr__(self) -> str:

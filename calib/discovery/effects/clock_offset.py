@@ -40,7 +40,7 @@ class ClockOffset(Effect):
     ) -> tuple[FloatArray, FloatArray]:
         if self.target != "odom":
             return kappa, v
-        return kappa, np.asarray(shift(t_s, v, -p["offset"]))
+        return kappa, np.interp(t_s + p["offset"], t_s, v)
 
     def modify_output(
         self, name: str, t_s: FloatArray, y: FloatArray, p: Mapping[str, float]
@@ -48,8 +48,12 @@ class ClockOffset(Effect):
         if name != _CHANNEL[self.target or "hitch"]:
             return y
         # the joint angle is continuous: a spline keeps the fit smooth in the offset; the yaw
-        # rate jumps with step commands, where a spline would ring: linear there
-        return shift(t_s, y, p["offset"], smooth=name == "psi")
+        # rate jumps with step commands, where a spline would ring: linear there, across jumps
+        # too (a jump held at a row would give the offset a zero gradient; a one-row ramp is
+        # what the recorded, interpolated yaw rate shows anyway)
+        if name == "psi":
+            return shift(t_s, y, p["offset"], smooth=True)
+        return np.interp(t_s - p["offset"], t_s, y)
 
     def explanation(self, values: Mapping[str, float]) -> str:
         topic = "joint-angle" if self.target == "hitch" else "odometry (speed, yaw rate)"

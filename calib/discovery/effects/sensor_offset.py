@@ -31,6 +31,9 @@ class SensorOffset(Effect):
     ) -> FloatArray:
         return y + p["offset"] if name == self.target else y
 
+    def true_from_recorded(self, name: str, y: float, p: Mapping[str, float]) -> float:
+        return y - p["offset"] if name == self.target else y
+
     def explanation(self, values: Mapping[str, float]) -> str:
         what = "joint-angle sensor" if self.target == "psi" else "yaw-rate sensor"
         unit = _UNITS[self.target or "psi"]

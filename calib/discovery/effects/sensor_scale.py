@@ -29,6 +29,9 @@ class SensorScale(Effect):
     ) -> FloatArray:
         return y * p["scale"] if name == self.target else y
 
+    def true_from_recorded(self, name: str, y: float, p: Mapping[str, float]) -> float:
+        return y / p["scale"] if name == self.target and p["scale"] != 0 else y
+
     def explanation(self, values: Mapping[str, float]) -> str:
         what = "joint-angle sensor" if self.target == "psi" else "yaw-rate sensor"
         pct = 100.0 * (values["scale"] - 1.0)

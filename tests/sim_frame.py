@@ -1,4 +1,9 @@
-"""An aligned frame built from a simulated run, for tests and studies without logtools."""
+"""An aligned frame built from a simulated run, for tests and studies without logtools.
+
+Test and bench helper (moved out of ``calib.discovery``: the library has no use for it);
+imported as ``sim_frame`` with ``tests/`` on the path (pytest's ``pythonpath``; bench scripts
+insert it).
+"""
 
 from __future__ import annotations
 

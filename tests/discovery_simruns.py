@@ -1,5 +1,8 @@
 """Random simulated runs for discovery studies (null study, coverage checks).
 
+Test and bench helper (moved out of ``calib.discovery``); imported as ``discovery_simruns``
+with ``tests/`` on the path.
+
 A run holds nothing beyond a baseline's physics when it is simulated with the matching hitch
 model ("steady" for the steady baseline, "transient" for the transient one) and no effects.
 """
@@ -11,8 +14,9 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
+from sim_frame import aligned_frame_from_run
 
-from calib.discovery.simframe import aligned_frame_from_run
+from calib.discovery import discover
 from calib.results import CommandType
 from calib.sim.commands import CommandSequence, CommandSpec
 from calib.sim.tractor_trailer import (
@@ -101,7 +105,6 @@ def null_study(n_logs: int, seed: int = 0, duration_s: float = 90.0) -> NullStud
     """Run ``discover`` on ``n_logs`` runs without effects, alternating the steady and the
     transient baseline (each simulated with its own hitch model); the calibrated link lengths
     handed to discovery are the truth perturbed by up to 10 %."""
-    from calib.discovery import discover  # local: the package imports this module's siblings
 
     rng = np.random.default_rng(seed)
     baselines: list[str] = []
