@@ -12,9 +12,12 @@ import time
 from pathlib import Path
 
 import polars as pl
+import pytest
 from batch_archive import FAST, sim_log, small_archive
 
 from logtools.batch.runner import MANIFEST, run_batch
+
+pytestmark = pytest.mark.slow  # batches killed and rerun (~13 s)
 
 N_LOGS = 7  # 6 simulated + 1 corrupt
 

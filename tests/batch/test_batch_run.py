@@ -15,6 +15,8 @@ from batch_archive import HOSTILE_FILE, HOSTILE_ROBOT_ID, HOSTILE_TOPIC
 
 from logtools.batch.runner import BatchSummary, read_records
 
+pytestmark = pytest.mark.slow  # a whole 13-log archive analysed (~17 s)
+
 OK_LOGS = 10
 FAILING = {"bad/corrupt.mcap", "unknown/u.mcap", f"hostile/{HOSTILE_FILE}"}
 

@@ -186,6 +186,7 @@ MESSAGES: dict[str, st.SearchStrategy[dict[str, Any]]] = {
 }
 
 
+@pytest.mark.slow  # hypothesis: 25 random messages per type
 @pytest.mark.parametrize("name", sorted(MESSAGES))
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data())
@@ -194,6 +195,7 @@ def test_random_messages_bulk_equals_per_message(name: str, data: st.DataObject)
     _same_as_each(name, _payloads(name, messages), must_bulk=True)
 
 
+@pytest.mark.slow  # hypothesis: 25 random messages per type
 @pytest.mark.parametrize("name", sorted(MESSAGES))
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data())

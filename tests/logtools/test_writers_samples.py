@@ -10,6 +10,8 @@ from mcap.reader import make_reader
 from logtools.readers import read_log
 from logtools.sample_logs import SAMPLES, SampleLog, main, write_sample_logs
 
+pytestmark = pytest.mark.slow  # regenerates every sample log (~7 s)
+
 SAMPLE_DIR = Path(__file__).resolve().parents[2] / "sample_logs"
 
 
