@@ -72,7 +72,7 @@ from calib.discovery.selection import SelectionRules, SelectionStep, select_effe
 from calib.discovery.signals import INPUT_UNITS, delayed, input_signals
 from calib.discovery.sparse import SparseResidualModel, fit_sparse_residual
 from calib.errors import CalibError
-from calib.results import Segment
+from calib.results import Estimate, Segment
 
 __all__ = [
     "DEFAULT_BASELINE",
@@ -104,20 +104,20 @@ def _effect_fit(
     it jumps; ``DiscoveryData.time_resolution_s``), and its evidence."""
     final, cov = conf.final, conf.cov
     ev = conf.evidence[effect.key]
-    pars, std, ci, units = {}, {}, {}, {}
+    estimates: dict[str, Estimate] = {}
     for p in effect.params:
         name = f"{effect.key}.{p.name}"
         v = float(final.theta[final.names.index(name)])
         sd = param_std(final, cov, name, p.time_shift, data.time_resolution_s)
-        pars[p.name], std[p.name], units[p.name] = v, sd, p.unit
-        ci[p.name] = (v - 1.96 * sd, v + 1.96 * sd)
+        estimates[p.name] = Estimate(
+            p.name, v, sd, (v - 1.96 * sd, v + 1.96 * sd), unit=p.unit,
+            note="Gauss-Newton Fisher interval of the final joint fit",
+        )
+    pars = {k: e.value for k, e in estimates.items()}
     return EffectFit(
         id=effect.id,
         target=effect.target,
-        parameters=pars,
-        std=std,
-        ci95=ci,
-        units=units,
+        estimates=estimates,
         channels=tuple(c for c in effect.channels if c in ev.rms_without),
         rms_before=dict(ev.rms_without),
         rms_after=dict(ev.rms_with),

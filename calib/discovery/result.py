@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from calib.discovery.diagnostics import UNITS, MismatchRegion
 from calib.discovery.sparse import SparseResidualModel
-from calib.results import json_safe
+from calib.results import Estimate, json_safe
 
 __all__ = [
     "BASELINE_DESCRIPTIONS",
@@ -154,6 +154,8 @@ class StepFailure:
 class EffectFit:
     """An accepted effect: fitted parameters with 95 % intervals and the evidence.
 
+    ``estimates``: each parameter by name as an :class:`calib.results.Estimate` (value, std,
+    95 % interval, unit); ``parameters``, ``std``, ``ci95`` and ``units`` are views of it.
     ``rms_before``/``rms_after``: held-out RMS per output (omega rad/s, psi rad) of the final
     model without this effect (the others kept and refitted) and with it; ``delta_bic`` the
     BIC change of adding it to the others (negative favours the effect); ``alternatives``
@@ -163,10 +165,7 @@ class EffectFit:
 
     id: str
     target: str | None
-    parameters: Mapping[str, float]
-    std: Mapping[str, float]
-    ci95: Mapping[str, tuple[float, float]]
-    units: Mapping[str, str]
+    estimates: Mapping[str, Estimate]
     channels: tuple[str, ...]
     rms_before: Mapping[str, float]
     rms_after: Mapping[str, float]
@@ -177,6 +176,26 @@ class EffectFit:
     @property
     def label(self) -> str:
         return self.id if self.target is None else f"{self.id}({self.target})"
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """Parameter values by name."""
+        return {k: e.value for k, e in self.estimates.items()}
+
+    @property
+    def std(self) -> dict[str, float]:
+        """Standard errors by name."""
+        return {k: e.std for k, e in self.estimates.items()}
+
+    @property
+    def ci95(self) -> dict[str, tuple[float, float]]:
+        """95 % intervals by name."""
+        return {k: e.ci95 for k, e in self.estimates.items()}
+
+    @property
+    def units(self) -> dict[str, str]:
+        """Units by name."""
+        return {k: e.unit for k, e in self.estimates.items()}
 
     def improvement(self, channel: str) -> float:
         """Relative fall of the held-out RMS of ``channel`` (0.6 = 60 % lower)."""

@@ -45,19 +45,32 @@ def project_onto_curve(
     std_kappa: float,
     std_psi: float,
     n_iter: int = 30,
+    start: np.ndarray | None = None,
 ) -> np.ndarray:
     """Joint angles (rad) of the curve points closest to the measurements in the noise metric.
 
-    Minimises ((kappa - g(p)) / s_k)^2 + ((psi - p) / s_p)^2 per point by Gauss-Newton.
+    Minimises ((kappa - g(p)) / s_k)^2 + ((psi - p) / s_p)^2 per point by Gauss-Newton. Only
+    the points still moving (by 1e-13 rad or more) are iterated: a point held at the clip bound
+    or one that converged costs nothing further, so long logs cost what their slow points need.
+    ``start``: initial angles (rad), e.g. the projection at nearby (L1, L2); default ``psi``.
     """
     wk, wp = 1.0 / std_kappa**2, 1.0 / std_psi**2
-    p = np.clip(psi, -_PSI_MAX, _PSI_MAX).astype(float, copy=True)
+    kappa = np.asarray(kappa, dtype=float)
+    psi = np.asarray(psi, dtype=float)
+    first = psi if start is None else start
+    p = np.clip(first, -_PSI_MAX, _PSI_MAX).astype(float, copy=True)
+    active = np.arange(p.size)
+    ka, sa, pa = kappa, psi, p.copy()
     for _ in range(n_iter):
-        g, dg, _ = _g(p, L1, L2)
-        step = (wk * (kappa - g) * dg + wp * (psi - p)) / (wk * dg * dg + wp)
-        p = np.clip(p + step, -_PSI_MAX, _PSI_MAX)
-        if float(np.max(np.abs(step))) < 1e-13:
+        g, dg, _ = _g(pa, L1, L2)
+        step = (wk * (ka - g) * dg + wp * (sa - pa)) / (wk * dg * dg + wp)
+        new = np.clip(pa + step, -_PSI_MAX, _PSI_MAX)
+        p[active] = new
+        moving = np.abs(new - pa) >= 1e-13
+        if not moving.any():
             break
+        active = active[moving]
+        ka, sa, pa = kappa[active], psi[active], new[moving]
     return p
 
 
@@ -142,9 +155,13 @@ class SteadyStateEIV:
         sk, sp = self._noise(k, p)
         lo, hi = self.bounds_m
 
+        last: list[np.ndarray | None] = [None]
+
         def resid(theta: np.ndarray) -> np.ndarray:
             L1, L2 = theta
-            ph = project_onto_curve(k, p, L1, L2, sk, sp)
+            # started from the previous projection: the optimiser's points are close together
+            ph = project_onto_curve(k, p, L1, L2, sk, sp, start=last[0])
+            last[0] = ph
             g, _, _ = _g(ph, L1, L2)
             return np.concatenate([(k - g) / sk, (p - ph) / sp])
 
