@@ -86,6 +86,33 @@ def bartlett_bandwidth(r: np.ndarray, factor: float = 3.0) -> int:
     return int(min(cap, max(nw, math.ceil(factor * first))))
 
 
+_FFT_MIN_LAGS = 64
+"""From this many lags on, the lagged cross-products come from one FFT (O(n log n)) instead of
+one product per lag (O(n * lags)): the same sums to rounding (~1e-12 relative)."""
+
+
+def _bartlett_long_run(s: np.ndarray, lags: int, bandwidth: int) -> FloatArray:
+    """sum_{|l| <= lags} w_l G_l with G_l = sum_t s_{t+l} s_t^T and Bartlett weights
+    w_l = 1 - |l| / (bandwidth + 1)."""
+    n, p = s.shape
+    S: FloatArray = s.T @ s
+    if lags < _FFT_MIN_LAGS:
+        for lag in range(1, lags + 1):
+            g = s[lag:].T @ s[:-lag]
+            S += (1.0 - lag / (bandwidth + 1.0)) * (g + g.T)
+        return S
+    nfft = 1 << (n + lags).bit_length()
+    F = np.fft.rfft(s, nfft, axis=0)  # (nfft // 2 + 1, p)
+    w = 1.0 - np.arange(1, lags + 1) / (bandwidth + 1.0)
+    for i in range(p):
+        # G_l[i, j] = sum_t s[t + l, i] s[t, j] = irfft(F_i conj(F_j))[l]
+        cross = np.fft.irfft(F[:, i : i + 1] * np.conj(F), nfft, axis=0)[1 : lags + 1]
+        row = w @ cross  # (p,): sum_l w_l G_l[i, :]
+        S[i, :] += row
+        S[:, i] += row
+    return S
+
+
 def hac_covariance(jac: np.ndarray, resid: np.ndarray, bandwidth: int) -> FloatArray:
     """Sandwich covariance of a least-squares estimate with autocorrelated residuals.
 
@@ -104,11 +131,7 @@ def hac_covariance(jac: np.ndarray, resid: np.ndarray, bandwidth: int) -> FloatA
     jac = np.asarray(jac, dtype=float)
     s = jac * np.asarray(resid, dtype=float)[:, None]
     n = s.shape[0]
-    S = s.T @ s
-    for lag in range(1, min(bandwidth, n - 1) + 1):
-        w = 1.0 - lag / (bandwidth + 1.0)
-        g = s[lag:].T @ s[:-lag]
-        S += w * (g + g.T)
+    S = _bartlett_long_run(s, min(bandwidth, n - 1), bandwidth)
     S *= n / max(n - s.shape[1], 1)
     H_inv = np.linalg.pinv(jac.T @ jac)
     cov = H_inv @ S @ H_inv

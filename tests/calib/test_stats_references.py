@@ -39,7 +39,7 @@ def test_ljung_box_equals_statsmodels(phi: float, lags: int) -> None:
     assert p == pytest.approx(float(ref["lb_pvalue"].iloc[0]), rel=1e-8, abs=1e-300)
 
 
-@pytest.mark.parametrize("bandwidth", [0, 5, 12])
+@pytest.mark.parametrize("bandwidth", [0, 5, 12, 80])  # 80: the FFT path (>= 64 lags)
 def test_hac_covariance_equals_statsmodels_newey_west(bandwidth: int) -> None:
     """OLS with AR(1) errors: our sandwich with the n/(n-p) factor is statsmodels' HAC
     covariance with Bartlett weights and ``use_correction=True``."""
