@@ -24,9 +24,15 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from calib.errors import SolverError
 from calib.models.rk4 import rk4_batched
 
-__all__ = ["advance_psi", "advance_psi_gain", "rk4_substeps"]
+__all__ = ["MAX_SUBSTEPS", "advance_psi", "advance_psi_gain", "rk4_substeps"]
+
+MAX_SUBSTEPS = 1000
+"""Substeps per node step beyond which a path is not a robot's: a heading or distance step
+that large between two samples (e.g. a yaw in the wrong unit) would make the integration's
+time and memory unbounded, so it is refused instead."""
 
 FloatArray = NDArray[np.float64]
 
@@ -37,6 +43,10 @@ def rk4_substeps(
     """Substeps per node step that keep RK4 well inside its stability region.
 
     The linearised rate is |d theta| |L1/L2| + |ds| / L2 per step; ``max_step`` bounds it.
+
+    Raises:
+        SolverError: the path's increments need more than ``MAX_SUBSTEPS`` substeps (or are
+            not finite): the path is not one a robot drove between two samples.
     """
     L2a = np.abs(np.asarray(L2, dtype=float))
     r = float(np.max(np.abs(np.asarray(L1, dtype=float)) / L2a))
@@ -44,6 +54,12 @@ def rk4_substeps(
     worst = float(np.max(np.abs(dtheta), initial=0.0)) * (1.0 + r) + float(
         np.max(np.abs(ds), initial=0.0)
     ) * il2
+    if not math.isfinite(worst) or worst / max_step > MAX_SUBSTEPS:
+        raise SolverError(
+            f"the path moves up to {worst:.3g} rad-equivalent between two samples, which needs "
+            f"more than {MAX_SUBSTEPS} integration substeps per sample: check the heading and "
+            "distance signals' units and outliers"
+        )
     return max(1, math.ceil(worst / max_step))
 
 

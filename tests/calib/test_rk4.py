@@ -59,3 +59,21 @@ def test_batched_equals_each_trajectory() -> None:
         ua = [(k, a) for (k,) in u]
         one = rk4_trajectory(scalar, 1.0, [0.1] * 10, ua, ua, ua, keep=[5, 10])
         np.testing.assert_allclose(y[:, j], one, rtol=1e-15)
+
+
+def test_an_undrivable_path_step_is_refused_not_integrated() -> None:
+    """A heading step of 1e6 rad between two samples (a yaw in the wrong unit) would need
+    millions of substeps: refused with the reason instead of exhausting time and memory."""
+    import numpy as np
+    import pytest
+
+    from calib.errors import SolverError
+    from calib.models.hitch_path import MAX_SUBSTEPS, rk4_substeps
+
+    L1, L2 = np.array([1.0]), np.array([2.0])
+    ok = rk4_substeps(np.full((10, 1), 0.05), np.full((10, 1), 0.1), L1, L2)
+    assert 1 <= ok <= MAX_SUBSTEPS
+    with pytest.raises(SolverError, match="integration substeps"):
+        rk4_substeps(np.full((10, 1), 1e6), np.full((10, 1), 0.1), L1, L2)
+    with pytest.raises(SolverError):
+        rk4_substeps(np.full((10, 1), np.inf), np.full((10, 1), 0.1), L1, L2)
