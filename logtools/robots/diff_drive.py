@@ -17,18 +17,14 @@ from calib.diff_drive.data import DriveRun
 from calib.diff_drive.dead_reckoning import dead_reckon
 from calib.diff_drive.discovery import discover
 from calib.diff_drive.kinematics import DiffDriveParams
-from calib.diff_drive.odometry_lsq import LsqFit, calibrate_lsq, make_estimates
+from calib.diff_drive.odometry_lsq import LsqFit, calibrate_lsq
 from calib.diff_drive.skid import effective_track
 from calib.diff_drive.umbmark import umbmark, umbmark_result
 from calib.errors import InsufficientDataError
 from calib.results import AnalysisResult, CalibrationResult
 from logtools.load import LoadedLog
 from logtools.robots.base import Progress, RobotPlugin, SignalSpec
-
-try:
-    from logtools.stages import Stages
-except ImportError:  # pragma: no cover - older tree
-    from logtools.analyze import _Stages as Stages  # type: ignore[attr-defined,no-redef]
+from logtools.stages import Stages
 
 __all__ = ["PLUGIN", "analyze_diff_drive", "nominal_params", "pool_diff_drive", "report_lines"]
 
@@ -143,13 +139,6 @@ def _params_of(result: CalibrationResult) -> DiffDriveParams:
     )
 
 
-def _nominal_result(nominal: DiffDriveParams) -> CalibrationResult:
-    est = make_estimates(
-        [nominal.r_R, nominal.r_L, nominal.b], [math.nan] * 3, False, "nominal (not estimated)"
-    )
-    return CalibrationResult("nominal", est, None, "the nominal parameters of the log")
-
-
 def _analyze_runs(
     runs: list[DriveRun],
     nominal: DiffDriveParams | None,
@@ -261,9 +250,7 @@ def analyze_diff_drive(loaded: LoadedLog, config: Any, progress: Progress) -> An
         robot="diff_drive",
         segments=[],
         methods=methods,
-        estimate=rec
-        if rec is not None
-        else (None if nominal is None else _nominal_result(nominal)),
+        estimate=rec,  # None when no calibration ran: the nominal values are in "nominal"
         discovery=disc,
         truth=loaded.truth,
         source={"path": loaded.path, "samples": loaded.frame.height},
