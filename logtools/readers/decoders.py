@@ -13,6 +13,8 @@ registered at import time, so two reads with different decoders do not affect ea
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -218,14 +220,19 @@ class _FactoryDecoder:
 
     def __call__(self, schema: Schema | None, channel: Channel, payloads: list[bytes]) -> Decoded:
         factory = self._make_factory()
-        try:
-            decode = factory.decoder_for(channel.message_encoding, schema)
-        except Exception as err:  # a schema the support package cannot parse
-            raise ValueError(f"its schema does not parse ({type(err).__name__}: {err})") from err
-        if decode is None:
-            enc = schema.encoding if schema is not None else "(no schema)"
-            raise ValueError(f"no decoder for schema encoding {enc!r}")
-        return _decode_each(payloads, decode)
+        # mcap_ros2's vendored schema parser prints the offending schema line (bytes from the
+        # log) to stderr before raising: kept off the terminal; the raised error says it
+        with contextlib.redirect_stderr(io.StringIO()):
+            try:
+                decode = factory.decoder_for(channel.message_encoding, schema)
+            except Exception as err:  # a schema the support package cannot parse
+                raise ValueError(
+                    f"its schema does not parse ({type(err).__name__}: {err})"
+                ) from err
+            if decode is None:
+                enc = schema.encoding if schema is not None else "(no schema)"
+                raise ValueError(f"no decoder for schema encoding {enc!r}")
+            return _decode_each(payloads, decode)
 
 
 def _ros2_factory() -> Any:

@@ -102,3 +102,27 @@ def test_hostile_names_are_escaped_in_info_and_analyze(
     assert "\x07" not in text
     assert "\n- forged line" not in text
     assert "\\x1b]0;pwned" in text  # shown, visibly escaped
+
+
+def test_a_broken_ros2_schema_prints_nothing_of_its_own(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """mcap_ros2's schema parser prints the offending line (bytes from the log) to stderr
+    before raising; logcal keeps that off the terminal and reports the topic cleanly."""
+    from logtools.readers import read_log
+
+    path = tmp_path / "bad_schema.mcap"
+    with path.open("wb") as f:
+        w = Writer(f)
+        w.start()
+        sid = w.register_schema(
+            "std_msgs/msg/Float64", "ros2msg", b"float64 data\n\x1b]0;pwned\x07 bad line here\n"
+        )
+        ch = w.register_channel("/hitch/angle", "cdr", sid)
+        for i in range(5):
+            w.add_message(ch, i * 1000, b"\x00\x01\x00\x00" + bytes(8), i * 1000)
+        w.finish()
+    log = read_log(path)
+    err = capsys.readouterr().err
+    assert "pwned" not in err
+    assert any("/hitch/angle" in str(p) for p in log.problems)
