@@ -63,6 +63,28 @@ def rk4_substeps(
     return max(1, math.ceil(worst / max_step))
 
 
+def _substep_inputs(
+    dtheta: np.ndarray, ds: np.ndarray, L1: np.ndarray, L2: np.ndarray, n_sub: int | None
+) -> tuple[int, list[tuple[FloatArray, FloatArray, FloatArray]]]:
+    """Substeps per node step and, per substep, the rate's inputs (d theta, d theta L1/L2,
+    ds / L2 per substep; constant over a node step). RK4 runs in units of one substep (h = 1),
+    so that the kernel adds exactly the increments."""
+    A = np.asarray(dtheta, dtype=float)
+    B = np.asarray(ds, dtype=float)
+    L1 = np.atleast_1d(np.asarray(L1, dtype=float))
+    L2 = np.atleast_1d(np.asarray(L2, dtype=float))
+    if n_sub is None:
+        n_sub = rk4_substeps(A, B, L1, L2)
+    r = (L1 / L2)[None, :]
+    il2 = (1.0 / L2)[None, :]
+    h = 1.0 / n_sub
+    per_step = []
+    for i in range(A.shape[0]):
+        a = (A[i] * h)[:, None]
+        per_step.append((a, a * r, (B[i] * h)[:, None] * il2))
+    return n_sub, [u for u in per_step for _ in range(n_sub)]
+
+
 def advance_psi(
     dtheta: np.ndarray,
     ds: np.ndarray,
@@ -83,31 +105,16 @@ def advance_psi(
     Returns:
         psi at the k + 1 nodes, shape (k + 1, c, m) (rad).
     """
-    A = np.asarray(dtheta, dtype=float)
-    B = np.asarray(ds, dtype=float)
-    L1 = np.atleast_1d(np.asarray(L1, dtype=float))
-    L2 = np.atleast_1d(np.asarray(L2, dtype=float))
-    if n_sub is None:
-        n_sub = rk4_substeps(A, B, L1, L2)
-    k = A.shape[0]
-    r = (L1 / L2)[None, :]
-    il2 = (1.0 / L2)[None, :]
+    n_sub, inputs = _substep_inputs(dtheta, ds, L1, L2, n_sub)
+    steps = len(inputs)
     cos, sin = np.cos, np.sin
 
     def rate(p: FloatArray, a: FloatArray, ar: FloatArray, b: FloatArray) -> FloatArray:
         return a + ar * cos(p) - b * sin(p)
 
-    # per node step: the substep's increments (constant over the node step); RK4 in units of
-    # one substep (h = 1), so that the kernel adds exactly the increments
-    h = 1.0 / n_sub
-    per_step = []
-    for i in range(k):
-        a = (A[i] * h)[:, None]
-        per_step.append((a, a * r, (B[i] * h)[:, None] * il2))
-    inputs = [u for u in per_step for _ in range(n_sub)]
     return rk4_batched(
-        rate, np.asarray(psi0, dtype=float), [1.0] * (k * n_sub), inputs, inputs, inputs,
-        keep=range(n_sub, k * n_sub + 1, n_sub),
+        rate, np.asarray(psi0, dtype=float), [1.0] * steps, inputs, inputs, inputs,
+        keep=range(n_sub, steps + 1, n_sub),
     )
 
 
@@ -131,15 +138,8 @@ def advance_psi_gain(
         psi at the k + 1 nodes, shape (k + 1, c, m) (rad), and the gain after the last node,
         shape (c, m).
     """
-    A = np.asarray(dtheta, dtype=float)
-    B = np.asarray(ds, dtype=float)
-    L1 = np.atleast_1d(np.asarray(L1, dtype=float))
-    L2 = np.atleast_1d(np.asarray(L2, dtype=float))
-    if n_sub is None:
-        n_sub = rk4_substeps(A, B, L1, L2)
-    k = A.shape[0]
-    r = (L1 / L2)[None, :]
-    il2 = (1.0 / L2)[None, :]
+    n_sub, inputs = _substep_inputs(dtheta, ds, L1, L2, n_sub)
+    steps = len(inputs)
     cos, sin = np.cos, np.sin
 
     def rate(y: FloatArray, a: FloatArray, ar: FloatArray, b: FloatArray) -> FloatArray:
@@ -149,16 +149,10 @@ def advance_psi_gain(
         out[1] = -(ar * s + b * c) * y[1]
         return out
 
-    h = 1.0 / n_sub
-    per_step = []
-    for i in range(k):
-        a = (A[i] * h)[:, None]
-        per_step.append((a, a * r, (B[i] * h)[:, None] * il2))
-    inputs = [u for u in per_step for _ in range(n_sub)]
     p0 = np.asarray(psi0, dtype=float)
     y0 = np.stack([p0, np.ones_like(p0)])
     out = rk4_batched(
-        rate, y0, [1.0] * (k * n_sub), inputs, inputs, inputs,
-        keep=range(n_sub, k * n_sub + 1, n_sub),
+        rate, y0, [1.0] * steps, inputs, inputs, inputs,
+        keep=range(n_sub, steps + 1, n_sub),
     )
     return out[:, 0], out[-1, 1]
