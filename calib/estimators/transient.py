@@ -50,6 +50,10 @@ class Bins:
     slope: list[np.ndarray]
 
 
+START_SPAN_S = 600.0
+"""Length of log (s) the start grid of :class:`TransientFit` is scored on."""
+
+
 def block_average(t_s: np.ndarray, columns: list[np.ndarray], h_s: float) -> Bins:
     """Mean and least-squares slope of each column over consecutive bins of ``h_s`` seconds
     (NaNs ignored); empty bins are given the bin centre as mean time."""
@@ -238,15 +242,19 @@ class TransientFit:
         return sample_average(full, self._tbar, self._edges, self._var_t)
 
     def _start(self, psi0: float) -> np.ndarray:
-        """Best point of a coarse (L1, L2) grid."""
+        """Best point of a coarse (L1, L2) grid, scored on the first ``START_SPAN_S`` of the
+        log: the grid only picks the basin the local fit starts in, so its cost need not grow
+        with the log's length (225 trajectories)."""
         lo1, hi1 = self.bounds_L1_m
         lo2, hi2 = self.bounds_L2_m
         g1 = np.concatenate([[max(lo1, 0.0)], np.geomspace(max(lo1, 0.1), min(hi1, 20.0), 14)])
         g2 = np.geomspace(lo2, min(hi2, 20.0), 15)
         A, B = np.meshgrid(g1, g2, indexing="ij")
         th = np.vstack([A.ravel(), B.ravel(), np.full(A.size, psi0)])
-        sim = self._sim(th)
-        cost = np.nansum((self._psi[:, None] - sim) ** 2 * self._w[:, None], axis=0)
+        n = self._start_bins
+        full = simulate_psi(self._start_plan, th[0], th[1], th[2])
+        sim = sample_average(full, self._tbar[:n], self._edges[: n + 1], self._var_t[:n])
+        cost = np.nansum((self._psi[:n, None] - sim) ** 2 * self._w[:n, None], axis=0)
         return th[:, int(np.argmin(cost))]
 
     def fit(self, t_s: ArrayLike, kappa: ArrayLike, v: ArrayLike, psi: ArrayLike) -> TransientFit:
@@ -275,6 +283,14 @@ class TransientFit:
         n_sub = max(1, math.ceil(0.5 * h * vmax / (0.7 * self.bounds_L2_m[0])))
         u_mean, v_mean = _fill(tc, b.mean[0]), _fill(tc, b.mean[1])
         self._plan = plan_steps(tc, b.edges, u_mean, b.slope[0], v_mean, b.slope[1], n_sub)
+        n = min(tc.size, max(10, math.ceil(START_SPAN_S * self.rate_hz)))
+        self._start_bins = n
+        self._start_plan = (
+            self._plan if n == tc.size else plan_steps(
+                tc[:n], b.edges[: n + 1], u_mean[:n], b.slope[0][:n], v_mean[:n],
+                b.slope[1][:n], n_sub,
+            )
+        )
         self._tbar, self._edges = tc, b.edges
         self._var_t = _sample_time_variance(t, b)
         self._psi = pb
