@@ -82,8 +82,10 @@ def register_simulate(sim: typer.Typer) -> None:
             square_commands,
         )
         from logtools.errors import LogcalInputError
+        from logtools.outputs import check_output, write_atomically
         from logtools.writers.diff_drive import run_metadata, write_run
 
+        check_output(out, option="--out", suffixes=(".mcap", ".csv"))
         checks = {
             "--radius": (radius, radius > 0, "> 0 m"),
             "--track": (track, track > 0, "> 0 m"),
@@ -121,7 +123,12 @@ def register_simulate(sim: typer.Typer) -> None:
         sim = simulate_diff_drive(cmds, cfg, seed=seed)
         enc = encoding or LogEncoding.for_path(out)
         meta = run_metadata(sim, conceal=conceal, extra={"pattern": str(pattern)})
-        n = write_run(out, sim, encoding=enc, style=str(style), gyro=gyro, metadata=meta)  # type: ignore[arg-type]
+        n = write_atomically(
+            out,
+            lambda tmp: write_run(
+                tmp, sim, encoding=enc, style=str(style), gyro=gyro, metadata=meta  # type: ignore[arg-type]
+            ),
+        )
         unit = "rows" if enc is LogEncoding.CSV else "messages"
         print(
             f"wrote {out} ({enc}, {style}): {n} {unit}, {sim.t[-1]:.0f} s, r_R = "

@@ -172,8 +172,10 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Simulate a serial arm and write its /joint_states log (manipulator)."""
         from logtools.errors import LogcalInputError
+        from logtools.outputs import check_output, write_atomically
         from logtools.writers.manipulator import write_simulated_arm
 
+        check_output(out, option="--out", suffixes=(".mcap", ".csv"))
         if duration <= 1 or torque_noise < 0 or payload < 0 or seed < 0:
             raise LogcalInputError(
                 f"--duration {duration:g} --torque-noise {torque_noise:g} --payload {payload:g} "
@@ -182,11 +184,11 @@ def register(app: typer.Typer) -> None:
         from calib.errors import CalibError
 
         try:
-            run, n = write_simulated_arm(
-                out, arm=arm, encoding=encoding or LogEncoding.for_path(out),
+            run, n = write_atomically(out, lambda tmp: write_simulated_arm(
+                tmp, arm=arm, encoding=encoding or LogEncoding.for_path(out),
                 duration_s=duration, rate_hz=rate, seed=seed, torque_noise=torque_noise,
                 payload=payload, conceal=conceal,
-            )
+            ))
         except CalibError as err:
             raise LogcalInputError(f"--arm {arm}: {err}") from err
         print(f"wrote {out}: {n} messages, {len(run.joint_names)} joints, {duration:g} s, "

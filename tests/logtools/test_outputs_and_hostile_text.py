@@ -126,3 +126,13 @@ def test_a_broken_ros2_schema_prints_nothing_of_its_own(
     err = capsys.readouterr().err
     assert "pwned" not in err
     assert any("/hitch/angle" in str(p) for p in log.problems)
+
+
+@pytest.mark.parametrize("robot", ["tractor-trailer", "diff-drive", "manipulator"])
+def test_every_simulate_checks_its_output_before_simulating(
+    robot: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["simulate", robot, "--out", str(tmp_path / "no" / "x.mcap")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main(["simulate", robot, "--out", str(tmp_path / "x.rrd")]) == 2
+    assert "ending in .mcap or .csv" in capsys.readouterr().err
