@@ -1,17 +1,18 @@
-"""Speed of the shared RK4 kernel (calib.models.rk4) against solve_ivp at the same step.
+"""Speed of the joint-angle RK4 loop (calib.models.hitch_rk4): compiled, numpy, Python, solve_ivp.
 
 Integrates the hitch dynamics d psi/dt = v (kappa (1 + L1/L2 cos psi) - sin(psi)/L2) over a
-60 s drive at 100 Hz (6000 steps) three ways, in the same run:
+60 s drive at 100 Hz (6000 steps), in the same run:
 
-- ``rk4_trajectory`` (one trajectory, Python floats),
-- ``rk4_batched`` with 64 parameter sets side by side (per trajectory time reported),
-- the same RK4 written inline with the right-hand side expanded (the form each module had
-  before the kernel), to show what the function-call indirection costs,
+- ``rk4_hitch``: the compiled loop (one trajectory; and 64 parameter sets, per set);
+- ``rk4_hitch(..., reference=True)``: the numpy reference of the same arithmetic, 64 sets side
+  by side, per set (the fallback when the extension is not built);
+- the same RK4 as a Python loop over floats with the right-hand side written out (what the
+  project ran before the compiled loop, issue 14);
 - ``scipy.integrate.solve_ivp`` (RK45 forced to the same step: first_step = max_step = dt,
   loose tolerances so it never shrinks the step), inputs interpolated linearly.
 
-Prints the median of 5 repeats of each and the ratios; the claim is the kernel stays tens of
-times faster than solve_ivp per trajectory. Run: ``python bench/rk4_kernel.py`` (~10 s).
+Prints the median of 5 repeats of each and every time's ratio to the compiled loop's, and
+checks that compiled and reference agree bit for bit. Run: ``python bench/rk4_kernel.py`` (~15 s).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from collections.abc import Callable
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from calib.models.rk4 import rk4_batched, rk4_trajectory
+from calib.models.hitch_rk4 import compiled_available, rk4_hitch
 
 L1, L2 = 1.25, 2.48
 RATE_HZ, DURATION_S, M_SETS, REPEATS = 100.0, 60.0, 64, 5
@@ -39,8 +40,8 @@ def _median_time(fn: Callable[[], object]) -> float:
     return statistics.median(times)
 
 
-def _inline(v: list[float], k: list[float], dt: float) -> list[float]:
-    """RK4 with the right-hand side written out (no call per stage)."""
+def _python_loop(v: list[float], k: list[float], dt: float) -> list[float]:
+    """RK4 in Python floats with the right-hand side written out."""
     r, il2 = L1 / L2, 1.0 / L2
     cos, sin = math.cos, math.sin
     n = (len(v) + 1) // 2
@@ -60,28 +61,25 @@ def _inline(v: list[float], k: list[float], dt: float) -> list[float]:
 
 
 def main() -> None:
+    if not compiled_available():
+        raise SystemExit("the compiled loop is not built: run pip install -e . first")
     dt = 1.0 / RATE_HZ
     n = round(DURATION_S * RATE_HZ) + 1
     th = np.arange(2 * n - 1) * (dt / 2.0)  # half-step grid
     v = 1.0 + 0.3 * np.sin(0.5 * th)
     k = 0.3 * np.sin(0.2 * th)
-    vl, kl = v.tolist(), k.tolist()
-    start = list(zip(vl[0:-2:2], kl[0:-2:2], strict=True))
-    mid = list(zip(vl[1::2], kl[1::2], strict=True))
-    end = list(zip(vl[2::2], kl[2::2], strict=True))
-    h = [dt] * (n - 1)
+    V = np.stack([v[0:-2:2], v[1::2], v[2::2]], axis=1)
+    U = V * np.stack([k[0:-2:2], k[1::2], k[2::2]], axis=1)
+    h = np.full(n - 1, dt)
     r, il2 = L1 / L2, 1.0 / L2
-    cos, sin = math.cos, math.sin
-
-    def rate(p: float, vv: float, kk: float) -> float:
-        return vv * (kk * (1.0 + r * cos(p)) - sin(p) * il2)
-
     L1s = np.linspace(0.5, 2.0, M_SETS)
     L2s = np.linspace(1.5, 3.0, M_SETS)
-    rb, il2b = L1s / L2s, 1.0 / L2s
 
-    def rate_b(p: np.ndarray, vv: float, kk: float) -> np.ndarray:
-        return vv * (kk * (1.0 + rb * np.cos(p)) - np.sin(p) * il2b)
+    def one() -> np.ndarray:
+        return rk4_hitch(h, U, V, 1.0, r, il2, 0.0)
+
+    def sets(reference: bool) -> np.ndarray:
+        return rk4_hitch(h, U, V, 1.0, L1s / L2s, 1.0 / L2s, 0.0, reference=reference)
 
     def ivp() -> np.ndarray:
         tg = th[::2]
@@ -96,21 +94,23 @@ def main() -> None:
         return sol.y[0]
 
     print(f"hitch ODE, {n - 1} steps of {dt} s; median of {REPEATS} repeats", flush=True)
-    psi = rk4_trajectory(rate, 0.0, h, start, mid, end)
-    t_one = _median_time(lambda: rk4_trajectory(rate, 0.0, h, start, mid, end))
-    print(f"rk4_trajectory                 {t_one * 1e3:8.2f} ms", flush=True)
-    t_in = _median_time(lambda: _inline(vl, kl, dt))
-    print(f"inline loop (reference)        {t_in * 1e3:8.2f} ms", flush=True)
-    t_b = _median_time(lambda: rk4_batched(rate_b, np.zeros(M_SETS), h, start, mid, end))
-    print(f"rk4_batched ({M_SETS} sets) per set  {t_b / M_SETS * 1e3:8.2f} ms", flush=True)
+    same = np.array_equal(sets(False), sets(True))
+    print(f"compiled == numpy reference, bit for bit, {M_SETS} sets: {same}")
+    psi = one()[:, 0, 0]
+    rows = [
+        ("compiled, one trajectory", _median_time(one)),
+        (f"compiled, {M_SETS} sets, per set", _median_time(lambda: sets(False)) / M_SETS),
+        (f"numpy reference, {M_SETS} sets, per set", _median_time(lambda: sets(True)) / M_SETS),
+        ("Python float loop, one trajectory",
+         _median_time(lambda: _python_loop(v.tolist(), k.tolist(), dt))),
+        ("solve_ivp RK45 at the same step", _median_time(ivp)),
+    ]
+    base = rows[0][1]
+    for name, t in rows:
+        print(f"{name:42s} {t * 1e3:9.3f} ms   {t / base:8.1f}x the compiled loop")
     ref = ivp()
-    t_ivp = _median_time(ivp)
-    print(f"solve_ivp RK45 at the same step {t_ivp * 1e3:8.2f} ms", flush=True)
     print(f"max |psi_rk4 - psi_ivp| = {np.max(np.abs(psi - ref)):.2e} rad "
           "(solve_ivp interpolates the inputs; RK4 takes them at the nodes)")
-    print(f"solve_ivp / rk4_trajectory = {t_ivp / t_one:6.1f}x")
-    print(f"solve_ivp / inline loop = {t_ivp / t_in:6.1f}x")
-    print(f"solve_ivp / rk4_batched per set = {t_ivp / (t_b / M_SETS):6.1f}x")
 
 
 if __name__ == "__main__":

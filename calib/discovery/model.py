@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from calib.discovery.data import DiscoveryData, block_mean
 from calib.discovery.effects import Effect, ParamSpec
-from calib.models.rk4 import rk4_trajectory
+from calib.models.hitch_rk4 import rk4_hitch
 
 __all__ = [
     "BASE_PARAMS",
@@ -138,42 +138,42 @@ def integrate_hitch_half(
     at those samples: where the model cannot run open loop (reversing, where the joint angle
     is unstable), it restarts from the recorded angle.
     """
-    sin, cos = math.sin, math.cos
     p = float(steady_psi(kappa_h[:1], L1, L2)[0]) if psi0 is None else psi0
     inv = 1.0 / lam if lam > 0 else 1e9
     reset = dict(anchors) if anchors else {}
     if 0 in reset:
         p = reset[0]
-
-    def f(q: float, k: float, v: float) -> float:
-        return v * (k * (L2 + L1 * cos(q)) - sin(q)) * inv
-
     h = th_s[2::2] - th_s[:-2:2]
     k0, km, k1 = kappa_h[:-2:2], kappa_h[1::2], kappa_h[2::2]
     v0, vm, v1 = v_h[:-2:2], v_h[1::2], v_h[2::2]
     travel = h * np.maximum(np.maximum(np.abs(v0), np.abs(vm)), np.abs(v1)) * inv
     ns = np.where(travel > MAX_STEP_LENGTHS, np.ceil(travel / MAX_STEP_LENGTHS), 1).astype(int)
     ends = np.cumsum(ns)  # RK4 steps done at each sample after the first
-    step = np.repeat(np.arange(ns.size), ns)  # the sample step each RK4 step belongs to
-    nss = ns[step]
-    j = np.arange(step.size) - (ends - ns)[step]
+    if bool(np.all(ns == 1)):  # no sub-steps: the grid's own stage values
+        kx = np.stack([k0, km, k1], axis=1)
+        vx = np.stack([v0, vm, v1], axis=1)
+        hs = h
+    else:
+        step = np.repeat(np.arange(ns.size), ns)  # the sample step each RK4 step belongs to
+        nss = ns[step]
+        j = np.arange(step.size) - (ends - ns)[step]
 
-    def stage(u: FloatArray, x: tuple[FloatArray, ...], exact: FloatArray) -> list[float]:
-        """Input at fraction u of the sample step; sub-steps take it linear on each half."""
-        a, b, c = x[0][step], x[1][step], x[2][step]
-        sub = np.where(u <= 0.5, a + (b - a) * 2.0 * u, b + (c - b) * (2.0 * u - 1.0))
-        return np.where(nss > 1, sub, exact[step]).tolist()
+        def stage(u: FloatArray, x: tuple[FloatArray, ...], exact: FloatArray) -> FloatArray:
+            """Input at fraction u of the sample step; sub-steps take it linear on each half."""
+            a, b, c = x[0][step], x[1][step], x[2][step]
+            sub = np.where(u <= 0.5, a + (b - a) * 2.0 * u, b + (c - b) * (2.0 * u - 1.0))
+            return np.where(nss > 1, sub, exact[step])
 
-    kx, vx = (k0, km, k1), (v0, vm, v1)
-    u0, uh, u1 = j / nss, (j + 0.5) / nss, (j + 1) / nss
-    start = list(zip(stage(u0, kx, k0), stage(u0, vx, v0), strict=True))
-    mid = list(zip(stage(uh, kx, km), stage(uh, vx, vm), strict=True))
-    end = list(zip(stage(u1, kx, k1), stage(u1, vx, v1), strict=True))
+        u0, uh, u1 = j / nss, (j + 0.5) / nss, (j + 1) / nss
+        kk, vv = (k0, km, k1), (v0, vm, v1)
+        kx = np.stack([stage(u0, kk, k0), stage(uh, kk, km), stage(u1, kk, k1)], axis=1)
+        vx = np.stack([stage(u0, vv, v0), stage(uh, vv, vm), stage(u1, vv, v1)], axis=1)
+        hs = h[step] / nss
     marks = ends.tolist()
     resets = {marks[i - 1]: float(x) for i, x in reset.items() if 1 <= i <= len(marks)}
-    return rk4_trajectory(
-        f, p, (h[step] / nss).tolist(), start, mid, end, keep=marks, resets=resets
-    )
+    # d psi/dt = v k (L2 + L1 cos psi) / lam - v sin(psi) / lam
+    out = rk4_hitch(hs, vx * kx, vx, L2 * inv, L1 * inv, inv, p, keep=marks, resets=resets)
+    return out[:, 0, 0]
 
 
 def _true_psi(y: float, stage2: Sequence[tuple[Effect, dict[str, float]]]) -> float:

@@ -8,13 +8,12 @@ the next, split at the bin edge.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from calib.models.rk4 import rk4_batched, rk4_trajectory
+from calib.models.hitch_rk4 import rk4_hitch
 
 __all__ = ["StepPlan", "plan_steps", "simulate_psi"]
 
@@ -74,45 +73,13 @@ def plan_steps(
     return StepPlan(h, u, v, 2 * n_sub)
 
 
-_SCALAR_MAX = 8  # up to this many parameter sets, scalar loops beat numpy on tiny arrays
-
-#: (u, v) at the start, middle and end of each step.
-Stages = tuple[list[tuple[float, float]], list[tuple[float, float]], list[tuple[float, float]]]
-
-
-def _stage_inputs(plan: StepPlan) -> Stages:
-    """(u, v) at the start, middle and end of each step, as Python floats."""
-    U, V = plan.u.tolist(), plan.v.tolist()
-    start = [(a[0], b[0]) for a, b in zip(U, V, strict=True)]
-    mid = [(a[1], b[1]) for a, b in zip(U, V, strict=True)]
-    end = [(a[2], b[2]) for a, b in zip(U, V, strict=True)]
-    return start, mid, end
-
-
-def _simulate_one(
-    plan: StepPlan, stages: Stages, L1: float, L2: float, psi0: float
-) -> FloatArray:
-    """``simulate_psi`` for one parameter set with Python floats."""
-    r, il2 = L1 / L2, 1.0 / L2
-    cos, sin = math.cos, math.sin
-
-    def rate(p: float, u: float, v: float) -> float:
-        return u + u * r * cos(p) - v * il2 * sin(p)
-
-    per = plan.per_node // 2
-    k = plan.h.size
-    return rk4_trajectory(
-        rate, psi0, plan.h.tolist(), *stages, keep=range(per, k + 1, per)
-    )
-
-
 def simulate_psi(
     plan: StepPlan, L1: np.ndarray, L2: np.ndarray, psi0: np.ndarray
 ) -> FloatArray:
     """Joint angle (rad) at the nodes and bin edges of ``plan`` for m parameter sets.
 
     d psi/dt = u (1 + (L1/L2) cos psi) - v sin(psi) / L2 by classical RK4
-    (``calib.models.rk4``).
+    (``calib.models.hitch_rk4``).
 
     Args:
         plan: steps and inputs from ``plan_steps``.
@@ -124,22 +91,9 @@ def simulate_psi(
     L1 = np.atleast_1d(np.asarray(L1, dtype=float))
     L2 = np.atleast_1d(np.asarray(L2, dtype=float))
     psi0 = np.broadcast_to(np.asarray(psi0, dtype=float), L1.shape)
-    stages = _stage_inputs(plan)
-    if L1.size <= _SCALAR_MAX:
-        cols = [
-            _simulate_one(plan, stages, *map(float, x)) for x in zip(L1, L2, psi0, strict=True)
-        ]
-        return np.column_stack(cols)
-    r = L1 / L2
-    il2 = 1.0 / L2
-    cos, sin = np.cos, np.sin
-
-    def rate(p: FloatArray, u: float, v: float) -> FloatArray:
-        return u + (u * r) * cos(p) - (v * il2) * sin(p)
-
     per = plan.per_node // 2
     k = plan.h.size
-    p0 = np.array(psi0, dtype=float, copy=True) * np.ones_like(L1)
-    return rk4_batched(
-        rate, p0, plan.h.tolist(), *stages, keep=range(per, k + 1, per)
+    out = rk4_hitch(
+        plan.h, plan.u, plan.v, 1.0, L1 / L2, 1.0 / L2, psi0, keep=range(per, k + 1, per)
     )
+    return np.asarray(out)[:, 0, :]

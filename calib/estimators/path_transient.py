@@ -44,7 +44,7 @@ from calib.estimators._stats import (
 )
 from calib.estimators.drive_path import DrivePath, default_gap_s
 from calib.estimators.identifiability import IdentifiabilityVerdict, identifiability
-from calib.models.hitch_path import advance_psi, advance_psi_gain, rk4_substeps
+from calib.models.hitch_path import advance_psi, rk4_substeps
 from calib.results import CalibrationResult, Family, MethodResult
 
 __all__ = ["PathTransientFit"]
@@ -278,43 +278,19 @@ class PathTransientFit:
         self._chunk_start_guess = np.interp(nt[np.array(starts)], t, self._p)
 
     # ------------------------------------------------------------------ model
-    def _simulate(
-        self, L1: np.ndarray, L2: np.ndarray, psi0: np.ndarray,
-        warm: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """Model psi at the used samples for m parameter sets: psi0 (pieces, m)."""
+    def _simulate(self, L1: np.ndarray, L2: np.ndarray, psi0: np.ndarray) -> np.ndarray:
+        """Model psi at the used samples for m parameter sets: psi0 (pieces, m).
+
+        A piece's chunks are integrated one after another (each from its predecessor's end,
+        the chained series of ``advance_psi``), so the pieces are continuous trajectories."""
         lay = self._layout
         m = L1.size
         first = lay.chunk_first
-        start = np.empty((first.size, m))
+        start = np.zeros((first.size, m))
         start[first] = psi0[lay.chunk_piece[first]]
-        rest = ~first
-        if rest.any():
-            if warm is not None:
-                start[rest] = warm[rest]
-            else:
-                start[rest] = self._chunk_start_guess[rest, None]
+        chain = np.where(first, -1, lay.prev_chunk)
         n_sub = rk4_substeps(lay.A, lay.B, L1, L2)
-        if not rest.any():
-            out = advance_psi(lay.A, lay.B, L1, L2, start, n_sub)
-            self._last_start = start
-            return out[lay.node_step, lay.node_chunk]
-        later = np.nonzero(rest)[0]
-        prev = lay.prev_chunk
-        for _ in range(first.size + 1):
-            out, gain = advance_psi_gain(lay.A, lay.B, L1, L2, start, n_sub)
-            ends = out[-1]  # (c, m): padded steps after a chunk's end leave psi unchanged
-            defect = ends[prev[rest]] - start[rest]
-            if float(np.max(np.abs(defect))) < 1e-12 or not np.all(np.isfinite(defect)):
-                break
-            # Newton step on all start values at once: the linearised chain of chunks, solved
-            # in chunk order (a chunk's predecessor comes before it)
-            delta = np.zeros_like(start)
-            for i in later:
-                j = prev[i]
-                delta[i] = ends[j] - start[i] + gain[j] * delta[j]
-            start = start + delta
-        self._last_start = start
+        out = advance_psi(lay.A, lay.B, L1, L2, start, n_sub, chain=chain)
         return out[lay.node_step, lay.node_chunk]  # (n_obs, m)
 
     # ------------------------------------------------------------------ fit
@@ -382,7 +358,6 @@ class PathTransientFit:
         column is its rows of the last one)."""
         n = self._p.size
         cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-        warm: list[np.ndarray | None] = [None]
 
         def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             key = x.tobytes()
@@ -392,9 +367,7 @@ class PathTransientFit:
                 L2 = np.array([x[1], x[1], x[1] + d[1], x[1]])
                 p0 = np.repeat(x[q:, None], 4, axis=1)
                 p0[:, 3] += 1e-6
-                w = None if warm[0] is None else np.repeat(warm[0][:, :1], 4, axis=1)
-                sim = self._simulate(L1, L2, p0, w)
-                warm[0] = self._last_start
+                sim = self._simulate(L1, L2, p0)
                 off = x[2] if self.fit_psi_offset else 0.0
                 resid = self._p - sim[:, 0] - off
                 J = np.empty((n, 3 + (q - 2)))

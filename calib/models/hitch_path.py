@@ -11,10 +11,9 @@ joint-angle sample times (they are interpolated there from whatever the path was
 with). Standing still (ds = d theta = 0) leaves psi unchanged; reversing is ds < 0.
 
 Between two nodes the increments are taken at a constant rate (cumulative s and theta linear in
-between), and psi is advanced by classical RK4 (``calib.models.rk4``) with ``n_sub`` equal
-substeps, for many independent columns at once: chunks of the log times parameter sets, so that
-one numpy call per step serves them all (a Python loop over 10^5 nodes per column would be
-~100x slower; ``solve_ivp`` is another ~70x slower again at the same accuracy).
+between), and psi is advanced by classical RK4 with ``n_sub`` equal
+substeps, for many independent columns at once (chunks of the log times parameter sets) by the
+compiled loop of ``calib.models.hitch_rk4``.
 """
 
 from __future__ import annotations
@@ -25,9 +24,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from calib.errors import SolverError
-from calib.models.rk4 import rk4_batched
+from calib.models.hitch_rk4 import rk4_hitch
 
-__all__ = ["MAX_SUBSTEPS", "advance_psi", "advance_psi_gain", "rk4_substeps"]
+__all__ = ["MAX_SUBSTEPS", "advance_psi", "rk4_substeps"]
 
 MAX_SUBSTEPS = 1000
 """Substeps per node step beyond which a path is not a robot's: a heading or distance step
@@ -65,24 +64,22 @@ def rk4_substeps(
 
 def _substep_inputs(
     dtheta: np.ndarray, ds: np.ndarray, L1: np.ndarray, L2: np.ndarray, n_sub: int | None
-) -> tuple[int, list[tuple[FloatArray, FloatArray, FloatArray]]]:
-    """Substeps per node step and, per substep, the rate's inputs (d theta, d theta L1/L2,
-    ds / L2 per substep; constant over a node step). RK4 runs in units of one substep (h = 1),
-    so that the kernel adds exactly the increments."""
+) -> tuple[int, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Substeps per node step, the kernel's inputs per substep (d theta and ds per substep,
+    constant over a node step, shape (c, k n_sub, 3)) and its parameters (1, L1/L2, 1/L2).
+    RK4 runs in units of one substep (h = 1), so that the kernel adds exactly the increments."""
     A = np.asarray(dtheta, dtype=float)
     B = np.asarray(ds, dtype=float)
     L1 = np.atleast_1d(np.asarray(L1, dtype=float))
     L2 = np.atleast_1d(np.asarray(L2, dtype=float))
     if n_sub is None:
         n_sub = rk4_substeps(A, B, L1, L2)
-    r = (L1 / L2)[None, :]
-    il2 = (1.0 / L2)[None, :]
     h = 1.0 / n_sub
-    per_step = []
-    for i in range(A.shape[0]):
-        a = (A[i] * h)[:, None]
-        per_step.append((a, a * r, (B[i] * h)[:, None] * il2))
-    return n_sub, [u for u in per_step for _ in range(n_sub)]
+
+    def per_substep(x: np.ndarray) -> FloatArray:
+        return np.repeat(np.repeat((x * h).T, n_sub, axis=1)[:, :, None], 3, axis=2)
+
+    return n_sub, per_substep(A), per_substep(B), np.ones_like(L1), L1 / L2, 1.0 / L2
 
 
 def advance_psi(
@@ -92,6 +89,8 @@ def advance_psi(
     L2: np.ndarray,
     psi0: np.ndarray,
     n_sub: int | None = None,
+    *,
+    chain: np.ndarray | None = None,
 ) -> FloatArray:
     """Integrate psi over node steps for many columns.
 
@@ -101,58 +100,16 @@ def advance_psi(
         L1, L2: link lengths (m), shape (m,) (parameter sets); L1 may be negative or zero.
         psi0: joint angle at the first node (rad), shape (c, m).
         n_sub: RK4 substeps per step; None chooses them with ``rk4_substeps``.
+        chain: None, or per chunk the index of the chunk it continues (an earlier one) or -1:
+            a chunk that continues another starts from that chunk's last node (its ``psi0``
+            row is ignored). Steps padded after a chunk's end must be zero.
 
     Returns:
         psi at the k + 1 nodes, shape (k + 1, c, m) (rad).
     """
-    n_sub, inputs = _substep_inputs(dtheta, ds, L1, L2, n_sub)
-    steps = len(inputs)
-    cos, sin = np.cos, np.sin
-
-    def rate(p: FloatArray, a: FloatArray, ar: FloatArray, b: FloatArray) -> FloatArray:
-        return a + ar * cos(p) - b * sin(p)
-
-    return rk4_batched(
-        rate, np.asarray(psi0, dtype=float), [1.0] * steps, inputs, inputs, inputs,
-        keep=range(n_sub, steps + 1, n_sub),
-    )
-
-
-def advance_psi_gain(
-    dtheta: np.ndarray,
-    ds: np.ndarray,
-    L1: np.ndarray,
-    L2: np.ndarray,
-    psi0: np.ndarray,
-    n_sub: int | None = None,
-) -> tuple[FloatArray, FloatArray]:
-    """``advance_psi`` and, per column, the gain d psi(last node) / d psi0.
-
-    The gain is the forward sensitivity, integrated by the same RK4 steps alongside psi (the
-    variational equation d S = -(d theta (L1/L2) sin psi + ds cos(psi) / L2) S), so it is the
-    exact derivative of the discrete map. Callers use it to make chunks integrated side by side
-    continuous by Newton steps on their start values instead of sweeps that only propagate
-    (which need one sweep per chunk where the motion is unstable, as when reversing).
-
-    Returns:
-        psi at the k + 1 nodes, shape (k + 1, c, m) (rad), and the gain after the last node,
-        shape (c, m).
-    """
-    n_sub, inputs = _substep_inputs(dtheta, ds, L1, L2, n_sub)
-    steps = len(inputs)
-    cos, sin = np.cos, np.sin
-
-    def rate(y: FloatArray, a: FloatArray, ar: FloatArray, b: FloatArray) -> FloatArray:
-        c, s = cos(y[0]), sin(y[0])
-        out = np.empty_like(y)  # cheaper than np.stack, called 4 times per step
-        out[0] = a + ar * c - b * s
-        out[1] = -(ar * s + b * c) * y[1]
-        return out
-
-    p0 = np.asarray(psi0, dtype=float)
-    y0 = np.stack([p0, np.ones_like(p0)])
-    out = rk4_batched(
-        rate, y0, [1.0] * steps, inputs, inputs, inputs,
-        keep=range(n_sub, steps + 1, n_sub),
-    )
-    return out[:, 0], out[-1, 1]
+    n_sub, U, V, p0, p1, p2 = _substep_inputs(dtheta, ds, L1, L2, n_sub)
+    steps = U.shape[1]
+    return rk4_hitch(
+        np.ones(steps), U, V, p0, p1, p2, np.asarray(psi0, dtype=float),
+        keep=range(n_sub, steps + 1, n_sub), chain=chain,
+    )  # fmt: skip

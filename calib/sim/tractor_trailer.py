@@ -23,7 +23,7 @@ import polars as pl
 from scipy.signal import lfilter
 
 from calib.models.hitch_kinematics import steady_state_psi
-from calib.models.rk4 import rk4_trajectory
+from calib.models.hitch_rk4 import rk4_hitch
 from calib.results import Segment
 from calib.sim.choices import HitchModel
 from calib.sim.commands import CommandSequence
@@ -284,23 +284,17 @@ def _first_order_lag(u_half: np.ndarray, dt: float, tau_s: float) -> np.ndarray:
     return out
 
 
-def _psi_rk4(v: list[float], k: list[float], dt: float, L1: float, L2: float) -> np.ndarray:
+def _psi_rk4(v: np.ndarray, k: np.ndarray, dt: float, L1: float, L2: float) -> np.ndarray:
     """RK4 of d psi/dt = v (k (1 + L1/L2 cos psi) - sin(psi)/L2) from psi = 0.
 
     ``v`` and ``k`` are given on the half-step grid (length 2 n - 1); returns psi at the n full
-    steps (``calib.models.rk4`` in Python floats: the only state-dependent part of the dynamics).
+    steps (``calib.models.hitch_rk4``: the only state-dependent part of the dynamics).
     """
-    r, i_l2 = L1 / L2, 1.0 / L2
-    cos, sin = math.cos, math.sin
-
-    def rate(p: float, vv: float, kk: float) -> float:
-        return vv * (kk * (1.0 + r * cos(p)) - sin(p) * i_l2)
-
-    n = (len(v) + 1) // 2
-    start = list(zip(v[0:-2:2], k[0:-2:2], strict=True))
-    mid = list(zip(v[1::2], k[1::2], strict=True))
-    end = list(zip(v[2::2], k[2::2], strict=True))
-    return rk4_trajectory(rate, 0.0, [dt] * (n - 1), start, mid, end)
+    vv, kk = np.asarray(v, dtype=float), np.asarray(k, dtype=float)
+    n = (vv.size + 1) // 2
+    U = np.stack([vv[0:-2:2] * kk[0:-2:2], vv[1::2] * kk[1::2], vv[2::2] * kk[2::2]], axis=1)
+    V = np.stack([vv[0:-2:2], vv[1::2], vv[2::2]], axis=1)
+    return rk4_hitch(np.full(n - 1, dt), U, V, 1.0, L1 / L2, 1.0 / L2, 0.0)[:, 0, 0]
 
 
 def _simpson_steps(f_half: np.ndarray, dt: float) -> np.ndarray:
@@ -342,7 +336,7 @@ def _integrate(cfg: TractorTrailerSim, t: np.ndarray) -> dict[str, np.ndarray]:
     if cfg.hitch_model == HitchModel.STEADY:
         psi = steady_state_psi(kappa[::2], cfg.L1, cfg.L2)
     else:
-        psi = _psi_rk4(v.tolist(), kappa.tolist(), dt, cfg.L1, cfg.L2)
+        psi = _psi_rk4(v, kappa, dt, cfg.L1, cfg.L2)
     return {
         "kappa_cmd": cfg.commands(t),
         "kappa": kappa[::2],

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from calib.discovery.effects.base import Effect, FloatArray, ParamSpec
+from calib.models.hitch_rk4 import lag_recursion
 
 __all__ = ["ActuatorLag", "first_order_lag"]
 
@@ -20,9 +21,8 @@ def first_order_lag(t_s: FloatArray, x: FloatArray, tau_s: float) -> FloatArray:
     Per step h: y_k+1 = a y_k + (1 - c) x_k+1 + (c - a) x_k, a = exp(-h / tau),
     c = (tau / h)(1 - a). A trapezoidal hold ((1 - a) / 2 on both samples) is only right for
     h << tau: with a lag of a few grid steps it smears the response like a longer lag and a
-    dead time fits the log better than the lag that made it. The linear recursion is summed in
-    closed form (y_k = A_k (y_0 + sum_j u_j / A_j+1), A the running product of a) in chunks
-    over which A falls by at most exp(-``_CHUNK_DECAY``), so nothing under- or overflows.
+    dead time fits the log better than the lag that made it. The recursion is sequential and
+    runs in the compiled loop of ``calib.models.hitch_rk4`` (it is stable: 0 <= a <= 1).
     """
     if tau_s <= 0 or x.size < 2:
         return x
@@ -33,27 +33,7 @@ def first_order_lag(t_s: FloatArray, x: FloatArray, tau_s: float) -> FloatArray:
     # c -> 1 as h -> 0 (1 - a ~ h / tau): a zero step changes nothing
     c = np.where(r > 1e-8, one_minus_a / np.where(r > 1e-8, r, 1.0), 1.0 - 0.5 * r)
     u = (1.0 - c) * x[1:] + (c - a) * x[:-1]
-    logs = np.concatenate([[0.0], -np.cumsum(r)])  # log A_k, k = 0..n-1
-    y = np.empty_like(x, dtype=float)
-    y[0] = x[0]
-    start = 0
-    n = x.size
-    while start < n - 1:
-        end = int(np.searchsorted(-logs, -logs[start] + _CHUNK_DECAY, side="right"))
-        if end <= start + 1:  # one step longer than the chunk's decay: the recursion itself
-            y[start + 1] = a[start] * y[start] + u[start]
-            start += 1
-            continue
-        end = min(end, n)  # samples start..end-1 of this chunk
-        rel = logs[start:end] - logs[start]  # log A relative to the chunk start, 0 .. -decay
-        w = np.exp(-rel[1:])  # 1 / A_j+1
-        acc = y[start] + np.cumsum(u[start : end - 1] * w)
-        y[start + 1 : end] = np.exp(rel[1:]) * acc
-        start = end - 1
-    return y
-
-
-_CHUNK_DECAY = 500.0
+    return lag_recursion(a, u, float(x[0]))
 
 
 class ActuatorLag(Effect):

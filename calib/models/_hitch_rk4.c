@@ -1,0 +1,101 @@
+/*
+ * Compiled loops of calib.models.hitch_rk4 (see its docstring for why they are compiled).
+ *
+ * The functions are plain C called through ctypes; the module init below exists only so that
+ * setuptools builds this file as an ordinary extension module (a file Python can locate).
+ *
+ * logcal_rk4_hitch: classical RK4 of dy/dx = p0 U + p1 U cos y - p2 V sin y, the form every
+ * joint-angle integrator of the project reduces to, for n_series input series (each
+ * n_steps x 3 stage values: start, middle, end of each step) times n_params parameter sets.
+ *
+ * logcal_lag_recursion: y[k+1] = a[k] y[k] + u[k], the exact first-order lag on any grid.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <stdint.h>
+
+static double rate(double y, double u, double v, double p0, double p1, double p2)
+{
+    return p0 * u + p1 * u * cos(y) - p2 * v * sin(y);
+}
+
+/*
+ * h: n_steps step lengths.
+ * U, V: [n_series][n_steps][3] stage inputs.
+ * p0, p1, p2: n_params parameters.
+ * y0: [n_series][n_params] start states.
+ * keep: n_keep increasing step counts (1 = after the first step) at which the state is
+ *   recorded; n_keep < 0 records after every step.
+ * reset_at, reset_val: n_reset increasing step counts (among the recorded ones) after which
+ *   the state is set to the given value, for every column.
+ * out: [n_out][n_series][n_params], n_out = 1 + recorded count; y0 first.
+ * chain: NULL, or n_series indices: where chain[i] >= 0 (and < i), series i starts from the
+ *   last recorded state of series chain[i] instead of y0 (chunks of one run, in order).
+ * Returns 0.
+ */
+int logcal_rk4_hitch(int64_t n_steps, int64_t n_series, int64_t n_params, const double *h,
+                     const double *U, const double *V, const double *p0, const double *p1,
+                     const double *p2, const double *y0, int64_t n_keep, const int64_t *keep,
+                     int64_t n_reset, const int64_t *reset_at, const double *reset_val,
+                     double *out, const int64_t *chain)
+{
+    const int64_t cols = n_series * n_params;
+    for (int64_t i = 0; i < n_series; i++) {
+        const double *u = U + i * n_steps * 3;
+        const double *v = V + i * n_steps * 3;
+        for (int64_t j = 0; j < n_params; j++) {
+            const int64_t col = i * n_params + j;
+            const double a = p0[j], b = p1[j], c = p2[j];
+            double y = y0[col];
+            if (chain != NULL && chain[i] >= 0 && chain[i] < i) {
+                y = out[(n_keep < 0 ? n_steps : n_keep) * cols + chain[i] * n_params + j];
+            }
+            int64_t rec = 0, kidx = 0, ridx = 0;
+            out[col] = y;
+            for (int64_t t = 0; t < n_steps; t++) {
+                const double hs = h[t];
+                const double *us = u + 3 * t, *vs = v + 3 * t;
+                const double k1 = rate(y, us[0], vs[0], a, b, c);
+                const double k2 = rate(y + 0.5 * hs * k1, us[1], vs[1], a, b, c);
+                const double k3 = rate(y + 0.5 * hs * k2, us[1], vs[1], a, b, c);
+                const double k4 = rate(y + hs * k3, us[2], vs[2], a, b, c);
+                y = y + hs * (k1 + 2.0 * (k2 + k3) + k4) / 6.0;
+                const int64_t done = t + 1;
+                int record = 0;
+                if (n_keep < 0) {
+                    record = 1;
+                } else if (kidx < n_keep && done == keep[kidx]) {
+                    record = 1;
+                    kidx++;
+                }
+                if (record) {
+                    while (ridx < n_reset && reset_at[ridx] < done) {
+                        ridx++;
+                    }
+                    if (ridx < n_reset && reset_at[ridx] == done) {
+                        y = reset_val[ridx];
+                    }
+                    rec++;
+                    out[rec * cols + col] = y;
+                }
+            }
+        }
+    }
+    return 0;
+}
+
+/* y[0] given; y[k+1] = a[k] y[k] + u[k] for k < n - 1. */
+int logcal_lag_recursion(int64_t n, const double *a, const double *u, double *y)
+{
+    for (int64_t k = 0; k + 1 < n; k++) {
+        y[k + 1] = a[k] * y[k] + u[k];
+    }
+    return 0;
+}
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_hitch_rk4",
+                                    "C loops of calib.models.hitch_rk4 (called via ctypes).",
+                                    -1, NULL};
+
+PyMODINIT_FUNC PyInit__hitch_rk4(void) { return PyModule_Create(&module); }
