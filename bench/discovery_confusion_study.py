@@ -144,7 +144,10 @@ def _needs_odom(truth: dict[str, dict[str, float]]) -> bool:
 
 
 def frame_indgen(
-    rng: np.random.Generator, truth: dict[str, dict[str, float]], seed: int
+    rng: np.random.Generator,
+    truth: dict[str, dict[str, float]],
+    seed: int,
+    duration_range_s: tuple[float, float] = (40.0, 120.0),
 ) -> tuple[Any, float, float, dict[str, Any]]:
     """(aligned frame, L1, L2, conditions) of one log of the independent generator."""
     sys.path.insert(0, str(ROOT / "tests"))
@@ -152,7 +155,7 @@ def frame_indgen(
 
     from logtools.load import load_log
 
-    duration = round(float(rng.uniform(40.0, 120.0)), 1)
+    duration = round(float(rng.uniform(*duration_range_s)), 1)
     scn = indgen.random_scenario(rng, duration_s=duration)
     kw: dict[str, Any] = {}
     offs: dict[str, float] = {}

@@ -71,6 +71,7 @@ from calib.discovery.result import (
 from calib.discovery.selection import SelectionRules, SelectionStep, select_effects
 from calib.discovery.signals import INPUT_UNITS, delayed, input_signals
 from calib.discovery.sparse import SparseResidualModel, fit_sparse_residual
+from calib.discovery.windows import DEFAULT_MAX_SPAN_S, DataWindows, choose_windows, restrict
 from calib.errors import CalibError
 from calib.results import Estimate, Segment
 
@@ -299,6 +300,17 @@ def _step(name: str, failures: list[StepFailure], fn: Callable[[], T], default: 
         return default
 
 
+def _windows_of(frame: pl.DataFrame, max_span_s: float | None) -> DataWindows | None:
+    """The windows of a frame longer than ``max_span_s`` (None: all of it)."""
+    if "t_ns" not in frame.columns or frame.height < 2:
+        return None
+    t = frame.get_column("t_ns")
+    lo, hi = t.min(), t.max()
+    if not isinstance(lo, int) or not isinstance(hi, int):
+        return None
+    return choose_windows((hi - lo) / 1e9, max_span_s)
+
+
 def discover(
     frame: pl.DataFrame,
     L1: float,
@@ -309,6 +321,7 @@ def discover(
     rng: np.random.Generator | None = None,
     rules: SelectionRules | None = None,
     signals: Mapping[str, pl.DataFrame] | None = None,
+    max_span_s: float | None = DEFAULT_MAX_SPAN_S,
 ) -> DiscoveryResult:
     """Locate, name and fit what the tractor-trailer model leaves out of a recording.
 
@@ -328,6 +341,9 @@ def discover(
             ``logtools``' ``ResolvedSignals.signals``): the command is then taken at its own
             samples (not as the aligned frame holds it) and each output's noise is measured on
             its own samples. Recommended whenever the topics have different rates.
+        max_span_s: a log longer than this (s) is looked at through windows spread evenly
+            over it, ``max_span_s`` in all (``calib.discovery.windows`` says why); None or 0
+            looks at all of it. The result's ``windows`` says what was used.
 
     Never raises on short or odd data: a log discovery cannot work on gives ``status``
     "not_run" with the ``reason``; a step that fails is recorded in ``failures`` (``status``
@@ -341,6 +357,9 @@ def discover(
         raise CalibError(f"discovery: baseline must be 'steady' or 'transient', got {baseline!r}")
     rules = rules or SelectionRules()
     failures: list[StepFailure] = []
+    windows = _windows_of(frame, max_span_s)
+    if windows is not None:
+        frame, signals, segments = restrict(frame, signals, segments, windows)
     data = _step("prepare", failures, lambda: prepare_data(frame, signals), None)
     if data is None:
         return DiscoveryResult.not_run(baseline, failures)
@@ -466,4 +485,5 @@ def discover(
         status="partial" if failures else "ok",
         reason="; ".join(f"{f.step}: {f.reason}" for f in failures) or None,
         failures=failures,
+        windows=windows,
     )

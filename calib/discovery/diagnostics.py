@@ -79,12 +79,10 @@ def cross_correlations(
 
 def command_types(t_s: FloatArray, segments: Sequence[Segment] | None) -> list[str]:
     """Command type of each time (s from the start), "none" outside every segment."""
-    labels = ["none"] * t_s.size
+    labels = np.full(t_s.size, "none", dtype=object)
     for seg in segments or ():
-        sel = np.nonzero((t_s >= seg.start_s) & (t_s < seg.end_s))[0]
-        for i in sel:
-            labels[i] = str(seg.command_type)
-    return labels
+        labels[(t_s >= seg.start_s) & (t_s < seg.end_s)] = str(seg.command_type)
+    return labels.tolist()
 
 
 def _stats(r: FloatArray) -> dict[str, float]:

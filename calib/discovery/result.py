@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 
 from calib.discovery.diagnostics import UNITS, MismatchRegion
 from calib.discovery.sparse import SparseResidualModel
+from calib.discovery.windows import DataWindows
 from calib.results import Estimate, json_safe
 
 __all__ = [
@@ -247,7 +248,8 @@ class DiscoveryResult:
     covariance from the final joint fit and the model it came from (baseline + accepted
     effects; None if that fit failed); ``alternatives``: explanations the log barely tells
     from the reported effects; ``residuals``: "t_ns" and "<output>_before"/"<output>_after"
-    (recorded - modelled) on the aligned grid; ``diagnostics``: bins, whiteness,
+    (recorded - modelled) on the aligned grid; ``windows``: the part of a long log discovery
+    looked at (None: all of it); ``diagnostics``: bins, whiteness,
     cross-correlations, the selection rounds and the confirmation ("confirmation": dropped
     effects and equivalence swaps).
 
@@ -269,6 +271,7 @@ class DiscoveryResult:
     status: str = "ok"
     reason: str | None = None
     failures: list[StepFailure] = field(default_factory=list)
+    windows: DataWindows | None = None
 
     @classmethod
     def not_run(cls, baseline: str, failures: list[StepFailure]) -> DiscoveryResult:
@@ -296,6 +299,8 @@ class DiscoveryResult:
         if self.status == "not_run":
             return f"Model-mismatch discovery did not run: {self.reason}"
         lines = [f"Baseline ({self.baseline}): {BASELINE_DESCRIPTIONS[self.baseline]}."]
+        if self.windows is not None:
+            lines.append(self.windows.note())
         lines.append(
             "Held-out RMS of the baseline: "
             + ", ".join(f"{c} {v:.3g} {UNITS[c]}" for c, v in self.rms_baseline.items())
@@ -359,5 +364,6 @@ class DiscoveryResult:
                 if self.residual_model is None
                 else self.residual_model.to_dict(),
                 "diagnostics": dict(self.diagnostics),
+                "windows": None if self.windows is None else self.windows.to_dict(),
             }
         )

@@ -44,7 +44,7 @@ from calib.estimators._stats import (
 )
 from calib.estimators.drive_path import DrivePath, default_gap_s
 from calib.estimators.identifiability import IdentifiabilityVerdict, identifiability
-from calib.models.hitch_path import advance_psi, rk4_substeps
+from calib.models.hitch_path import advance_psi, advance_psi_jacobian, rk4_substeps
 from calib.results import CalibrationResult, Family, MethodResult
 
 __all__ = ["PathTransientFit"]
@@ -278,20 +278,20 @@ class PathTransientFit:
         self._chunk_start_guess = np.interp(nt[np.array(starts)], t, self._p)
 
     # ------------------------------------------------------------------ model
-    def _simulate(self, L1: np.ndarray, L2: np.ndarray, psi0: np.ndarray) -> np.ndarray:
-        """Model psi at the used samples for m parameter sets: psi0 (pieces, m).
-
-        A piece's chunks are integrated one after another (each from its predecessor's end,
-        the chained series of ``advance_psi``), so the pieces are continuous trajectories."""
+    def _simulate_jacobian(
+        self, L1: float, L2: float, psi0: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Model psi at the used samples and its exact derivatives to the piece's initial
+        angle, L1 and L2 (forward sensitivities), each shape (n_obs,); psi0: (pieces,)."""
         lay = self._layout
-        m = L1.size
         first = lay.chunk_first
-        start = np.zeros((first.size, m))
+        start = np.zeros(first.size)
         start[first] = psi0[lay.chunk_piece[first]]
         chain = np.where(first, -1, lay.prev_chunk)
-        n_sub = rk4_substeps(lay.A, lay.B, L1, L2)
-        out = advance_psi(lay.A, lay.B, L1, L2, start, n_sub, chain=chain)
-        return out[lay.node_step, lay.node_chunk]  # (n_obs, m)
+        n_sub = rk4_substeps(lay.A, lay.B, np.array([L1]), np.array([L2]))
+        psi, d0, d1, d2 = advance_psi_jacobian(lay.A, lay.B, L1, L2, start, n_sub, chain=chain)
+        at = (lay.node_step, lay.node_chunk)
+        return psi[at], d0[at], d1[at], d2[at]
 
     # ------------------------------------------------------------------ fit
     def _start_point(self) -> np.ndarray:
@@ -362,20 +362,15 @@ class PathTransientFit:
         def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             key = x.tobytes()
             if key not in cache:
-                d = 1e-6 * np.maximum(np.abs(x[:2]), 1.0)
-                L1 = np.array([x[0], x[0] + d[0], x[0], x[0]])
-                L2 = np.array([x[1], x[1], x[1] + d[1], x[1]])
-                p0 = np.repeat(x[q:, None], 4, axis=1)
-                p0[:, 3] += 1e-6
-                sim = self._simulate(L1, L2, p0)
+                sim, d_psi0, d_l1, d_l2 = self._simulate_jacobian(float(x[0]), float(x[1]), x[q:])
                 off = x[2] if self.fit_psi_offset else 0.0
-                resid = self._p - sim[:, 0] - off
+                resid = self._p - sim - off
                 J = np.empty((n, 3 + (q - 2)))
-                J[:, 0] = -(sim[:, 1] - sim[:, 0]) / d[0]
-                J[:, 1] = -(sim[:, 2] - sim[:, 0]) / d[1]
+                J[:, 0] = -d_l1
+                J[:, 1] = -d_l2
                 if self.fit_psi_offset:
                     J[:, 2] = -1.0
-                J[:, -1] = -(sim[:, 3] - sim[:, 0]) / 1e-6
+                J[:, -1] = -d_psi0
                 cache.clear()
                 cache[key] = (resid, J)
             return cache[key]

@@ -85,6 +85,84 @@ int logcal_rk4_hitch(int64_t n_steps, int64_t n_series, int64_t n_params, const 
     return 0;
 }
 
+/* The rate and its partial derivatives: d/dy, d/dp0, d/dp1, d/dp2. */
+static double rate_partials(double y, double u, double v, double p0, double p1, double p2,
+                            double *fy, double *f0, double *f1, double *f2)
+{
+    const double c = cos(y), s = sin(y);
+    *fy = -(p1 * u * s + p2 * v * c);
+    *f0 = u;
+    *f1 = u * c;
+    *f2 = -v * s;
+    return p0 * u + p1 * u * c - p2 * v * s;
+}
+
+/*
+ * logcal_rk4_hitch as above (no resets), with the forward sensitivities of y to y0, p0, p1
+ * and p2 integrated alongside by the same RK4 steps (the exact derivatives of the discrete
+ * map). out: [n_out][n_series][n_params][5]: y, dy/dy0, dy/dp0, dy/dp1, dy/dp2. A chained
+ * series continues its predecessor's state and sensitivities (y0 of the first series of a
+ * chain is the one the sensitivity dy/dy0 refers to).
+ */
+int logcal_rk4_hitch_sens(int64_t n_steps, int64_t n_series, int64_t n_params, const double *h,
+                          const double *U, const double *V, const double *p0, const double *p1,
+                          const double *p2, const double *y0, int64_t n_keep,
+                          const int64_t *keep, double *out, const int64_t *chain)
+{
+    const int64_t cols = n_series * n_params;
+    const int64_t n_rec = n_keep < 0 ? n_steps : n_keep;
+    for (int64_t i = 0; i < n_series; i++) {
+        const double *u = U + i * n_steps * 3;
+        const double *v = V + i * n_steps * 3;
+        for (int64_t j = 0; j < n_params; j++) {
+            const int64_t col = i * n_params + j;
+            const double a = p0[j], b = p1[j], c = p2[j];
+            double x[5] = {y0[col], 1.0, 0.0, 0.0, 0.0};
+            if (chain != NULL && chain[i] >= 0 && chain[i] < i) {
+                const double *prev = out + 5 * (n_rec * cols + chain[i] * n_params + j);
+                for (int q = 0; q < 5; q++) {
+                    x[q] = prev[q];
+                }
+            }
+            int64_t rec = 0, kidx = 0;
+            for (int q = 0; q < 5; q++) {
+                out[5 * col + q] = x[q];
+            }
+            for (int64_t t = 0; t < n_steps; t++) {
+                const double hs = h[t];
+                const double *us = u + 3 * t, *vs = v + 3 * t;
+                double k[4][5], z[5];
+                const int st[4] = {0, 1, 1, 2};
+                const double w[4] = {0.0, 0.5, 0.5, 1.0};
+                for (int r = 0; r < 4; r++) {
+                    for (int q = 0; q < 5; q++) {
+                        z[q] = r == 0 ? x[q] : x[q] + w[r] * hs * k[r - 1][q];
+                    }
+                    double fy, f0, f1, f2;
+                    k[r][0] = rate_partials(z[0], us[st[r]], vs[st[r]], a, b, c, &fy, &f0, &f1,
+                                            &f2);
+                    k[r][1] = fy * z[1];
+                    k[r][2] = fy * z[2] + f0;
+                    k[r][3] = fy * z[3] + f1;
+                    k[r][4] = fy * z[4] + f2;
+                }
+                for (int q = 0; q < 5; q++) {
+                    x[q] = x[q] + hs * (k[0][q] + 2.0 * (k[1][q] + k[2][q]) + k[3][q]) / 6.0;
+                }
+                const int64_t done = t + 1;
+                if (n_keep < 0 || (kidx < n_keep && done == keep[kidx])) {
+                    kidx += n_keep >= 0;
+                    rec++;
+                    for (int q = 0; q < 5; q++) {
+                        out[5 * (rec * cols + col) + q] = x[q];
+                    }
+                }
+            }
+        }
+    }
+    return 0;
+}
+
 /* y[0] given; y[k+1] = a[k] y[k] + u[k] for k < n - 1. */
 int logcal_lag_recursion(int64_t n, const double *a, const double *u, double *y)
 {

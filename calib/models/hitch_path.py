@@ -24,9 +24,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from calib.errors import SolverError
-from calib.models.hitch_rk4 import rk4_hitch
+from calib.models.hitch_rk4 import rk4_hitch, rk4_hitch_sensitivities
 
-__all__ = ["MAX_SUBSTEPS", "advance_psi", "rk4_substeps"]
+__all__ = ["MAX_SUBSTEPS", "advance_psi", "advance_psi_jacobian", "rk4_substeps"]
 
 MAX_SUBSTEPS = 1000
 """Substeps per node step beyond which a path is not a robot's: a heading or distance step
@@ -113,3 +113,41 @@ def advance_psi(
         np.ones(steps), U, V, p0, p1, p2, np.asarray(psi0, dtype=float),
         keep=range(n_sub, steps + 1, n_sub), chain=chain,
     )  # fmt: skip
+
+
+def advance_psi_jacobian(
+    dtheta: np.ndarray,
+    ds: np.ndarray,
+    L1: float,
+    L2: float,
+    psi0: np.ndarray,
+    n_sub: int | None = None,
+    *,
+    chain: np.ndarray | None = None,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """``advance_psi`` for one parameter set with its exact derivatives.
+
+    The forward sensitivities are integrated by the same RK4 steps alongside psi
+    (``rk4_hitch_sensitivities``), so they are the derivatives of the discrete map that
+    ``advance_psi`` computes, at the cost of about one trajectory (finite differences need one
+    per parameter).
+
+    Args:
+        dtheta, ds, n_sub, chain: as ``advance_psi``.
+        L1, L2: link lengths (m).
+        psi0: joint angle at the first node of each chunk (rad), shape (c,).
+
+    Returns:
+        psi, d psi / d psi0 (of the chunk's chain's first chunk), d psi / d L1, d psi / d L2,
+        each shape (k + 1, c).
+    """
+    n_sub, U, V, p0, p1, p2 = _substep_inputs(dtheta, ds, np.array([L1]), np.array([L2]), n_sub)
+    steps = U.shape[1]
+    out = rk4_hitch_sensitivities(
+        np.ones(steps), U, V, p0, p1, p2, np.asarray(psi0, dtype=float)[:, None],
+        keep=range(n_sub, steps + 1, n_sub), chain=chain,
+    )[:, :, 0, :]  # fmt: skip
+    # p1 = L1 / L2, p2 = 1 / L2
+    d_l1 = out[..., 3] / L2
+    d_l2 = -(out[..., 3] * L1 + out[..., 4]) / (L2 * L2)
+    return out[..., 0], out[..., 1], d_l1, d_l2

@@ -31,7 +31,7 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["compiled_available", "lag_recursion", "rk4_hitch"]
+__all__ = ["compiled_available", "lag_recursion", "rk4_hitch", "rk4_hitch_sensitivities"]
 
 FloatArray = NDArray[np.float64]
 _DBL = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
@@ -53,6 +53,11 @@ def _library() -> ctypes.CDLL | None:
     lib.logcal_rk4_hitch.argtypes = [
         i64, i64, i64, _DBL, _DBL, _DBL, _DBL, _DBL, _DBL, _DBL,
         i64, _I64, i64, _I64, _DBL, _DBL, ctypes.POINTER(ctypes.c_int64),
+    ]  # fmt: skip
+    lib.logcal_rk4_hitch_sens.restype = ctypes.c_int
+    lib.logcal_rk4_hitch_sens.argtypes = [
+        i64, i64, i64, _DBL, _DBL, _DBL, _DBL, _DBL, _DBL, _DBL,
+        i64, _I64, _DBL, ctypes.POINTER(ctypes.c_int64),
     ]  # fmt: skip
     lib.logcal_lag_recursion.restype = ctypes.c_int
     lib.logcal_lag_recursion.argtypes = [i64, _DBL, _DBL, _DBL]
@@ -98,7 +103,7 @@ def _chain_array(chain: FloatArray, series: int) -> NDArray[np.int64]:
     return ch
 
 
-def _keep_array(keep: Iterable[int] | None) -> FloatArray | None:
+def _keep_array(keep: Iterable[int] | None) -> NDArray[np.int64] | None:
     return None if keep is None else np.ascontiguousarray(np.fromiter(keep, dtype=np.int64))
 
 
@@ -226,6 +231,86 @@ def rk4_hitch(
     (1 + recorded, s, m). ``reference`` runs the numpy reference instead."""
     run = _run_reference if reference else _run_compiled
     return run(h, U, V, p0, p1, p2, y0, keep=keep, resets=resets, chain=chain)
+
+
+def rk4_hitch_sensitivities(
+    h: FloatArray | Iterable[float],
+    U: FloatArray,
+    V: FloatArray,
+    p0: FloatArray | float,
+    p1: FloatArray | float,
+    p2: FloatArray | float,
+    y0: FloatArray | float,
+    *,
+    keep: Iterable[int] | None = None,
+    chain: FloatArray | None = None,
+    reference: bool = False,
+) -> FloatArray:
+    """``rk4_hitch`` (without resets) and the forward sensitivities of y to y0, p0, p1, p2,
+    integrated by the same RK4 steps alongside y: the exact derivatives of the discrete map,
+    one trajectory instead of one per perturbed parameter. A chained series carries its
+    predecessor's sensitivities on (dy/dy0 then refers to the chain's first series' y0).
+
+    Returns:
+        shape (1 + recorded, s, m, 5): y, dy/dy0, dy/dp0, dy/dp1, dy/dp2.
+    """
+    hh, uu, vv, a, b, c, y = _prepare(h, U, V, p0, p1, p2, y0)
+    n, series, m = hh.size, uu.shape[0], a.size
+    ks = _keep_array(keep)
+    ch = None if chain is None else _chain_array(chain, series)
+    lib = None if reference else _library()
+    if lib is None:
+        return _sensitivities_reference(hh, uu, vv, a, b, c, y, ks, ch)
+    out = np.empty((1 + (n if ks is None else ks.size), series, m, 5))
+    lib.logcal_rk4_hitch_sens(
+        n, series, m, hh, uu, vv, a, b, c, y,
+        -1 if ks is None else ks.size, np.zeros(1, np.int64) if ks is None else ks, out,
+        None if ch is None else ch.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)),
+    )  # fmt: skip
+    return out
+
+
+def _sensitivities_reference(
+    hh: FloatArray,
+    uu: FloatArray,
+    vv: FloatArray,
+    a: FloatArray,
+    b: FloatArray,
+    c: FloatArray,
+    y0: FloatArray,
+    ks: NDArray[np.int64] | None,
+    ch: NDArray[np.int64] | None,
+) -> FloatArray:
+    """``rk4_hitch_sensitivities`` in numpy, series one after another."""
+    keep_set = None if ks is None else set(ks.tolist())
+    cos, sin = np.cos, np.sin
+    per_series: list[FloatArray] = []
+    for i in range(uu.shape[0]):
+        x = np.zeros((a.size, 5))
+        x[:, 0], x[:, 1] = y0[i], 1.0
+        if ch is not None and ch[i] >= 0:
+            x = per_series[int(ch[i])][-1].copy()
+        rows = [x.copy()]
+        for t in range(hh.size):
+            hs = float(hh[t])
+            k: list[FloatArray] = []
+            for r, (st, w) in enumerate(((0, 0.0), (1, 0.5), (1, 0.5), (2, 1.0))):
+                z = x if r == 0 else x + w * hs * k[-1]
+                u, v = uu[i, t, st], vv[i, t, st]
+                co, si = cos(z[:, 0]), sin(z[:, 0])
+                fy = -(b * u * si + c * v * co)
+                kr = np.empty_like(x)
+                kr[:, 0] = a * u + b * u * co - c * v * si
+                kr[:, 1] = fy * z[:, 1]
+                kr[:, 2] = fy * z[:, 2] + u
+                kr[:, 3] = fy * z[:, 3] + u * co
+                kr[:, 4] = fy * z[:, 4] + -v * si
+                k.append(kr)
+            x = x + hs * (k[0] + 2.0 * (k[1] + k[2]) + k[3]) / 6.0
+            if keep_set is None or t + 1 in keep_set:
+                rows.append(x.copy())
+        per_series.append(np.stack(rows))
+    return np.stack(per_series, axis=1)
 
 
 def lag_recursion(a: FloatArray, u: FloatArray, y0: float) -> FloatArray:

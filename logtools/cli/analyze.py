@@ -48,6 +48,11 @@ def register(app: typer.Typer) -> None:
             None, "--channel-map", help="TOML mapping topics/fields to logical signals."
         ),
         no_discovery: bool = typer.Option(False, "--no-discovery", help="Skip discovery."),
+        discovery_span: float | None = typer.Option(
+            None, "--discovery-span", min=0.0,
+            help="Seconds of a long tractor-trailer log discovery looks at, in windows spread "
+            "over it (default 600; 0: all of it, slower).",
+        ),
         seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap draws."),
     ) -> None:
         """Calibrate the robot's parameters from LOG(s) and explain model mismatch."""
@@ -71,7 +76,8 @@ def register(app: typer.Typer) -> None:
             repeats=repeats, baseline=baseline, seed=seed, discovery=not no_discovery,
             debug=_debug(),
             extra=({"urdf": urdf} if urdf else {})
-            | ({"cutoff_hz": cutoff_hz} if cutoff_hz is not None else {}),
+            | ({"cutoff_hz": cutoff_hz} if cutoff_hz is not None else {})
+            | ({"discovery_span_s": discovery_span} if discovery_span is not None else {}),
         )
         err = Console(stderr=True)
         if sys.stderr.isatty():

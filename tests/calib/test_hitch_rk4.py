@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from calib.discovery.effects.actuator_lag import first_order_lag
 from calib.models import hitch_rk4
-from calib.models.hitch_rk4 import compiled_available, rk4_hitch
+from calib.models.hitch_rk4 import compiled_available, rk4_hitch, rk4_hitch_sensitivities
 
 
 def test_the_compiled_loop_is_built() -> None:
@@ -78,6 +78,25 @@ def test_chained_chunks_are_one_trajectory() -> None:
     np.testing.assert_array_equal(out[:, 2, 0], alone)
     with pytest.raises(ValueError, match="chain"):
         rk4_hitch(hs, Us, Vs, 1.0, 0.6, 0.5, y0, chain=np.array([-1, 2, -1, 1]))
+
+
+def test_sensitivities_are_the_derivatives_of_the_map() -> None:
+    rng = np.random.default_rng(11)
+    n = 240
+    h = rng.uniform(0.01, 0.05, n)
+    U, V = rng.normal(size=(2, 3, n, 3))
+    p = [np.array([1.0, 0.8]), np.array([0.5, 0.3]), np.array([0.4, 0.6])]
+    y0 = rng.normal(size=(3, 2))
+    kw = {"keep": range(3, n + 1, 3), "chain": np.array([-1, 0, -1])}
+    S = rk4_hitch_sensitivities(h, U, V, *p, y0, **kw)
+    np.testing.assert_array_equal(S, rk4_hitch_sensitivities(h, U, V, *p, y0, **kw, reference=True))
+    np.testing.assert_array_equal(S[..., 0], rk4_hitch(h, U, V, *p, y0, **kw))
+    eps = 1e-6
+    for q in range(4):  # y0, p0, p1, p2
+        d = np.eye(4)[q] * eps
+        up = rk4_hitch(h, U, V, p[0] + d[1], p[1] + d[2], p[2] + d[3], y0 + d[0], **kw)
+        dn = rk4_hitch(h, U, V, p[0] - d[1], p[1] - d[2], p[2] - d[3], y0 - d[0], **kw)
+        np.testing.assert_allclose(S[..., q + 1], (up - dn) / (2 * eps), atol=1e-7)
 
 
 def test_a_reset_sets_the_state() -> None:

@@ -47,6 +47,7 @@ def test_json_document_has_the_promised_fields(mixed_json: dict) -> None:
         assert {"value", "ci95", "identifiable"} <= est[p].keys()
     assert {"value", "ci95"} <= est["sum_L1_L2"].keys()
     assert {"regions", "effects", "baseline"} <= mixed_json["discovery"].keys()
+    assert mixed_json["discovery"]["windows"] is None  # a short log is looked at whole
 
 
 def test_every_patent_method_is_reported_for_the_whole_log(mixed_json: dict) -> None:
@@ -89,6 +90,21 @@ def test_steady_baseline_names_the_hitch_transient(capsys: pytest.CaptureFixture
     assert code == 0
     doc = json.loads(capsys.readouterr().out)
     assert "hitch_transient" in [e["id"] for e in doc["discovery"]["effects"]]
+
+
+def test_discovery_span_limits_what_discovery_looks_at(capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["analyze", str(SAMPLES / "tt_mixed.mcap"), "--json", "--repeats", "1",
+                 "--discovery-span", "100"])
+    assert code == 0
+    win = json.loads(capsys.readouterr().out)["discovery"]["windows"]
+    assert win["used_s"] == pytest.approx(100.0)
+    assert win["total_s"] > 100.0
+    assert win["windows_s"][0][0] == 0.0 and win["windows_s"][-1][1] == pytest.approx(
+        win["total_s"]
+    )
+    code = main(["analyze", str(SAMPLES / "tt_mixed.mcap"), "--repeats", "1",
+                 "--discovery-span", "100"])
+    assert "Discovery looked at 100 s of the" in capsys.readouterr().out
 
 
 @pytest.mark.slow

@@ -373,15 +373,17 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
                     "has none (kappa_cmd)")
     else:
         from calib.discovery import discover
+        from calib.discovery.windows import DEFAULT_MAX_SPAN_S
 
         progress("model-mismatch discovery")
+        span = cfg.extra.get("discovery_span_s", DEFAULT_MAX_SPAN_S)
         L1 = estimate.parameters["L1"].value
         L2 = estimate.parameters["L2"].value
         discovery = stages.run(
             "discovery",
             lambda: discover(
                 frame, L1, L2, baseline=cfg.baseline, segments=segments, rng=rng,
-                signals=loaded.signals.signals,
+                signals=loaded.signals.signals, max_span_s=span,
             ),
         )
         status = getattr(discovery, "status", "ok")
