@@ -148,8 +148,11 @@ def frame_indgen(
     truth: dict[str, dict[str, float]],
     seed: int,
     duration_range_s: tuple[float, float] = (40.0, 120.0),
+    command_kind: str | None = None,
 ) -> tuple[Any, float, float, dict[str, Any]]:
-    """(aligned frame, L1, L2, conditions) of one log of the independent generator."""
+    """(aligned frame, L1, L2, conditions) of one log of the independent generator.
+    ``command_kind``: this command shape instead of a random one (e.g. "random", whose sines
+    keep a long log varied where the patent's H/C/L stretch over its whole length)."""
     sys.path.insert(0, str(ROOT / "tests"))
     import indgen  # type: ignore[import-not-found]
 
@@ -157,6 +160,10 @@ def frame_indgen(
 
     duration = round(float(rng.uniform(*duration_range_s)), 1)
     scn = indgen.random_scenario(rng, duration_s=duration)
+    if command_kind is not None:
+        from indgen.scenario import _random_command  # type: ignore[import-not-found]
+
+        scn = replace(scn, command=_random_command(rng, scn.command.M, duration, command_kind))
     kw: dict[str, Any] = {}
     offs: dict[str, float] = {}
     scales: dict[str, float] = {}
