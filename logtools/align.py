@@ -87,6 +87,8 @@ def _columns_of(name: str, frame: pl.DataFrame) -> dict[str, str]:
 
 def _clean(name: str, t_ns: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Drop non-finite values, sort by time and keep the last of duplicate stamps."""
+    if t_ns.size >= 2 and np.isfinite(v).all() and (t_ns[1:] > t_ns[:-1]).all():
+        return t_ns, v  # already clean (the usual case): no copies of long signals
     ok = np.isfinite(v)
     t_ns, v = t_ns[ok], v[ok]
     order = np.argsort(t_ns, kind="stable")
@@ -216,19 +218,19 @@ def align_signals(
             "most-sampled signal; choose a rate near the log's own sample rates"
         )
     grid = _grid(int(start), int(end), rate_hz)
-    out: dict[str, np.ndarray] = {"t_ns": grid}
+    cols: list[pl.Series] = []  # each column goes to polars as soon as it is sampled
     for key, (name, t, v) in series.items():
         period_ns = 1e9 / median_rate_hz(t)
         tol_ns = 2.5 * period_ns if tolerance_s is None else tolerance_s * 1e9
         if name in hold_set:
-            out[key] = _sample_hold(t, v, grid, tol_ns)
+            sampled = _sample_hold(t, v, grid, tol_ns)
         elif name in wrap_set:
             u = _sample_continuous(t, np.unwrap(v), grid, tol_ns, method)
-            out[key] = (u + np.pi) % (2 * np.pi) - np.pi
+            sampled = (u + np.pi) % (2 * np.pi) - np.pi
         else:
-            out[key] = _sample_continuous(t, v, grid, tol_ns, method)
+            sampled = _sample_continuous(t, v, grid, tol_ns, method)
+        cols.append(pl.Series(key, sampled, dtype=pl.Float64).fill_nan(None))
     frame = pl.DataFrame({"t_ns": pl.Series(grid, dtype=pl.Int64)})
-    cols = [pl.Series(k, a, dtype=pl.Float64).fill_nan(None) for k, a in out.items() if k != "t_ns"]
     return frame.with_columns(cols)
 
 
@@ -324,7 +326,7 @@ def find_gaps(
     for name, obj in times.items():
         if isinstance(obj, pl.DataFrame):
             obj = obj["t_ns"]
-        t = np.unique(np.asarray(obj.to_numpy() if isinstance(obj, pl.Series) else obj))
+        t = _sorted_distinct(np.asarray(obj.to_numpy() if isinstance(obj, pl.Series) else obj))
         t = t.astype(np.int64)
         if t.size < 3:
             continue
@@ -343,6 +345,16 @@ def find_gaps(
     if cur:
         gaps.append(_merge(cur))
     return gaps
+
+
+def _sorted_distinct(t: np.ndarray) -> np.ndarray:
+    """``np.unique(t)``; time stamps usually arrive sorted, and then dropping repeats is one
+    linear pass instead of unique's hashing and sorting."""
+    if t.ndim == 1 and t.size > 1:
+        step = t[1:] >= t[:-1]
+        if step.all():
+            return t[np.append(True, t[1:] != t[:-1])]
+    return np.unique(t)
 
 
 def _merge(spans: list[tuple[int, int, str]]) -> Gap:

@@ -4,6 +4,11 @@
 Which robot a log comes from is decided when it is read (:mod:`logtools.robot`); everything
 after that goes through the robot's :class:`~logtools.robots.base.RobotPlugin`. The library
 never prints: progress goes to an optional callback ``progress(stage: str)``.
+
+An analysis runs its linear algebra on one BLAS thread (``threadpoolctl``): its matrices are
+tall and thin (a log's rows by a few parameters), where OpenBLAS's thread pool spins rather
+than works; on the 2-core machine it made the 1-hour analysis ~35 % more expensive in CPU
+(issue 14). Parallelism comes from analysing logs side by side (``logcal batch``).
 """
 
 from __future__ import annotations
@@ -12,6 +17,8 @@ import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
+
+from threadpoolctl import threadpool_limits
 
 from calib.results import AnalysisResult, Baseline
 from logtools.errors import LogcalInputError
@@ -85,7 +92,8 @@ def analyze_loaded(
     so in ``stages`` and the others still report.
     """
     plugin = plugin_for(str(loaded.robot), where=str(loaded.path))
-    return plugin.analyze(loaded, config or AnalysisConfig(), progress or _noop)
+    with threadpool_limits(limits=1, user_api="blas"):
+        return plugin.analyze(loaded, config or AnalysisConfig(), progress or _noop)
 
 
 def analyze_logs(
@@ -132,7 +140,8 @@ def analyze_logs(
         raise errors[0]
     plugin = plugin_for(str(runs[0][0].robot))
     if plugin.pool is not None:
-        pooled = plugin.pool(runs, cfg, progress)
+        with threadpool_limits(limits=1, user_api="blas"):
+            pooled = plugin.pool(runs, cfg, progress)
     else:
         pooled = AnalysisResult(
             robot=runs[0][1].robot, segments=[], methods=[], estimate=None,

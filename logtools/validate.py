@@ -65,7 +65,10 @@ def clean_signal(
     if not frame[TIME_COLUMN].is_sorted():
         frame = frame.sort(TIME_COLUMN, maintain_order=True)
         notes.append(f"{where}: timestamps were not increasing; sorted")
-    unique = frame.unique(TIME_COLUMN, keep="first", maintain_order=True)
+    # sorted by now: the first sample of each timestamp is the one whose time differs from the
+    # previous sample's (a linear pass; ``unique`` hashes every timestamp)
+    first = frame[TIME_COLUMN].diff().fill_null(1) != 0
+    unique = frame if first.all() else frame.filter(first)
     if unique.height < frame.height:
         if unique.height == 1:
             raise TimestampError(

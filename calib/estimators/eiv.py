@@ -37,6 +37,40 @@ def _g(p: np.ndarray, L1: float, L2: float) -> tuple[np.ndarray, np.ndarray, np.
     return s / D, (L2 * c + L1) / (D * D), D
 
 
+def _profiled_jacobian(
+    k: np.ndarray, p: np.ndarray, ph: np.ndarray, L1: float, L2: float, sk: float, sp: float
+) -> np.ndarray:
+    """Exact Jacobian of the profiled residuals ((k - g(ph)) / sk, (p - ph) / sp) to (L1, L2).
+
+    Each projected angle ph minimises w_k (k - g(ph))^2 + w_p (p - ph)^2, so it moves with
+    (L1, L2) as the implicit function theorem says: d ph / d L = -F_L / F_ph, F = w_k (k - g)
+    g_ph + w_p (p - ph) the stationarity condition. Analytic rather than finite differences:
+    it halves the fit's cost on a 1-hour log (issue 14) and moves the estimate by ~1e-7 of
+    itself. A point held at the clip bound does not move.
+    """
+    wk, wp = 1.0 / sk**2, 1.0 / sp**2
+    c, s = np.cos(ph), np.sin(ph)
+    D = L2 + L1 * c
+    g = s / D
+    dg = (L2 * c + L1) / D**2
+    d2g = s * (2.0 * L1 * L1 + L1 * L2 * c - L2 * L2) / D**3
+    r = k - g
+    f_ph = wk * (r * d2g - dg * dg) - wp
+    out = np.empty((2 * k.size, 2))
+    partials = ((-s * c / D**2, (D - 2.0 * c * (L2 * c + L1)) / D**3),  # g_L1, g_ph,L1
+                (-s / D**2, (c * D - 2.0 * (L2 * c + L1)) / D**3))  # g_L2, g_ph,L2
+    held = np.abs(ph) >= _PSI_MAX
+    for j, (g_l, dg_l) in enumerate(partials):
+        dph = -wk * (r * dg_l - g_l * dg) / f_ph
+        dph[held] = 0.0
+        out[: k.size, j] = -(g_l + dg * dph) / sk
+        out[k.size :, j] = -dph / sp
+    return out
+
+
+_BLOCK = 65536  # points projected together: the per-point iterations are independent
+
+
 def project_onto_curve(
     kappa: np.ndarray,
     psi: np.ndarray,
@@ -52,13 +86,32 @@ def project_onto_curve(
     Minimises ((kappa - g(p)) / s_k)^2 + ((psi - p) / s_p)^2 per point by Gauss-Newton. Only
     the points still moving (by 1e-13 rad or more) are iterated: a point held at the clip bound
     or one that converged costs nothing further, so long logs cost what their slow points need.
+    The points are taken 65536 at a time (each point's iterations do not depend on the
+    others), so the working arrays stay a few MB whatever the log's length.
     ``start``: initial angles (rad), e.g. the projection at nearby (L1, L2); default ``psi``.
     """
-    wk, wp = 1.0 / std_kappa**2, 1.0 / std_psi**2
     kappa = np.asarray(kappa, dtype=float)
     psi = np.asarray(psi, dtype=float)
     first = psi if start is None else start
     p = np.clip(first, -_PSI_MAX, _PSI_MAX).astype(float, copy=True)
+    for lo in range(0, p.size, _BLOCK):
+        hi = min(lo + _BLOCK, p.size)
+        _project_block(kappa[lo:hi], psi[lo:hi], p[lo:hi], L1, L2, std_kappa, std_psi, n_iter)
+    return p
+
+
+def _project_block(
+    kappa: np.ndarray,
+    psi: np.ndarray,
+    p: np.ndarray,
+    L1: float,
+    L2: float,
+    std_kappa: float,
+    std_psi: float,
+    n_iter: int,
+) -> None:
+    """``project_onto_curve`` on one block; ``p`` holds the start and receives the result."""
+    wk, wp = 1.0 / std_kappa**2, 1.0 / std_psi**2
     active = np.arange(p.size)
     ka, sa, pa = kappa, psi, p.copy()
     for _ in range(n_iter):
@@ -71,7 +124,6 @@ def project_onto_curve(
             break
         active = active[moving]
         ka, sa, pa = kappa[active], psi[active], new[moving]
-    return p
 
 
 def _initial_guess(kappa: np.ndarray, psi: np.ndarray) -> np.ndarray:
@@ -156,18 +208,29 @@ class SteadyStateEIV:
         lo, hi = self.bounds_m
 
         last: list[np.ndarray | None] = [None]
+        cache: dict[bytes, np.ndarray] = {}
+
+        def project(theta: np.ndarray) -> np.ndarray:
+            key = theta.tobytes()
+            if key not in cache:
+                # started from the previous projection: the optimiser's points are close
+                ph = project_onto_curve(k, p, theta[0], theta[1], sk, sp, start=last[0])
+                last[0] = ph
+                cache.clear()
+                cache[key] = ph
+            return cache[key]
 
         def resid(theta: np.ndarray) -> np.ndarray:
-            L1, L2 = theta
-            # started from the previous projection: the optimiser's points are close together
-            ph = project_onto_curve(k, p, L1, L2, sk, sp, start=last[0])
-            last[0] = ph
-            g, _, _ = _g(ph, L1, L2)
+            ph = project(theta)
+            g, _, _ = _g(ph, theta[0], theta[1])
             return np.concatenate([(k - g) / sk, (p - ph) / sp])
 
+        def jac(theta: np.ndarray) -> np.ndarray:
+            return _profiled_jacobian(k, p, project(theta), theta[0], theta[1], sk, sp)
+
         x0 = np.clip(_initial_guess(k, p), lo * 1.01, hi * 0.99)
-        sol = least_squares(resid, x0, bounds=([lo, lo], [hi, hi]), x_scale=1.0, xtol=1e-12,
-                            ftol=1e-12, gtol=1e-12, max_nfev=200)
+        sol = least_squares(resid, x0, jac=jac, bounds=([lo, lo], [hi, hi]), x_scale=1.0,
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200)
         if not np.all(np.isfinite(sol.x)):
             raise SolverError(f"SteadyStateEIV.fit: non-finite estimate {sol.x!r}")
         L1, L2 = (float(v) for v in sol.x)

@@ -3,7 +3,7 @@
 Estimator style: ``OLS1().fit(A, y).beta_``; all share ``LeastSquares`` and differ in ``_solve``.
 """
 
-from calib.lsq.base import LeastSquares, Solution, triangular_factor
+from calib.lsq.base import LeastSquares, Solution, triangular_factor, triangular_factor_by_rows
 from calib.lsq.ols import OLS1, OLS2
 from calib.lsq.tls import TLS, tls_condition_number
 
@@ -15,4 +15,5 @@ __all__ = [
     "Solution",
     "tls_condition_number",
     "triangular_factor",
+    "triangular_factor_by_rows",
 ]

@@ -109,9 +109,10 @@ def segment_command(
     segs = merge(segs, sc)  # refined boundaries can make neighbours one template again
     refine(segs, sc, win)
     segs = absorb_short(segs, sc, max(1, round(min_len_s / dt)))
-    _final_fits(segs, t, y, picked, sc)  # labels at the full rate decide the step rule
+    fits: _FitCache = {}
+    _final_fits(segs, t, y, picked, sc, fits)  # labels at the full rate decide the step rule
     segs = step_rule(segs, sc)
-    return _to_segments(segs, t, y, picked, sc)
+    return _to_segments(segs, t, y, picked, sc, fits)
 
 
 def _full_index(seg: Piece, y: np.ndarray, picked: np.ndarray) -> int:
@@ -125,8 +126,18 @@ def _full_index(seg: Piece, y: np.ndarray, picked: np.ndarray) -> int:
     return int(picked[seg.a])
 
 
+#: (start, end, stride, weight) -> best full-rate template: the segments the step rule leaves
+#: alone are not fitted twice.
+_FitCache = dict[tuple[int, int, int, float], TemplateFit]
+
+
 def _final_fits(
-    segs: list[Piece], t: np.ndarray, y: np.ndarray, picked: np.ndarray, sc: Scorer
+    segs: list[Piece],
+    t: np.ndarray,
+    y: np.ndarray,
+    picked: np.ndarray,
+    sc: Scorer,
+    cache: _FitCache,
 ) -> list[tuple[int, int, TemplateFit]]:
     """Full-rate [start, end) indices and the best template of each segment."""
     starts = [_full_index(s, y, picked) for s in segs] + [t.size]
@@ -137,17 +148,25 @@ def _final_fits(
             continue
         st = max(1, (i1 - i0) // 4000)
         weight = st * (s.b - s.a) / max(i1 - i0, 1) / sc.step
-        fit, _ = sc.best_xy(t[i0:i1:st] - t[i0], y[i0:i1:st], weight)
+        key = (i0, i1, st, weight)
+        if key not in cache:
+            cache[key] = sc.best_xy(t[i0:i1:st] - t[i0], y[i0:i1:st], weight)[0]
+        fit = cache[key]
         s.fit = fit
         out.append((i0, i1, fit))
     return out
 
 
 def _to_segments(
-    segs: list[Piece], t: np.ndarray, y: np.ndarray, picked: np.ndarray, sc: Scorer
+    segs: list[Piece],
+    t: np.ndarray,
+    y: np.ndarray,
+    picked: np.ndarray,
+    sc: Scorer,
+    cache: _FitCache,
 ) -> list[Segment]:
     out: list[Segment] = []
-    for i0, i1, fit in _final_fits(segs, t, y, picked, sc):
+    for i0, i1, fit in _final_fits(segs, t, y, picked, sc, cache):
         t_loc = t[i0:i1] - t[i0]
         rms = float(np.sqrt(np.mean((y[i0:i1] - fit(t_loc)) ** 2)))
         end = t[i1] if i1 < t.size else t[-1]

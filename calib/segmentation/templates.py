@@ -94,9 +94,10 @@ def _thin(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _harmonic_rss(w: np.ndarray, tc: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """RSS and [a, b, c] of y ~ a sin(w tc) + b cos(w tc) + c for each w."""
     ph = np.outer(w, tc)
-    s, c = np.sin(ph), np.cos(ph)
-    one = np.ones_like(s)
-    cols = np.stack([s, c, one], axis=1)  # (m, 3, n)
+    cols = np.empty((ph.shape[0], 3, ph.shape[1]))  # (m, 3, n): sin, cos, 1
+    np.sin(ph, out=cols[:, 0])
+    np.cos(ph, out=cols[:, 1])
+    cols[:, 2] = 1.0
     A = np.einsum("mik,mjk->mij", cols, cols)
     r = np.einsum("mik,k->mi", cols, y)
     A += np.eye(3) * 1e-12 * np.trace(A, axis1=1, axis2=2)[:, None, None]

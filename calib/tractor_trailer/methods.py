@@ -15,10 +15,12 @@ Names (``METHOD_NAMES``):
   EM step. ``condition_number`` is the EM step's (EM1's for TLS(EM1,2,3), all three in
   ``extra`` as ``cn_EM1``..``cn_EM3``); ``extra`` also has the PM step's ``a`` and ``b``.
 
-Speed: the p-long data are reduced once by a QR to a 3 x 3 factor per base matrix
-([sin Ψ, κ cos Ψ, κ] for EM, [κ, 1, Ψ] for PM; see ``calib.lsq.base``); every model is a
-signed column selection of that factor, so the 12 EMLS/PMLS fits cost two QRs, and each of the
-6 PM fits is reused by its 4 CLS methods (one QR of the predicted data each).
+Speed: the p-long data are reduced once by a QR to a 7 x 7 factor of the base columns
+[sin Ψ, κ cos Ψ, κ, 1, Ψ, Ψ cos Ψ, cos Ψ] (see ``calib.lsq.base``); the EM factor
+([sin Ψ, κ cos Ψ, κ]), the PM factor ([κ, 1, Ψ]) and the measured-Ψ half of every CLS data set
+are column combinations of it, and every model is a signed column selection of a factor. So
+the 12 EMLS/PMLS fits cost one QR, and each of the 6 PM fits is reused by its 4 CLS methods
+(one QR of its p predicted-angle rows each).
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calib.errors import SolverError
-from calib.lsq import OLS1, OLS2, TLS, LeastSquares, triangular_factor
+from calib.lsq import OLS1, OLS2, TLS, LeastSquares, triangular_factor, triangular_factor_by_rows
 from calib.results import Family, JsonRecord
 from calib.tractor_trailer.patent_models import (
     EXACT_MODELS,
@@ -42,7 +44,6 @@ from calib.tractor_trailer.patent_models import (
     check_excitation,
     em_columns,
     lengths_from_beta,
-    pm_columns,
 )
 
 __all__ = [
@@ -181,26 +182,49 @@ _T = TypeVar("_T")
 
 
 class _Evaluator:
-    """Caches the factors and PM fits shared between methods on one data set."""
+    """Caches the factors and PM fits shared between methods on one data set.
+
+    One QR of the base columns B = [sin Ψ, κ cos Ψ, κ, 1, Ψ, Ψ cos Ψ, cos Ψ] serves the EM
+    factor (its first three columns), the PM factor ([κ, 1, Ψ]) and the Ψm half of every CLS
+    data set: with κp = (Ψm − b)/a, the rows [sin Ψm, κp cos Ψm, κp] are B times a 7 x 3
+    matrix of 1, 1/a and −b/a, so their factor is R_B times that matrix. Only the κm half
+    (Ψp = a κm + b, new angles for each PM fit) is factored afresh; the two halves' factors are
+    stacked and reduced (same column algebra as one QR of the 2p rows, see ``calib.lsq.base``).
+    """
 
     def __init__(self, kappa: np.ndarray, psi: np.ndarray) -> None:
         self.kappa, self.psi = kappa, psi
         self.n = kappa.size
-        self._em_factor: np.ndarray | None = None
+        self._base: np.ndarray | None = None
         self._pm_factor: np.ndarray | None = None
         self._pm_fits: dict[tuple[str, PredictionModel], LeastSquares] = {}
         self._cls_factors: dict[tuple[str, PredictionModel], tuple[np.ndarray, int]] = {}
 
+    def base_factor(self) -> np.ndarray:
+        """7 x 7 R of B = [sin Ψ, κ cos Ψ, κ, 1, Ψ, Ψ cos Ψ, cos Ψ]."""
+        if self._base is None:
+            self._base = triangular_factor_by_rows(self.n, 7, self._base_rows)
+        return self._base
+
+    def _base_rows(self, start: int, stop: int, out: np.ndarray) -> None:
+        k, p = self.kappa[start:stop], self.psi[start:stop]
+        np.cos(p, out=out[:, 6])
+        np.sin(p, out=out[:, 0])
+        np.multiply(k, out[:, 6], out=out[:, 1])
+        out[:, 2] = k
+        out[:, 3] = 1.0
+        out[:, 4] = p
+        np.multiply(p, out[:, 6], out=out[:, 5])
+
     def em_factor(self) -> np.ndarray:
-        if self._em_factor is None:
-            self._em_factor = triangular_factor(em_columns(self.kappa, self.psi))
-        return self._em_factor
+        # the R of a leading block of columns is the leading block of R
+        return self.base_factor()[:3, :3]
 
     def pm_fit(self, solver: str, pm: PredictionModel) -> LeastSquares:
         key = (solver, pm)
         if key not in self._pm_fits:
             if self._pm_factor is None:
-                self._pm_factor = triangular_factor(pm_columns(self.kappa, self.psi))
+                self._pm_factor = triangular_factor(self.base_factor()[:5, [2, 3, 4]])
             M = PREDICTION_MODELS[pm].select(self._pm_factor)
             self._pm_fits[key] = _SOLVERS[solver]().fit_factor(M, self.n)
         return self._pm_fits[key]
@@ -211,9 +235,20 @@ class _Evaluator:
             a, b = _line(self.pm_fit(solver, pm), pm)
             if not (math.isfinite(a) and a != 0.0 and math.isfinite(b)):
                 raise SolverError(f"{solver}({pm}): slope a = {a} cannot predict curvature")
-            k = np.concatenate([self.kappa, (self.psi - b) / a])
-            p = np.concatenate([a * self.kappa + b, self.psi])
-            self._cls_factors[key] = (triangular_factor(em_columns(k, p)), k.size)
+            # κm half: [sin Ψp, κm cos Ψp, κm] with Ψp = a κm + b
+            def predicted_rows(start: int, stop: int, out: np.ndarray) -> None:
+                k = self.kappa[start:stop]
+                em_columns(k, a * k + b, out=out)
+
+            first = triangular_factor_by_rows(self.n, 3, predicted_rows)
+            # Ψm half: B columns [sin Ψ, Ψ cos Ψ, cos Ψ, Ψ, 1] times T
+            T = np.array(
+                [[1.0, 0.0, 0.0], [0.0, 1 / a, 0.0], [0.0, -b / a, 0.0],
+                 [0.0, 0.0, 1 / a], [0.0, 0.0, -b / a]]
+            )
+            second = self.base_factor()[:, [0, 5, 6, 4, 3]] @ T
+            factor = triangular_factor(np.vstack([first, second]))
+            self._cls_factors[key] = (factor, 2 * self.n)
         return self._cls_factors[key]
 
 

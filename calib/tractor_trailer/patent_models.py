@@ -120,11 +120,19 @@ def check_excitation(kappa: ArrayLike, psi: ArrayLike) -> tuple[FloatArray, Floa
     return k, p
 
 
-def em_columns(kappa: ArrayLike, psi: ArrayLike) -> FloatArray:
-    """Base matrix D = [sin Ψ, κ cos Ψ, κ] (p x 3) of the exact models."""
+def em_columns(kappa: ArrayLike, psi: ArrayLike, out: FloatArray | None = None) -> FloatArray:
+    """Base matrix D = [sin Ψ, κ cos Ψ, κ] (p x 3) of the exact models (written into ``out``,
+    shape (p, 3), when given)."""
     k = np.asarray(kappa, dtype=float)
     p = np.asarray(psi, dtype=float)
-    return np.column_stack([np.sin(p), k * np.cos(p), k])
+    k, p = np.broadcast_arrays(k, p)
+    if out is None:
+        out = np.empty((*p.shape, 3))
+    np.sin(p, out=out[..., 0])
+    np.cos(p, out=out[..., 1])
+    out[..., 1] *= k
+    out[..., 2] = k
+    return out
 
 
 def pm_columns(kappa: ArrayLike, psi: ArrayLike) -> FloatArray:

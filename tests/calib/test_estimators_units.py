@@ -118,6 +118,19 @@ def test_projection_lands_on_curve_and_is_closest() -> None:
     assert np.all(d_hat <= d_grid.min(axis=1) + 1e-12)
 
 
+def test_projection_of_a_long_log_is_each_points_own_projection() -> None:
+    """Points are projected in blocks of 65536; each point's result is the one it gets alone."""
+    rng = np.random.default_rng(5)
+    L1, L2, n = 1.25, 2.48, 70_000
+    psi_true = rng.uniform(-0.7, 0.7, n)
+    k = steady_state_kappa(psi_true, L1, L2) + rng.normal(0, 0.02, n)
+    p = psi_true + rng.normal(0, 0.01, n)
+    ph = project_onto_curve(k, p, L1, L2, 0.02, 0.01)
+    for lo, hi in ((0, 10), (65_530, 65_540), (n - 10, n)):
+        alone = project_onto_curve(k[lo:hi], p[lo:hi], L1, L2, 0.02, 0.01)
+        np.testing.assert_array_equal(ph[lo:hi], alone)
+
+
 @pytest.mark.parametrize(("L1", "L2"), [(1.25, 2.48), (1.8, 1.8), (2.4, 1.3)])
 def test_eiv_exact_on_ideal_steady_data(L1: float, L2: float) -> None:
     t = np.arange(0, 63.05, 0.1)

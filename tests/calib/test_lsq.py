@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from scipy.optimize import minimize
 
 from calib.errors import InsufficientDataError
-from calib.lsq import OLS1, OLS2, TLS, LeastSquares, triangular_factor
+from calib.lsq import OLS1, OLS2, TLS, LeastSquares, triangular_factor, triangular_factor_by_rows
 
 SOLVERS = (OLS1, OLS2, TLS)
 
@@ -134,7 +136,7 @@ def test_degenerate_inputs_raise(solver: type[LeastSquares]) -> None:
 
 def test_blocked_factor_of_a_long_matrix_is_a_valid_qr_factor() -> None:
     rng = np.random.default_rng(11)
-    C = rng.normal(size=(20_001, 3)) * [1.0, 1e3, 1e-3]  # several 4096-row blocks, ragged end
+    C = rng.normal(size=(20_001, 3)) * [1.0, 1e3, 1e-3]  # several 1024-row blocks, ragged end
     R = triangular_factor(C)
     assert R.shape == (3, 3)
     np.testing.assert_allclose(np.tril(R, -1), 0.0)
@@ -144,3 +146,25 @@ def test_blocked_factor_of_a_long_matrix_is_a_valid_qr_factor() -> None:
     np.testing.assert_allclose(
         OLS1().fit(A, y).beta_, np.linalg.lstsq(A, y, rcond=None)[0], rtol=1e-10
     )
+
+
+@pytest.mark.parametrize("p", [5, 70_000, 140_001])  # one stretch; two; three, ragged end
+def test_factor_built_by_rows_is_a_factor_of_the_whole_matrix(p: int) -> None:
+    rng = np.random.default_rng(12)
+    C = rng.normal(size=(p, 4)) * [1.0, 1e3, 1e-3, 1.0]
+    calls: list[tuple[int, int]] = []
+
+    def fill(start: int, stop: int, out: np.ndarray) -> None:
+        calls.append((start, stop))
+        out[:] = C[start:stop]
+
+    R = triangular_factor_by_rows(p, 4, fill)
+    assert R.shape == (4, 4)
+    np.testing.assert_allclose(np.tril(R, -1), 0.0)
+    gram = C.T @ C
+    np.testing.assert_allclose(R.T @ R, gram, rtol=1e-12, atol=1e-12 * np.abs(gram).max())
+    assert calls[0][0] == 0  # every row once, in order
+    assert calls[-1][1] == p
+    assert all(a[1] == b[0] for a, b in itertools.pairwise(calls))
+    with pytest.raises(ValueError, match="no rows"):
+        triangular_factor_by_rows(0, 4, fill)

@@ -130,6 +130,32 @@ def test_cls_equals_a_step_by_step_computation_on_explicit_arrays() -> None:
     assert est["M6"].extra["a"] == pytest.approx(a)
 
 
+def test_long_data_cls_and_emls_equal_the_explicit_fits() -> None:
+    """More samples than one stretch of the factorisation (65536 rows): the shared factor of
+    [sin Ψ, κ cos Ψ, κ, 1, Ψ, Ψ cos Ψ, cos Ψ] gives what fits on the explicit arrays give."""
+    rng = np.random.default_rng(1)
+    k0, p0 = harmonic(0.2, n=70_001, t_end=630.0)
+    k, p = k0 + rng.normal(0, 0.01, k0.size), p0 + rng.normal(0, 0.01, k0.size)
+    est = evaluate_methods(k, p, ["M21", "M12", "TLS(EM2)", "OLS1(PM2)"])
+    a = float(TLS().fit(*pm_design("PM1", k, p)).beta_[0])  # M21 starts with TLS(PM1)
+    kk, pp = np.concatenate([k, p / a]), np.concatenate([a * k, p])
+    m21 = lengths_from_beta(ExactModel.EM1, OLS1().fit(*em_design("EM1", kk, pp)).beta_)
+    assert pytest.approx(m21[0], rel=1e-9) == est["M21"].L1
+    assert pytest.approx(m21[1], rel=1e-9) == est["M21"].L2
+    a, b = TLS().fit(*pm_design("PM2", k, p)).beta_  # M12: TLS(PM2) + TLS(EM1,2,3)
+    kk, pp = np.concatenate([k, (p - b) / a]), np.concatenate([a * k + b, p])
+    fit = TLS().fit(*em_design("EM1", kk, pp))
+    m12 = lengths_from_beta(ExactModel.EM1, fit.beta_)
+    assert pytest.approx(m12[0], rel=1e-9) == est["M12"].L1
+    assert pytest.approx(m12[1], rel=1e-9) == est["M12"].L2
+    assert est["M12"].condition_number == pytest.approx(fit.condition_number_, rel=1e-9)
+    fit = TLS().fit(*em_design("EM2", k, p))
+    assert est["TLS(EM2)"].condition_number == pytest.approx(fit.condition_number_, rel=1e-9)
+    assert est["OLS1(PM2)"].extra["b"] == pytest.approx(
+        OLS1().fit(*pm_design("PM2", k, p)).beta_[1], rel=1e-9
+    )
+
+
 def test_degenerate_data_raise_naming_what_is_missing() -> None:
     with pytest.raises(InsufficientDataError, match="kappa does not vary"):
         evaluate_methods(np.zeros(50), np.zeros(50))

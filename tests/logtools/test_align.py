@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from logtools.align import AlignMethod, align_signals
+from logtools.align import AlignMethod, align_signals, find_gaps
 from logtools.errors import LogcalInputError, TimestampError
 
 T0 = 1_750_000_000_000_000_000
@@ -144,3 +144,15 @@ def test_frame_with_several_value_columns():
     out = align_signals({"q": frame})
     assert out.columns == ["t_ns", "q.0", "q.1"]
     np.testing.assert_array_equal(out["q.1"].to_numpy(), -np.arange(5.0))
+
+
+def test_gaps_do_not_depend_on_sample_order_or_repeated_stamps():
+    rng = np.random.default_rng(2)
+    t = T0 + np.arange(2000, dtype=np.int64) * 10_000_000
+    t = np.delete(t, np.s_[500:700])  # a 2 s dropout
+    messy = rng.permutation(np.concatenate([t, t[::7]]))  # shuffled, some stamps twice
+    gaps = find_gaps({"a": t})
+    assert len(gaps) == 1
+    assert gaps[0].duration_s == pytest.approx(2.01)
+    assert find_gaps({"a": messy}) == gaps
+    assert find_gaps({"a": np.concatenate([t[:1000], t[999:]])}) == gaps  # sorted, one repeat
