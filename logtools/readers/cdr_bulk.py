@@ -23,17 +23,21 @@ message by message, which drops and reports the bad messages.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import polars as pl
 from mcap.records import Schema
 
+from logtools.readers.mcap_scan import Payloads
+
 __all__ = ["decode_cdr_bulk", "max_array_items"]
 
 _MAX_ARRAY_ITEMS = 256  # decoders.MAX_ARRAY_ITEMS (not imported: decoders imports this module)
 _MAX_STRING_ITEMS = 4096  # longer string sequences go message by message
 _MAX_STRING_LENGTHS = 64  # more distinct string lengths in one field: per-message str decode
+_BLOCK_BYTES = 1 << 22  # messages copied at a time to read fixed-offset fields (4 MiB)
 
 _NAME = re.compile(r"^(?!.*__)(?!.*_$)[a-z][a-z0-9_]*$")  # rosidl's package/field name pattern
 _MSG_NAME = re.compile(r"^[A-Z][A-Za-z0-9]*$")
@@ -226,21 +230,22 @@ class _Column:
 
 
 class _Payloads:
-    """The channel's payloads as one uint8 buffer, with per-message starts and lengths."""
+    """The channel's payloads: starts into the buffer the scan left them in, and lengths.
 
-    def __init__(self, payloads: list[bytes]) -> None:
-        n = len(payloads)
-        self.n = n
-        self.lens = np.fromiter(map(len, payloads), dtype=np.int64, count=n)
-        self.buf = np.frombuffer(b"".join(payloads), dtype=np.uint8)
+    Fields at the same offset in every message are read block by block (:meth:`column`, then
+    :meth:`fill`): the block's messages up to the last such field are copied into one small
+    reused (messages x width) array and each column is a strided copy out of it. Fields whose
+    offset differs between messages, and lengths and counts, are gathered at once (:meth:`read`).
+    """
+
+    def __init__(self, payloads: Sequence[bytes]) -> None:
+        data = payloads if isinstance(payloads, Payloads) else Payloads.from_bytes(payloads)
+        self.n = len(data)
+        self.lens = data.lengths
         self.min_len = int(self.lens.min())
-        self.fixed = self.min_len == int(self.lens.max())
-        if self.fixed:
-            self.starts = np.arange(n, dtype=np.int64) * self.min_len
-            self.rows = self.buf.reshape(n, self.min_len)
-        else:
-            self.starts = np.zeros(n, dtype=np.int64)
-            np.cumsum(self.lens[:-1], out=self.starts[1:])
+        self.flat = data.buffer
+        self.starts = data.starts
+        self.pending: list[tuple[int, str, np.ndarray]] = []
 
     def check(self, end: Offset, sel: np.ndarray | None = None) -> None:
         """Raise unless every selected message holds at least ``end`` bytes."""
@@ -254,13 +259,35 @@ class _Payloads:
     def read(self, at: Offset, dtype: str, size: int, sel: np.ndarray | None = None) -> np.ndarray:
         """Values of ``dtype`` at offset ``at`` (int or per selected message) of each message."""
         self.check(at + size, sel)
-        if not isinstance(at, np.ndarray) and self.fixed and sel is None:
-            block = self.rows[:, at : at + size]
-        else:
-            starts = self.starts if sel is None else self.starts[sel]
-            pos = starts + at
-            block = self.buf[pos[:, None] + np.arange(size)]
-        return np.ascontiguousarray(block).view(dtype).reshape(-1)
+        starts = self.starts if sel is None else self.starts[sel]
+        view = np.ndarray((len(self.flat) - size + 1,), dtype, self.flat, strides=(1,))
+        return view[starts + at]
+
+    def column(self, at: int, kind: str) -> np.ndarray:
+        """The ``kind`` field at ``at`` in every message: an array :meth:`fill` fills in."""
+        dtype, size = _PRIMITIVES[kind]
+        self.check(at + size)
+        out: np.ndarray = np.empty(self.n, dtype=_column_dtype(kind))
+        self.pending.append((at, dtype, out))
+        return out
+
+    def fill(self) -> None:
+        """Fill the arrays :meth:`column` handed out."""
+        if not self.pending:
+            return
+        width = max(at + np.dtype(dtype).itemsize for at, dtype, _ in self.pending)
+        rows_view = np.ndarray((len(self.flat) - width + 1,), f"V{width}", self.flat, strides=(1,))
+        block = max(1, _BLOCK_BYTES // width)
+        for first in range(0, self.n, block):
+            rows = rows_view[self.starts[first : first + block]]  # (k,) records of width bytes
+            k = len(rows)
+            for at, dtype, out in self.pending:
+                src = np.ndarray((k,), dtype, rows, offset=at, strides=(width,))
+                if out.dtype == np.bool_:
+                    np.not_equal(src, 0, out=out[first : first + k])
+                else:
+                    out[first : first + k] = src
+        self.pending.clear()
 
     def strings(self, at: Offset, length: np.ndarray, sel: np.ndarray | None) -> pl.Series:
         """The strings of ``length - 1`` bytes at ``at`` (empty when ``length`` <= 1)."""
@@ -271,7 +298,7 @@ class _Payloads:
         distinct = np.unique(nbytes)
         if len(distinct) > _MAX_STRING_LENGTHS:
             out = [
-                _utf8(self.buf[p : p + k].tobytes())
+                _utf8(self.flat[p : p + k].tobytes())
                 for p, k in zip(pos.tolist(), nbytes.tolist(), strict=True)
             ]
             return pl.Series(out, dtype=pl.String)
@@ -282,7 +309,7 @@ class _Payloads:
             if k == 0:
                 values[idx] = constant = ""
                 continue
-            block = self.buf[pos[idx][:, None] + np.arange(k)]
+            block = self.flat[pos[idx][:, None] + np.arange(k)]
             if bool(np.all(block == block[0])):
                 values[idx] = constant = _utf8(block[0].tobytes())
                 continue
@@ -294,6 +321,16 @@ class _Payloads:
         if len(distinct) == 1 and constant is not None:
             return pl.repeat(constant, count, eager=True, dtype=pl.String)
         return pl.Series(values.tolist(), dtype=pl.String)
+
+
+def _column_dtype(kind: str) -> type:
+    """The dtype a field's column is built with (the per-message path's: int64, float64, bool;
+    uint64 stays unsigned until :func:`_series` sees whether it fits int64)."""
+    if kind == "bool":
+        return np.bool_
+    if kind.startswith("float"):
+        return np.float64
+    return np.uint64 if kind == "uint64" else np.int64
 
 
 def _utf8(raw: bytes) -> str:
@@ -321,6 +358,8 @@ def _scalar(
 ) -> tuple[np.ndarray, Offset]:
     dtype, size = _PRIMITIVES[kind]
     at = _align(at, size)
+    if sel is None and not isinstance(at, np.ndarray):
+        return data.column(at, kind), at + size
     values = data.read(at, dtype, size, sel)
     if kind == "bool":
         values = values != 0
@@ -361,7 +400,7 @@ def _count(data: _Payloads, at: Offset, f: _Field) -> tuple[np.ndarray, Offset]:
 
 
 def _numeric_array(data: _Payloads, at: Offset, f: _Field, columns: list[_Column]) -> Offset:
-    dtype, size = _PRIMITIVES[f.kind]
+    size = _PRIMITIVES[f.kind][1]
     count, at = _count(data, at, f)
     first = _align(at, size)
     if not bool(np.all(count > 0)) and (isinstance(first, np.ndarray) or first != at):
@@ -372,9 +411,7 @@ def _numeric_array(data: _Payloads, at: Offset, f: _Field, columns: list[_Column
         present = count > i
         sel = None if bool(present.all()) else np.flatnonzero(present)
         base = first[sel] if sel is not None and isinstance(first, np.ndarray) else first
-        values = data.read(_narrow(base + i * size), dtype, size, sel)
-        if f.kind == "bool":
-            values = values != 0
+        values, _ = _scalar(data, _narrow(base + i * size), f.kind, sel)
         columns.append(_column(f"{f.path}.{i}", values, present, sel))
     return _narrow(end)
 
@@ -416,12 +453,14 @@ def _series(col: _Column, n: int) -> pl.Series:
         if values.dtype.kind == "u" and values.dtype.itemsize == 8:
             big = bool(np.any(values >= 2**63))
             series = (
-                pl.Series(col.name, values) if big else pl.Series(col.name, values.astype(np.int64))
+                pl.Series(col.name, values)
+                if big
+                else pl.Series(col.name, values.astype(np.int64, copy=False))
             )
         elif values.dtype.kind in "iu":
-            series = pl.Series(col.name, values.astype(np.int64))
+            series = pl.Series(col.name, values.astype(np.int64, copy=False))
         elif values.dtype.kind == "f":
-            series = pl.Series(col.name, values.astype(np.float64))
+            series = pl.Series(col.name, values.astype(np.float64, copy=False))
         else:
             series = pl.Series(col.name, values)
     if col.present is None:
@@ -433,7 +472,7 @@ def _series(col: _Column, n: int) -> pl.Series:
 
 
 def decode_cdr_bulk(
-    schema: Schema | None, message_encoding: str, payloads: list[bytes]
+    schema: Schema | None, message_encoding: str, payloads: Sequence[bytes]
 ) -> pl.DataFrame | None:
     """Decode one channel's CDR payloads in bulk, or return None to have them decoded one by one.
 
@@ -446,14 +485,20 @@ def decode_cdr_bulk(
         The frame the per-message path would build, or None when the schema or any payload is
         outside the bulk subset (see the module docstring).
     """
-    if message_encoding != "cdr" or schema is None or schema.encoding != "ros2msg" or not payloads:
+    if (
+        message_encoding != "cdr"
+        or schema is None
+        or schema.encoding != "ros2msg"
+        or not len(payloads)
+    ):
         return None
     try:
         fields = _compile(schema)
         data = _Payloads(payloads)
-        if data.min_len < 4 or bool(np.any(data.buf[data.starts + 1] != 1)):
+        if data.min_len < 4 or bool(np.any(data.flat[data.starts + 1] != 1)):
             return None  # big-endian or parameter-list (XCDR) encapsulation
         columns = _decode_fields(data, fields)
+        data.fill()
     except _UnsupportedError:
         return None
     if not columns:

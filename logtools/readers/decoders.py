@@ -1,10 +1,13 @@
 """Message decoders, registered per MCAP message encoding: a channel's payloads -> one frame.
 
-A decoder takes all raw payloads of one channel at once and returns a polars frame with one row
-per payload it could decode (fields flattened by path: ``twist.twist.linear.x``; arrays as numbered
-columns: ``position.0``) and the indices of those payloads. JSON is decoded in bulk by polars'
-NDJSON reader; ROS 2 (``cdr``), ROS 1 and protobuf go message by message through the ``mcap``
-support packages' decoder factories.
+A decoder takes all raw payloads of one channel at once (a sequence of ``bytes``; the MCAP
+reader passes a :class:`~logtools.readers.mcap_scan.Payloads`, views into the decompressed
+chunks that bulk decoders read with numpy) and returns a polars frame with one row per payload
+it could decode (fields flattened by path: ``twist.twist.linear.x``; arrays as numbered columns:
+``position.0``) and the indices of those payloads. JSON is decoded in bulk by polars' NDJSON
+reader (the payloads are laid out as NDJSON lines with numpy, not joined one by one); ROS 2
+(``cdr``) fixed-layout messages in bulk by ``cdr_bulk``; other ROS 2 messages, ROS 1 and
+protobuf go message by message through the ``mcap`` support packages' decoder factories.
 
 The decoders a read uses are passed in (``read_log(path, decoders=...)``, a mapping from MCAP
 message encoding to decoder); :data:`DEFAULT_DECODERS` holds the four above. Nothing is
@@ -22,8 +25,11 @@ from io import BytesIO
 from types import MappingProxyType
 from typing import Any, Protocol
 
+import numpy as np
 import polars as pl
 from mcap.records import Channel, Schema
+
+from logtools.readers.mcap_scan import Payloads
 
 __all__ = [
     "DEFAULT_DECODERS",
@@ -62,7 +68,9 @@ class Decoded:
 class MessageDecoder(Protocol):
     """Decodes all payloads of one channel."""
 
-    def __call__(self, schema: Schema | None, channel: Channel, payloads: list[bytes]) -> Decoded:
+    def __call__(
+        self, schema: Schema | None, channel: Channel, payloads: Sequence[bytes]
+    ) -> Decoded:
         """Decode ``payloads`` (raw message data of ``channel``)."""
         ...
 
@@ -170,24 +178,85 @@ def frame_from_rows(rows: list[dict[str, Any]]) -> pl.DataFrame:
 _JSON_INFER_ROWS = 1000
 
 
-def decode_json(schema: Schema | None, channel: Channel, payloads: list[bytes]) -> Decoded:
+def decode_json(schema: Schema | None, channel: Channel, payloads: Sequence[bytes]) -> Decoded:
     """Decode JSON payloads in one go with polars' NDJSON reader; fall back per message."""
-    if not payloads:
+    if not len(payloads):
         return Decoded(pl.DataFrame())
-    joined = b"\n".join(payloads)
-    if joined.count(b"\n") != len(payloads) - 1 or joined.count(b"\r"):
-        joined = b"\n".join(p.replace(b"\n", b" ").replace(b"\r", b" ") for p in payloads)
-    # Infer the schema from the first messages (fast); if a later message disagrees (an int field
-    # that turns float), polars raises and the whole channel is inferred instead.
-    for infer in (_JSON_INFER_ROWS, None):
+    data = payloads if isinstance(payloads, Payloads) else Payloads.from_bytes(payloads)
+    joined = _ndjson_lines(data)
+    # Infer the schema from the first messages (fast) when every message has as many keys as
+    # they do (a field that first appears later would be dropped silently by that schema);
+    # otherwise from all of them. If a later message disagrees in type (an int field that turns
+    # float), polars raises and the whole channel is inferred instead.
+    first = _JSON_INFER_ROWS if _uniform_keys(joined, len(payloads)) else None
+    for infer in dict.fromkeys((first, None)):
         try:
             frame = pl.read_ndjson(BytesIO(joined), infer_schema_length=infer)
         except Exception:  # polars raises ComputeError/SchemaError/...: try the next way
             continue
-        if frame.height == len(payloads):
-            return Decoded(flatten_frame(frame))
-        break
+        if frame.height != len(payloads):
+            break
+        flat = flatten_frame(frame)
+        if infer is not None and _null_after_head(flat):
+            continue  # a field missing later (renamed?) where the first lines all had it
+        return Decoded(flat)
     return _decode_each(payloads, _json_object)
+
+
+def _null_after_head(frame: pl.DataFrame) -> bool:
+    """Whether a column has nulls after the first ``_JSON_INFER_ROWS`` rows but none in them."""
+    head = frame.head(_JSON_INFER_ROWS)
+    return any(
+        frame[c].null_count() > 0 and head[c].null_count() == 0 for c in frame.columns
+    )
+
+
+def _uniform_keys(joined: bytes, n: int) -> bool:
+    """Whether every NDJSON line holds as many key tokens (``":``) as each of the first
+    ``_JSON_INFER_ROWS`` lines does, so that no field can first appear later unless another
+    goes missing (``_null_after_head`` catches that). Costs one pass of ``bytes.count``."""
+    head = joined.split(b"\n", _JSON_INFER_ROWS)[: min(n, _JSON_INFER_ROWS)]
+    counts = {line.count(b'":') for line in head}
+    if len(counts) != 1:
+        return False
+    return joined.count(b'":') == n * counts.pop()
+
+
+_LINE_BLOCK = 4096  # messages laid out at a time, each padded to its block's longest
+
+
+def _ndjson_lines(data: Payloads) -> bytes:
+    """One NDJSON line per payload: CR and LF inside a payload become spaces, and each line is
+    padded with spaces to the longest payload of its block of messages (whitespace is
+    insignificant in JSON, and a blank line is skipped as an empty one is)."""
+    buffer, starts, lengths = data.buffer, data.starts, data.lengths
+    firsts = np.arange(0, len(starts), _LINE_BLOCK)
+    widths = np.maximum.reduceat(lengths, firsts) + 1
+    counts = np.diff(np.append(firsts, len(starts)))
+    ends = np.cumsum(widths * counts)
+    out = np.empty(int(ends[-1]), dtype=np.uint8)
+    for first, width, end, count in zip(
+        firsts.tolist(), widths.tolist(), ends.tolist(), counts.tolist(), strict=True
+    ):
+        at = starts[first : first + count]
+        size = lengths[first : first + count]
+        rows = out[end - width * count : end].reshape(count, width)
+        fits = at + width <= len(buffer)
+        if len(buffer) >= width:
+            view = np.ndarray((len(buffer) - width + 1,), f"V{width}", buffer, strides=(1,))
+            rows.view(f"V{width}")[fits, 0] = view[at[fits]]
+        for i in np.flatnonzero(~fits).tolist():  # the buffer's last payloads
+            rows[i, : size[i]] = buffer[at[i] : at[i] + size[i]]
+        np.putmask(rows, np.arange(width) >= size[:, None], 32)
+        rows[:, -1] = 10
+    joined = out.tobytes()
+    if joined.count(b"\n") != len(starts) or joined.count(b"\r"):  # inside payloads: spaces
+        out[(out == 13) | (out == 10)] = 32
+        row_width = np.repeat(widths, counts)
+        row = np.arange(len(starts)) - np.repeat(firsts, counts)
+        out[np.repeat(ends - widths * counts, counts) + (row + 1) * row_width - 1] = 10
+        joined = out.tobytes()
+    return joined
 
 
 def _json_object(payload: bytes) -> Any:
@@ -197,7 +266,7 @@ def _json_object(payload: bytes) -> Any:
     return value
 
 
-def _decode_each(payloads: list[bytes], decode: Callable[[bytes], Any]) -> Decoded:
+def _decode_each(payloads: Sequence[bytes], decode: Callable[[bytes], Any]) -> Decoded:
     """Decode message by message, dropping (and counting) those that fail."""
     rows: list[dict[str, Any]] = []
     kept: list[int] = []
@@ -218,7 +287,9 @@ class _FactoryDecoder:
     def __init__(self, make_factory: Callable[[], Any]) -> None:
         self._make_factory = make_factory
 
-    def __call__(self, schema: Schema | None, channel: Channel, payloads: list[bytes]) -> Decoded:
+    def __call__(
+        self, schema: Schema | None, channel: Channel, payloads: Sequence[bytes]
+    ) -> Decoded:
         factory = self._make_factory()
         # mcap_ros2's vendored schema parser prints the offending schema line (bytes from the
         # log) to stderr before raising: kept off the terminal; the raised error says it
@@ -257,7 +328,7 @@ decode_cdr_each: MessageDecoder = _FactoryDecoder(_ros2_factory)
 """ROS 2 message by message (mcap_ros2): the fallback of :func:`decode_cdr`."""
 
 
-def decode_cdr(schema: Schema | None, channel: Channel, payloads: list[bytes]) -> Decoded:
+def decode_cdr(schema: Schema | None, channel: Channel, payloads: Sequence[bytes]) -> Decoded:
     """ROS 2: fixed-layout messages in bulk (``cdr_bulk``), anything else message by message."""
     from logtools.readers.cdr_bulk import decode_cdr_bulk
 

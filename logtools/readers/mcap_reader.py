@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+import numpy as np
 import polars as pl
 from mcap.records import Channel
 
@@ -82,15 +83,15 @@ def _channels_by_topic(scan: ScanResult) -> dict[str, list[Channel]]:
 
 def _topic_info(scan: ScanResult, chans: list[Channel]) -> TopicInfo:
     schema = scan.schemas.get(chans[0].schema_id)
-    times = [m.log_times for ch in chans if (m := scan.messages.get(ch.id)) and m.log_times]
+    times = [m.log_times for ch in chans if (m := scan.messages.get(ch.id)) and len(m.log_times)]
     return TopicInfo(
         topic=chans[0].topic,
         schema_name=schema.name if schema else "",
         schema_encoding=schema.encoding if schema else "",
         message_encoding=chans[0].message_encoding,
         message_count=sum(len(t) for t in times),
-        first_ns=min(min(t) for t in times) if times else None,
-        last_ns=max(max(t) for t in times) if times else None,
+        first_ns=min(int(t.min()) for t in times) if times else None,
+        last_ns=max(int(t.max()) for t in times) if times else None,
     )
 
 
@@ -113,7 +114,7 @@ def _decode_channel(
             message=f"{where}: message encoding {ch.message_encoding!r} is unknown (known: "
             f"{', '.join(known_encodings(decoders))}); its {n} messages were not decoded",
         )
-    if not msgs.payloads:
+    if not len(msgs.payloads):
         return pl.DataFrame([t_ns]), None
     try:
         decoded = decode(scan.schemas.get(ch.schema_id), ch, msgs.payloads)
@@ -139,8 +140,8 @@ def _decode_channel(
     return frame.insert_column(0, t_ns) if frame.width else pl.DataFrame([t_ns]), problem
 
 
-def _span(log_times: list[int]) -> tuple[int | None, int | None]:
-    return (min(log_times), max(log_times)) if log_times else (None, None)
+def _span(log_times: np.ndarray) -> tuple[int | None, int | None]:
+    return (int(log_times.min()), int(log_times.max())) if len(log_times) else (None, None)
 
 
 def _fmt_s(t_ns: int, origin: int) -> str:

@@ -8,6 +8,7 @@ from io import BytesIO
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -17,7 +18,7 @@ from polars.testing import assert_frame_equal
 
 from logtools.readers.cdr_bulk import decode_cdr_bulk
 from logtools.readers.decoders import decode_cdr, decode_cdr_each
-from logtools.readers.mcap_scan import scan_mcap
+from logtools.readers.mcap_scan import Payloads, scan_mcap
 from logtools.writers.ros2_msgdefs import MSGDEFS
 
 SAMPLES = Path(__file__).resolve().parents[2] / "sample_logs"
@@ -64,7 +65,24 @@ def _payloads(name: str, messages: list[dict[str, Any]]) -> list[bytes]:
         writer.write_message("/t", schema, msg, log_time=i, publish_time=i)
     writer.finish()
     scan = scan_mcap(buf.getvalue())
-    return next(iter(scan.messages.values())).payloads
+    return list(next(iter(scan.messages.values())).payloads)
+
+
+def _scattered(payloads: list[bytes], seed: int = 0) -> Payloads:
+    """The payloads as views into one buffer, with filler bytes between them (as the scan leaves
+    them in decompressed chunks); the last one ends the buffer."""
+    rng = np.random.default_rng(seed)
+    parts: list[bytes] = []
+    starts = []
+    at = 0
+    for p in payloads:
+        filler = rng.integers(0, 256, int(rng.integers(0, 40)), dtype=np.uint8).tobytes()
+        parts += [filler, p]
+        starts.append(at + len(filler))
+        at += len(filler) + len(p)
+    buffer = np.frombuffer(b"".join(parts), dtype=np.uint8)
+    lengths = np.array([len(p) for p in payloads], dtype=np.int64)
+    return Payloads(buffer, np.array(starts, dtype=np.int64), lengths)
 
 
 def _same_as_each(name: str, payloads: list[bytes], *, must_bulk: bool) -> None:
@@ -72,6 +90,10 @@ def _same_as_each(name: str, payloads: list[bytes], *, must_bulk: bool) -> None:
     bulk = decode_cdr_bulk(schema, "cdr", payloads)
     if must_bulk:
         assert bulk is not None, f"{name}: the bulk path stepped aside"
+    viewed = decode_cdr_bulk(schema, "cdr", _scattered(payloads))
+    assert (viewed is None) == (bulk is None)
+    if bulk is not None and viewed is not None:
+        assert_frame_equal(viewed, bulk, check_exact=True)
     each = decode_cdr_each(schema, _channel(), payloads)
     if bulk is not None:
         assert each.kept is None
@@ -219,3 +241,13 @@ def test_unsupported_schemas_step_aside() -> None:
         assert decode_cdr_bulk(schema, "cdr", payload) is None, text
     big_endian = [b"\x00\x00" + payload[0][2:]]
     assert decode_cdr_bulk(_schema("std_msgs/msg/Float64"), "cdr", big_endian) is None
+
+
+def test_frame_ids_of_differing_length_in_one_chunk() -> None:
+    stamp = {"sec": 1, "nanosec": 2}
+    pose = {"position": {"x": 1.0, "y": 2.0, "z": 3.0}, "orientation": dict.fromkeys("xyzw", 0.5)}
+    ids = ["", "a", "odom", "base_link_long", "odom", "é"] * 50
+    messages = [{"header": {"stamp": stamp, "frame_id": f}, "pose": pose} for f in ids]
+    payloads = _payloads("geometry_msgs/msg/PoseStamped", messages)
+    assert len({len(p) for p in payloads}) > 1
+    _same_as_each("geometry_msgs/msg/PoseStamped", payloads, must_bulk=True)
