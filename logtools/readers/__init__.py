@@ -85,8 +85,8 @@ def read_log(
             head = fh.read(len(MAGIC))
             if head != MAGIC and is_rosbag(p, head + fh.read(16)):
                 return read_rosbag(name, topics)
-            fh.seek(len(MAGIC))
-            buf = head + fh.read(max(0, st.st_size - len(MAGIC)))
+            fh.seek(0)
+            buf = fh.read()  # one read: ``head + rest`` would hold the file twice for a moment
     except OSError as err:
         raise NotAnMcapError(name, f"cannot read it: {err.strerror or err}") from err
     except MemoryError as err:
