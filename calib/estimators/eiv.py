@@ -49,22 +49,26 @@ def _profiled_jacobian(
     itself. A point held at the clip bound does not move.
     """
     wk, wp = 1.0 / sk**2, 1.0 / sp**2
-    c, s = np.cos(ph), np.sin(ph)
-    D = L2 + L1 * c
-    g = s / D
-    dg = (L2 * c + L1) / D**2
-    d2g = s * (2.0 * L1 * L1 + L1 * L2 * c - L2 * L2) / D**3
-    r = k - g
-    f_ph = wk * (r * d2g - dg * dg) - wp
-    out = np.empty((2 * k.size, 2))
-    partials = ((-s * c / D**2, (D - 2.0 * c * (L2 * c + L1)) / D**3),  # g_L1, g_ph,L1
-                (-s / D**2, (c * D - 2.0 * (L2 * c + L1)) / D**3))  # g_L2, g_ph,L2
-    held = np.abs(ph) >= _PSI_MAX
-    for j, (g_l, dg_l) in enumerate(partials):
-        dph = -wk * (r * dg_l - g_l * dg) / f_ph
-        dph[held] = 0.0
-        out[: k.size, j] = -(g_l + dg * dph) / sk
-        out[k.size :, j] = -dph / sp
+    n = k.size
+    out = np.empty((2 * n, 2))
+    for a in range(0, n, _BLOCK):  # in blocks: a dozen temporaries of the block's size
+        b = min(a + _BLOCK, n)
+        q = ph[a:b]
+        c, s = np.cos(q), np.sin(q)
+        D = L2 + L1 * c
+        g = s / D
+        dg = (L2 * c + L1) / D**2
+        d2g = s * (2.0 * L1 * L1 + L1 * L2 * c - L2 * L2) / D**3
+        r = k[a:b] - g
+        f_ph = wk * (r * d2g - dg * dg) - wp
+        partials = ((-s * c / D**2, (D - 2.0 * c * (L2 * c + L1)) / D**3),  # g_L1, g_ph,L1
+                    (-s / D**2, (c * D - 2.0 * (L2 * c + L1)) / D**3))  # g_L2, g_ph,L2
+        held = np.abs(q) >= _PSI_MAX
+        for j, (g_l, dg_l) in enumerate(partials):
+            dph = -wk * (r * dg_l - g_l * dg) / f_ph
+            dph[held] = 0.0
+            out[a:b, j] = -(g_l + dg * dph) / sk
+            out[n + a : n + b, j] = -dph / sp
     return out
 
 

@@ -143,6 +143,7 @@ class PathTransientFit:
         self.bounds_L1_m = bounds_L1_m
         self.bounds_L2_m = bounds_L2_m
         self.chunk_nodes = chunk_nodes
+        self._eval_caches: list[dict[bytes, tuple[np.ndarray, np.ndarray]]] = []
 
     # ------------------------------------------------------------------ layout
     def _prepare(
@@ -358,6 +359,7 @@ class PathTransientFit:
         column is its rows of the last one)."""
         n = self._p.size
         cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self._eval_caches.append(cache)
 
         def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             key = x.tobytes()
@@ -382,6 +384,7 @@ class PathTransientFit:
         gaps: list[tuple[float, float]] | None,
     ) -> None:
         self._prepare(path, t_psi, psi, list(gaps or []))
+        self._eval_caches = []
         P = self.n_pieces_
         piece = self._piece
         first_idx = np.searchsorted(piece, np.arange(P))
@@ -440,6 +443,8 @@ class PathTransientFit:
         extra = self._resolution_error(path, t_psi, psi, gaps, self._x_, q)
         extra = extra + self._rate_noise_cov(path, gaps, q)
         self._finish(sol, r, J, q, lo, hi, extra)
+        for c in self._eval_caches:  # the last residuals and Jacobian: n x (3 + pieces) floats
+            c.clear()
 
     def _resolution_error(
         self, path: DrivePath, t_psi: ArrayLike, psi: ArrayLike,

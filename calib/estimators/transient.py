@@ -33,6 +33,8 @@ from calib.results import CalibrationResult, Family, MethodResult
 
 __all__ = ["TransientFit", "block_average"]
 
+_START_BATCH = 32  # start-grid trajectories simulated together
+
 
 @dataclass(frozen=True)
 class Bins:
@@ -252,9 +254,12 @@ class TransientFit:
         A, B = np.meshgrid(g1, g2, indexing="ij")
         th = np.vstack([A.ravel(), B.ravel(), np.full(A.size, psi0)])
         n = self._start_bins
-        full = simulate_psi(self._start_plan, th[0], th[1], th[2])
-        sim = sample_average(full, self._tbar[:n], self._edges[: n + 1], self._var_t[:n])
-        cost = np.nansum((self._psi[:n, None] - sim) ** 2 * self._w[:n, None], axis=0)
+        cost = np.empty(th.shape[1])
+        for a in range(0, th.shape[1], _START_BATCH):  # batches: memory of 32 trajectories
+            b = min(a + _START_BATCH, th.shape[1])
+            full = simulate_psi(self._start_plan, th[0, a:b], th[1, a:b], th[2, a:b])
+            sim = sample_average(full, self._tbar[:n], self._edges[: n + 1], self._var_t[:n])
+            cost[a:b] = np.nansum((self._psi[:n, None] - sim) ** 2 * self._w[:n, None], axis=0)
         return th[:, int(np.argmin(cost))]
 
     def fit(self, t_s: ArrayLike, kappa: ArrayLike, v: ArrayLike, psi: ArrayLike) -> TransientFit:
