@@ -31,6 +31,10 @@ WINDOW_S = 120.0
 model forgets its initial state over a few metres of travel) costs a small part of it."""
 
 
+MIN_WINDOW_S = 30.0
+"""Shortest window (s) of a small budget split in two."""
+
+
 @dataclass(frozen=True)
 class DataWindows:
     """The windows (s from the log's first row) discovery used, and the log's span (s)."""
@@ -61,15 +65,17 @@ class DataWindows:
 def choose_windows(
     total_s: float, max_span_s: float | None, window_s: float = WINDOW_S
 ) -> DataWindows | None:
-    """Windows covering at most ``max_span_s`` of a log ``total_s`` long, the first at its
-    start and the last at its end; None when the whole log fits the budget (or there is
-    none)."""
+    """Windows covering ``max_span_s`` of a log ``total_s`` long, about ``window_s`` each
+    (at least two when the budget allows ``MIN_WINDOW_S`` each), the first at the log's start
+    and the last at its end; None when the whole log fits the budget (or there is none)."""
     if max_span_s is None or max_span_s <= 0 or not math.isfinite(total_s):
         return None
     if total_s <= max_span_s:
         return None
-    width = min(window_s, max_span_s)
-    n = max(1, math.floor(max_span_s / width))
+    n = max(1, round(max_span_s / window_s))
+    if n == 1 and max_span_s >= 2 * MIN_WINDOW_S:
+        n = 2  # a start and an end rather than the start alone
+    width = max_span_s / n
     if n == 1:
         return DataWindows(((0.0, width),), total_s)
     step = (total_s - width) / (n - 1)

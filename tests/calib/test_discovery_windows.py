@@ -27,7 +27,9 @@ def test_windows_span_the_log_from_start_to_end() -> None:
     np.testing.assert_allclose(gaps, gaps[0])  # evenly spread
     assert "600 s of the 3600 s log" in w.note()
     small = choose_windows(1000.0, 90.0)
-    assert small is not None and small.spans_s == ((0.0, 90.0),)
+    assert small is not None and small.spans_s == ((0.0, 45.0), (955.0, 1000.0))
+    tiny = choose_windows(1000.0, 40.0)
+    assert tiny is not None and tiny.spans_s == ((0.0, 40.0),)
 
 
 def test_restrict_keeps_rows_samples_and_segments_inside() -> None:

@@ -1,8 +1,8 @@
-"""The differential drive (two driven wheels, casters; skid-steer robots with an effective
-track): wheel radii and track from wheel angles and ground-truth pose.
+"""The differential drive's analysis: least-squares odometry calibration, UMBmark, the
+gyro's effective track, dead reckoning before / after and discovery, for one log or several runs.
 
-Numerics in :mod:`calib.diff_drive`; this module wires them into the plugin interface: signals,
-identification, the staged analysis of one log or several runs, and the readable report.
+Imported on first analysis (not by the plugin declaration in ``__init__``): it pulls in
+:mod:`calib.diff_drive`'s estimators and scipy, which resolving a log's signals never needs.
 """
 
 from __future__ import annotations
@@ -23,10 +23,10 @@ from calib.diff_drive.umbmark import umbmark, umbmark_result
 from calib.errors import InsufficientDataError
 from calib.results import AnalysisResult, CalibrationResult
 from logtools.load import LoadedLog
-from logtools.robots.base import Progress, RobotPlugin, SignalSpec
+from logtools.robots.base import Progress
 from logtools.stages import Stages
 
-__all__ = ["PLUGIN", "analyze_diff_drive", "nominal_params", "pool_diff_drive", "report_lines"]
+__all__ = ["NOMINAL_RECORD", "analyze_diff_drive", "nominal_params", "pool_diff_drive"]
 
 NOMINAL_RECORD = "logcal.nominal"
 _NOMINAL_KEYS = {
@@ -34,12 +34,6 @@ _NOMINAL_KEYS = {
     "wheel_radius_left": ("wheel_radius_left", "r_L", "R"),
     "track_width": ("track_width", "b", "track"),
 }
-
-
-def _identify(signals: frozenset[str]) -> str | None:
-    if {"wheel_left", "wheel_right"} <= signals:
-        return "signals wheel_left, wheel_right"
-    return None
 
 
 def nominal_params(loaded: LoadedLog) -> DiffDriveParams | None:
@@ -229,7 +223,7 @@ def _side(loaded: LoadedLog) -> float | None:
 
 
 def analyze_diff_drive(loaded: LoadedLog, config: Any, progress: Progress) -> AnalysisResult:
-    """Calibrate one differential-drive log (see the module docstring)."""
+    """Calibrate one differential-drive log (the plugin's ``analyze``)."""
     nominal = nominal_params(loaded)
     warnings = [str(p) for p in loaded.problems]
     if nominal is None:
@@ -293,62 +287,3 @@ def pool_diff_drive(
         sections=sections,
         artifacts={"trajectories": arrays},
     )
-
-
-def report_lines(result: AnalysisResult) -> list[Any]:
-    """Methods, dead-reckoning drift before / after, effective track and discovery, as lines."""
-    lines: list[str] = []
-    for m in result.methods:
-        lines.append(f"{m.method}:")
-        lines += ["  " + e.report() for e in m.parameters.values()]
-        lines.append("  " + m.verdict)
-    et = result.sections.get("effective_track")
-    if et:
-        e = et["estimate"]
-        lines.append(
-            f"Effective track from the {et['from']}: {e['value']:.4f} ± {e['std']:.2g} m "
-            f"(geometric {et['geometric_track_m']} m)"
-        )
-    dr = result.sections.get("dead_reckoning")
-    if dr:
-        lines.append(
-            f"Dead-reckoning end-point error (calibrated with {dr.get('calibrated_with')}):"
-        )
-        for row in dr["runs"]:
-            nom = row.get("nominal", {}).get("end_point_error_m")
-            cal = row.get("calibrated", {}).get("end_point_error_m")
-            fac = row.get("improvement_factor")
-            lines.append(
-                f"  {row['run']}: nominal "
-                + ("-" if nom is None else f"{nom:.4f} m")
-                + ", calibrated "
-                + ("-" if cal is None else f"{cal:.4f} m")
-                + ("" if fac is None else f" ({fac:.1f}x)")
-            )
-    if result.discovery is not None:
-        lines += result.discovery.report()
-    return lines
-
-
-PLUGIN = RobotPlugin(
-    name="diff_drive",
-    title="differential-drive robot",
-    signals=(
-        SignalSpec("wheel_right", "rad", "cumulative right wheel angle", required=True),
-        SignalSpec("wheel_left", "rad", "cumulative left wheel angle", required=True),
-        SignalSpec("x", "m", "ground-truth position of the axle centre"),
-        SignalSpec("y", "m", "ground-truth position of the axle centre"),
-        SignalSpec("yaw", "rad", "ground-truth heading"),
-        SignalSpec("omega", "rad/s", "gyro yaw rate (effective track of a skid-steer robot)"),
-        SignalSpec("v_cmd", "m/s", "speed command"),
-        SignalSpec("omega_cmd", "rad/s", "yaw-rate command"),
-    ),
-    identify=_identify,
-    analyze=analyze_diff_drive,
-    report=report_lines,
-    pool=pool_diff_drive,
-    views="viz.diff_drive:log_views",
-    png="viz.diff_drive:write_png",
-    aliases=("diff", "differential_drive"),
-    span_signals=("wheel_right", "wheel_left", "x", "y", "yaw"),
-)

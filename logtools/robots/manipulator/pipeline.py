@@ -1,9 +1,9 @@
-"""Serial arms (``manipulator``, n joints): dynamic parameters from joint logs.
+"""Serial-arm analysis of one log: joints and model from the log, identification, discovery
+and the refit with the discovered terms.
 
-Reads ``q1..qn`` and ``tau1..n`` (``/joint_states``), the joint names, and picks the model: the
-URDF given by ``--urdf`` (``config.extra["urdf"]``), the channel map's ``[robot] urdf`` or the
-``logcal`` metadata ``urdf`` (a path or an example-robot-data NAME), else the planar 2-link arm
-when the metadata says ``model = planar2``. The numerics are :mod:`calib.manipulator`.
+Imported on first analysis (not by the plugin declaration in ``__init__``): it pulls in
+:mod:`calib.manipulator` (scipy; pinocchio for URDF models), which resolving a log's signals
+never needs.
 """
 
 from __future__ import annotations
@@ -11,8 +11,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from rich.console import RenderableType
-from rich.text import Text
 
 from calib.errors import CalibError
 from calib.manipulator.design import Term
@@ -23,21 +21,13 @@ from calib.manipulator.planar import Planar2Link, Planar2Params
 from calib.results import AnalysisResult
 from logtools.errors import LogcalInputError
 from logtools.load import LoadedLog
-from logtools.robots.base import Progress, RobotPlugin, SignalSpec
+from logtools.robots.base import Progress
 from logtools.stages import Stages
 
-__all__ = ["PLUGIN", "analyze_manipulator", "report_lines", "report_text"]
+__all__ = ["analyze_manipulator"]
 
 _MAX_DRAW = 400
 _DEFAULT_TERMS = (Term.COULOMB, Term.VISCOUS)
-
-
-def _identify(signals: frozenset[str]) -> str | None:
-    if "q1" in signals and "tau1" in signals:
-        n = sum(1 for s in signals if s.startswith("q") and s[1:].isdigit())
-        m = sum(1 for s in signals if s.startswith("tau") and s[3:].isdigit())
-        return f"joint signals q1..q{n}, tau1..tau{m}"
-    return None
 
 
 def _joints(loaded: LoadedLog) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
@@ -275,66 +265,3 @@ def _renamed(est: Any, method: str) -> Any:
     from dataclasses import replace
 
     return replace(est, method=method)
-
-
-def report_lines(result: AnalysisResult) -> list[RenderableType]:
-    """The arm's own part of the report: joints, excitation, held-out RMS, feasibility,
-    discovery; plain lines as rich ``Text`` (parameter names hold brackets, not markup)."""
-    return [Text(line) for line in report_text(result)]
-
-
-def report_text(result: AnalysisResult) -> list[str]:
-    """:func:`report_lines` as plain strings."""
-    s = result.sections
-    lines = [
-        f"Arm: {len(s.get('joints', []))} joints ({', '.join(s.get('joints', []))}); "
-        f"model: {s.get('model', {}).get('source', '?')}"
-    ]
-    exc = s.get("excitation")
-    if exc:
-        lines.append(
-            f"Excitation: condition number {exc['condition_number']:.3g} (scaled momentum "
-            f"regressor); {exc['n_determined']} of {exc['n_base_parameters']} base parameters "
-            "determined"
-        )
-    hold = s.get("torque_rms_holdout")
-    if hold:
-        trms = s.get("torque_rms", {})
-        lines.append(
-            "Held-out torque (identified on the first 60 %, predicted on the last 40 %): "
-            f"error {100 * s['torque_rms_holdout_ratio']:.1f} % of the torque RMS"
-        )
-        for j, v in hold.items():
-            lines.append(
-                f"  {j}: error RMS {v:.4g} N·m of torque RMS {trms.get(j, float('nan')):.4g}"
-            )
-    feas = s.get("feasibility")
-    if feas:
-        lines.append(
-            "Physically feasible (M(q) positive definite, friction >= 0)"
-            if feas["feasible"]
-            else "NOT physically feasible: " + "; ".join(feas["problems"])
-        )
-    for note in s.get("model", {}).get("notes", []):
-        lines.append(f"Note: {note}")
-    if result.discovery is not None and hasattr(result.discovery, "report"):
-        lines += result.discovery.report()
-    return lines
-
-
-PLUGIN = RobotPlugin(
-    name="manipulator",
-    title="serial arm (manipulator)",
-    signals=(
-        SignalSpec("q", "rad", "joint positions (q1..qn; m for a prismatic joint)", required=True),
-        SignalSpec("qd", "rad/s", "joint velocities (not used: velocity is taken from q)"),
-        SignalSpec("tau", "N·m", "joint torques (tau1..n; N for a prismatic joint)", required=True),
-    ),
-    identify=_identify,
-    analyze=analyze_manipulator,
-    report=report_lines,
-    views="viz.manipulator:log_views",
-    png="viz.manipulator:write_png",
-    aliases=("manipulator_2link",),
-    span_signals=("q", "tau"),
-)

@@ -1,0 +1,64 @@
+"""Serial arms (``manipulator``, n joints): dynamic parameters from joint logs.
+
+Reads ``q1..qn`` and ``tau1..n`` (``/joint_states``), the joint names, and picks the model: the
+URDF given by ``--urdf`` (``config.extra["urdf"]``), the channel map's ``[robot] urdf`` or the
+``logcal`` metadata ``urdf`` (a path or an example-robot-data NAME), else the planar 2-link arm
+when the metadata says ``model = planar2``.
+
+This module only declares the plugin (signals, identification, aliases, view paths) and stays
+light: every log's robot is resolved by loading all plugin declarations, so the analysis
+(:mod:`.pipeline`, with :mod:`calib.manipulator`, scipy and pinocchio) and the report
+(:mod:`.report`, rich) are imported inside the functions that use them.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from logtools.robots.base import Progress, RobotPlugin, SignalSpec
+
+if TYPE_CHECKING:
+    from rich.console import RenderableType
+
+    from calib.results import AnalysisResult
+    from logtools.load import LoadedLog
+
+__all__ = ["PLUGIN"]
+
+
+def _identify(signals: frozenset[str]) -> str | None:
+    if "q1" in signals and "tau1" in signals:
+        n = sum(1 for s in signals if s.startswith("q") and s[1:].isdigit())
+        m = sum(1 for s in signals if s.startswith("tau") and s[3:].isdigit())
+        return f"joint signals q1..q{n}, tau1..tau{m}"
+    return None
+
+
+def _analyze(loaded: LoadedLog, config: Any, progress: Progress) -> AnalysisResult:
+    from logtools.robots.manipulator.pipeline import analyze_manipulator
+
+    return analyze_manipulator(loaded, config, progress)
+
+
+def _report(result: AnalysisResult) -> list[RenderableType]:
+    from logtools.robots.manipulator.report import report_lines
+
+    return report_lines(result)
+
+
+PLUGIN = RobotPlugin(
+    name="manipulator",
+    title="serial arm (manipulator)",
+    signals=(
+        SignalSpec("q", "rad", "joint positions (q1..qn; m for a prismatic joint)", required=True),
+        SignalSpec("qd", "rad/s", "joint velocities (not used: velocity is taken from q)"),
+        SignalSpec("tau", "N·m", "joint torques (tau1..n; N for a prismatic joint)", required=True),
+    ),
+    identify=_identify,
+    analyze=_analyze,
+    report=_report,
+    views="viz.manipulator:log_views",
+    png="viz.manipulator:write_png",
+    aliases=("manipulator_2link",),
+    span_signals=("q", "tau"),
+)
