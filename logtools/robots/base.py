@@ -3,9 +3,9 @@ logs apart, its analysis (segmentation, methods, estimators, discovery), its poo
 several runs, its readable report and its rerun views.
 
 ``logcal analyze``, ``info``, the report, the JSON and the .rrd go through this interface only, so
-a new robot adds its own files plus one line in :mod:`logtools.robots` (``PLUGINS``). Modelled on
-evo's one entry point per trajectory kind and pysindy's pluggable feature libraries: the pipeline
-is generic, what differs between robots is declared in one object.
+a new robot adds its own files plus one line in :mod:`logtools.robots` (``_PLUGIN_MODULES``).
+Modelled on evo's one entry point per trajectory kind and pysindy's pluggable feature libraries:
+the pipeline is generic, what differs between robots is declared in one object.
 
 A plugin's numerics live in ``calib`` (e.g. ``calib.diff_drive``), its views in ``viz`` (named by
 an import path, so that ``logtools`` never imports rerun); the plugin module in
@@ -85,7 +85,7 @@ class RobotPlugin:
         signals: the logical signals it reads; ``required`` ones must be present to analyse.
         identify: given the names of the logical signals found in a log, a short reason
             ("signals wheel_left, wheel_right") when they identify this robot, else None. Asked
-            in ``PLUGINS`` order when neither channel map nor metadata names the robot.
+            in ``_PLUGIN_MODULES`` order when neither channel map nor metadata names the robot.
         analyze: analyse one log.
         report: the robot's own part of the readable report (rich renderables: tables, text);
             the header, estimate, stages, discovery and notes are drawn around it.
