@@ -231,7 +231,10 @@ class CommandSignal:
     def integral(self, tq: FloatArray) -> FloatArray:
         """Integral from t_s[0] to ``tq`` (held constant outside the samples)."""
         t = self.t_s
-        i = np.clip(np.searchsorted(t, tq, side="right") - 1, 0, t.size - 2)
+        # the interval of each query: np.interp of the knot positions is searchsorted's
+        # answer (floored) but walks sorted queries in step, ~2.5x faster (issue 14)
+        at = np.interp(tq, t, np.arange(t.size, dtype=float))
+        i = np.clip(at.astype(np.int64), 0, t.size - 2)
         tau = np.clip(tq, t[0], t[-1]) - t[i]
         inside = self.cum[i] + self.y[i] * tau + 0.5 * self.slope[i] * tau * tau
         before = (tq - t[0]) * self.y[0]

@@ -253,3 +253,24 @@ def test_yaw_rate_only_log() -> None:
     lo, hi = res.effects[0].ci95["scale"]
     assert lo <= 0.95 <= hi
     assert set(res.rms_baseline) == {"omega"}
+
+
+def test_command_integral_finds_each_querys_interval_as_searchsorted_does() -> None:
+    # the interval lookup goes through np.interp of knot positions; it must agree with
+    # searchsorted(side="right") - 1, repeated sample times and queries on knots included
+    from calib.discovery.data import CommandSignal
+
+    rng = np.random.default_rng(0)
+    for _ in range(100):
+        n = int(rng.integers(3, 200))
+        t = np.cumsum(rng.choice([0.0, 0.01, 0.02, 0.013], n))
+        cs = CommandSignal.from_samples(t, np.round(rng.normal(size=n), 1))
+        tk = cs.t_s
+        tq = np.sort(np.concatenate([rng.uniform(tk[0] - 1, tk[-1] + 1, 300), tk]))
+        i = np.clip(np.searchsorted(tk, tq, side="right") - 1, 0, tk.size - 2)
+        tau = np.clip(tq, tk[0], tk[-1]) - tk[i]
+        inside = cs.cum[i] + cs.y[i] * tau + 0.5 * cs.slope[i] * tau * tau
+        before = (tq - tk[0]) * cs.y[0]
+        after = cs.cum[-1] + (tq - tk[-1]) * cs.y[-1]
+        ref = np.where(tq < tk[0], before, np.where(tq > tk[-1], after, inside))
+        np.testing.assert_allclose(cs.integral(tq), ref, rtol=0, atol=1e-12)
