@@ -6,8 +6,10 @@ timing the stages from the progress callback (CPU seconds of the process between
 progress messages) and reading the peak RSS. Prints min and median over --repeat runs, and the
 CPU seconds per simulated hour (linear scaling: constant per hour).
 
-Usage: python bench/bench_analyze_scaling.py [--minutes 10 60] [--repeat 3]
-       [--discovery-minutes 10] [--discovery-repeat 3] [--profile]
+Usage: python bench/bench_analyze_scaling.py [--minutes 10 60 240] [--repeat 3]
+       [--discovery-minutes 10 60 240] [--discovery-repeat 3] [--profile]
+(the issue-14 figures: --minutes 10 60 240 --discovery-minutes 10 60 240; ~8 min, a 4-hour log
+needs ~1.5 GB)
 --profile: one cProfile of the shortest log with discovery, top functions by internal time.
 """
 

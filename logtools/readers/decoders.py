@@ -215,8 +215,13 @@ def _uniform_keys(joined: bytes, n: int) -> bool:
     """Whether every NDJSON line holds as many key tokens (``":``) as each of the first
     ``_JSON_INFER_ROWS`` lines does, so that no field can first appear later unless another
     goes missing (``_null_after_head`` catches that). Costs one pass of ``bytes.count``."""
-    head = joined.split(b"\n", _JSON_INFER_ROWS)[: min(n, _JSON_INFER_ROWS)]
-    counts = {line.count(b'":') for line in head}
+    end = -1
+    for _ in range(min(n, _JSON_INFER_ROWS)):  # the first lines, without copying the rest
+        end = joined.find(b"\n", end + 1)
+        if end < 0:
+            end = len(joined)
+            break
+    counts = {line.count(b'":') for line in joined[:end].split(b"\n")}
     if len(counts) != 1:
         return False
     return joined.count(b'":') == n * counts.pop()
