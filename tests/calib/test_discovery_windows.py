@@ -27,9 +27,11 @@ def test_windows_span_the_log_from_start_to_end() -> None:
     np.testing.assert_allclose(gaps, gaps[0])  # evenly spread
     assert "600 s of the 3600 s log" in w.note()
     small = choose_windows(1000.0, 90.0)
-    assert small is not None and small.spans_s == ((0.0, 45.0), (955.0, 1000.0))
+    assert small is not None
+    assert small.spans_s == ((0.0, 45.0), (955.0, 1000.0))
     tiny = choose_windows(1000.0, 40.0)
-    assert tiny is not None and tiny.spans_s == ((0.0, 40.0),)
+    assert tiny is not None
+    assert tiny.spans_s == ((0.0, 40.0),)
 
 
 def test_restrict_keeps_rows_samples_and_segments_inside() -> None:
@@ -42,13 +44,16 @@ def test_restrict_keeps_rows_samples_and_segments_inside() -> None:
         Segment(3900.0, 3999.0, CommandType.LINEAR),
     ]
     w = choose_windows(3999.0, 240.0)
-    assert w is not None and len(w.spans_s) == 2
+    assert w is not None
+    assert len(w.spans_s) == 2
     sub, sig2, seg2 = restrict(frame, sig, segs, w)
     t = sub.get_column("t_ns").to_numpy() / 1e9
     inside = np.zeros(t.size, dtype=bool)
     for a, b in w.spans_s:
         inside |= (t >= a) & (t <= b)
-    assert inside.all() and sub.height == 242  # 121 whole seconds in each closed window
-    assert sig2 is not None and sig2["psi"].height == 61 + 60  # even seconds only
+    assert inside.all()
+    assert sub.height == 242  # 121 whole seconds in each closed window
+    assert sig2 is not None
+    assert sig2["psi"].height == 61 + 60  # even seconds only
     assert seg2 is not None
     assert [s.command_type for s in seg2] == [CommandType.HARMONIC, CommandType.LINEAR]
