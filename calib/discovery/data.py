@@ -39,6 +39,7 @@ REANCHOR_M = 5.0  # travel (m) left out after a restart, while the model forgets
 # (a 14-bit encoder quantises to 3.8e-4 rad), above the model's numerical error. It floors the
 # noise level, so that a noise-free log's interpolation error is not taken for physics.
 RESOLUTION: dict[str, float] = {"omega": 1e-4, "psi": 1e-4}
+_DELAYS_KEPT = 4  # delayed commands remembered per log (each one array of the half grid)
 
 
 def block_mean(x: FloatArray, m: int) -> FloatArray:
@@ -128,6 +129,23 @@ class DiscoveryData:
     anchors_d: dict[int, float]
     command: CommandSignal
     sampled: dict[str, FloatArray] = field(default_factory=dict)
+    _delayed: dict[float, FloatArray] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+
+    def delayed_command(self, delay_s: float) -> FloatArray:
+        """The command on the half-step grid ``delay_s`` later (1/m). Remembered for the last
+        few delays: a finite-difference Jacobian varies one parameter at a time, so most of a
+        fit's model evaluations share the delay of the one before (a pure function of it)."""
+        key = float(delay_s)
+        out = self._delayed.get(key)
+        if out is None:
+            if len(self._delayed) >= _DELAYS_KEPT:
+                self._delayed.pop(next(iter(self._delayed)))
+            out = self.command.at(self.th_s - key)
+            out.flags.writeable = False  # shared between calls: nobody may change it
+            self._delayed[key] = out
+        return out
 
     @property
     def channels(self) -> tuple[str, ...]:

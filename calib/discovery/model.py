@@ -202,7 +202,7 @@ def predict(
     L1, L2, eff_params = spec.split(theta)
     pairs = list(zip(spec.effects, eff_params, strict=True))
     delay = sum(e.input_delay(p) for e, p in pairs)
-    kh = data.command.at(data.th_s - delay) if delay else data.kappa_h
+    kh = data.delayed_command(delay) if delay else data.kappa_h
     vh = data.v_h
     # clock offsets of a sensor group move its inputs back onto the true clock first
     for e, p in (x for x in pairs if x[0].stage == 2):
