@@ -4,25 +4,15 @@ not a statistical claim: coverage is shown by the full study (closing note of is
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pytest
+from bench_scripts import load_bench
 
-ROOT = Path(__file__).resolve().parents[1]
 
-
-def _study():  # type: ignore[no-untyped-def]
-    spec = importlib.util.spec_from_file_location("path_coverage_study",
-                                                  ROOT / "bench" / "path_coverage_study.py")
-    assert spec is not None
-    assert spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["path_coverage_study"] = mod
-    spec.loader.exec_module(mod)
-    return mod
+def _study() -> ModuleType:
+    return load_bench("path_coverage_study")
 
 
 @pytest.mark.slow

@@ -4,34 +4,18 @@ in its own output and the closing note of issue 14."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 import pytest
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def _load(name: str) -> ModuleType:
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, ROOT / "bench" / f"{name}.py")
-    assert spec is not None
-    assert spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod
+from bench_scripts import load_bench
 
 
 @pytest.mark.slow
 def test_one_random_log_runs_both_modes(tmp_path: Path) -> None:
-    _load("discovery_confusion_study")
-    study = _load("discovery_window_study")
+    load_bench("discovery_confusion_study")
+    study = load_bench("discovery_window_study")
     i = int(np.random.default_rng().integers(0, 1000))  # any log of the study, seed 8
     rec = study.run_one(8, i)
     assert rec["windows"]["status"] in ("ok", "partial", "not_run")
