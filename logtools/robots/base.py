@@ -30,7 +30,7 @@ if TYPE_CHECKING:
     from logtools.load import LoadedLog
     from logtools.signals import RobotConfig
 
-__all__ = ["AnalyzeFn", "PoolFn", "Progress", "RobotPlugin", "SignalSpec", "load_view"]
+__all__ = ["AnalyzeFn", "PoolFn", "Progress", "RobotPlugin", "SignalSpec", "lazy", "load_view"]
 
 Progress = Callable[[str], None]
 
@@ -128,3 +128,19 @@ def load_view(path: str) -> Callable[..., Path]:
     module, _, name = path.partition(":")
     fn: Callable[..., Path] = getattr(importlib.import_module(module), name)
     return fn
+
+
+def lazy(path: str) -> Callable[..., Any]:
+    """A function that imports ``"module:function"`` when first called and forwards to it.
+
+    Plugins declare ``analyze``, ``pool`` and ``report`` this way, so that loading every
+    plugin's declaration (done to find any log's robot) imports no analysis code."""
+    target: list[Callable[..., Any]] = []
+
+    def call(*args: Any, **kwargs: Any) -> Any:
+        if not target:
+            target.append(load_view(path))
+        return target[0](*args, **kwargs)
+
+    call.__name__ = call.__qualname__ = path.rpartition(":")[2]
+    return call

@@ -4,19 +4,12 @@ track): wheel radii and track from wheel angles and ground-truth pose.
 This module only declares the plugin (signals, identification, aliases, view paths) and stays
 light: every log's robot is resolved by loading all plugin declarations, so the analysis
 (:mod:`.pipeline`, with :mod:`calib.diff_drive`'s estimators and scipy) and the report
-(:mod:`.report`) are imported inside the functions that use them.
+(:mod:`.report`) are named by import path (``lazy``) and imported on first use.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
-
-from logtools.robots.base import Progress, RobotPlugin, SignalSpec
-
-if TYPE_CHECKING:
-    from calib.results import AnalysisResult
-    from logtools.load import LoadedLog
+from logtools.robots.base import RobotPlugin, SignalSpec, lazy
 
 __all__ = ["PLUGIN"]
 
@@ -25,26 +18,6 @@ def _identify(signals: frozenset[str]) -> str | None:
     if {"wheel_left", "wheel_right"} <= signals:
         return "signals wheel_left, wheel_right"
     return None
-
-
-def _analyze(loaded: LoadedLog, config: Any, progress: Progress) -> AnalysisResult:
-    from logtools.robots.diff_drive.pipeline import analyze_diff_drive
-
-    return analyze_diff_drive(loaded, config, progress)
-
-
-def _pool(
-    runs: Sequence[tuple[LoadedLog, AnalysisResult]], config: Any, progress: Progress
-) -> AnalysisResult:
-    from logtools.robots.diff_drive.pipeline import pool_diff_drive
-
-    return pool_diff_drive(runs, config, progress)
-
-
-def _report(result: AnalysisResult) -> list[Any]:
-    from logtools.robots.diff_drive.report import report_lines
-
-    return report_lines(result)
 
 
 PLUGIN = RobotPlugin(
@@ -61,9 +34,9 @@ PLUGIN = RobotPlugin(
         SignalSpec("omega_cmd", "rad/s", "yaw-rate command"),
     ),
     identify=_identify,
-    analyze=_analyze,
-    report=_report,
-    pool=_pool,
+    analyze=lazy("logtools.robots.diff_drive.pipeline:analyze_diff_drive"),
+    report=lazy("logtools.robots.diff_drive.report:report_lines"),
+    pool=lazy("logtools.robots.diff_drive.pipeline:pool_diff_drive"),
     views="viz.diff_drive:log_views",
     png="viz.diff_drive:write_png",
     aliases=("diff", "differential_drive"),

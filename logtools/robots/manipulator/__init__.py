@@ -8,20 +8,12 @@ when the metadata says ``model = planar2``.
 This module only declares the plugin (signals, identification, aliases, view paths) and stays
 light: every log's robot is resolved by loading all plugin declarations, so the analysis
 (:mod:`.pipeline`, with :mod:`calib.manipulator`, scipy and pinocchio) and the report
-(:mod:`.report`, rich) are imported inside the functions that use them.
+(:mod:`.report`, rich) are named by import path (``lazy``) and imported on first use.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
-
-from logtools.robots.base import Progress, RobotPlugin, SignalSpec
-
-if TYPE_CHECKING:
-    from rich.console import RenderableType
-
-    from calib.results import AnalysisResult
-    from logtools.load import LoadedLog
+from logtools.robots.base import RobotPlugin, SignalSpec, lazy
 
 __all__ = ["PLUGIN"]
 
@@ -34,18 +26,6 @@ def _identify(signals: frozenset[str]) -> str | None:
     return None
 
 
-def _analyze(loaded: LoadedLog, config: Any, progress: Progress) -> AnalysisResult:
-    from logtools.robots.manipulator.pipeline import analyze_manipulator
-
-    return analyze_manipulator(loaded, config, progress)
-
-
-def _report(result: AnalysisResult) -> list[RenderableType]:
-    from logtools.robots.manipulator.report import report_lines
-
-    return report_lines(result)
-
-
 PLUGIN = RobotPlugin(
     name="manipulator",
     title="serial arm (manipulator)",
@@ -55,8 +35,8 @@ PLUGIN = RobotPlugin(
         SignalSpec("tau", "N·m", "joint torques (tau1..n; N for a prismatic joint)", required=True),
     ),
     identify=_identify,
-    analyze=_analyze,
-    report=_report,
+    analyze=lazy("logtools.robots.manipulator.pipeline:analyze_manipulator"),
+    report=lazy("logtools.robots.manipulator.report:report_lines"),
     views="viz.manipulator:log_views",
     png="viz.manipulator:write_png",
     aliases=("manipulator_2link",),

@@ -3,46 +3,16 @@ L1 (hitch behind link 1's axle, m) and L2 (hitch to trailer axle, m)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any
-
 import polars as pl
 
 from logtools.curvature import derive_kappa
-from logtools.robots.base import RobotPlugin, SignalSpec
+from logtools.robots.base import RobotPlugin, SignalSpec, lazy
 from logtools.signals import RobotConfig
 
 __all__ = ["PLUGIN"]
 
-
-if TYPE_CHECKING:
-    from rich.console import RenderableType
-
-    from calib.results import AnalysisResult
-    from logtools.load import LoadedLog
-
-
-# the pipeline imports calib's estimators (scipy): imported on first analysis, so that
-# `logcal info` and robot inference stay fast
-def _analyze(loaded: LoadedLog, config: Any, progress: Callable[[str], None]) -> AnalysisResult:
-    from logtools.robots.tractor_trailer.pipeline import analyze_tractor_trailer
-
-    return analyze_tractor_trailer(loaded, config, progress)
-
-
-def _pool(
-    runs: Sequence[tuple[LoadedLog, AnalysisResult]], config: Any,
-    progress: Callable[[str], None],
-) -> AnalysisResult:
-    from logtools.robots.tractor_trailer.pipeline import pool_tractor_trailer
-
-    return pool_tractor_trailer(runs, config, progress)
-
-
-def _report(result: AnalysisResult) -> list[RenderableType]:
-    from logtools.robots.tractor_trailer.report import report_lines
-
-    return report_lines(result)
+# the pipeline imports calib's estimators (scipy): named by import path and imported on first
+# analysis (``lazy``), so that `logcal info` and robot inference stay fast
 
 
 def _identify(signals: frozenset[str]) -> str | None:
@@ -76,9 +46,9 @@ PLUGIN = RobotPlugin(
         SignalSpec("yaw2", "rad", "heading of the trailer"),
     ),
     identify=_identify,
-    analyze=_analyze,
-    report=_report,
-    pool=_pool,
+    analyze=lazy("logtools.robots.tractor_trailer.pipeline:analyze_tractor_trailer"),
+    report=lazy("logtools.robots.tractor_trailer.report:report_lines"),
+    pool=lazy("logtools.robots.tractor_trailer.pipeline:pool_tractor_trailer"),
     views="viz.views:tractor_trailer_rrd",
     png="viz.views:tractor_trailer_png",
     span_signals=("psi", "kappa_cmd", "v", "omega", "x", "y", "yaw"),
