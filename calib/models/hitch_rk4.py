@@ -107,7 +107,7 @@ def _keep_array(keep: Iterable[int] | None) -> NDArray[np.int64] | None:
     return None if keep is None else np.ascontiguousarray(np.fromiter(keep, dtype=np.int64))
 
 
-def _run_compiled(
+def rk4_hitch(
     h: FloatArray | Iterable[float],
     U: FloatArray,
     V: FloatArray,
@@ -119,6 +119,7 @@ def _run_compiled(
     keep: Iterable[int] | None = None,
     resets: Mapping[int, float] | None = None,
     chain: FloatArray | None = None,
+    reference: bool = False,
 ) -> FloatArray:
     """RK4 of dy/dx = p0 U + p1 U cos y - p2 V sin y for many series and parameter sets.
 
@@ -135,11 +136,12 @@ def _run_compiled(
         chain: None, or per series the index of an earlier series (or -1): series i then
             starts from the last recorded state of series ``chain[i]`` (``y0`` ignored), so
             that the consecutive chunks of one run are integrated as one trajectory.
+        reference: run the numpy reference even when the compiled loop is built.
 
     Returns:
         ``y0`` and the recorded states, shape (1 + recorded, s, m).
     """
-    lib = _library()
+    lib = None if reference else _library()
     if lib is None:
         return _run_reference(h, U, V, p0, p1, p2, y0, keep=keep, resets=resets, chain=chain)
     hh, uu, vv, a, b, c, y = _prepare(h, U, V, p0, p1, p2, y0)
@@ -211,26 +213,6 @@ def _run_reference(
                 y = np.full_like(y, float(reset[done]))
             out.append(y.copy())
     return np.stack(out)
-
-
-def rk4_hitch(
-    h: FloatArray | Iterable[float],
-    U: FloatArray,
-    V: FloatArray,
-    p0: FloatArray | float,
-    p1: FloatArray | float,
-    p2: FloatArray | float,
-    y0: FloatArray | float,
-    *,
-    keep: Iterable[int] | None = None,
-    resets: Mapping[int, float] | None = None,
-    chain: FloatArray | None = None,
-    reference: bool = False,
-) -> FloatArray:
-    """The recorded states of ``_run_compiled`` (see there for the arguments), shape
-    (1 + recorded, s, m). ``reference`` runs the numpy reference instead."""
-    run = _run_reference if reference else _run_compiled
-    return run(h, U, V, p0, p1, p2, y0, keep=keep, resets=resets, chain=chain)
 
 
 def rk4_hitch_sensitivities(
