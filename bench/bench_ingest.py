@@ -97,18 +97,13 @@ def _measure(what: str, path: Path) -> None:
         n, size = _rerun(path)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    print(
-        json.dumps(
-            {
-                "n": n,
-                "cpu": cpu,
-                "wall": wall,
-                "peak_kb": peak,
-                "base_kb": base,
-                "frames_bytes": size,
-            }
-        )
-    )
+    _emit(n, cpu, wall, peak, base, size)
+
+
+def _emit(n: int, cpu: float, wall: float, peak: int, base: int, size: int) -> None:
+    """One measurement as the JSON line the driver reads."""
+    rec = {"n": n, "cpu": cpu, "wall": wall, "peak_kb": peak, "base_kb": base}
+    print(json.dumps({**rec, "frames_bytes": size}))
 
 
 def _run_zstd(path: Path) -> None:
@@ -133,18 +128,7 @@ def _run_zstd(path: Path) -> None:
     total = sum(len(dec.decompress(d, max_output_size=s)) for d, s in chunks)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    print(
-        json.dumps(
-            {
-                "n": n,
-                "cpu": cpu,
-                "wall": wall,
-                "peak_kb": peak,
-                "base_kb": base,
-                "frames_bytes": total,
-            }
-        )
-    )
+    _emit(n, cpu, wall, peak, base, total)
 
 
 # ---------------------------------------------------------------- driver
