@@ -42,6 +42,7 @@ import numpy as np
 import polars as pl
 
 from calib.results import JsonRecord
+from calib.smoothing import savgol_filter
 from logtools.errors import LogcalInputError
 
 __all__ = [
@@ -143,8 +144,6 @@ def path_curvature(
         window_s: Savitzky-Golay window (s).
         v_min: path speed (m/s) at or below which the curvature is left NaN.
     """
-    from scipy.signal import savgol_filter  # lazy: scipy.signal costs 0.6 s to import
-
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     out = np.full(x.shape, np.nan)
     win = max(5, round(window_s / dt_s) | 1)

@@ -24,9 +24,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.signal import savgol_filter
 
 from calib.errors import InsufficientDataError
+from calib.smoothing import savgol_filter
 
 __all__ = ["DrivePath", "default_gap_s", "pool_runs", "pose_smoothing", "smoothing_gain"]
 
