@@ -87,7 +87,10 @@ def project_onto_curve(
 ) -> np.ndarray:
     """Joint angles (rad) of the curve points closest to the measurements in the noise metric.
 
-    Minimises ((kappa - g(p)) / s_k)^2 + ((psi - p) / s_p)^2 per point by Gauss-Newton. Only
+    Minimises ((kappa - g(p)) / s_k)^2 + ((psi - p) / s_p)^2 per point by Newton's method (the
+    Gauss-Newton step where the cost's curvature is below half the Gauss-Newton one: far from
+    the curve, where Newton's step could run to a maximum); Newton converges in 3-4 iterations
+    where Gauss-Newton needed ~7 for a model far from the data. Only
     the points still moving (by 1e-13 rad or more) are iterated: a point held at the clip bound
     or one that converged costs nothing further, so long logs cost what their slow points need.
     The points are taken 65536 at a time (each point's iterations do not depend on the
@@ -119,8 +122,15 @@ def _project_block(
     active = np.arange(p.size)
     ka, sa, pa = kappa, psi, p.copy()
     for _ in range(n_iter):
-        g, dg, _ = _g(pa, L1, L2)
-        step = (wk * (ka - g) * dg + wp * (sa - pa)) / (wk * dg * dg + wp)
+        c, s = np.cos(pa), np.sin(pa)
+        D = L2 + L1 * c
+        g = s / D
+        dg = (L2 * c + L1) / (D * D)
+        d2g = s * (2.0 * L1 * L1 + L1 * L2 * c - L2 * L2) / (D * D * D)
+        F = wk * (ka - g) * dg + wp * (sa - pa)
+        curv = wk * (dg * dg - (ka - g) * d2g) + wp
+        gn = wk * dg * dg + wp
+        step = F / np.where(curv > 0.5 * gn, curv, gn)
         new = np.clip(pa + step, -_PSI_MAX, _PSI_MAX)
         p[active] = new
         moving = np.abs(new - pa) >= 1e-13
