@@ -87,6 +87,9 @@ def _measure(what: str, path: Path) -> None:
 
     if what.startswith("rerun"):
         import rerun.chunk  # noqa: F401
+    else:  # logcal's reader, its decoders and their compiled passes, as rerun's above
+        import logtools.readers
+        import logtools.readers.flat_json  # noqa: F401
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     c0, w0 = time.process_time(), time.perf_counter()
     if what == "scan":

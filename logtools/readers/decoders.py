@@ -4,7 +4,8 @@ A decoder takes all raw payloads of one channel at once (a sequence of ``bytes``
 reader passes a :class:`~logtools.readers.mcap_scan.Payloads`, views into the decompressed
 chunks that bulk decoders read with numpy) and returns a polars frame with one row per payload
 it could decode (fields flattened by path: ``twist.twist.linear.x``; arrays as numbered columns:
-``position.0``) and the indices of those payloads. JSON is decoded in bulk by polars' NDJSON
+``position.0``) and the indices of those payloads. JSON channels whose messages all share one
+structure are decoded by one compiled pass (``flat_json``), other JSON in bulk by polars' NDJSON
 reader (the payloads are laid out as NDJSON lines with numpy, not joined one by one); ROS 2
 (``cdr``) fixed-layout messages in bulk by ``cdr_bulk``; other ROS 2 messages, ROS 1 and
 protobuf go message by message through the ``mcap`` support packages' decoder factories.
@@ -40,6 +41,7 @@ __all__ = [
     "decode_cdr",
     "decode_cdr_each",
     "decode_json",
+    "decode_json_ndjson",
     "flatten_frame",
     "flatten_object",
     "frame_from_rows",
@@ -179,6 +181,21 @@ _JSON_INFER_ROWS = 1000
 
 
 def decode_json(schema: Schema | None, channel: Channel, payloads: Sequence[bytes]) -> Decoded:
+    """Decode JSON payloads in one go: a channel whose messages all share the first one's
+    structure by one compiled pass (``flat_json``), any other with polars' NDJSON reader
+    (:func:`decode_json_ndjson`; the same frame for the channels both can read)."""
+    from logtools.readers.flat_json import decode_uniform
+
+    if not len(payloads):
+        return Decoded(pl.DataFrame())
+    data = payloads if isinstance(payloads, Payloads) else Payloads.from_bytes(payloads)
+    frame = decode_uniform(data)
+    return Decoded(frame) if frame is not None else decode_json_ndjson(schema, channel, data)
+
+
+def decode_json_ndjson(
+    schema: Schema | None, channel: Channel, payloads: Sequence[bytes]
+) -> Decoded:
     """Decode JSON payloads in one go with polars' NDJSON reader; fall back per message."""
     if not len(payloads):
         return Decoded(pl.DataFrame())
