@@ -21,7 +21,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from calib.errors import InsufficientDataError, SolverError
 
-__all__ = ["LeastSquares", "Solution", "triangular_factor", "triangular_factor_by_rows"]
+__all__ = [
+    "LeastSquares",
+    "Solution",
+    "block_factors",
+    "triangular_factor",
+    "triangular_factor_by_rows",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -30,7 +36,7 @@ _BLOCK_ROWS = 1024
 
 
 def triangular_factor(C: ArrayLike) -> FloatArray:
-    """R of the thin QR of ``C`` (p x m, p >= m): square, with Rᵀ R = Cᵀ C.
+    """R of the thin QR of ``C`` (p x m): square, with Rᵀ R = Cᵀ C.
 
     Tall matrices are reduced as a tall-skinny QR (TSQR): blocks of 1024 rows are factored
     in one batched call and their stacked R factors factored again. Same backward stability
@@ -43,17 +49,25 @@ def triangular_factor(C: ArrayLike) -> FloatArray:
         C: data matrix, one row per sample.
 
     Returns:
-        The m x m upper-triangular factor (row signs are arbitrary).
+        The m x m upper-triangular factor (row signs are arbitrary; with p < m rows the last
+        m - p rows are zero).
     """
     C = np.asarray(C, dtype=np.float64)
     p, m = C.shape
     if p < 2 * _BLOCK_ROWS:
-        return _r_factor(C)[:m]
+        return _square(_r_factor(C)[:m], m)
     n_blocks = -(-p // _BLOCK_ROWS)
     padded = np.zeros((n_blocks * _BLOCK_ROWS, m))
     padded[:p] = C
     blocks = _r_factor(padded.reshape(n_blocks, _BLOCK_ROWS, m))
-    return _r_factor(blocks[:, :m, :].reshape(-1, m))[:m]
+    return triangular_factor(blocks[:, :m, :].reshape(-1, m))
+
+
+def _square(R: FloatArray, m: int) -> FloatArray:
+    """``R`` (k x m, k <= m) with zero rows appended to m x m (the same Rᵀ R)."""
+    if R.shape[0] == m:
+        return R
+    return np.vstack([R, np.zeros((m - R.shape[0], m))])
 
 
 _CHUNK_ROWS = 65536
@@ -65,22 +79,61 @@ def triangular_factor_by_rows(
     """R (m x m) of a p x m matrix that is built a stretch of rows at a time.
 
     ``fill(start, stop, out)`` writes rows [start, stop) into ``out`` ((stop - start) x m).
-    Each stretch of 65536 rows is reduced by :func:`triangular_factor` and the stacked factors
-    are reduced again, so the whole matrix never exists: memory stays at one stretch
-    (about 3.7 MB for 7 columns) whatever the log's length, and the stretch stays in cache.
+    Each stretch of 65536 rows is written into a zero-padded buffer of whole 1024-row blocks,
+    factored block by block in one batched call (as :func:`triangular_factor`, without its
+    copy into a padded array), and all block factors are reduced again, so the whole matrix
+    never exists: memory stays at one stretch (about 3.7 MB for 7 columns) whatever the log's
+    length, and the stretch stays in cache.
     """
     if p < 1:
         raise ValueError(f"triangular_factor_by_rows: no rows (p = {p})")
+    if p < 2 * _BLOCK_ROWS:
+        out = np.empty((p, m))
+        fill(0, p, out)
+        return triangular_factor(out)
+    buf = np.empty((min(_CHUNK_ROWS, -(-p // _BLOCK_ROWS) * _BLOCK_ROWS), m))
     factors = []
-    buf = np.empty((min(_CHUNK_ROWS, p), m))
     for start in range(0, p, _CHUNK_ROWS):
         stop = min(start + _CHUNK_ROWS, p)
-        out = buf[: stop - start]
-        fill(start, stop, out)
-        factors.append(triangular_factor(out))
-    if len(factors) == 1:
-        return factors[0]
+        rows = stop - start
+        used = -(-rows // _BLOCK_ROWS) * _BLOCK_ROWS
+        fill(start, stop, buf[:rows])
+        buf[rows:used] = 0.0
+        blocks = _r_factor(buf[:used].reshape(-1, _BLOCK_ROWS, m))
+        factors.append(blocks[:, :m, :].reshape(-1, m))
     return triangular_factor(np.vstack(factors))
+
+
+def block_factors(
+    p: int, m: int, block_rows: int, fill: Callable[[int, int, FloatArray], None]
+) -> FloatArray:
+    """R (m x m) of each consecutive block of ``block_rows`` rows of a p x m matrix.
+
+    The matrix is built a stretch at a time by ``fill`` as in
+    :func:`triangular_factor_by_rows`; the last block is padded with zero rows (which do not
+    change its Rᵀ R). Callers keep these factors to assemble the factor of any weighted
+    selection of whole blocks without touching the rows again.
+
+    Returns:
+        (ceil(p / block_rows), m, m) upper-triangular factors.
+
+    Raises:
+        ValueError: p < 1 or block_rows < m.
+    """
+    if p < 1 or block_rows < m:
+        raise ValueError(f"block_factors: need p >= 1 and block_rows >= m; got {p}, {block_rows}")
+    n_blocks = -(-p // block_rows)
+    per_stretch = max(1, _CHUNK_ROWS // block_rows)
+    out = np.empty((n_blocks, m, m))
+    buf = np.empty((min(per_stretch, n_blocks) * block_rows, m))
+    for first in range(0, n_blocks, per_stretch):
+        last = min(first + per_stretch, n_blocks)
+        start, stop = first * block_rows, min(last * block_rows, p)
+        used = (last - first) * block_rows
+        fill(start, stop, buf[: stop - start])
+        buf[stop - start : used] = 0.0
+        out[first:last] = _r_factor(buf[:used].reshape(-1, block_rows, m))[:, :m, :]
+    return out
 
 
 def _r_factor(a: FloatArray) -> FloatArray:

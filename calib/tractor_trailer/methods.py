@@ -20,7 +20,11 @@ Speed: the p-long data are reduced once by a QR to a 7 x 7 factor of the base co
 ([sin Ψ, κ cos Ψ, κ]), the PM factor ([κ, 1, Ψ]) and the measured-Ψ half of every CLS data set
 are column combinations of it, and every model is a signed column selection of a factor. So
 the 12 EMLS/PMLS fits cost one QR, and each of the 6 PM fits is reused by its 4 CLS methods
-(one QR of its p predicted-angle rows each).
+(one QR of its p predicted-angle rows each, in compiled code: ``predicted_rows``).
+
+Bootstrap resamples (``ResampledData``) repeat rows: each distinct row enters once, scaled by
+the square root of its multiplicity (same Gram matrix, so the same results up to rounding),
+and the base factor is assembled from factors of fixed chunks of the data computed once.
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ from numpy.typing import ArrayLike
 
 from calib.errors import SolverError
 from calib.lsq import OLS1, OLS2, TLS, LeastSquares, triangular_factor, triangular_factor_by_rows
+from calib.lsq.base import block_factors
 from calib.results import Family, JsonRecord
 from calib.tractor_trailer.patent_models import (
     EXACT_MODELS,
@@ -42,9 +47,10 @@ from calib.tractor_trailer.patent_models import (
     ExactModel,
     PredictionModel,
     check_excitation,
-    em_columns,
+    check_variation,
     lengths_from_beta,
 )
+from calib.tractor_trailer.predicted_rows import predicted_rows_factor
 
 __all__ = [
     "CLS_ROWS",
@@ -53,6 +59,7 @@ __all__ = [
     "Family",
     "MethodEstimate",
     "MethodSpec",
+    "ResampledData",
     "evaluate_methods",
     "family_of",
     "method_spec",
@@ -190,12 +197,28 @@ class _Evaluator:
     matrix of 1, 1/a and −b/a, so their factor is R_B times that matrix. Only the κm half
     (Ψp = a κm + b, new angles for each PM fit) is factored afresh; the two halves' factors are
     stacked and reduced (same column algebra as one QR of the 2p rows, see ``calib.lsq.base``).
+
+    A resample that repeats rows is given as its distinct rows, each row of every factored
+    matrix scaled by ``weights`` (the square root of its multiplicity m): m copies of a row r
+    add m rᵀr to the Gram matrix, as the one row √m r does, so every factor, and every
+    least-squares and TLS result computed from it, is that of the repeated rows up to
+    rounding. ``n`` is then the resample's size (the number of rows it stands for).
     """
 
-    def __init__(self, kappa: np.ndarray, psi: np.ndarray) -> None:
-        self.kappa, self.psi = kappa, psi
-        self.n = kappa.size
-        self._base: np.ndarray | None = None
+    def __init__(
+        self,
+        kappa: np.ndarray,
+        psi: np.ndarray,
+        *,
+        n: int | None = None,
+        weights: np.ndarray | None = None,
+        base: np.ndarray | None = None,
+    ) -> None:
+        self.kappa, self.psi, self.weights = kappa, psi, weights
+        self.rows = kappa.size
+        self.n = self.rows if n is None else n
+        self.kappa_max = float(np.max(np.abs(kappa)))
+        self._base = base
         self._pm_factor: np.ndarray | None = None
         self._pm_fits: dict[tuple[str, PredictionModel], LeastSquares] = {}
         self._cls_factors: dict[tuple[str, PredictionModel], tuple[np.ndarray, int]] = {}
@@ -203,18 +226,12 @@ class _Evaluator:
     def base_factor(self) -> np.ndarray:
         """7 x 7 R of B = [sin Ψ, κ cos Ψ, κ, 1, Ψ, Ψ cos Ψ, cos Ψ]."""
         if self._base is None:
-            self._base = triangular_factor_by_rows(self.n, 7, self._base_rows)
+            self._base = triangular_factor_by_rows(self.rows, 7, self._base_rows)
         return self._base
 
     def _base_rows(self, start: int, stop: int, out: np.ndarray) -> None:
-        k, p = self.kappa[start:stop], self.psi[start:stop]
-        np.cos(p, out=out[:, 6])
-        np.sin(p, out=out[:, 0])
-        np.multiply(k, out[:, 6], out=out[:, 1])
-        out[:, 2] = k
-        out[:, 3] = 1.0
-        out[:, 4] = p
-        np.multiply(p, out[:, 6], out=out[:, 5])
+        w = None if self.weights is None else self.weights[start:stop]
+        _fill_base_rows(self.kappa[start:stop], self.psi[start:stop], out, w)
 
     def em_factor(self) -> np.ndarray:
         # the R of a leading block of columns is the leading block of R
@@ -236,11 +253,9 @@ class _Evaluator:
             if not (math.isfinite(a) and a != 0.0 and math.isfinite(b)):
                 raise SolverError(f"{solver}({pm}): slope a = {a} cannot predict curvature")
             # κm half: [sin Ψp, κm cos Ψp, κm] with Ψp = a κm + b
-            def predicted_rows(start: int, stop: int, out: np.ndarray) -> None:
-                k = self.kappa[start:stop]
-                em_columns(k, a * k + b, out=out)
-
-            first = triangular_factor_by_rows(self.n, 3, predicted_rows)
+            first = predicted_rows_factor(
+                self.kappa, a, b, self.weights, kappa_max=self.kappa_max
+            )
             # Ψm half: B columns [sin Ψ, Ψ cos Ψ, cos Ψ, Ψ, 1] times T
             T = np.array(
                 [[1.0, 0.0, 0.0], [0.0, 1 / a, 0.0], [0.0, -b / a, 0.0],
@@ -250,6 +265,99 @@ class _Evaluator:
             factor = triangular_factor(np.vstack([first, second]))
             self._cls_factors[key] = (factor, 2 * self.n)
         return self._cls_factors[key]
+
+
+def _fill_base_rows(
+    kappa: np.ndarray, psi: np.ndarray, out: np.ndarray, weights: np.ndarray | None = None
+) -> None:
+    """Write the base rows [sin Ψ, κ cos Ψ, κ, 1, Ψ, Ψ cos Ψ, cos Ψ] (each scaled by its
+    weight, if given) into ``out`` (p x 7)."""
+    np.cos(psi, out=out[:, 6])
+    np.sin(psi, out=out[:, 0])
+    np.multiply(kappa, out[:, 6], out=out[:, 1])
+    out[:, 2] = kappa
+    out[:, 3] = 1.0
+    out[:, 4] = psi
+    np.multiply(psi, out[:, 6], out=out[:, 5])
+    if weights is not None:
+        out *= weights[:, None]
+
+
+_CHUNK = 256  # rows per stored base factor of ``ResampledData``
+
+
+class ResampledData:
+    """One (κ, Ψ) data set prepared for evaluating the methods on many resamples of its rows.
+
+    A resample is given by the multiplicity of each row (``counts``), as a bootstrap draws
+    them. The data enter the methods twice: through the 7 x 7 base factor (EMLS, PMLS, and
+    the Ψm half of CLS) and through the κm half of each CLS data set, whose angles depend on
+    the resample's PM fits. For the first, the base factor of every chunk of 256 consecutive
+    rows is computed once here; a resample's base factor is then the factor of the stacked
+    chunk factors of the chunks it repeats uniformly (each scaled by √m), plus the weighted
+    rows of the few chunks whose multiplicity changes inside them (a block bootstrap draws
+    long runs of consecutive rows, so these are few). For the second, the CLS rows are built
+    only for the rows the resample contains, each scaled by √m (see ``_Evaluator``). Results
+    equal ``evaluate_methods`` on the repeated rows up to rounding.
+    """
+
+    def __init__(self, kappa: ArrayLike, psi: ArrayLike) -> None:
+        self.kappa, self.psi = check_excitation(kappa, psi)
+        self.size = self.kappa.size
+
+        def fill(start: int, stop: int, out: np.ndarray) -> None:
+            _fill_base_rows(self.kappa[start:stop], self.psi[start:stop], out)
+
+        self._chunk_factors = block_factors(self.size, 7, _CHUNK, fill)
+
+    def evaluate(
+        self, counts: ArrayLike, names: Iterable[str] | None = None
+    ) -> dict[str, MethodEstimate]:
+        """The methods on the resample that holds row i ``counts[i]`` times.
+
+        Args:
+            counts: non-negative integer multiplicity of each row, shape (size,).
+            names: methods (default all of ``METHOD_NAMES``), in the order returned.
+
+        Returns:
+            As ``evaluate_methods`` on the resample's rows.
+
+        Raises:
+            InsufficientDataError: the resample has fewer than 3 rows or no excitation.
+            ValueError: ``counts`` of the wrong shape or negative; an unknown method name.
+        """
+        c = np.asarray(counts)
+        if c.shape != (self.size,) or not np.issubdtype(c.dtype, np.integer) or c.min() < 0:
+            raise ValueError(
+                f"counts must be {self.size} non-negative integers; got {c.dtype} {c.shape}"
+            )
+        rows = np.flatnonzero(c)
+        k, p = self.kappa[rows], self.psi[rows]
+        n = int(c.sum())
+        check_variation(k, p, n)
+        weights = np.sqrt(c[rows].astype(np.float64))
+        ev = _Evaluator(k, p, n=n, weights=weights, base=self._base_factor(c))
+        return _evaluate_all(ev, names)
+
+    def _base_factor(self, counts: np.ndarray) -> np.ndarray:
+        n_chunks = self._chunk_factors.shape[0]
+        per_chunk = np.zeros(n_chunks * _CHUNK, dtype=counts.dtype)
+        per_chunk[: self.size] = counts
+        per_chunk = per_chunk.reshape(n_chunks, _CHUNK)
+        first = per_chunk[:, 0]
+        uniform = np.all(per_chunk == first[:, None], axis=1)
+        whole = np.flatnonzero(uniform & (first > 0))
+        stacked = self._chunk_factors[whole] * np.sqrt(first[whole].astype(np.float64))[
+            :, None, None
+        ]
+        mixed = np.flatnonzero(~uniform)
+        idx = (mixed[:, None] * _CHUNK + np.arange(_CHUNK)).ravel()
+        idx = idx[idx < self.size]
+        idx = idx[counts[idx] > 0]
+        rows = np.empty((idx.size, 7))
+        weights = np.sqrt(counts[idx].astype(np.float64))
+        _fill_base_rows(self.kappa[idx], self.psi[idx], rows, weights)
+        return triangular_factor(np.vstack([stacked.reshape(-1, 7), rows]))
 
 
 def _line(fit: LeastSquares, pm: PredictionModel) -> tuple[float, float]:
@@ -318,8 +426,11 @@ def evaluate_methods(
         ValueError: an unknown method name.
     """
     k, p = check_excitation(kappa, psi)
+    return _evaluate_all(_Evaluator(k, p), names)
+
+
+def _evaluate_all(ev: _Evaluator, names: Iterable[str] | None) -> dict[str, MethodEstimate]:
     specs = [method_spec(n) for n in (METHOD_NAMES if names is None else names)]
-    ev = _Evaluator(k, p)
     out: dict[str, MethodEstimate] = {}
     for spec in specs:
         try:

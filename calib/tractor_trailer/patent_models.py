@@ -32,6 +32,7 @@ __all__ = [
     "ModelColumns",
     "PredictionModel",
     "check_excitation",
+    "check_variation",
     "em_columns",
     "em_design",
     "lengths_from_beta",
@@ -105,19 +106,36 @@ def check_excitation(kappa: ArrayLike, psi: ArrayLike) -> tuple[FloatArray, Floa
             f"kappa ({k.size} samples) and psi ({p.size} samples) must have the same length"
         )
     if k.size < 3:
-        raise InsufficientDataError(
-            f"{k.size} (kappa, psi) samples: need at least 3 for two unknowns plus a residual"
-        )
+        raise _too_few(k.size)
     if not (np.all(np.isfinite(k)) and np.all(np.isfinite(p))):
         raise InsufficientDataError("kappa and psi must be finite (NaN or inf found)")
-    for name, x in (("kappa", k), ("psi", p)):
+    check_variation(k, p, k.size)
+    return k, p
+
+
+def _too_few(n: int) -> InsufficientDataError:
+    return InsufficientDataError(
+        f"{n} (kappa, psi) samples: need at least 3 for two unknowns plus a residual"
+    )
+
+
+def check_variation(kappa: FloatArray, psi: FloatArray, n_samples: int) -> None:
+    """The sample-count and excitation checks of ``check_excitation`` on finite (κ, Ψ) that may
+    stand for more samples than they hold (the distinct rows of a resample, ``n_samples`` in
+    all): what varies is the same with or without the repeats.
+
+    Raises:
+        InsufficientDataError: fewer than 3 samples, or κ or Ψ do not vary.
+    """
+    if n_samples < 3 or kappa.size == 0:
+        raise _too_few(n_samples)
+    for name, x in (("kappa", kappa), ("psi", psi)):
         scale = max(float(np.max(np.abs(x))), 1e-300)
         if np.ptp(x) <= 1e-9 * scale or scale <= 1e-12:
             raise InsufficientDataError(
                 f"{name} does not vary (range {np.ptp(x):.3g}): the log has no curvature "
                 "excitation; need turns of at least two different curvatures"
             )
-    return k, p
 
 
 def em_columns(kappa: ArrayLike, psi: ArrayLike, out: FloatArray | None = None) -> FloatArray:

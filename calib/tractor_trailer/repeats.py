@@ -18,11 +18,17 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calib.results import MethodResult
-from calib.tractor_trailer.methods import METHOD_NAMES, evaluate_methods, family_of
+from calib.tractor_trailer.methods import (
+    METHOD_NAMES,
+    ResampledData,
+    evaluate_methods,
+    family_of,
+)
 from calib.tractor_trailer.patent_models import check_excitation
 
 __all__ = [
     "block_length",
+    "bootstrap_counts",
     "bootstrap_datasets",
     "line_residual",
     "methods_over_repeats",
@@ -90,11 +96,29 @@ def _aggregate(name: str, ests: list[Any], segment: str) -> MethodResult:
     )
 
 
+def _smooth_length(n: int) -> int:
+    """The smallest 2^i 3^j 5^k >= n: an FFT length numpy transforms fast (a power of two
+    can be nearly twice as long, and past the cache several times slower)."""
+    best = 1 << max(0, (n - 1).bit_length())
+    p5 = 1
+    while p5 < best:
+        p35 = p5
+        while p35 < best:
+            m = p35
+            while m < n:
+                m *= 2
+            best = min(best, m)
+            p35 *= 3
+        p5 *= 5
+    return best
+
+
 def _autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
-    """Sample autocorrelation ρ(0..max_lag) of ``x`` (mean removed), via the FFT."""
+    """Sample autocorrelation ρ(0..max_lag) of ``x`` (mean removed), via the FFT (zero-padded
+    to at least n + max_lag samples, so lags up to max_lag do not wrap around)."""
     n = x.size
     y = x - x.mean()
-    nfft = 1 << (2 * n - 1).bit_length()
+    nfft = _smooth_length(n + max_lag)
     f = np.fft.rfft(y, nfft)
     acov = np.fft.irfft(f * np.conj(f), nfft)[: max_lag + 1] / n
     return acov / acov[0] if acov[0] > 0 else np.zeros(max_lag + 1)
@@ -148,6 +172,20 @@ def line_residual(kappa: ArrayLike, psi: ArrayLike) -> np.ndarray:
     return p - A @ beta
 
 
+def _block_starts(
+    size: int, n: int, rng: np.random.Generator, block_len: int
+) -> Iterator[np.ndarray]:
+    """The start of each block of ``n`` moving-block draws (the draws' only random numbers)."""
+    n_blocks = -(-size // block_len)
+    for _ in range(n):
+        yield rng.integers(0, size - block_len + 1, size=n_blocks)
+
+
+def _checked_block_length(k: np.ndarray, p: np.ndarray, block_len: int | None) -> int:
+    b = block_length(line_residual(k, p)) if block_len is None else int(block_len)
+    return min(max(1, b), k.size)
+
+
 def bootstrap_datasets(
     kappa: ArrayLike,
     psi: ArrayLike,
@@ -166,15 +204,35 @@ def bootstrap_datasets(
         InsufficientDataError: degenerate data (see ``check_excitation``).
     """
     k, p = check_excitation(kappa, psi)
-    size = k.size
-    b = block_length(line_residual(k, p)) if block_len is None else int(block_len)
-    b = min(max(1, b), size)
-    n_blocks = -(-size // b)
+    b = _checked_block_length(k, p, block_len)
     offsets = np.arange(b)
-    for _ in range(n):
-        starts = rng.integers(0, size - b + 1, size=n_blocks)
-        idx = (starts[:, None] + offsets[None, :]).ravel()[:size]
+    for starts in _block_starts(k.size, n, rng, b):
+        idx = (starts[:, None] + offsets[None, :]).ravel()[: k.size]
         yield k[idx], p[idx]
+
+
+def bootstrap_counts(
+    kappa: ArrayLike,
+    psi: ArrayLike,
+    *,
+    n: int,
+    rng: np.random.Generator,
+    block_len: int | None = None,
+) -> Iterator[np.ndarray]:
+    """The draws of ``bootstrap_datasets`` (same arguments, same random numbers) as the number
+    of times each sample appears in each resample (int array of the data's length).
+
+    Built from the block starts alone (+1 at each start, −1 after each block's end, a
+    cumulative sum), never from the resample's index list.
+    """
+    k, p = check_excitation(kappa, psi)
+    size = k.size
+    b = _checked_block_length(k, p, block_len)
+    for starts in _block_starts(size, n, rng, b):
+        ends = starts + b
+        ends[-1] = starts[-1] + size - (starts.size - 1) * b  # the last block is cut to length
+        steps = np.bincount(starts, minlength=size + 1) - np.bincount(ends, minlength=size + 1)
+        yield np.cumsum(steps[:size])
 
 
 def methods_table(
@@ -188,7 +246,10 @@ def methods_table(
 ) -> list[MethodResult]:
     """Methods on a recorded log as mean ± σ over ``repeats`` moving-block bootstrap draws.
 
-    ``repeats`` = 1 evaluates the data as they are (σ = 0).
+    ``repeats`` = 1 evaluates the data as they are (σ = 0). The draws are those of
+    ``bootstrap_datasets`` with the same ``rng``; each is evaluated from its row multiplicities
+    (``ResampledData``), which gives ``methods_over_repeats`` of the drawn data sets up to
+    rounding at a fraction of the cost.
 
     Args:
         kappa: curvature (1/m); psi: joint angle (rad), same length.
@@ -204,8 +265,9 @@ def methods_table(
         raise ValueError(f"repeats must be >= 1, got {repeats}")
     k, p = check_excitation(kappa, psi)
     if repeats == 1:
-        data: Iterable[tuple[np.ndarray, np.ndarray]] = [(k, p)]
-    else:
-        gen = rng if rng is not None else np.random.default_rng(0)
-        data = bootstrap_datasets(k, p, n=repeats, rng=gen)
-    return methods_over_repeats(data, segment=segment, names=names)
+        return methods_over_repeats([(k, p)], segment=segment, names=names)
+    gen = rng if rng is not None else np.random.default_rng(0)
+    order = list(METHOD_NAMES if names is None else names)
+    data = ResampledData(k, p)
+    runs = [data.evaluate(c, order) for c in bootstrap_counts(k, p, n=repeats, rng=gen)]
+    return [_aggregate(name, [r[name] for r in runs], segment) for name in order]

@@ -10,6 +10,7 @@ from scipy.optimize import minimize
 
 from calib.errors import InsufficientDataError
 from calib.lsq import OLS1, OLS2, TLS, LeastSquares, triangular_factor, triangular_factor_by_rows
+from calib.lsq.base import block_factors
 
 SOLVERS = (OLS1, OLS2, TLS)
 
@@ -168,3 +169,37 @@ def test_factor_built_by_rows_is_a_factor_of_the_whole_matrix(p: int) -> None:
     assert all(a[1] == b[0] for a, b in itertools.pairwise(calls))
     with pytest.raises(ValueError, match="no rows"):
         triangular_factor_by_rows(0, 4, fill)
+
+
+def test_factor_of_fewer_rows_than_columns_is_square() -> None:
+    C = np.array([[1.0, 2.0, 3.0, 4.0], [0.5, -1.0, 2.0, 0.0]])
+    R = triangular_factor(C)
+    assert R.shape == (4, 4)
+    np.testing.assert_allclose(R.T @ R, C.T @ C, atol=1e-14)
+    np.testing.assert_array_equal(R[2:], 0.0)
+
+
+@pytest.mark.parametrize("p", [1000, 70_000])  # one stretch, ragged last block; two stretches
+def test_block_factors_are_the_factors_of_consecutive_blocks(p: int) -> None:
+    rng = np.random.default_rng(13)
+    C = rng.normal(size=(p, 4)) * [1.0, 1e3, 1e-3, 1.0]
+
+    def fill(start: int, stop: int, out: np.ndarray) -> None:
+        out[:] = C[start:stop]
+
+    F = block_factors(p, 4, 256, fill)
+    assert F.shape == (-(-p // 256), 4, 4)
+    for i in (0, 1, F.shape[0] - 1):  # the last block holds p mod 256 rows
+        block = C[256 * i : 256 * (i + 1)]
+        gram = block.T @ block
+        np.testing.assert_array_equal(np.tril(F[i], -1), 0.0)
+        np.testing.assert_allclose(
+            F[i].T @ F[i], gram, rtol=1e-12, atol=1e-12 * np.abs(gram).max()
+        )
+    stacked = triangular_factor(F.reshape(-1, 4))  # blocks reduce to the whole matrix's factor
+    gram = C.T @ C
+    np.testing.assert_allclose(
+        stacked.T @ stacked, gram, rtol=1e-12, atol=1e-12 * np.abs(gram).max()
+    )
+    with pytest.raises(ValueError, match="block_rows"):
+        block_factors(p, 4, 3, fill)

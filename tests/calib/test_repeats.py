@@ -12,6 +12,7 @@ from calib.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.methods import evaluate_methods
 from calib.tractor_trailer.repeats import (
     block_length,
+    bootstrap_counts,
     bootstrap_datasets,
     methods_over_repeats,
     methods_table,
@@ -116,3 +117,49 @@ def test_methods_table_rejects_degenerate_data_and_bad_repeats() -> None:
         methods_table(np.zeros(100), np.zeros(100))
     with pytest.raises(ValueError, match="repeats"):
         methods_table(*_data(np.random.default_rng(7)), repeats=0)
+
+
+def test_bootstrap_counts_are_the_multiplicities_of_the_same_draws() -> None:
+    k = np.arange(1000.0)  # the values are the sample indices
+    p = np.sin(k / 50.0)
+    for block_len in (1, 7, 333, None):
+        draws = bootstrap_datasets(k, p, n=4, rng=np.random.default_rng(8), block_len=block_len)
+        counts = bootstrap_counts(k, p, n=4, rng=np.random.default_rng(8), block_len=block_len)
+        for (kb, _), c in zip(draws, counts, strict=True):
+            np.testing.assert_array_equal(c, np.bincount(kb.astype(int), minlength=1000))
+
+
+def _simulated_log() -> tuple[np.ndarray, np.ndarray]:
+    """A simulated run of the patent's mixed commands (249 s at 50 Hz, transient trailer),
+    with noise on κ and Ψ."""
+    from calib.sim.presets import patent_mixed
+    from calib.sim.tractor_trailer import simulate_tractor_trailer
+
+    run = simulate_tractor_trailer(patent_mixed(rate_hz=50.0), seed=3)
+    rng = np.random.default_rng(0)
+    k = run.truth["kappa"].to_numpy()
+    p = run.truth["psi"].to_numpy()
+    return k + rng.normal(0, 0.005, k.size), p + rng.normal(0, 0.01, p.size)
+
+
+def test_methods_table_equals_the_methods_on_each_drawn_data_set() -> None:
+    """The table from weighted distinct rows equals the one from evaluating every bootstrap
+    draw as repeated rows (same random draws), all 36 methods, to 1e-9 relative."""
+    k, p = _simulated_log()
+    fast = methods_table(k, p, segment="mixed", repeats=3, rng=np.random.default_rng(11))
+    draws = bootstrap_datasets(k, p, n=3, rng=np.random.default_rng(11))
+    slow = methods_over_repeats(draws, segment="mixed")
+    assert [r.name for r in fast] == [r.name for r in slow]
+    for a, b in zip(fast, slow, strict=True):
+        da, db = a.to_dict(), b.to_dict()
+        assert da.keys() == db.keys()
+        for key in da:
+            x, y = da[key], db[key]
+            if isinstance(x, float) and isinstance(y, float):
+                assert pytest.approx(x, rel=1e-9, abs=1e-15) == y, (a.name, key)
+            elif key == "extra":
+                assert x.keys() == y.keys()
+                for e in x:
+                    assert pytest.approx(x[e], rel=1e-9, abs=1e-15) == y[e], (a.name, e)
+            else:
+                assert x == y, (a.name, key)

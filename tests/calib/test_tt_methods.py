@@ -8,22 +8,33 @@ import numpy as np
 import pytest
 
 from calib.errors import InsufficientDataError
-from calib.lsq import OLS1, OLS2, TLS
+from calib.lsq import OLS1, OLS2, TLS, triangular_factor
 from calib.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.methods import (
     CLS_TABLE,
     METHOD_NAMES,
+    MethodEstimate,
+    ResampledData,
     evaluate_methods,
     family_of,
     method_spec,
 )
-from calib.tractor_trailer.patent_models import ExactModel, em_design, lengths_from_beta, pm_design
+from calib.tractor_trailer.patent_models import (
+    ExactModel,
+    em_columns,
+    em_design,
+    lengths_from_beta,
+    pm_design,
+)
+from calib.tractor_trailer.predicted_rows import predicted_rows_factor
 
 L1, L2 = 1.25, 2.48
 EMLS = ("OLS1(EM1)", "OLS1(EM2)", "OLS1(EM3)", "TLS(EM1)", "TLS(EM2)", "TLS(EM3)")
 
 
-def harmonic(M: float, n: int = 631, t_end: float = 63.0, l1: float = L1, l2: float = L2):
+def harmonic(
+    M: float, n: int = 631, t_end: float = 63.0, l1: float = L1, l2: float = L2
+) -> tuple[np.ndarray, np.ndarray]:
     """METHODS.md's verified scenario: κ = M sin(0.1 t), ideal steady-state Ψ."""
     t = np.linspace(0.0, t_end, n)
     k = M * np.sin(0.1 * t)
@@ -33,7 +44,7 @@ def harmonic(M: float, n: int = 631, t_end: float = 63.0, l1: float = L1, l2: fl
 def test_names_families_and_table3() -> None:
     assert len(METHOD_NAMES) == 36
     assert len(set(METHOD_NAMES)) == 36
-    fams = [family_of(n) for n in METHOD_NAMES]
+    fams = [str(family_of(n)) for n in METHOD_NAMES]
     assert (fams.count("EMLS"), fams.count("PMLS"), fams.count("CLS")) == (6, 6, 24)
     # patent Table 3, a few rows verbatim
     assert CLS_TABLE["M1"].description == "OLS1(PM2) + OLS1(EM1)"
@@ -165,3 +176,79 @@ def test_degenerate_data_raise_naming_what_is_missing() -> None:
         evaluate_methods([0.1, 0.2], [0.3, 0.7])
     with pytest.raises(InsufficientDataError, match="same length"):
         evaluate_methods(np.ones(5), np.ones(4))
+
+
+def _resample(n: int = 3000, seed: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Noisy harmonic data and the multiplicities of a block-bootstrap-like draw: runs of
+    consecutive rows (lengths 1..400) drawn with replacement, some rows absent."""
+    rng = np.random.default_rng(seed)
+    k0, p0 = harmonic(0.2, n=n, t_end=n / 10.0)
+    k, p = k0 + rng.normal(0, 0.01, n), p0 + rng.normal(0, 0.01, n)
+    counts = np.zeros(n, dtype=np.int64)
+    while counts.sum() < n:
+        start, length = int(rng.integers(0, n)), int(rng.integers(1, 400))
+        counts[start : start + length] += 1
+    return k, p, counts
+
+
+def _same(a: MethodEstimate, b: MethodEstimate, rel: float) -> None:
+    assert a.failed == b.failed
+    for x, y in [(a.L1, b.L1), (a.L2, b.L2), (a.condition_number, b.condition_number)]:
+        assert (math.isnan(x) and math.isnan(y)) or pytest.approx(x, rel=rel) == y, a.name
+    assert a.extra.keys() == b.extra.keys()
+    for key, x in a.extra.items():
+        assert pytest.approx(x, rel=rel) == b.extra[key], (a.name, key)
+
+
+def test_weighted_distinct_rows_factor_equals_the_factor_of_the_repeated_rows() -> None:
+    """R of the distinct rows, each scaled by √(multiplicity), has Rᵀ R = the Gram matrix of
+    the repeated rows: for the base columns (assembled from stored chunk factors) and for the
+    CLS predicted-angle rows (compiled and numpy paths)."""
+    k, p, counts = _resample()
+    idx = np.repeat(np.arange(k.size), counts)
+    cols = np.column_stack([np.sin(p), k * np.cos(p), k, np.ones_like(k), p, p * np.cos(p),
+                            np.cos(p)])[idx]  # fmt: skip
+    gram = cols.T @ cols
+    R = ResampledData(k, p)._base_factor(counts)
+    assert np.abs(R.T @ R - gram).max() <= 1e-12 * np.abs(gram).max()
+    rows = np.flatnonzero(counts)
+    w = np.sqrt(counts[rows].astype(float))
+    D = em_columns(k[idx], 3.7 * k[idx] - 0.01)
+    gram = D.T @ D
+    for reference in (False, True):
+        R = predicted_rows_factor(k[rows], 3.7, -0.01, w, reference=reference)
+        assert np.abs(R.T @ R - gram).max() <= 1e-12 * np.abs(gram).max()
+    R = triangular_factor(D)  # and both are factors of the same matrix as one QR's
+    assert np.abs(R.T @ R - gram).max() <= 1e-12 * np.abs(gram).max()
+
+
+def test_methods_on_a_resample_equal_the_methods_on_its_repeated_rows() -> None:
+    k, p, counts = _resample(seed=3)
+    idx = np.repeat(np.arange(k.size), counts)
+    data = ResampledData(k, p)
+    got = data.evaluate(counts)
+    want = evaluate_methods(k[idx], p[idx])
+    assert list(got) == list(METHOD_NAMES)
+    for name in METHOD_NAMES:
+        _same(got[name], want[name], rel=1e-9)
+    ones = data.evaluate(np.ones(k.size, dtype=np.int64), ["M12", "TLS(PM2)"])
+    plain = evaluate_methods(k, p, ["M12", "TLS(PM2)"])
+    for name in ones:
+        _same(ones[name], plain[name], rel=1e-9)
+
+
+def test_resampled_data_rejects_bad_counts() -> None:
+    k, p, counts = _resample(n=500)
+    data = ResampledData(k, p)
+    with pytest.raises(ValueError, match="non-negative integers"):
+        data.evaluate(counts[:-1])
+    with pytest.raises(ValueError, match="non-negative integers"):
+        data.evaluate(counts.astype(float))
+    with pytest.raises(ValueError, match="non-negative integers"):
+        data.evaluate(-counts)
+    with pytest.raises(InsufficientDataError, match="0 \\(kappa, psi\\) samples"):
+        data.evaluate(np.zeros(500, dtype=np.int64))
+    one_row = np.zeros(500, dtype=np.int64)
+    one_row[7] = 5  # five copies of one sample: nothing varies
+    with pytest.raises(InsufficientDataError, match="kappa does not vary"):
+        data.evaluate(one_row)
