@@ -44,6 +44,7 @@ from calib.estimators._stats import (
 )
 from calib.estimators.drive_path import DrivePath, default_gap_s
 from calib.estimators.identifiability import IdentifiabilityVerdict, identifiability
+from calib.lsq.base import triangular_factor_by_rows
 from calib.models.hitch_path import advance_psi, advance_psi_jacobian, rk4_substeps
 from calib.results import CalibrationResult, Family, MethodResult
 
@@ -417,15 +418,42 @@ class PathTransientFit:
 
             return hstack([csr_matrix(dense), sp[:, q:]]).tocsr()
 
-        def fun(x: np.ndarray) -> np.ndarray:
-            r = evaluate(x)[0]
-            return np.where(np.isfinite(r), r, 1e3)
-
-        def jac(x: np.ndarray) -> np.ndarray | csr_matrix:
-            J = evaluate(x)[1]
-            return full_jac(np.where(np.isfinite(J), J, 0.0))
+        def cleaned(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            r, J = evaluate(x)
+            return np.where(np.isfinite(r), r, 1e3), np.where(np.isfinite(J), J, 0.0)
 
         sparse = P > 1 and n * (q + P) > 4_000_000
+        folded: dict[bytes, np.ndarray] = {}
+
+        def fold(x: np.ndarray) -> np.ndarray:
+            """R of [J r] at ``x`` (dense case): (q + P + 1) residuals with the same sum of
+            squares, J^T J and J^T r as the n residuals (so least_squares takes the same
+            steps and stops at the same point), without its copies of the n-row Jacobian
+            (issue 14: the fit's memory on a 1-hour log)."""
+            key = x.tobytes()
+            if key not in folded:
+                r, J = cleaned(x)
+                full = full_jac(J)
+                assert isinstance(full, np.ndarray)
+
+                def rows(a: int, b: int, out: np.ndarray) -> None:
+                    out[:, :-1] = full[a:b]
+                    out[:, -1] = r[a:b]
+
+                folded.clear()
+                folded[key] = triangular_factor_by_rows(n, full.shape[1] + 1, rows)
+            return folded[key]
+
+        def fun(x: np.ndarray) -> np.ndarray:
+            if sparse:
+                return cleaned(x)[0]
+            return fold(x)[:, -1].copy()
+
+        def jac(x: np.ndarray) -> np.ndarray | csr_matrix:
+            if sparse:
+                return full_jac(cleaned(x)[1])
+            return fold(x)[:, :-1].copy()
+
         sol = least_squares(
             fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
             tr_solver="lsmr" if sparse else "exact", xtol=1e-10, ftol=1e-12, gtol=1e-10,
