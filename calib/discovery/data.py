@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections import OrderedDict
+from collections.abc import Callable, Hashable, Mapping
 from dataclasses import dataclass, field
+from typing import Any, TypeVar, cast
 
 import numpy as np
 import polars as pl
@@ -40,6 +42,9 @@ REANCHOR_M = 5.0  # travel (m) left out after a restart, while the model forgets
 # noise level, so that a noise-free log's interpolation error is not taken for physics.
 RESOLUTION: dict[str, float] = {"omega": 1e-4, "psi": 1e-4}
 _DELAYS_KEPT = 4  # delayed commands remembered per log (each one array of the half grid)
+# values remembered per kind by ``DiscoveryData.recall`` (default 4)
+RECALLED: dict[str, int] = {"predict": 8, "inputs": 4, "psi": 6, "fit": 8}
+T = TypeVar("T")
 
 
 def block_mean(x: FloatArray, m: int) -> FloatArray:
@@ -107,6 +112,9 @@ class DiscoveryData:
     gaps longer than ``GAP_S``) to that angle. ``sampled``: per output whose aligned values are
     the linear interpolation of its own samples (checked), those samples' times (s from the
     first row): the model is then recorded the same way (``model.as_recorded``).
+
+    The time, command and speed arrays are read-only; ``recall`` remembers the model's
+    intermediate results for the parameters they depend on.
     """
 
     t_ns: NDArray[np.int64]
@@ -132,6 +140,37 @@ class DiscoveryData:
     _delayed: dict[float, FloatArray] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
+    _recent: dict[str, OrderedDict[Hashable, Any]] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+
+    def __post_init__(self) -> None:
+        # read-only: the model's steps remember their results by the arrays they were run on
+        # (``effects.base.remembered``)
+        for a in (self.t_s, self.tc_s, self.th_s, self.kappa_h, self.v_h, self.kappa_cmd, self.v):
+            a.flags.writeable = False
+
+    def recall(
+        self, kind: str, key: Hashable, make: Callable[[], T], size: int | None = None
+    ) -> T:
+        """``make()``, remembered under ``key`` among the last few values of its ``kind``
+        (``RECALLED`` says how many; ``size`` overrides).
+
+        Why: a fit evaluates the model hundreds of times, and a finite-difference Jacobian
+        varies one parameter at a time, so most evaluations repeat a step of the one before
+        (the inputs when only a link length or a sensor parameter moved, the joint angle when
+        only a yaw-rate parameter moved, a fit that selection and confirmation both ask for).
+        The values live as long as this object and are never changed (results are pure
+        functions of their key); ``functools.lru_cache`` would hold them past it."""
+        store = self._recent.setdefault(kind, OrderedDict())
+        if key in store:
+            store.move_to_end(key)
+            return cast(T, store[key])
+        value = make()
+        store[key] = value
+        if len(store) > (size if size is not None else RECALLED.get(kind, 4)):
+            store.popitem(last=False)
+        return value
 
     def delayed_command(self, delay_s: float) -> FloatArray:
         """The command on the half-step grid ``delay_s`` later (1/m). Remembered for the last
@@ -207,6 +246,10 @@ class CommandSignal:
     cum: FloatArray
     eps: float
     jump_period_s: float = 0.0
+    _knots: FloatArray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_knots", np.arange(self.t_s.size, dtype=float))
 
     @classmethod
     def from_samples(
@@ -248,16 +291,31 @@ class CommandSignal:
 
     def integral(self, tq: FloatArray) -> FloatArray:
         """Integral from t_s[0] to ``tq`` (held constant outside the samples)."""
+        tq = np.asarray(tq, dtype=float)
+        if tq.ndim == 0:
+            return self.integral(tq[None]).reshape(())
         t = self.t_s
         # the interval of each query: np.interp of the knot positions is searchsorted's
         # answer (floored) but walks sorted queries in step, ~2.5x faster (issue 14)
-        at = np.interp(tq, t, np.arange(t.size, dtype=float))
-        i = np.clip(at.astype(np.int64), 0, t.size - 2)
-        tau = np.clip(tq, t[0], t[-1]) - t[i]
-        inside = self.cum[i] + self.y[i] * tau + 0.5 * self.slope[i] * tau * tau
-        before = (tq - t[0]) * self.y[0]
-        after = self.cum[-1] + (tq - t[-1]) * self.y[-1]
-        return np.where(tq < t[0], before, np.where(tq > t[-1], after, inside))
+        i = np.interp(tq, t, self._knots).astype(np.int64)
+        np.clip(i, 0, t.size - 2, out=i)
+        tau = np.clip(tq, t[0], t[-1])
+        tau -= t[i]
+        # cum + y tau + slope tau^2 / 2, in place (a fit evaluates it for every delay it tries)
+        quad = self.slope[i]
+        quad *= 0.5
+        quad *= tau
+        quad *= tau
+        out = self.y[i]
+        out *= tau
+        out += self.cum[i]
+        out += quad
+        before, after = tq < t[0], tq > t[-1]
+        if before.any():
+            out[before] = (tq[before] - t[0]) * self.y[0]
+        if after.any():
+            out[after] = self.cum[-1] + (tq[after] - t[-1]) * self.y[-1]
+        return out
 
     def at(self, tq: FloatArray) -> FloatArray:
         """Mean over [tq - eps/2, tq + eps/2] (units of y)."""

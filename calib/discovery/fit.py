@@ -38,7 +38,8 @@ BoolArray = NDArray[np.bool_]
 
 @dataclass(frozen=True)
 class ModelFit:
-    """A fitted spec: parameter vector, residuals (recorded - modelled) on the fitting grid."""
+    """A fitted spec: parameter vector, residuals (recorded - modelled) on the fitting grid
+    (arrays read-only: a fit is remembered and shared, ``fit_model``)."""
 
     spec: ModelSpec
     theta: FloatArray
@@ -99,8 +100,24 @@ def fit_model(
     ``theta0`` is the starting vector (L1, L2 in m, then effect parameters); every start of the
     last effect's parameters is evaluated and the solve starts from the best. ``fine``: see
     ``model.predict``; ``tol`` the relative tolerances, ``max_nfev`` the evaluation budget.
+    The fit is remembered on ``data`` (selection and confirmation ask for some fits twice);
+    its arrays are read-only.
     """
     mk = np.ones(data.n_fit, dtype=bool) if mask is None else mask
+    th0 = np.asarray(theta0, dtype=float)
+    key = (spec, th0.tobytes(), mk.tobytes(), fine, tol, max_nfev)
+    return data.recall("fit", key, lambda: _fit(spec, data, th0, mk, fine, tol, max_nfev))
+
+
+def _fit(
+    spec: ModelSpec,
+    data: DiscoveryData,
+    theta0: FloatArray,
+    mk: BoolArray,
+    fine: bool,
+    tol: float,
+    max_nfev: int | None,
+) -> ModelFit:
     specs = spec.param_specs
     lo = np.array([p.lower for p in specs])
     hi = np.array([p.upper for p in specs])
@@ -123,14 +140,17 @@ def fit_model(
         )
     except (ValueError, np.linalg.LinAlgError) as err:  # pragma: no cover - defensive
         raise SolverError(f"discovery: fit of {spec.param_names} failed: {err}") from err
-    return ModelFit(
+    fit = ModelFit(
         spec=spec,
-        theta=np.asarray(best.x, dtype=float),
+        theta=np.array(best.x, dtype=float),
         residuals=_residuals(spec, best.x, data, fine),
-        mask=mk,
-        jac=np.asarray(best.jac, dtype=float),
+        mask=mk.copy(),
+        jac=np.array(best.jac, dtype=float),
         success=bool(best.success),
     )
+    for a in (fit.theta, fit.mask, fit.jac, *fit.residuals.values()):
+        a.flags.writeable = False
+    return fit
 
 
 def lag1_autocorr(r: FloatArray) -> float:

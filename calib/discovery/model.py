@@ -3,21 +3,30 @@
 Outputs: yaw rate omega = v kappa_actual and the joint angle psi (steady-state relation of the
 patent, or the transient off-axle kinematics d psi/ds = [kappa (L2 + L1 cos psi) - sin psi] /
 lambda, lambda = L2 unless an effect sets it).
+
+A fit evaluates ``predict`` hundreds of times, moving one parameter at a time for its
+finite-difference Jacobian (issue 14): each step of a prediction (the inputs as the vehicle
+feels them, the joint angle before any sensor effect, the whole prediction) is remembered on
+the ``DiscoveryData`` for exactly the parameters it depends on (``DiscoveryData.recall``),
+and an effect remembers its costly step on read-only inputs (``effects.base.remembered``).
+The results are read-only arrays, bit for bit those of a fresh computation.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
 from calib.discovery.data import DiscoveryData, block_mean
 from calib.discovery.effects import Effect, ParamSpec
-from calib.models.hitch_rk4 import rk4_hitch
+from calib.models.hitch_rk4 import rk4_hitch, rk4_hitch_half
 
 __all__ = [
     "BASE_PARAMS",
@@ -119,6 +128,52 @@ def _with_midpoints(x: FloatArray) -> FloatArray:
 MAX_STEP_LENGTHS = 0.25  # largest RK4 step, in relaxation lengths of travel
 
 
+@dataclass(frozen=True)
+class _SubstepPlan:
+    """Where the RK4 steps take their inputs when sample steps are split into ``ns``
+    sub-steps: per step and stage (start, middle, end) the half-grid points ``lo``, ``hi`` it
+    lies between and the weight ``w`` of ``hi`` (0 at a grid point; all None without
+    sub-steps); ``h`` the step lengths; ``marks`` the step counts that end at the samples
+    (None: every step does)."""
+
+    lo: NDArray[np.intp] | None
+    hi: NDArray[np.intp] | None
+    w: FloatArray | None
+    h: FloatArray
+    marks: list[int] | None
+
+    @classmethod
+    def build(cls, h: FloatArray, ns: NDArray[np.int64]) -> _SubstepPlan:
+        if bool(np.all(ns == 1)):  # the grid's own stage values
+            return cls(None, None, None, h, None)
+        ends = np.cumsum(ns)  # RK4 steps done at each sample after the first
+        step = np.repeat(np.arange(ns.size), ns)  # the sample step each RK4 step belongs to
+        nss = ns[step]
+        j = np.arange(step.size) - (ends - ns)[step]
+        u = np.stack([j / nss, (j + 0.5) / nss, (j + 1) / nss], axis=1)
+        # a sub-step takes the input linear on each half of its sample step; a whole step
+        # takes the grid's own stage values
+        second = u > 0.5
+        w = np.where(second, 2.0 * u - 1.0, 2.0 * u)
+        lo = 2 * step[:, None] + second
+        whole = (nss == 1)[:, None]
+        exact = 2 * step[:, None] + np.arange(3)[None, :]
+        return cls(
+            np.where(whole, exact, lo),
+            np.where(whole, exact, lo + 1),
+            np.where(whole, 0.0, w),
+            h[step] / nss,
+            ends.tolist(),
+        )
+
+    def stages(self, x_h: FloatArray) -> FloatArray:
+        """The input ``x_h`` (on the half-step grid) at every step's three stages."""
+        if self.lo is None or self.hi is None or self.w is None:  # no sub-steps: a view
+            return sliding_window_view(x_h, 3)[::2]
+        a = x_h[self.lo]
+        return a + (x_h[self.hi] - a) * self.w
+
+
 def integrate_hitch_half(
     th_s: FloatArray,
     kappa_h: FloatArray,
@@ -136,44 +191,39 @@ def integrate_hitch_half(
     speed, a coarse grid or a gap in the recording) is split into sub-steps, the inputs
     linear between the grid points. ``anchors`` (sample index -> psi, rad) resets the state
     at those samples: where the model cannot run open loop (reversing, where the joint angle
-    is unstable), it restarts from the recorded angle.
+    is unstable), it restarts from the recorded angle. A step that ends at a reset is not
+    split: its result is replaced (a gap between the windows of a long log would otherwise
+    cost as many sub-steps as the rest of it).
     """
     p = float(steady_psi(kappa_h[:1], L1, L2)[0]) if psi0 is None else psi0
     inv = 1.0 / lam if lam > 0 else 1e9
     reset = dict(anchors) if anchors else {}
     if 0 in reset:
         p = reset[0]
+    # d psi/dt = v k (L2 + L1 cos psi) / lam - v sin(psi) / lam
+    out = rk4_hitch_half(
+        th_s, kappa_h, v_h, L2 * inv, L1 * inv, inv, inv, MAX_STEP_LENGTHS, p, reset
+    )
+    if out is not None:  # compiled: the steps below without building their stage arrays
+        return out
+    # the same steps in numpy, for rk4_hitch (when the compiled loops were not built)
     h = th_s[2::2] - th_s[:-2:2]
-    k0, km, k1 = kappa_h[:-2:2], kappa_h[1::2], kappa_h[2::2]
     v0, vm, v1 = v_h[:-2:2], v_h[1::2], v_h[2::2]
     travel = h * np.maximum(np.maximum(np.abs(v0), np.abs(vm)), np.abs(v1)) * inv
     ns = np.where(travel > MAX_STEP_LENGTHS, np.ceil(travel / MAX_STEP_LENGTHS), 1).astype(int)
-    ends = np.cumsum(ns)  # RK4 steps done at each sample after the first
-    if bool(np.all(ns == 1)):  # no sub-steps: the grid's own stage values
-        kx = np.stack([k0, km, k1], axis=1)
-        vx = np.stack([v0, vm, v1], axis=1)
-        hs = h
+    reset_steps = [i - 1 for i in reset if 1 <= i <= ns.size]
+    if reset_steps:
+        ns[reset_steps] = 1
+    plan = _SubstepPlan.build(h, ns)
+    vx = plan.stages(v_h)
+    kx = plan.stages(kappa_h)
+    marks = plan.marks
+    if marks is None:
+        resets = {i: float(x) for i, x in reset.items() if 1 <= i <= ns.size}
     else:
-        step = np.repeat(np.arange(ns.size), ns)  # the sample step each RK4 step belongs to
-        nss = ns[step]
-        j = np.arange(step.size) - (ends - ns)[step]
-
-        def stage(u: FloatArray, x: tuple[FloatArray, ...], exact: FloatArray) -> FloatArray:
-            """Input at fraction u of the sample step; sub-steps take it linear on each half."""
-            a, b, c = x[0][step], x[1][step], x[2][step]
-            sub = np.where(u <= 0.5, a + (b - a) * 2.0 * u, b + (c - b) * (2.0 * u - 1.0))
-            return np.where(nss > 1, sub, exact[step])
-
-        u0, uh, u1 = j / nss, (j + 0.5) / nss, (j + 1) / nss
-        kk, vv = (k0, km, k1), (v0, vm, v1)
-        kx = np.stack([stage(u0, kk, k0), stage(uh, kk, km), stage(u1, kk, k1)], axis=1)
-        vx = np.stack([stage(u0, vv, v0), stage(uh, vv, vm), stage(u1, vv, v1)], axis=1)
-        hs = h[step] / nss
-    marks = ends.tolist()
-    resets = {marks[i - 1]: float(x) for i, x in reset.items() if 1 <= i <= len(marks)}
-    # d psi/dt = v k (L2 + L1 cos psi) / lam - v sin(psi) / lam
-    out = rk4_hitch(hs, vx * kx, vx, L2 * inv, L1 * inv, inv, p, keep=marks, resets=resets)
-    return out[:, 0, 0]
+        resets = {marks[i - 1]: float(x) for i, x in reset.items() if 1 <= i <= len(marks)}
+    psi = rk4_hitch(plan.h, vx * kx, vx, L2 * inv, L1 * inv, inv, p, keep=marks, resets=resets)
+    return psi[:, 0, 0]
 
 
 def _true_psi(y: float, stage2: Sequence[tuple[Effect, dict[str, float]]]) -> float:
@@ -195,21 +245,23 @@ def predict(
     """Modelled recordings of each output on the fitting grid (or with ``full_rate`` the
     aligned grid). ``fine`` computes on the aligned grid and block-averages to the fitting
     grid: slower (the hitch ODE runs at the full rate), free of the coarse grid's
-    discretisation error; used for the final fit and its intervals."""
+    discretisation error; used for the final fit and its intervals.
+
+    The result (read-only arrays) and its intermediate steps are remembered on ``data``
+    (``DiscoveryData.recall``) for the parameters they depend on."""
+    key = (spec, np.asarray(theta, dtype=float).tobytes(), full_rate, fine)
+    return data.recall("predict", key, lambda: _predict(spec, theta, data, full_rate, fine))
+
+
+def _predict(
+    spec: ModelSpec, theta: Vector, data: DiscoveryData, full_rate: bool, fine: bool
+) -> dict[str, FloatArray]:
     if fine and not full_rate:
         full = predict(spec, theta, data, full_rate=True)
-        return {c: block_mean(y, data.m) for c, y in full.items()}
+        return {c: _frozen(block_mean(y, data.m)) for c, y in full.items()}
     L1, L2, eff_params = spec.split(theta)
     pairs = list(zip(spec.effects, eff_params, strict=True))
-    delay = sum(e.input_delay(p) for e, p in pairs)
-    kh = data.delayed_command(delay) if delay else data.kappa_h
-    vh = data.v_h
-    # clock offsets of a sensor group move its inputs back onto the true clock first
-    for e, p in (x for x in pairs if x[0].stage == 2):
-        kh, vh = e.modify_inputs(data.th_s, kh, vh, p)
-    for e, p in sorted((x for x in pairs if x[0].stage == 0), key=lambda x: x[0].order):
-        kh, vh = e.modify_inputs(data.th_s, kh, vh, p)
-    kappa, v = kh[0::2], vh[0::2]
+    inputs = _inputs(data, pairs)
     m = 1 if full_rate else data.m
     stage2 = [x for x in pairs if x[0].stage == 2]
     t = data.t_s if full_rate else data.tc_s
@@ -217,10 +269,13 @@ def predict(
     if "omega" in data.outputs:
         # the yaw rate is modelled at the full rate (it follows command jumps), its sensor
         # effects applied there, then averaged onto the output grid
-        om = v * kappa
+        om = inputs.omega
         for e, p in sorted(stage2, key=lambda x: x[0].order):
             om = e.modify_output("omega", data.t_s, om, p)
-        out["omega"] = block_mean(as_recorded(data, "omega", om), m)
+        if om is inputs.omega:  # no sensor effect on it: the same for every such model
+            out["omega"] = inputs.omega_recorded(m)
+        else:
+            out["omega"] = block_mean(as_recorded(data, "omega", om), m)
     if "psi" in data.outputs:
         lam = L2 if spec.baseline == "transient" else None
         for e, p in pairs:
@@ -228,21 +283,106 @@ def predict(
             lam = lam_e if lam_e is not None else lam
         # restarts take the recorded angle with the joint-angle sensor's effects taken out
         psi0 = _true_psi(data.psi0, stage2)
-        if lam is None:
-            out["psi"] = block_mean(steady_psi(kappa, L1, L2), m)
-        elif full_rate:
-            anchors = {i: _true_psi(y, stage2) for i, y in data.anchors.items()}
-            out["psi"] = integrate_hitch_half(data.th_s, kh, vh, L1, L2, lam, psi0, anchors)
-        else:
-            k_d, v_d = block_mean(kappa, m), block_mean(v, m)
-            anchors = {i: _true_psi(y, stage2) for i, y in data.anchors_d.items()}
-            out["psi"] = integrate_hitch(t, k_d, v_d, L1, L2, lam, psi0, anchors)
-    if "psi" in out:
+        anchors = {
+            i: _true_psi(y, stage2)
+            for i, y in (data.anchors if full_rate else data.anchors_d).items()
+        }
+        psi_key = (inputs.key, full_rate, L1, L2, lam, psi0, tuple(anchors.items()))
+        psi = data.recall(
+            "psi",
+            psi_key,
+            lambda: _frozen(_true_joint_angle(inputs, full_rate, L1, L2, lam, psi0, anchors)),
+        )
         for e, p in sorted(stage2, key=lambda x: x[0].order):
-            out["psi"] = e.modify_output("psi", t, out["psi"], p)
+            psi = e.modify_output("psi", t, psi, p)
         if full_rate:  # on the fitting grid the joint angle is modelled at block means already
-            out["psi"] = as_recorded(data, "psi", out["psi"])
-    return out
+            psi = as_recorded(data, "psi", psi)
+        out["psi"] = psi
+    return {c: _frozen(y) for c, y in out.items()}
+
+
+def _frozen(y: FloatArray) -> FloatArray:
+    """``y`` made read-only: remembered results are shared between callers."""
+    y.flags.writeable = False
+    return y
+
+
+class _Inputs:
+    """Commanded curvature (1/m) and speed (m/s) as the vehicle feels them, on the half-step
+    grid (``kh``, ``vh``), for one set of input-effect parameters (``key``), and what is
+    derived from them, each computed when first asked for."""
+
+    def __init__(self, data: DiscoveryData, key: Hashable, kh: FloatArray, vh: FloatArray):
+        self.data, self.key = data, key
+        self.kh, self.vh = _frozen(kh), _frozen(vh)
+        self.kappa, self.v = self.kh[0::2], self.vh[0::2]
+        self._recorded: dict[int, FloatArray] = {}
+
+    @cached_property
+    def omega(self) -> FloatArray:
+        """True yaw rate on the aligned grid (rad/s)."""
+        return _frozen(self.v * self.kappa)
+
+    def omega_recorded(self, m: int) -> FloatArray:
+        """The yaw rate as recorded without sensor effects, averaged over blocks of ``m``."""
+        out = self._recorded.get(m)
+        if out is None:
+            out = _frozen(block_mean(as_recorded(self.data, "omega", self.omega), m))
+            self._recorded[m] = out
+        return out
+
+    @cached_property
+    def half_d(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Time (s), curvature and speed of the fitting grid on its half-step grid."""
+        m = self.data.m
+        k_d, v_d = block_mean(self.kappa, m), block_mean(self.v, m)
+        return _half_tc(self.data), _with_midpoints(k_d), _with_midpoints(v_d)
+
+
+def _half_tc(data: DiscoveryData) -> FloatArray:
+    return data.recall("half_tc", None, lambda: _frozen(_with_midpoints(data.tc_s)), 1)
+
+
+def _inputs(data: DiscoveryData, pairs: Sequence[tuple[Effect, dict[str, float]]]) -> _Inputs:
+    """The inputs of a model whose effects and their parameters are ``pairs``; remembered
+    for the parameters of the effects that change them (a finite-difference Jacobian column
+    of a link length or an output effect reuses the inputs of the point it varies)."""
+    delay = sum(e.input_delay(p) for e, p in pairs)
+    movers = [(e, tuple(p.items())) for e, p in pairs if e.stage == 0 or e.changes_inputs]
+    key = (delay, tuple(movers))
+
+    def make() -> _Inputs:
+        kh = data.delayed_command(delay) if delay else data.kappa_h
+        vh = data.v_h
+        # clock offsets of a sensor group move its inputs back onto the true clock first
+        for e, p in (x for x in pairs if x[0].stage == 2):
+            kh, vh = e.modify_inputs(data.th_s, kh, vh, p)
+        for e, p in sorted((x for x in pairs if x[0].stage == 0), key=lambda x: x[0].order):
+            kh, vh = e.modify_inputs(data.th_s, kh, vh, p)
+        return _Inputs(data, key, kh, vh)
+
+    return data.recall("inputs", key, make)
+
+
+def _true_joint_angle(
+    inputs: _Inputs,
+    full_rate: bool,
+    L1: float,
+    L2: float,
+    lam: float | None,
+    psi0: float,
+    anchors: Mapping[int, float],
+) -> FloatArray:
+    """The modelled true joint angle (rad) before any sensor effect, on the aligned grid
+    (``full_rate``) or the fitting grid; ``anchors`` index that grid."""
+    data = inputs.data
+    if lam is None:
+        m = 1 if full_rate else data.m
+        return block_mean(steady_psi(inputs.kappa, L1, L2), m)
+    if full_rate:
+        return integrate_hitch_half(data.th_s, inputs.kh, inputs.vh, L1, L2, lam, psi0, anchors)
+    th, kh, vh = inputs.half_d
+    return integrate_hitch_half(th, kh, vh, L1, L2, lam, psi0, anchors)
 
 
 def as_recorded(data: DiscoveryData, name: str, y: FloatArray) -> FloatArray:

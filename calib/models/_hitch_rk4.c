@@ -8,6 +8,9 @@
  * joint-angle integrator of the project reduces to, for n_series input series (each
  * n_steps x 3 stage values: start, middle, end of each step) times n_params parameter sets.
  *
+ * logcal_rk4_hitch_half: the same RK4 with U = v kappa, V = v on a half-step grid, split into
+ * sub-steps where a step covers too much travel (discovery's model, calib.discovery.model).
+ *
  * logcal_lag_recursion: y[k+1] = a[k] y[k] + u[k], the exact first-order lag on any grid.
  */
 #define PY_SSIZE_T_CLEAN
@@ -159,6 +162,75 @@ int logcal_rk4_hitch_sens(int64_t n_steps, int64_t n_series, int64_t n_params, c
                 }
             }
         }
+    }
+    return 0;
+}
+
+/*
+ * logcal_rk4_hitch with U = v kappa, V = v, on a half-step grid: th, kappa, v hold n_samp
+ * samples at even and the midpoints between them at odd indices (2 n_samp - 1 values); the
+ * state is recorded at every sample (out: n_samp values, out[0] = y0).
+ *
+ * A sample step of length h whose travel h max|v| inv_len exceeds max_len is split into
+ * ceil(travel / max_len) equal sub-steps, the inputs linear on each half of the sample step
+ * (as calib.discovery.model builds them in numpy; the same arithmetic). reset_at: n_reset
+ * increasing sample indices (>= 1) at which the state is set to reset_val; the step that ends
+ * there is not integrated (its result would be replaced). Returns 0.
+ */
+static double half_stage(const double *x, double u)
+{
+    return u <= 0.5 ? x[0] + (x[1] - x[0]) * 2.0 * u : x[1] + (x[2] - x[1]) * (2.0 * u - 1.0);
+}
+
+int logcal_rk4_hitch_half(int64_t n_samp, const double *th, const double *kappa,
+                          const double *v, double p0, double p1, double p2, double inv_len,
+                          double max_len, double y0, int64_t n_reset, const int64_t *reset_at,
+                          const double *reset_val, double *out)
+{
+    double y = y0;
+    int64_t ridx = 0;
+    out[0] = y;
+    for (int64_t s = 0; s + 1 < n_samp; s++) {
+        const int64_t done = s + 1;
+        while (ridx < n_reset && reset_at[ridx] < done) {
+            ridx++;
+        }
+        if (ridx < n_reset && reset_at[ridx] == done) {
+            y = reset_val[ridx];
+            out[done] = y;
+            continue;
+        }
+        const double *k = kappa + 2 * s, *w = v + 2 * s;
+        const double h = th[2 * s + 2] - th[2 * s];
+        const double a0 = fabs(w[0]), am = fabs(w[1]), a1 = fabs(w[2]);
+        double top = a0 >= am ? a0 : am;
+        top = top >= a1 ? top : a1;
+        const double travel = h * top * inv_len;
+        const int64_t n = travel > max_len ? (int64_t)ceil(travel / max_len) : 1;
+        if (n == 1) {
+            const double u0 = w[0] * k[0], um = w[1] * k[1], u1 = w[2] * k[2];
+            const double k1 = rate(y, u0, w[0], p0, p1, p2);
+            const double k2 = rate(y + 0.5 * h * k1, um, w[1], p0, p1, p2);
+            const double k3 = rate(y + 0.5 * h * k2, um, w[1], p0, p1, p2);
+            const double k4 = rate(y + h * k3, u1, w[2], p0, p1, p2);
+            y = y + h * (k1 + 2.0 * (k2 + k3) + k4) / 6.0;
+        } else {
+            const double hs = h / (double)n;
+            for (int64_t j = 0; j < n; j++) {
+                const double f0 = (double)j / (double)n;
+                const double fm = ((double)j + 0.5) / (double)n;
+                const double f1 = (double)(j + 1) / (double)n;
+                const double v0 = half_stage(w, f0), vm = half_stage(w, fm), v1 = half_stage(w, f1);
+                const double u0 = v0 * half_stage(k, f0), um = vm * half_stage(k, fm);
+                const double u1 = v1 * half_stage(k, f1);
+                const double k1 = rate(y, u0, v0, p0, p1, p2);
+                const double k2 = rate(y + 0.5 * hs * k1, um, vm, p0, p1, p2);
+                const double k3 = rate(y + 0.5 * hs * k2, um, vm, p0, p1, p2);
+                const double k4 = rate(y + hs * k3, u1, v1, p0, p1, p2);
+                y = y + hs * (k1 + 2.0 * (k2 + k3) + k4) / 6.0;
+            }
+        }
+        out[done] = y;
     }
     return 0;
 }

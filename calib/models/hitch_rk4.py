@@ -31,7 +31,13 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["compiled_available", "lag_recursion", "rk4_hitch", "rk4_hitch_sensitivities"]
+__all__ = [
+    "compiled_available",
+    "lag_recursion",
+    "rk4_hitch",
+    "rk4_hitch_half",
+    "rk4_hitch_sensitivities",
+]
 
 FloatArray = NDArray[np.float64]
 _DBL = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
@@ -61,6 +67,12 @@ def _library() -> ctypes.CDLL | None:
     ]  # fmt: skip
     lib.logcal_lag_recursion.restype = ctypes.c_int
     lib.logcal_lag_recursion.argtypes = [i64, _DBL, _DBL, _DBL]
+    dbl = ctypes.c_double
+    if hasattr(lib, "logcal_rk4_hitch_half"):  # absent from a build older than this file
+        lib.logcal_rk4_hitch_half.restype = ctypes.c_int
+        lib.logcal_rk4_hitch_half.argtypes = [
+            i64, _DBL, _DBL, _DBL, dbl, dbl, dbl, dbl, dbl, dbl, i64, _I64, _DBL, _DBL,
+        ]  # fmt: skip
     return lib
 
 
@@ -293,6 +305,47 @@ def _sensitivities_reference(
                 rows.append(x.copy())
         per_series.append(np.stack(rows))
     return np.stack(per_series, axis=1)
+
+
+def rk4_hitch_half(
+    th: FloatArray,
+    kappa_h: FloatArray,
+    v_h: FloatArray,
+    p0: float,
+    p1: float,
+    p2: float,
+    inv_len: float,
+    max_len: float,
+    y0: float,
+    resets: Mapping[int, float] | None = None,
+) -> FloatArray | None:
+    """``rk4_hitch`` with U = v kappa, V = v on a half-step grid (samples at even, midpoints
+    at odd indices of ``th``, ``kappa_h``, ``v_h``): the state at every sample, shape (n,).
+
+    A sample step whose travel h max|v| ``inv_len`` exceeds ``max_len`` is split into
+    ceil(travel / ``max_len``) sub-steps, the inputs linear on each half of the step;
+    ``resets`` (sample index >= 1 -> state) sets the state at those samples, the step that
+    ends there left out. This is discovery's joint-angle model (``calib.discovery.model``
+    builds the same steps in numpy for ``rk4_hitch``; here no stage arrays are built, the
+    cost of a prediction on its coarse grid otherwise). None when the compiled loops were
+    not built.
+    """
+    lib = _library()
+    if lib is None or not hasattr(lib, "logcal_rk4_hitch_half"):
+        return None
+    n = (th.size + 1) // 2
+    r_at = np.ascontiguousarray(
+        [i for i in sorted(resets or {}) if 1 <= i < n], dtype=np.int64
+    )
+    r_val = np.ascontiguousarray([float((resets or {})[i]) for i in r_at.tolist()], dtype=float)
+    out = np.empty(n)
+    lib.logcal_rk4_hitch_half(
+        n, np.ascontiguousarray(th, dtype=float), np.ascontiguousarray(kappa_h, dtype=float),
+        np.ascontiguousarray(v_h, dtype=float), p0, p1, p2, inv_len, max_len, float(y0),
+        r_at.size, r_at if r_at.size else np.zeros(1, np.int64),
+        r_val if r_val.size else np.zeros(1), out,
+    )  # fmt: skip
+    return out
 
 
 def lag_recursion(a: FloatArray, u: FloatArray, y0: float) -> FloatArray:

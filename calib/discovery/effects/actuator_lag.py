@@ -6,7 +6,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from calib.discovery.effects.base import Effect, FloatArray, ParamSpec
+from calib.discovery.effects.base import Effect, FloatArray, ParamSpec, remembered
 from calib.models.hitch_rk4 import lag_recursion
 
 __all__ = ["ActuatorLag", "first_order_lag"]
@@ -55,7 +55,10 @@ class ActuatorLag(Effect):
     def modify_inputs(
         self, t_s: FloatArray, kappa: FloatArray, v: FloatArray, p: Mapping[str, float]
     ) -> tuple[FloatArray, FloatArray]:
-        return first_order_lag(t_s, kappa, p["time_constant"]), v
+        tau = p["time_constant"]
+        # the curvature alone is lagged: a fit moving the speed or the lengths reuses it
+        lagged = remembered(self, tau, (t_s, kappa), lambda: first_order_lag(t_s, kappa, tau))
+        return lagged, v
 
     def explanation(self, values: Mapping[str, float]) -> str:
         return (

@@ -8,16 +8,28 @@ the sensors record).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections import OrderedDict
+from collections.abc import Callable, Hashable, Mapping
 from dataclasses import dataclass
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
-__all__ = ["Effect", "FloatArray", "ParamSpec", "hold_interp", "jump_intervals", "shift"]
+__all__ = [
+    "Effect",
+    "FloatArray",
+    "ParamSpec",
+    "hold_interp",
+    "jump_intervals",
+    "remembered",
+    "shift",
+]
 
 FloatArray = NDArray[np.float64]
+T = TypeVar("T")
+REMEMBERED = 6  # results an effect remembers (``remembered``)
 
 
 @dataclass(frozen=True)
@@ -85,6 +97,12 @@ class Effect:
         """Curvature (1/m) and speed (m/s) as the vehicle feels them, on the full-rate grid."""
         return kappa, v
 
+    @property
+    def changes_inputs(self) -> bool:
+        """Whether ``modify_inputs`` can change the inputs (the model's inputs are then
+        recomputed when this effect's parameters change; ``model.predict``)."""
+        return type(self).modify_inputs is not Effect.modify_inputs
+
     def input_delay(self, p: Mapping[str, float]) -> float:
         """Dead time (s) between the recorded command and the curvature it produces."""
         return 0.0
@@ -108,6 +126,36 @@ class Effect:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.key})"
+
+
+def remembered(
+    owner: Effect, key: Hashable, arrays: tuple[FloatArray, ...], make: Callable[[], T]
+) -> T:
+    """``make()``, remembered on ``owner`` for the last ``REMEMBERED`` (``key``, input arrays)
+    pairs; arrays are matched by identity, and only read-only ones (the model's remembered
+    intermediate results, ``model.predict``): an array that may still change is no key.
+
+    Why: within a fit the model is evaluated again and again with most parameters unchanged;
+    an expensive step of an effect whose own inputs and parameters did not move (a lag when
+    only the speed or a link length moved) need not run again. Results that are arrays are
+    made read-only, so that the next effect can remember its own step on them in turn.
+    """
+    if any(a.flags.writeable for a in arrays):
+        return make()
+    store: OrderedDict[Hashable, tuple[tuple[FloatArray, ...], Any]]
+    store = owner.__dict__.setdefault("_remembered", OrderedDict())
+    k = (key, tuple(id(a) for a in arrays))  # the arrays are held below: ids stay unique
+    hit = store.get(k)
+    if hit is not None:
+        store.move_to_end(k)
+        return hit[1]
+    value = make()
+    if isinstance(value, np.ndarray):
+        value.flags.writeable = False
+    store[k] = (arrays, value)
+    if len(store) > REMEMBERED:
+        store.popitem(last=False)
+    return value
 
 
 def jump_intervals(y: FloatArray, factor: float = 5.0) -> NDArray[np.bool_]:

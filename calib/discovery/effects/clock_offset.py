@@ -5,8 +5,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 
-from calib.discovery.effects.base import Effect, FloatArray, ParamSpec, shift
+from calib.discovery.effects.base import Effect, FloatArray, ParamSpec, remembered
 
 __all__ = ["ClockOffset"]
 
@@ -35,12 +36,17 @@ class ClockOffset(Effect):
     def channels(self) -> tuple[str, ...]:
         return (_CHANNEL[self.target or "hitch"],)
 
+    @property
+    def changes_inputs(self) -> bool:
+        return self.target == "odom"  # the speed comes with the odometry
+
     def modify_inputs(
         self, t_s: FloatArray, kappa: FloatArray, v: FloatArray, p: Mapping[str, float]
     ) -> tuple[FloatArray, FloatArray]:
         if self.target != "odom":
             return kappa, v
-        return kappa, np.interp(t_s + p["offset"], t_s, v)
+        c = p["offset"]
+        return kappa, remembered(self, ("v", c), (t_s, v), lambda: np.interp(t_s + c, t_s, v))
 
     def modify_output(
         self, name: str, t_s: FloatArray, y: FloatArray, p: Mapping[str, float]
@@ -51,9 +57,12 @@ class ClockOffset(Effect):
         # rate jumps with step commands, where a spline would ring: linear there, across jumps
         # too (a jump held at a row would give the offset a zero gradient; a one-row ramp is
         # what the recorded, interpolated yaw rate shows anyway)
-        if name == "psi":
-            return shift(t_s, y, p["offset"], smooth=True)
-        return np.interp(t_s - p["offset"], t_s, y)
+        c = p["offset"]
+        if name == "psi":  # base.shift(smooth=True), the spline kept for the next offset
+            spline = remembered(self, "spline", (t_s, y), lambda: CubicSpline(t_s, y))
+            tq = np.clip(t_s - c, t_s[0], t_s[-1])
+            return remembered(self, c, (t_s, y), lambda: np.asarray(spline(tq), dtype=float))
+        return remembered(self, c, (t_s, y), lambda: np.interp(t_s - c, t_s, y))
 
     def explanation(self, values: Mapping[str, float]) -> str:
         topic = "joint-angle" if self.target == "hitch" else "odometry (speed, yaw rate)"
