@@ -8,8 +8,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "autocorrelation",
     "bartlett_bandwidth",
     "detect_quantum",
+    "fft_length",
     "hac_covariance",
     "hf_noise_std",
     "hf_noise_std_t",
@@ -60,11 +62,29 @@ def hf_noise_std_t(t: np.ndarray, x: np.ndarray) -> float:
     return _MAD_TO_STD * float(np.median(np.abs(e - np.median(e))))
 
 
-def _acf(r: np.ndarray, max_lag: int) -> FloatArray:
-    """Sample autocorrelation of ``r`` at lags 0..max_lag (via FFT)."""
+def fft_length(n: int) -> int:
+    """The smallest 2^i 3^j 5^k >= n: an FFT length numpy transforms fast (a power of two
+    can be nearly twice as long, and past the cache several times slower)."""
+    best = 1 << max(0, (n - 1).bit_length())
+    p5 = 1
+    while p5 < best:
+        p35 = p5
+        while p35 < best:
+            m = p35
+            while m < n:
+                m *= 2
+            best = min(best, m)
+            p35 *= 3
+        p5 *= 5
+    return best
+
+
+def autocorrelation(r: np.ndarray, max_lag: int) -> FloatArray:
+    """Sample autocorrelation of ``r`` (mean removed) at lags 0..max_lag, via the FFT
+    (zero-padded to at least n + max_lag samples, so lags up to max_lag do not wrap around);
+    zeros for a constant ``r``."""
     r = r - r.mean()
-    n = r.size
-    m = 1 << (2 * n - 1).bit_length()
+    m = fft_length(r.size + max_lag)
     f = np.fft.rfft(r, m)
     ac = np.fft.irfft(f * np.conj(f), m)[: max_lag + 1]
     return ac / ac[0] if ac[0] > 0 else np.zeros(max_lag + 1)
@@ -80,7 +100,7 @@ def bartlett_bandwidth(r: np.ndarray, factor: float = 3.0) -> int:
     n = r.size
     nw = math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0))
     cap = max(1, n // 4)
-    rho = _acf(r, cap)
+    rho = autocorrelation(r, cap)
     below = np.nonzero(rho < 0.05)[0]
     first = int(below[0]) if below.size else cap
     return int(min(cap, max(nw, math.ceil(factor * first))))
@@ -101,7 +121,7 @@ def _bartlett_long_run(s: np.ndarray, lags: int, bandwidth: int) -> FloatArray:
             g = s[lag:].T @ s[:-lag]
             S += (1.0 - lag / (bandwidth + 1.0)) * (g + g.T)
         return S
-    nfft = 1 << (n + lags).bit_length()
+    nfft = fft_length(n + lags)
     F = np.fft.rfft(s, nfft, axis=0)  # (nfft // 2 + 1, p)
     w = 1.0 - np.arange(1, lags + 1) / (bandwidth + 1.0)
     for i in range(p):

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from calib.estimators._stats import autocorrelation
 from calib.results import MethodResult
 from calib.tractor_trailer.methods import (
     METHOD_NAMES,
@@ -96,34 +97,6 @@ def _aggregate(name: str, ests: list[Any], segment: str) -> MethodResult:
     )
 
 
-def _smooth_length(n: int) -> int:
-    """The smallest 2^i 3^j 5^k >= n: an FFT length numpy transforms fast (a power of two
-    can be nearly twice as long, and past the cache several times slower)."""
-    best = 1 << max(0, (n - 1).bit_length())
-    p5 = 1
-    while p5 < best:
-        p35 = p5
-        while p35 < best:
-            m = p35
-            while m < n:
-                m *= 2
-            best = min(best, m)
-            p35 *= 3
-        p5 *= 5
-    return best
-
-
-def _autocorrelation(x: np.ndarray, max_lag: int) -> np.ndarray:
-    """Sample autocorrelation ρ(0..max_lag) of ``x`` (mean removed), via the FFT (zero-padded
-    to at least n + max_lag samples, so lags up to max_lag do not wrap around)."""
-    n = x.size
-    y = x - x.mean()
-    nfft = _smooth_length(n + max_lag)
-    f = np.fft.rfft(y, nfft)
-    acov = np.fft.irfft(f * np.conj(f), nfft)[: max_lag + 1] / n
-    return acov / acov[0] if acov[0] > 0 else np.zeros(max_lag + 1)
-
-
 def block_length(x: ArrayLike) -> int:
     """Moving-block bootstrap block length (samples) from the autocorrelation of ``x``.
 
@@ -141,7 +114,7 @@ def block_length(x: ArrayLike) -> int:
     if n < 4 or not np.all(np.isfinite(x)) or np.ptp(x) == 0:
         return 1
     max_lag = min(n - 1, max(10, int(4 * math.sqrt(n)) + 10), 2000)
-    rho = _autocorrelation(x, max_lag)
+    rho = autocorrelation(x, max_lag)
     kn = max(5, math.ceil(math.sqrt(math.log10(n))))
     crit = 2.0 * math.sqrt(math.log10(n) / n)
     insignificant = np.abs(rho[1:]) < crit  # lag 1..max_lag
