@@ -55,9 +55,8 @@ def outlier_mask(t_ns: np.ndarray, x: np.ndarray) -> np.ndarray:
     if np.count_nonzero(finite) < 5:
         return bad
     with np.errstate(over="ignore", invalid="ignore"):
-        med = float(np.median(x[finite]))
-        lo, hi = np.percentile(x[finite], [1.0, 99.0])
-        gross = GROSS_FACTOR * (float(hi - lo) + abs(med) + 1.0)
+        lo, med, hi = (float(q) for q in np.percentile(x[finite], [1.0, 50.0, 99.0]))
+        gross = GROSS_FACTOR * (hi - lo + abs(med) + 1.0)
         bad |= finite & (np.abs(x - med) > gross)
         keep = ~bad & finite
         tk, xk = t[keep], x[keep]
@@ -65,8 +64,9 @@ def outlier_mask(t_ns: np.ndarray, x: np.ndarray) -> np.ndarray:
             return bad
         dt = np.diff(tk).astype(float) * 1e-9
         d = np.diff(xk) / dt
-        scale = _MAD_TO_STD * max(_mad(d), _mad(xk) / float(np.median(dt)))
-        thr = SPIKE_K * scale + 1e-12 * (abs(med) + 1.0) / float(np.median(dt))
+        dt_med = float(np.median(dt))
+        scale = _MAD_TO_STD * max(_mad(d), _mad(xk) / dt_med)
+        thr = SPIKE_K * scale + 1e-12 * (abs(med) + 1.0) / dt_med
         d_in, d_out = d[:-1], d[1:]
         jump_in, jump_out = np.abs(np.diff(xk)[:-1]), np.abs(np.diff(xk)[1:])
         returns = np.abs(xk[2:] - xk[:-2]) < 0.25 * np.minimum(jump_in, jump_out)
