@@ -17,6 +17,9 @@
 #include <Python.h>
 #include <math.h>
 #include <stdint.h>
+#include <stdlib.h>
+
+#include "../_sincos.h"
 
 static double rate(double y, double u, double v, double p0, double p1, double p2)
 {
@@ -37,6 +40,137 @@ static double rate(double y, double u, double v, double p0, double p1, double p2
  *   last recorded state of series chain[i] instead of y0 (chunks of one run, in order).
  * Returns 0.
  */
+/* One column (series i, parameter set j) with libm's sin and cos. */
+static void scalar_column(int64_t n_steps, int64_t n_series, int64_t n_params, int64_t i,
+                          int64_t j, const double *h, const double *u, const double *v,
+                          const double *p0, const double *p1, const double *p2, double y,
+                          int64_t n_keep, const int64_t *keep, int64_t n_reset,
+                          const int64_t *reset_at, const double *reset_val, double *out)
+{
+    const int64_t cols = n_series * n_params, col = i * n_params + j;
+    const double a = p0[j], b = p1[j], c = p2[j];
+    int64_t rec = 0, kidx = 0, ridx = 0;
+    out[col] = y;
+    for (int64_t t = 0; t < n_steps; t++) {
+        const double hs = h[t];
+        const double *us = u + 3 * t, *vs = v + 3 * t;
+        const double k1 = rate(y, us[0], vs[0], a, b, c);
+        const double k2 = rate(y + 0.5 * hs * k1, us[1], vs[1], a, b, c);
+        const double k3 = rate(y + 0.5 * hs * k2, us[1], vs[1], a, b, c);
+        const double k4 = rate(y + hs * k3, us[2], vs[2], a, b, c);
+        y = y + hs * (k1 + 2.0 * (k2 + k3) + k4) / 6.0;
+        const int64_t done = t + 1;
+        int record = 0;
+        if (n_keep < 0) {
+            record = 1;
+        } else if (kidx < n_keep && done == keep[kidx]) {
+            record = 1;
+            kidx++;
+        }
+        if (record) {
+            while (ridx < n_reset && reset_at[ridx] < done) {
+                ridx++;
+            }
+            if (ridx < n_reset && reset_at[ridx] == done) {
+                y = reset_val[ridx];
+            }
+            rec++;
+            out[rec * cols + col] = y;
+        }
+    }
+}
+
+#define FAST_ANGLE_LIMIT 1e5 /* rad: the fast sin/cos's accurate range (_sincos.h) */
+
+/*
+ * All parameter sets of series i at once, step by step, the inner loop over the sets
+ * vectorised with the branch-free sin/cos of _sincos.h (a few ulp from libm's). y: the
+ * n_params start states, updated. Returns 1 if an angle left the fast sin/cos's range (or was
+ * NaN), so that the caller redoes the series with libm; else 0.
+ */
+LOGCAL_CLONES
+static int batch_series(int64_t n_steps, int64_t n_series, int64_t n_params, int64_t i,
+                           const double *h, const double *u, const double *v,
+                           const double *restrict p0, const double *restrict p1,
+                           const double *restrict p2, double *restrict y, int64_t n_keep,
+                           const int64_t *keep, int64_t n_reset, const int64_t *reset_at,
+                           const double *reset_val, double *out)
+{
+    const int64_t cols = n_series * n_params;
+    double *restrict dst = out + i * n_params;
+    int outside = 0;
+    int64_t rec = 0, kidx = 0, ridx = 0;
+    for (int64_t j = 0; j < n_params; j++) {
+        dst[j] = y[j];
+    }
+    for (int64_t t = 0; t < n_steps; t++) {
+        const double hs = h[t], half = 0.5 * h[t];
+        const double u0 = u[3 * t], u1 = u[3 * t + 1], u2 = u[3 * t + 2];
+        const double v0 = v[3 * t], v1 = v[3 * t + 1], v2 = v[3 * t + 2];
+        for (int64_t j = 0; j < n_params; j++) {
+            const double a = p0[j], b = p1[j], c = p2[j], y1 = y[j];
+            double s, co;
+            sin_cos(y1, &s, &co);
+            const double k1 = a * u0 + b * u0 * co - c * v0 * s;
+            const double y2 = y1 + half * k1;
+            sin_cos(y2, &s, &co);
+            const double k2 = a * u1 + b * u1 * co - c * v1 * s;
+            const double y3 = y1 + half * k2;
+            sin_cos(y3, &s, &co);
+            const double k3 = a * u1 + b * u1 * co - c * v1 * s;
+            const double y4 = y1 + hs * k3;
+            sin_cos(y4, &s, &co);
+            const double k4 = a * u2 + b * u2 * co - c * v2 * s;
+            const double yn = y1 + hs * (k1 + 2.0 * (k2 + k3) + k4) / 6.0;
+            y[j] = yn;
+            /* an angle beyond the fast sin/cos's range, or NaN */
+            const double m = fabs(y2) + fabs(y3) + fabs(y4) + fabs(yn);
+            outside |= (m > FAST_ANGLE_LIMIT) | (m != m);
+        }
+        const int64_t done = t + 1;
+        int record = 0;
+        if (n_keep < 0) {
+            record = 1;
+        } else if (kidx < n_keep && done == keep[kidx]) {
+            record = 1;
+            kidx++;
+        }
+        if (record) {
+            while (ridx < n_reset && reset_at[ridx] < done) {
+                ridx++;
+            }
+            if (ridx < n_reset && reset_at[ridx] == done) {
+                for (int64_t j = 0; j < n_params; j++) {
+                    y[j] = reset_val[ridx];
+                }
+            }
+            rec++;
+            double *row = out + rec * cols + i * n_params;
+            for (int64_t j = 0; j < n_params; j++) {
+                row[j] = y[j];
+            }
+        }
+    }
+    return outside;
+}
+
+/*
+ * h: n_steps step lengths.
+ * U, V: [n_series][n_steps][3] stage inputs.
+ * p0, p1, p2: n_params parameters.
+ * y0: [n_series][n_params] start states.
+ * keep: n_keep increasing step counts (1 = after the first step) at which the state is
+ *   recorded; n_keep < 0 records after every step.
+ * reset_at, reset_val: n_reset increasing step counts (among the recorded ones) after which
+ *   the state is set to the given value, for every column.
+ * out: [n_out][n_series][n_params], n_out = 1 + recorded count; y0 first.
+ * chain: NULL, or n_series indices: where chain[i] >= 0 (and < i), series i starts from the
+ *   last recorded state of series chain[i] instead of y0 (chunks of one run, in order).
+ * One parameter set is integrated with libm's sin and cos; several (a start-point grid, the
+ * columns of a finite-difference Jacobian) together with the vectorised sin/cos, each series
+ * redone with libm if an angle left the fast sin/cos's range.
+ * Returns 0, or -1 when working memory could not be allocated.
+ */
 int logcal_rk4_hitch(int64_t n_steps, int64_t n_series, int64_t n_params, const double *h,
                      const double *U, const double *V, const double *p0, const double *p1,
                      const double *p2, const double *y0, int64_t n_keep, const int64_t *keep,
@@ -44,47 +178,34 @@ int logcal_rk4_hitch(int64_t n_steps, int64_t n_series, int64_t n_params, const 
                      double *out, const int64_t *chain)
 {
     const int64_t cols = n_series * n_params;
+    const int64_t last = (n_keep < 0 ? n_steps : n_keep) * cols;
+    double *y = n_params > 1 ? malloc(sizeof(double) * (size_t)n_params) : NULL;
+    if (n_params > 1 && y == NULL) {
+        return -1;
+    }
     for (int64_t i = 0; i < n_series; i++) {
         const double *u = U + i * n_steps * 3;
         const double *v = V + i * n_steps * 3;
+        const int chained = chain != NULL && chain[i] >= 0 && chain[i] < i;
+        int redo = 1;
+        if (y != NULL) {
+            for (int64_t j = 0; j < n_params; j++) {
+                y[j] = chained ? out[last + chain[i] * n_params + j] : y0[i * n_params + j];
+            }
+            redo = batch_series(n_steps, n_series, n_params, i, h, u, v, p0, p1, p2, y, n_keep,
+                               keep, n_reset, reset_at, reset_val, out);
+        }
+        if (!redo) {
+            continue;
+        }
         for (int64_t j = 0; j < n_params; j++) {
-            const int64_t col = i * n_params + j;
-            const double a = p0[j], b = p1[j], c = p2[j];
-            double y = y0[col];
-            if (chain != NULL && chain[i] >= 0 && chain[i] < i) {
-                y = out[(n_keep < 0 ? n_steps : n_keep) * cols + chain[i] * n_params + j];
-            }
-            int64_t rec = 0, kidx = 0, ridx = 0;
-            out[col] = y;
-            for (int64_t t = 0; t < n_steps; t++) {
-                const double hs = h[t];
-                const double *us = u + 3 * t, *vs = v + 3 * t;
-                const double k1 = rate(y, us[0], vs[0], a, b, c);
-                const double k2 = rate(y + 0.5 * hs * k1, us[1], vs[1], a, b, c);
-                const double k3 = rate(y + 0.5 * hs * k2, us[1], vs[1], a, b, c);
-                const double k4 = rate(y + hs * k3, us[2], vs[2], a, b, c);
-                y = y + hs * (k1 + 2.0 * (k2 + k3) + k4) / 6.0;
-                const int64_t done = t + 1;
-                int record = 0;
-                if (n_keep < 0) {
-                    record = 1;
-                } else if (kidx < n_keep && done == keep[kidx]) {
-                    record = 1;
-                    kidx++;
-                }
-                if (record) {
-                    while (ridx < n_reset && reset_at[ridx] < done) {
-                        ridx++;
-                    }
-                    if (ridx < n_reset && reset_at[ridx] == done) {
-                        y = reset_val[ridx];
-                    }
-                    rec++;
-                    out[rec * cols + col] = y;
-                }
-            }
+            const double start = chained ? out[last + chain[i] * n_params + j]
+                                         : y0[i * n_params + j];
+            scalar_column(n_steps, n_series, n_params, i, j, h, u, v, p0, p1, p2, start, n_keep,
+                          keep, n_reset, reset_at, reset_val, out);
         }
     }
+    free(y);
     return 0;
 }
 

@@ -27,9 +27,9 @@ def test_the_compiled_loop_is_built() -> None:
     seed=st.integers(0, 2**31 - 1),
     every=st.integers(1, 4),
 )
-def test_compiled_equals_reference_bit_for_bit(
-    n: int, series: int, m: int, seed: int, every: int
-) -> None:
+def test_compiled_equals_reference(n: int, series: int, m: int, seed: int, every: int) -> None:
+    """Bit for bit with one parameter set (libm's sin and cos in both); several sets run
+    together on the vectorised sin/cos, a few units in the last place from libm's."""
     rng = np.random.default_rng(seed)
     h = rng.uniform(0.001, 0.3, n)
     U, V = rng.normal(size=(2, series, n, 3))
@@ -40,11 +40,30 @@ def test_compiled_equals_reference_bit_for_bit(
     a = rk4_hitch(h, U, V, p0, p1, p2, y0, keep=keep, resets=resets)
     b = rk4_hitch(h, U, V, p0, p1, p2, y0, keep=keep, resets=resets, reference=True)
     assert a.shape == (1 + len(keep), series, m)
-    np.testing.assert_array_equal(a, b)
+    _same(a, b, exact=m == 1)
     chain = np.array([-1] + [int(rng.integers(-1, i)) for i in range(1, series)])
     ca = rk4_hitch(h, U, V, p0, p1, p2, y0, keep=keep, chain=chain)
     cb = rk4_hitch(h, U, V, p0, p1, p2, y0, keep=keep, chain=chain, reference=True)
-    np.testing.assert_array_equal(ca, cb)
+    _same(ca, cb, exact=m == 1)
+
+
+def _same(a: np.ndarray, b: np.ndarray, *, exact: bool) -> None:
+    if exact:
+        np.testing.assert_array_equal(a, b)
+    else:
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
+
+
+def test_batches_beyond_the_fast_range_or_with_nan_are_redone_with_libm() -> None:
+    rng = np.random.default_rng(5)
+    n, m = 50, 9
+    h = rng.uniform(0.01, 0.1, n)
+    U, V = rng.normal(size=(2, 1, n, 3))
+    p0, p1, p2 = rng.normal(size=(3, m))
+    for y0 in (np.full((1, m), 3e5), np.where(np.arange(m) == 4, np.nan, 0.1)[None, :]):
+        a = rk4_hitch(h, U, V, p0, p1, p2, y0)
+        b = rk4_hitch(h, U, V, p0, p1, p2, y0, reference=True)
+        np.testing.assert_array_equal(a, b)  # libm in both: the same bits, NaN where NaN
 
 
 def test_fourth_order_on_an_exact_solution() -> None:
@@ -90,7 +109,7 @@ def test_sensitivities_are_the_derivatives_of_the_map() -> None:
     kw = {"keep": range(3, n + 1, 3), "chain": np.array([-1, 0, -1])}
     S = rk4_hitch_sensitivities(h, U, V, *p, y0, **kw)
     np.testing.assert_array_equal(S, rk4_hitch_sensitivities(h, U, V, *p, y0, **kw, reference=True))
-    np.testing.assert_array_equal(S[..., 0], rk4_hitch(h, U, V, *p, y0, **kw))
+    _same(S[..., 0], rk4_hitch(h, U, V, *p, y0, **kw), exact=False)
     eps = 1e-6
     for q in range(4):  # y0, p0, p1, p2
         d = np.eye(4)[q] * eps
