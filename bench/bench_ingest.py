@@ -197,7 +197,8 @@ def main() -> None:
     }
     print(
         f"\n{'work':44s} {'msgs':>8s} {'CPU s min/med':>14s} {'msg/s (CPU, best)':>18s} "
-        f"{'wall s min/med':>15s} {'x rerun':>8s} {'peak RSS MB':>12s} {'frames MB':>10s}"
+        f"{'wall s min/med':>15s} {'x rerun':>8s} {'peak RSS MB':>12s} {'frames MB':>10s} "
+        f"{'added/frames':>12s}"
     )
     for key, label, _ in plan:
         runs = results[key]
@@ -207,15 +208,18 @@ def main() -> None:
         ref_cpu = min(r["cpu"] for r in results[ref[key]])
         ratio = ref_cpu / min(cpu)
         peak = max(r["peak_kb"] for r in runs) / 1e3
+        added = max(r["peak_kb"] - r["base_kb"] for r in runs) / 1e3
         frames = runs[0]["frames_bytes"] / 1e6
+        share = f"{added / frames:11.2f}x" if frames > 0 else f"{'-':>12s}"
         print(
             f"{label:44s} {n:>8d} {min(cpu):6.2f}/{statistics.median(cpu):<6.2f}  "
             f"{n / min(cpu):>16,.0f}  {min(wall):6.2f}/{statistics.median(wall):<6.2f}  "
-            f"{ratio:>7.2f}x {peak:>11.0f} {frames:>10.1f}"
+            f"{ratio:>7.2f}x {peak:>11.0f} {frames:>10.1f} {share}"
         )
     print(
         "\nx rerun: rate relative to rerun's reader on the same log (CPU s, best of runs); "
-        "frames MB for zstd is the decompressed size."
+        "frames MB for zstd is the decompressed size; added/frames: peak RSS above the process's "
+        "RSS once its imports are done, over the frames' size (the issue-14 memory measure)."
     )
 
 

@@ -81,12 +81,14 @@ def read_log(
         st = p.stat()
         if not stat.S_ISREG(st.st_mode):
             raise NotAnMcapError(name, f"it is not a regular file ({_file_kind(st.st_mode)})")
-        with p.open("rb") as fh:
+        # unbuffered: the whole-file read is then one allocation of the file's size (through
+        # a buffered reader it grows a second copy, twice the file for a moment)
+        with open(p, "rb", buffering=0) as fh:
             head = fh.read(len(MAGIC))
             if head != MAGIC and is_rosbag(p, head + fh.read(16)):
                 return read_rosbag(name, topics)
             fh.seek(0)
-            buf = fh.read()  # one read: ``head + rest`` would hold the file twice for a moment
+            buf = fh.readall()  # one read: ``head + rest`` would hold the file twice
     except OSError as err:
         raise NotAnMcapError(name, f"cannot read it: {err.strerror or err}") from err
     except MemoryError as err:

@@ -35,6 +35,9 @@ def read_mcap(
         NotAnMcapError: nothing could be read (e.g. cut right after the header).
         UnknownEncodingError: no topic with messages has an encoding logcal can decode.
     """
+    batched = _read_batched(path, buf, topics, decoders)
+    if batched is not None:
+        return batched
     scan = scan_mcap(buf)
     if not scan.channels and scan.damage.any:
         why = f"{scan.damage.unreadable_tail_bytes} of them unreadable (truncated or corrupt)"
@@ -71,6 +74,110 @@ def read_mcap(
         topic, encoding = undecodable[0]
         raise UnknownEncodingError(path, topic, encoding, known_encodings(decoders))
     return LogData(path, frames, info, dict(scan.metadata), problems)
+
+
+BATCH_BYTES = 16 * 2**20
+"""Decompressed bytes of chunks decoded at a time in a large file (16 MiB)."""
+
+
+def _read_batched(
+    path: str, buf: bytes, topics: Iterable[str] | None, decoders: Decoders
+) -> LogData | None:
+    """A large, intact file decoded ``BATCH_BYTES`` of chunks at a time; None when the file
+    does not qualify (then it is read whole).
+
+    Reading whole holds every decompressed chunk until the last channel is decoded: for a
+    1 M-message JSON log that is 75 MB of chunks and 40 MB of message index beside 21 MB of
+    frames (issue 14). Batch by batch, only one batch's chunks are held, and the frames are
+    the same: each channel's parts are decoded as the whole channel would be and concatenated.
+    Qualifies: a readable summary listing the chunks and the message counts (every message
+    must be found in the listed chunks), more decompressed bytes than one batch,
+    no damage found by a first pass over the records outside the chunks, no message outside a
+    chunk, and a decoder for every channel's encoding. A batch that finds damage or loses
+    messages in decoding sends the whole file back to the whole-file read, which reports it.
+    """
+    probe = scan_mcap(buf, chunks=())
+    ordered = sorted(probe.chunk_indexes, key=lambda c: c.chunk_start_offset)
+    total = sum(c.uncompressed_size for c in ordered)
+    if (
+        not ordered
+        or probe.statistics is None
+        or total <= BATCH_BYTES
+        or probe.damage.any
+        or probe.messages
+        or not probe.channels
+        or any(ch.message_encoding not in decoders for ch in probe.channels.values())
+    ):
+        return None
+    batches: list[list[int]] = [[]]
+    size = 0
+    for c in ordered:
+        if batches[-1] and size + c.uncompressed_size > BATCH_BYTES:
+            batches.append([])
+            size = 0
+        batches[-1].append(c.chunk_start_offset)
+        size += c.uncompressed_size
+    wanted = None if topics is None else set(topics)
+    times: dict[int, list[np.ndarray]] = {}
+    parts: dict[int, list[pl.DataFrame]] = {}
+    for batch in batches:
+        if not _decode_batch(path, buf, batch, probe, wanted, decoders, times, parts):
+            return None
+    probe.messages = {
+        cid: ChannelMessages(np.concatenate(t) if len(t) > 1 else t[0]) for cid, t in times.items()
+    }
+    counts = {cid: len(m.log_times) for cid, m in probe.messages.items() if len(m.log_times)}
+    if counts != {c: n for c, n in probe.statistics.channel_message_counts.items() if n}:
+        return None  # a chunk the index does not list, or a summary that disagrees
+    by_topic = _channels_by_topic(probe)
+    info = {topic: _topic_info(probe, chans) for topic, chans in by_topic.items()}
+    origin = min((i.first_ns for i in info.values() if i.first_ns is not None), default=0)
+    problems = _damage_problems(path, probe, info, origin)
+    frames: dict[str, pl.DataFrame] = {}
+    for topic, chans in sorted(by_topic.items()):
+        if wanted is not None and topic not in wanted:
+            continue
+        for ch in chans:  # a channel without messages: its empty frame, as when read whole
+            if ch.id not in parts:
+                empty, _ = _decode_channel(path, probe, ch, decoders)
+                parts[ch.id] = [] if empty is None else [empty]
+        # taken out of ``parts`` as they are joined: one topic's pieces exist twice at a time
+        pieces = [f for ch in chans for f in parts.pop(ch.id, [])]
+        if pieces:
+            joined = pl.concat(pieces, how="diagonal_relaxed")
+            del pieces
+            frames[topic] = sorted_by_time(joined, path, topic, problems, "log_time")
+    return LogData(path, frames, info, dict(probe.metadata), problems)
+
+
+def _decode_batch(
+    path: str,
+    buf: bytes,
+    batch: list[int],
+    probe: ScanResult,
+    wanted: set[str] | None,
+    decoders: Decoders,
+    times: dict[int, list[np.ndarray]],
+    parts: dict[int, list[pl.DataFrame]],
+) -> bool:
+    """Scan the chunks starting at ``batch`` and decode their messages into ``times`` and
+    ``parts`` (per channel); False on damage or lost messages. Its own function so that
+    nothing refers to the batch's decompressed chunks once it returns."""
+    scan = scan_mcap(buf, chunks=batch)
+    if scan.damage.any or set(scan.messages) - set(scan.channels):
+        return False
+    for cid, msgs in scan.messages.items():
+        times.setdefault(cid, []).append(msgs.log_times)
+        ch = scan.channels[cid]
+        if wanted is not None and ch.topic not in wanted:
+            continue
+        frame, problem = _decode_channel(path, scan, ch, decoders)
+        if problem is not None or frame is None:
+            return False
+        parts.setdefault(cid, []).append(frame)
+    probe.channels.update(scan.channels)
+    probe.schemas.update(scan.schemas)
+    return True
 
 
 def _channels_by_topic(scan: ScanResult) -> dict[str, list[Channel]]:

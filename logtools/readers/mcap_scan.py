@@ -31,7 +31,7 @@ from __future__ import annotations
 import mmap
 import struct
 import zlib
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from io import BytesIO
 from typing import Any, overload
@@ -233,8 +233,9 @@ class ScanResult:
 class _Scan:
     """Scan state: the result, the buffers messages lie in, and each channel's pieces."""
 
-    def __init__(self, result: ScanResult) -> None:
+    def __init__(self, result: ScanResult, only: frozenset[int] | None = None) -> None:
         self.result = result
+        self.only = only  # chunk record offsets to open (None: all)
         self.buffers: list[np.ndarray] = []
         self.file_buffer: int | None = None
         # channel id -> [(buffer index, payload starts, payload lengths, log times)]
@@ -250,18 +251,22 @@ class _Scan:
         return len(self.buffers) - 1
 
 
-def scan_mcap(buf: bytes | mmap.mmap) -> ScanResult:
+def scan_mcap(buf: bytes | mmap.mmap, *, chunks: Collection[int] | None = None) -> ScanResult:
     """Scan an MCAP file held in memory.
 
     Args:
         buf: the whole file (bytes or memory map); it starts with :data:`MAGIC`.
+        chunks: open only the chunks whose records start at these offsets (the others are
+            stepped over, their messages not read); None: all. Records outside chunks are
+            read either way. A reader decoding a large file a few chunks at a time passes
+            the chunk index's offsets batch by batch (``mcap_reader``).
 
     Returns:
         The schemas, channels, raw messages per channel, metadata records, summary statistics
         (when readable) and a description of any damage.
     """
     result = ScanResult(size=len(buf), budget=DECOMPRESS_BASE_BYTES + DECOMPRESS_RATIO * len(buf))
-    scan = _Scan(result)
+    scan = _Scan(result, None if chunks is None else frozenset(chunks))
     summary_start = _read_summary(buf, result)
     _plan_arena(scan)
     data_end = summary_start or len(buf)  # with a good summary, the data section ends there
@@ -315,6 +320,8 @@ def _plan_arena(scan: _Scan) -> None:
         if ci.chunk_start_offset in scan.indexes:
             continue
         scan.indexes[ci.chunk_start_offset] = ci
+        if scan.only is not None and ci.chunk_start_offset not in scan.only:
+            continue
         if ci.compression in ("zstd", "lz4"):
             scan.slots[ci.chunk_start_offset] = at
             at += ci.uncompressed_size
@@ -383,7 +390,8 @@ def _walk(
             return pos
         try:
             if opcode == Opcode.CHUNK:
-                _read_chunk(buf, pos, body_end, scan)
+                if scan.only is None or pos in scan.only:
+                    _read_chunk(buf, pos, body_end, scan)
             elif opcode == Opcode.FOOTER:
                 result.reached_footer = True
                 if top:
