@@ -26,9 +26,12 @@ from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
 from logtools.readers.csv_reader import CSV_TOPIC, read_csv
 from logtools.readers.decoders import DEFAULT_DECODERS, Decoders, MessageDecoder, known_encodings
-from logtools.readers.mcap_reader import read_mcap
+from logtools.readers.mcap_reader import read_mcap, read_mcap_batched
 from logtools.readers.mcap_scan import MAGIC
 from logtools.readers.rosbag_reader import is_rosbag, read_rosbag
+
+_BATCHED_MIN_BYTES = 2**20
+"""Smaller files are read whole (no batch could hold less than all of their chunks)."""
 
 __all__ = [
     "CSV_TOPIC",
@@ -81,6 +84,13 @@ def read_log(
         st = p.stat()
         if not stat.S_ISREG(st.st_mode):
             raise NotAnMcapError(name, f"it is not a regular file ({_file_kind(st.st_mode)})")
+        if st.st_size >= _BATCHED_MIN_BYTES:  # a large intact MCAP: a batch at a time
+            with open(p, "rb", buffering=0) as fh:
+                head = fh.read(len(MAGIC))
+            if head == MAGIC:
+                batched = read_mcap_batched(name, st.st_size, topics, decoders)
+                if batched is not None:
+                    return batched
         # unbuffered: the whole-file read is then one allocation of the file's size (through
         # a buffered reader it grows a second copy, twice the file for a moment)
         with open(p, "rb", buffering=0) as fh:

@@ -2,19 +2,29 @@
 
 from __future__ import annotations
 
+import mmap
 from collections.abc import Iterable
 
 import numpy as np
 import polars as pl
-from mcap.records import Channel
+from mcap.records import Channel, ChunkIndex, Statistics
 
 from logtools.errors import NotAnMcapError, UnknownEncodingError
 from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo, sorted_by_time
 from logtools.readers.decoders import DEFAULT_DECODERS, Decoders, known_encodings
-from logtools.readers.mcap_scan import ChannelMessages, ScanResult, scan_mcap
+from logtools.readers.mcap_scan import (
+    MAGIC,
+    ChannelMessages,
+    ScanResult,
+    read_metadata_record,
+    read_summary,
+    scan_chunks,
+    scan_mcap,
+    summary_offset,
+)
 
-__all__ = ["read_mcap"]
+__all__ = ["BATCH_BYTES", "read_mcap", "read_mcap_batched"]
 
 
 def read_mcap(
@@ -35,9 +45,6 @@ def read_mcap(
         NotAnMcapError: nothing could be read (e.g. cut right after the header).
         UnknownEncodingError: no topic with messages has an encoding logcal can decode.
     """
-    batched = _read_batched(path, buf, topics, decoders)
-    if batched is not None:
-        return batched
     scan = scan_mcap(buf)
     if not scan.channels and scan.damage.any:
         why = f"{scan.damage.unreadable_tail_bytes} of them unreadable (truncated or corrupt)"
@@ -80,66 +87,122 @@ BATCH_BYTES = 16 * 2**20
 """Decompressed bytes of chunks decoded at a time in a large file (16 MiB)."""
 
 
-def _read_batched(
-    path: str, buf: bytes, topics: Iterable[str] | None, decoders: Decoders
+def read_mcap_batched(
+    path: str, size: int, topics: Iterable[str] | None = None, decoders: Decoders = DEFAULT_DECODERS
 ) -> LogData | None:
-    """A large, intact file decoded ``BATCH_BYTES`` of chunks at a time; None when the file
-    does not qualify (then it is read whole).
+    """Read a large, intact MCAP file ``BATCH_BYTES`` of chunks at a time, never holding the
+    whole file; None when the file does not qualify (the caller then reads it whole, which
+    also reports any damage).
 
-    Reading whole holds every decompressed chunk until the last channel is decoded: for a
-    1 M-message JSON log that is 75 MB of chunks and 40 MB of message index beside 21 MB of
-    frames (issue 14). Batch by batch, only one batch's chunks are held, and the frames are
-    the same: each channel's parts are decoded as the whole channel would be and concatenated.
-    Qualifies: a readable summary listing the chunks and the message counts (every message
-    must be found in the listed chunks), more decompressed bytes than one batch,
-    no damage found by a first pass over the records outside the chunks, no message outside a
-    chunk, and a decoder for every channel's encoding. A batch that finds damage or loses
-    messages in decoding sends the whole file back to the whole-file read, which reports it.
+    Reading whole holds the file's bytes and every decompressed chunk until the last channel
+    is decoded: for a 1 M-message JSON log, 36 MB of file and 75 MB of chunks beside 21 MB of
+    frames (issue 14). Here the summary (through the footer) lists the chunks; each batch's
+    bytes are read from the file into an anonymous memory map at their offsets, decoded
+    channel by channel, and their pages released before the next batch, so only one batch is
+    held. The frames are the same as a whole read's: each channel's parts are decoded as the
+    whole channel would be and joined (the tests compare them on every sample log).
+
+    Qualifies: a readable summary with statistics, chunk indexes and an index entry for every
+    metadata record; more decompressed bytes than one batch; a decoder for every channel's
+    encoding. Falls back (None) when a batch finds damage, a decoder drops messages, or the
+    messages read differ from the counts the statistics give (a message outside the listed
+    chunks, a summary that disagrees).
     """
-    probe = scan_mcap(buf, chunks=())
-    ordered = sorted(probe.chunk_indexes, key=lambda c: c.chunk_start_offset)
-    total = sum(c.uncompressed_size for c in ordered)
-    if (
-        not ordered
-        or probe.statistics is None
-        or total <= BATCH_BYTES
-        or probe.damage.any
-        or probe.messages
-        or not probe.channels
-        or any(ch.message_encoding not in decoders for ch in probe.channels.values())
-    ):
+    if size < len(MAGIC) + 64:
         return None
-    batches: list[list[int]] = [[]]
+    amap = mmap.mmap(-1, size)  # anonymous: only the pages written take memory
+    with open(path, "rb", buffering=0) as fh:
+
+        def load(start: int, end: int) -> bool:
+            fh.seek(start)
+            view = memoryview(amap)[start:end]
+            try:
+                return fh.readinto(view) == end - start
+            finally:
+                view.release()
+
+        tail = min(size, 4096)
+        if not (load(0, len(MAGIC)) and load(size - tail, size)):
+            return None
+        summary_start = summary_offset(amap)
+        if not summary_start or not load(summary_start, size):
+            return None
+        summary, start = read_summary(amap)
+        stats = summary.statistics
+        ordered = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+        if (
+            not start
+            or stats is None
+            or not ordered
+            or sum(c.uncompressed_size for c in ordered) <= BATCH_BYTES
+            or stats.metadata_count != len(summary.metadata_indexes)
+            or any(ch.message_encoding not in decoders for ch in summary.channels.values())
+        ):
+            return None
+        for mi in summary.metadata_indexes:
+            if not (len(MAGIC) <= mi.offset and mi.offset + mi.length <= summary_start):
+                return None
+            if not load(mi.offset, mi.offset + mi.length):
+                return None
+            if not read_metadata_record(amap[mi.offset : mi.offset + mi.length], summary):
+                return None
+        wanted = None if topics is None else set(topics)
+        times: dict[int, list[np.ndarray]] = {}
+        parts: dict[int, list[pl.DataFrame]] = {}
+        for batch in _batches(ordered):
+            lo = batch[0].chunk_start_offset
+            hi = batch[-1].chunk_start_offset + batch[-1].chunk_length
+            hi += batch[-1].message_index_length
+            if not (len(MAGIC) <= lo < hi <= summary_start and load(lo, hi)):
+                return None
+            ok = _decode_batch(path, amap, batch, summary, wanted, decoders, times, parts)
+            page = mmap.PAGESIZE
+            amap.madvise(mmap.MADV_DONTNEED, lo // page * page, hi - lo // page * page)
+            if not ok:
+                return None
+    return _assemble(path, summary, stats, wanted, decoders, times, parts)
+
+
+def _batches(ordered: list[ChunkIndex]) -> list[list[ChunkIndex]]:
+    """Consecutive chunks in groups of at most ``BATCH_BYTES`` decompressed (one at least)."""
+    batches: list[list[ChunkIndex]] = [[]]
     size = 0
     for c in ordered:
         if batches[-1] and size + c.uncompressed_size > BATCH_BYTES:
             batches.append([])
             size = 0
-        batches[-1].append(c.chunk_start_offset)
+        batches[-1].append(c)
         size += c.uncompressed_size
-    wanted = None if topics is None else set(topics)
-    times: dict[int, list[np.ndarray]] = {}
-    parts: dict[int, list[pl.DataFrame]] = {}
-    for batch in batches:
-        if not _decode_batch(path, buf, batch, probe, wanted, decoders, times, parts):
-            return None
-    probe.messages = {
+    return batches
+
+
+def _assemble(
+    path: str,
+    summary: ScanResult,
+    stats: Statistics,
+    wanted: set[str] | None,
+    decoders: Decoders,
+    times: dict[int, list[np.ndarray]],
+    parts: dict[int, list[pl.DataFrame]],
+) -> LogData | None:
+    """The batches' pieces as one :class:`LogData` (None if the counts disagree)."""
+    summary.messages = {
         cid: ChannelMessages(np.concatenate(t) if len(t) > 1 else t[0]) for cid, t in times.items()
     }
-    counts = {cid: len(m.log_times) for cid, m in probe.messages.items() if len(m.log_times)}
-    if counts != {c: n for c, n in probe.statistics.channel_message_counts.items() if n}:
-        return None  # a chunk the index does not list, or a summary that disagrees
-    by_topic = _channels_by_topic(probe)
-    info = {topic: _topic_info(probe, chans) for topic, chans in by_topic.items()}
+    counts = {cid: len(m.log_times) for cid, m in summary.messages.items() if len(m.log_times)}
+    if counts != {c: n for c, n in stats.channel_message_counts.items() if n}:
+        return None  # a message outside the listed chunks, or a summary that disagrees
+    by_topic = _channels_by_topic(summary)
+    info = {topic: _topic_info(summary, chans) for topic, chans in by_topic.items()}
     origin = min((i.first_ns for i in info.values() if i.first_ns is not None), default=0)
-    problems = _damage_problems(path, probe, info, origin)
+    problems = _damage_problems(path, summary, info, origin)
     frames: dict[str, pl.DataFrame] = {}
     for topic, chans in sorted(by_topic.items()):
         if wanted is not None and topic not in wanted:
             continue
         for ch in chans:  # a channel without messages: its empty frame, as when read whole
             if ch.id not in parts:
-                empty, _ = _decode_channel(path, probe, ch, decoders)
+                empty, _ = _decode_channel(path, summary, ch, decoders)
                 parts[ch.id] = [] if empty is None else [empty]
         # taken out of ``parts`` as they are joined: one topic's pieces exist twice at a time
         pieces = [f for ch in chans for f in parts.pop(ch.id, [])]
@@ -147,23 +210,23 @@ def _read_batched(
             joined = pl.concat(pieces, how="diagonal_relaxed")
             del pieces
             frames[topic] = sorted_by_time(joined, path, topic, problems, "log_time")
-    return LogData(path, frames, info, dict(probe.metadata), problems)
+    return LogData(path, frames, info, dict(summary.metadata), problems)
 
 
 def _decode_batch(
     path: str,
-    buf: bytes,
-    batch: list[int],
+    buf: mmap.mmap,
+    batch: list[ChunkIndex],
     probe: ScanResult,
     wanted: set[str] | None,
     decoders: Decoders,
     times: dict[int, list[np.ndarray]],
     parts: dict[int, list[pl.DataFrame]],
 ) -> bool:
-    """Scan the chunks starting at ``batch`` and decode their messages into ``times`` and
-    ``parts`` (per channel); False on damage or lost messages. Its own function so that
-    nothing refers to the batch's decompressed chunks once it returns."""
-    scan = scan_mcap(buf, chunks=batch)
+    """Open the chunks ``batch`` and decode their messages into ``times`` and ``parts`` (per
+    channel); False on damage or lost messages. Its own function so that nothing refers to
+    the batch's decompressed chunks once it returns."""
+    scan = scan_chunks(buf, probe, batch)
     if scan.damage.any or set(scan.messages) - set(scan.channels):
         return False
     for cid, msgs in scan.messages.items():

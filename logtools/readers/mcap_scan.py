@@ -31,7 +31,7 @@ from __future__ import annotations
 import mmap
 import struct
 import zlib
-from collections.abc import Callable, Collection, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from io import BytesIO
 from typing import Any, overload
@@ -41,7 +41,7 @@ import numpy as np
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
-from mcap.records import Channel, ChunkIndex, Metadata, Schema, Statistics
+from mcap.records import Channel, ChunkIndex, Metadata, MetadataIndex, Schema, Statistics
 
 __all__ = [
     "DECOMPRESS_BASE_BYTES",
@@ -53,7 +53,11 @@ __all__ = [
     "Damage",
     "Payloads",
     "ScanResult",
+    "read_metadata_record",
+    "read_summary",
+    "scan_chunks",
     "scan_mcap",
+    "summary_offset",
 ]
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -219,6 +223,7 @@ class ScanResult:
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
     statistics: Statistics | None = None
     chunk_indexes: list[ChunkIndex] = field(default_factory=list)
+    metadata_indexes: list[MetadataIndex] = field(default_factory=list)
     reached_footer: bool = False
     damage: Damage = field(default_factory=Damage)
     after_footer: tuple[int, int] | None = None
@@ -235,7 +240,7 @@ class _Scan:
 
     def __init__(self, result: ScanResult, only: frozenset[int] | None = None) -> None:
         self.result = result
-        self.only = only  # chunk record offsets to open (None: all)
+        self.only = only  # chunk record offsets the arena is planned for (None: all)
         self.buffers: list[np.ndarray] = []
         self.file_buffer: int | None = None
         # channel id -> [(buffer index, payload starts, payload lengths, log times)]
@@ -251,22 +256,18 @@ class _Scan:
         return len(self.buffers) - 1
 
 
-def scan_mcap(buf: bytes | mmap.mmap, *, chunks: Collection[int] | None = None) -> ScanResult:
+def scan_mcap(buf: bytes | mmap.mmap) -> ScanResult:
     """Scan an MCAP file held in memory.
 
     Args:
         buf: the whole file (bytes or memory map); it starts with :data:`MAGIC`.
-        chunks: open only the chunks whose records start at these offsets (the others are
-            stepped over, their messages not read); None: all. Records outside chunks are
-            read either way. A reader decoding a large file a few chunks at a time passes
-            the chunk index's offsets batch by batch (``mcap_reader``).
 
     Returns:
         The schemas, channels, raw messages per channel, metadata records, summary statistics
         (when readable) and a description of any damage.
     """
     result = ScanResult(size=len(buf), budget=DECOMPRESS_BASE_BYTES + DECOMPRESS_RATIO * len(buf))
-    scan = _Scan(result, None if chunks is None else frozenset(chunks))
+    scan = _Scan(result)
     summary_start = _read_summary(buf, result)
     _plan_arena(scan)
     data_end = summary_start or len(buf)  # with a good summary, the data section ends there
@@ -297,10 +298,8 @@ def _read_summary(buf: _Buffer, result: ScanResult) -> int:
     """Read the summary section through the footer; return its start offset (0 if unusable)."""
     n = len(buf)
     at = n - len(MAGIC) - _FOOTER.size
-    if at < len(MAGIC) or buf[n - len(MAGIC) :] != MAGIC:
-        return 0
-    opcode, length, summary_start, _offset_start, _crc = _FOOTER.unpack_from(buf, at)
-    if opcode != Opcode.FOOTER or length != 20 or not len(MAGIC) <= summary_start < at:
+    summary_start = summary_offset(buf)
+    if not summary_start:
         return 0
     probe = ScanResult(size=n)
     if _scan_records(buf, summary_start, at, _Scan(probe)) is not None or probe.reached_footer:
@@ -310,7 +309,67 @@ def _read_summary(buf: _Buffer, result: ScanResult) -> int:
     result.channel_conflicts += probe.channel_conflicts
     result.statistics = probe.statistics
     result.chunk_indexes = probe.chunk_indexes
+    result.metadata_indexes = probe.metadata_indexes
     return summary_start
+
+
+def summary_offset(buf: _Buffer) -> int:
+    """Where the summary section starts, from the footer at the end of ``buf`` (0: no valid
+    footer, or no summary)."""
+    n = len(buf)
+    at = n - len(MAGIC) - _FOOTER.size
+    if at < len(MAGIC) or buf[n - len(MAGIC) :] != MAGIC:
+        return 0
+    opcode, length, summary_start, _offset_start, _crc = _FOOTER.unpack_from(buf, at)
+    if opcode != Opcode.FOOTER or length != 20 or not len(MAGIC) <= summary_start < at:
+        return 0
+    return int(summary_start)
+
+
+def read_metadata_record(record: _Buffer, result: ScanResult) -> bool:
+    """Parse one whole Metadata record (opcode and length first) into ``result.metadata``;
+    False when it is not one."""
+    if len(record) < 9 or record[0] != Opcode.METADATA:
+        return False
+    (length,) = struct.unpack_from("<Q", record, 1)
+    if length != len(record) - 9:
+        return False
+    try:
+        _read_other(Opcode.METADATA, bytes(record[9:]), result)
+    except _CorruptRecordError:
+        return False
+    return True
+
+
+def read_summary(buf: _Buffer) -> tuple[ScanResult, int]:
+    """The summary section alone (schemas, channels, statistics, chunk and metadata indexes),
+    read through the footer, and its start offset (0 when it is missing or damaged; then the
+    result is empty). Only the file's first and last bytes and the summary are looked at, so
+    ``buf`` may hold just those (the rest zero)."""
+    result = ScanResult(size=len(buf), budget=DECOMPRESS_BASE_BYTES + DECOMPRESS_RATIO * len(buf))
+    start = _read_summary(buf, result)
+    result.reached_footer = bool(start)
+    return result, start
+
+
+def scan_chunks(buf: _Buffer, summary: ScanResult, chunks: Sequence[ChunkIndex]) -> ScanResult:
+    """Open just the chunks ``chunks`` (entries of ``summary.chunk_indexes``) and collect their
+    messages, as :func:`scan_mcap` would: each chunk's bytes and the MessageIndex records after
+    it must be in ``buf`` at their file offsets (the rest of ``buf`` is not read). Schemas and
+    channels start from the summary's; a chunk that fails is recorded in ``damage``."""
+    result = ScanResult(size=summary.size, budget=summary.budget)
+    result.schemas.update(summary.schemas)
+    result.channels.update(summary.channels)
+    result.chunk_indexes = list(chunks)
+    scan = _Scan(result, frozenset(c.chunk_start_offset for c in chunks))
+    _plan_arena(scan)
+    for ci in chunks:
+        try:
+            _read_chunk(buf, ci.chunk_start_offset, ci.chunk_start_offset + ci.chunk_length, scan)
+        except _CorruptRecordError:
+            result.damage.lost_chunks.append((ci.message_start_time, ci.message_end_time))
+    _finish(scan)
+    return result
 
 
 def _plan_arena(scan: _Scan) -> None:
@@ -390,8 +449,7 @@ def _walk(
             return pos
         try:
             if opcode == Opcode.CHUNK:
-                if scan.only is None or pos in scan.only:
-                    _read_chunk(buf, pos, body_end, scan)
+                _read_chunk(buf, pos, body_end, scan)
             elif opcode == Opcode.FOOTER:
                 result.reached_footer = True
                 if top:
@@ -746,6 +804,7 @@ def _read_other(opcode: int, body: bytes | memoryview, result: ScanResult) -> No
         Opcode.METADATA: Metadata.read,
         Opcode.STATISTICS: Statistics.read,
         Opcode.CHUNK_INDEX: ChunkIndex.read,
+        Opcode.METADATA_INDEX: MetadataIndex.read,
     }
     read = readers.get(opcode)
     if read is None:
@@ -765,6 +824,8 @@ def _read_other(opcode: int, body: bytes | memoryview, result: ScanResult) -> No
         result.metadata[record.name] = dict(record.metadata)
     elif isinstance(record, Statistics):
         result.statistics = record
+    elif isinstance(record, MetadataIndex):
+        result.metadata_indexes.append(record)
     else:
         result.chunk_indexes.append(record)
 

@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 from polars.testing import assert_frame_equal
 
+import logtools.readers
 from logtools.readers import LogData, mcap_reader, read_log
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -16,7 +17,9 @@ LOGS = sorted((ROOT / "sample_logs").glob("*.mcap")) + sorted(
 
 
 def _read(path: Path, batch_bytes: int, monkeypatch: pytest.MonkeyPatch, **kw: object) -> LogData:
+    """``read_log`` with batches of ``batch_bytes`` for a file of any size (2**62: whole)."""
     monkeypatch.setattr(mcap_reader, "BATCH_BYTES", batch_bytes)
+    monkeypatch.setattr(logtools.readers, "_BATCHED_MIN_BYTES", 0)
     return read_log(path, **kw)  # type: ignore[arg-type]
 
 
@@ -35,14 +38,14 @@ def _same(a: LogData, b: LogData) -> None:
 def batched(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
     """Whether each read went batch by batch."""
     used: list[bool] = []
-    real = mcap_reader._read_batched
+    real = mcap_reader.read_mcap_batched
 
     def spy(*args: object) -> LogData | None:
         out = real(*args)  # type: ignore[arg-type]
         used.append(out is not None)
         return out
 
-    monkeypatch.setattr(mcap_reader, "_read_batched", spy)
+    monkeypatch.setattr(logtools.readers, "read_mcap_batched", spy)
     return used
 
 
@@ -86,8 +89,8 @@ def test_a_corrupt_chunk_sends_the_file_back_to_the_whole_read(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, batched: list[bool]
 ) -> None:
     data = bytearray((ROOT / "sample_logs" / "tt_mixed.mcap").read_bytes())
-    probe = mcap_reader.scan_mcap(bytes(data), chunks=())
-    chunk = sorted(probe.chunk_indexes, key=lambda c: c.chunk_start_offset)[1]
+    summary, _ = mcap_reader.read_summary(bytes(data))
+    chunk = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)[1]
     body = chunk.chunk_start_offset + chunk.chunk_length - 64  # inside the compressed records
     data[body : body + 16] = b"\x00" * 16
     path = tmp_path / "corrupt.mcap"
