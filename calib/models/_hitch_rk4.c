@@ -40,6 +40,30 @@ static double rate(double y, double u, double v, double p0, double p1, double p2
  *   last recorded state of series chain[i] instead of y0 (chunks of one run, in order).
  * Returns 0.
  */
+/*
+ * Whether the state after step ``done`` is recorded (keep: n_keep increasing step counts, or
+ * every step when n_keep < 0; *kidx advances past it), and where it is, the value it is reset
+ * to there (*reset, else left NULL; *ridx advances).
+ */
+static inline int recorded(int64_t done, int64_t n_keep, const int64_t *keep, int64_t *kidx,
+                           int64_t n_reset, const int64_t *reset_at, const double *reset_val,
+                           int64_t *ridx, const double **reset)
+{
+    if (n_keep >= 0) {
+        if (*kidx >= n_keep || done != keep[*kidx]) {
+            return 0;
+        }
+        (*kidx)++;
+    }
+    while (*ridx < n_reset && reset_at[*ridx] < done) {
+        (*ridx)++;
+    }
+    if (*ridx < n_reset && reset_at[*ridx] == done) {
+        *reset = reset_val + *ridx;
+    }
+    return 1;
+}
+
 /* One column (series i, parameter set j) with libm's sin and cos. */
 static void scalar_column(int64_t n_steps, int64_t n_series, int64_t n_params, int64_t i,
                           int64_t j, const double *h, const double *u, const double *v,
@@ -59,20 +83,10 @@ static void scalar_column(int64_t n_steps, int64_t n_series, int64_t n_params, i
         const double k3 = rate(y + 0.5 * hs * k2, us[1], vs[1], a, b, c);
         const double k4 = rate(y + hs * k3, us[2], vs[2], a, b, c);
         y = y + hs * (k1 + 2.0 * (k2 + k3) + k4) / 6.0;
-        const int64_t done = t + 1;
-        int record = 0;
-        if (n_keep < 0) {
-            record = 1;
-        } else if (kidx < n_keep && done == keep[kidx]) {
-            record = 1;
-            kidx++;
-        }
-        if (record) {
-            while (ridx < n_reset && reset_at[ridx] < done) {
-                ridx++;
-            }
-            if (ridx < n_reset && reset_at[ridx] == done) {
-                y = reset_val[ridx];
+        const double *reset = NULL;
+        if (recorded(t + 1, n_keep, keep, &kidx, n_reset, reset_at, reset_val, &ridx, &reset)) {
+            if (reset != NULL) {
+                y = *reset;
             }
             rec++;
             out[rec * cols + col] = y;
@@ -127,21 +141,11 @@ static int batch_series(int64_t n_steps, int64_t n_series, int64_t n_params, int
             const double m = fabs(y2) + fabs(y3) + fabs(y4) + fabs(yn);
             outside |= (m > FAST_ANGLE_LIMIT) | (m != m);
         }
-        const int64_t done = t + 1;
-        int record = 0;
-        if (n_keep < 0) {
-            record = 1;
-        } else if (kidx < n_keep && done == keep[kidx]) {
-            record = 1;
-            kidx++;
-        }
-        if (record) {
-            while (ridx < n_reset && reset_at[ridx] < done) {
-                ridx++;
-            }
-            if (ridx < n_reset && reset_at[ridx] == done) {
+        const double *reset = NULL;
+        if (recorded(t + 1, n_keep, keep, &kidx, n_reset, reset_at, reset_val, &ridx, &reset)) {
+            if (reset != NULL) {
                 for (int64_t j = 0; j < n_params; j++) {
-                    y[j] = reset_val[ridx];
+                    y[j] = *reset;
                 }
             }
             rec++;

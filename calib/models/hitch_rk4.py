@@ -32,12 +32,13 @@ the reference the tests hold the compiled loop to.
 from __future__ import annotations
 
 import ctypes
-import importlib.util
 from collections.abc import Iterable, Mapping
 from functools import cache
 
 import numpy as np
 from numpy.typing import NDArray
+
+from calib._compiled import DOUBLES, INT64S, load_library
 
 __all__ = [
     "compiled_available",
@@ -48,19 +49,15 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-_DBL = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
-_I64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
+_DBL = DOUBLES
+_I64 = INT64S
 
 
 @cache
 def _library() -> ctypes.CDLL | None:
     """The compiled loops, or None when the extension was not built."""
-    spec = importlib.util.find_spec("calib.models._hitch_rk4")
-    if spec is None or spec.origin is None:
-        return None
-    try:
-        lib = ctypes.CDLL(spec.origin)
-    except OSError:
+    lib = load_library("calib.models._hitch_rk4")
+    if lib is None:
         return None
     i64 = ctypes.c_int64
     lib.logcal_rk4_hitch.restype = ctypes.c_int

@@ -28,19 +28,19 @@ the compiled loop to. Both give R with Rᵀ R equal to the rows' Gram matrix up 
 from __future__ import annotations
 
 import ctypes
-import importlib.util
 from functools import cache
 
 import numpy as np
 from numpy.typing import NDArray
 
+from calib._compiled import DOUBLES, load_library
 from calib.lsq import triangular_factor, triangular_factor_by_rows
 from calib.tractor_trailer.patent_models import em_columns
 
 __all__ = ["compiled_available", "predicted_rows_factor"]
 
 FloatArray = NDArray[np.float64]
-_DBL = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+_DBL = DOUBLES
 _BLOCK = 256  # rows per block factor of the compiled loop (BLOCK in the C file)
 _MAX_ANGLE = 1e5  # rad; the compiled sin/cos's range (|quadrant| < 2^20, with a margin)
 
@@ -48,12 +48,8 @@ _MAX_ANGLE = 1e5  # rad; the compiled sin/cos's range (|quadrant| < 2^20, with a
 @cache
 def _library() -> ctypes.CDLL | None:
     """The compiled loop, or None when the extension was not built."""
-    spec = importlib.util.find_spec("calib.tractor_trailer._predicted_rows")
-    if spec is None or spec.origin is None:
-        return None
-    try:
-        lib = ctypes.CDLL(spec.origin)
-    except OSError:
+    lib = load_library("calib.tractor_trailer._predicted_rows")
+    if lib is None:
         return None
     lib.logcal_predicted_rows_factors.restype = ctypes.c_int
     lib.logcal_predicted_rows_factors.argtypes = [

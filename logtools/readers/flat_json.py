@@ -33,7 +33,6 @@ returns ``None`` and every channel takes the general route.
 from __future__ import annotations
 
 import ctypes
-import importlib.util
 import json
 import re
 from functools import cache
@@ -42,13 +41,14 @@ from typing import Any
 import numpy as np
 import polars as pl
 
+from calib._compiled import INT64S, UINT8S, load_library
 from logtools.readers.decoders import MAX_ARRAY_ITEMS, flatten_object
 from logtools.readers.mcap_scan import Payloads
 
 __all__ = ["compiled_available", "decode_uniform", "parse_number"]
 
-_U8 = np.ctypeslib.ndpointer(dtype=np.uint8, flags="C_CONTIGUOUS")
-_I64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
+_U8 = UINT8S
+_I64 = INT64S
 
 # number kinds of _flat_json.c
 _NUM_BAD, _NUM_INT, _NUM_FLOAT, _NUM_NONFINITE, _NUM_BIGINT = range(5)
@@ -57,12 +57,8 @@ _NUM_BAD, _NUM_INT, _NUM_FLOAT, _NUM_NONFINITE, _NUM_BIGINT = range(5)
 @cache
 def _library() -> ctypes.CDLL | None:
     """The compiled walk, or None when the extension was not built."""
-    spec = importlib.util.find_spec("logtools.readers._flat_json")
-    if spec is None or spec.origin is None:
-        return None
-    try:
-        lib = ctypes.CDLL(spec.origin)
-    except OSError:
+    lib = load_library("logtools.readers._flat_json")
+    if lib is None:
         return None
     i64 = ctypes.c_int64
     lib.logcal_flat_json.restype = i64
