@@ -156,8 +156,9 @@ def read_mcap_batched(
             if not (len(MAGIC) <= lo < hi <= summary_start and load(lo, hi)):
                 return None
             ok = _decode_batch(path, amap, batch, summary, wanted, decoders, times, parts)
-            page = mmap.PAGESIZE
-            amap.madvise(mmap.MADV_DONTNEED, lo // page * page, hi - lo // page * page)
+            if hasattr(mmap, "MADV_DONTNEED"):  # give the batch's pages back (Linux, macOS)
+                first = lo // mmap.PAGESIZE * mmap.PAGESIZE
+                amap.madvise(mmap.MADV_DONTNEED, first, hi - first)
             if not ok:
                 return None
     return _assemble(path, summary, stats, wanted, decoders, times, parts)
