@@ -23,7 +23,7 @@ from pathlib import Path
 
 from logtools.errors import LogFileNotFoundError, NotAnMcapError
 from logtools.problems import Problem, ProblemKind
-from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
+from logtools.readers.base import TIME_COLUMN, ColumnFilter, LogData, TopicInfo
 from logtools.readers.csv_reader import CSV_TOPIC, read_csv
 from logtools.readers.decoders import DEFAULT_DECODERS, Decoders, MessageDecoder, known_encodings
 from logtools.readers.mcap_reader import read_mcap, read_mcap_batched
@@ -37,6 +37,7 @@ __all__ = [
     "CSV_TOPIC",
     "DEFAULT_DECODERS",
     "TIME_COLUMN",
+    "ColumnFilter",
     "Decoders",
     "LogData",
     "MessageDecoder",
@@ -54,12 +55,16 @@ def read_log(
     *,
     topics: Iterable[str] | None = None,
     decoders: Decoders = DEFAULT_DECODERS,
+    keep: ColumnFilter | None = None,
 ) -> LogData:
     """Read an MCAP, ROS bag or CSV drive log.
 
     Args:
         path: the log file, a rosbag2 folder (or one of its ``.db3`` files), or a ROS 1 ``.bag``.
         topics: MCAP and bags: decode just these topics (``info`` still lists all); None: all.
+        keep: (topic, column) -> whether to keep a decoded column (``t_ns`` always stays);
+            None keeps all. MCAP applies it as each channel is decoded, so dropped columns
+            never take memory for the whole log; other formats after reading.
         decoders: MCAP message encoding -> decoder (default: JSON, ROS 2, ROS 1, protobuf);
             e.g. ``{**DEFAULT_DECODERS, "cbor": decode_cbor}`` adds one for this read only.
 
@@ -78,7 +83,7 @@ def read_log(
         raise LogFileNotFoundError(name)
     if p.is_dir():
         if is_rosbag(p):
-            return read_rosbag(name, topics)
+            return _kept(read_rosbag(name, topics), keep)
         raise NotAnMcapError(name, "it is a directory without a rosbag2 metadata.yaml")
     try:
         st = p.stat()
@@ -88,7 +93,7 @@ def read_log(
             with open(p, "rb", buffering=0) as fh:
                 head = fh.read(len(MAGIC))
             if head == MAGIC:
-                batched = read_mcap_batched(name, st.st_size, topics, decoders)
+                batched = read_mcap_batched(name, st.st_size, topics, decoders, keep)
                 if batched is not None:
                     return batched
         # unbuffered: the whole-file read is then one allocation of the file's size (through
@@ -96,7 +101,7 @@ def read_log(
         with open(p, "rb", buffering=0) as fh:
             head = fh.read(len(MAGIC))
             if head != MAGIC and is_rosbag(p, head + fh.read(16)):
-                return read_rosbag(name, topics)
+                return _kept(read_rosbag(name, topics), keep)
             fh.seek(0)
             buf = fh.readall()  # one read: ``head + rest`` would hold the file twice
     except OSError as err:
@@ -104,7 +109,7 @@ def read_log(
     except MemoryError as err:
         raise NotAnMcapError(name, f"{st.st_size} bytes do not fit in memory") from err
     if head == MAGIC:
-        return read_mcap(name, buf, topics, decoders)
+        return read_mcap(name, buf, topics, decoders, keep)
     if not buf:
         raise NotAnMcapError(name, "the file is empty")
     if MAGIC.startswith(buf):
@@ -113,9 +118,20 @@ def read_log(
         from logtools.readers.optiodom import is_optiodom_run, read_optiodom
 
         if is_optiodom_run(p, buf[:4096]):  # headerless run file with a type=diff sibling
-            return read_optiodom(name)
-        return read_csv(name, buf)
+            return _kept(read_optiodom(name), keep)
+        return _kept(read_csv(name, buf), keep)
     raise NotAnMcapError(name, f"it starts with the bytes {buf[:8]!r}")
+
+
+def _kept(log: LogData, keep: ColumnFilter | None) -> LogData:
+    """``log`` with only the columns ``keep`` keeps (and ``t_ns``)."""
+    if keep is None:
+        return log
+    for topic, frame in log.topics.items():
+        cols = [c for c in frame.columns if c == TIME_COLUMN or keep(topic, c)]
+        if len(cols) != frame.width:
+            log.topics[topic] = frame.select(cols)
+    return log
 
 
 def _file_kind(mode: int) -> str:

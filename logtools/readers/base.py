@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -9,10 +10,21 @@ import polars as pl
 
 from logtools.problems import Problem, ProblemKind
 
-__all__ = ["TIME_COLUMN", "LogData", "Problem", "ProblemKind", "TopicInfo", "sorted_by_time"]
+__all__ = [
+    "TIME_COLUMN",
+    "ColumnFilter",
+    "LogData",
+    "Problem",
+    "ProblemKind",
+    "TopicInfo",
+    "sorted_by_time",
+]
 
 TIME_COLUMN = "t_ns"
 """The one time column of every frame: int64 nanoseconds (MCAP log_time; CSV t * 1e9)."""
+
+ColumnFilter = Callable[[str, str], bool]
+"""(topic, flattened column name) -> whether a reader keeps that column."""
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,13 @@ from mcap.records import Channel, ChunkIndex, Statistics
 
 from logtools.errors import NotAnMcapError, UnknownEncodingError
 from logtools.problems import Problem, ProblemKind
-from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo, sorted_by_time
+from logtools.readers.base import (
+    TIME_COLUMN,
+    ColumnFilter,
+    LogData,
+    TopicInfo,
+    sorted_by_time,
+)
 from logtools.readers.decoders import DEFAULT_DECODERS, Decoders, known_encodings
 from logtools.readers.mcap_scan import (
     MAGIC,
@@ -32,6 +38,7 @@ def read_mcap(
     buf: bytes,
     topics: Iterable[str] | None = None,
     decoders: Decoders = DEFAULT_DECODERS,
+    keep: ColumnFilter | None = None,
 ) -> LogData:
     """Decode the MCAP file ``buf`` (read from ``path``).
 
@@ -40,6 +47,9 @@ def read_mcap(
         buf: the file's bytes (starting with the MCAP magic).
         topics: decode only these topics (all are still listed in ``info``); None: all.
         decoders: MCAP message encoding -> decoder.
+        keep: (topic, column) -> whether a decoded column is kept (``t_ns`` always is);
+            None: all. Applied to each channel as it is decoded, so a dropped column never
+            exists for the whole log.
 
     Raises:
         NotAnMcapError: nothing could be read (e.g. cut right after the header).
@@ -66,7 +76,7 @@ def read_mcap(
             continue
         parts = []
         for ch in chans:
-            frame, problem = _decode_channel(path, scan, ch, decoders)
+            frame, problem = _decode_channel(path, scan, ch, decoders, keep)
             if problem is not None:
                 problems.append(problem)
             if frame is None and ch.message_encoding not in decoders:
@@ -88,7 +98,11 @@ BATCH_BYTES = 16 * 2**20
 
 
 def read_mcap_batched(
-    path: str, size: int, topics: Iterable[str] | None = None, decoders: Decoders = DEFAULT_DECODERS
+    path: str,
+    size: int,
+    topics: Iterable[str] | None = None,
+    decoders: Decoders = DEFAULT_DECODERS,
+    keep: ColumnFilter | None = None,
 ) -> LogData | None:
     """Read a large, intact MCAP file ``BATCH_BYTES`` of chunks at a time, never holding the
     whole file; None when the file does not qualify (the caller then reads it whole, which
@@ -155,13 +169,13 @@ def read_mcap_batched(
             hi += batch[-1].message_index_length
             if not (len(MAGIC) <= lo < hi <= summary_start and load(lo, hi)):
                 return None
-            ok = _decode_batch(path, amap, batch, summary, wanted, decoders, times, parts)
+            ok = _decode_batch(path, amap, batch, summary, wanted, decoders, keep, times, parts)
             if hasattr(mmap, "MADV_DONTNEED"):  # give the batch's pages back (Linux, macOS)
                 first = lo // mmap.PAGESIZE * mmap.PAGESIZE
                 amap.madvise(mmap.MADV_DONTNEED, first, hi - first)
             if not ok:
                 return None
-    return _assemble(path, summary, stats, wanted, decoders, times, parts)
+    return _assemble(path, summary, stats, wanted, decoders, keep, times, parts)
 
 
 def _batches(ordered: list[ChunkIndex]) -> list[list[ChunkIndex]]:
@@ -183,6 +197,7 @@ def _assemble(
     stats: Statistics,
     wanted: set[str] | None,
     decoders: Decoders,
+    keep: ColumnFilter | None,
     times: dict[int, list[np.ndarray]],
     parts: dict[int, list[pl.DataFrame]],
 ) -> LogData | None:
@@ -203,7 +218,7 @@ def _assemble(
             continue
         for ch in chans:  # a channel without messages: its empty frame, as when read whole
             if ch.id not in parts:
-                empty, _ = _decode_channel(path, summary, ch, decoders)
+                empty, _ = _decode_channel(path, summary, ch, decoders, keep)
                 parts[ch.id] = [] if empty is None else [empty]
         # taken out of ``parts`` as they are joined: one topic's pieces exist twice at a time
         pieces = [f for ch in chans for f in parts.pop(ch.id, [])]
@@ -221,6 +236,7 @@ def _decode_batch(
     probe: ScanResult,
     wanted: set[str] | None,
     decoders: Decoders,
+    keep: ColumnFilter | None,
     times: dict[int, list[np.ndarray]],
     parts: dict[int, list[pl.DataFrame]],
 ) -> bool:
@@ -235,7 +251,7 @@ def _decode_batch(
         ch = scan.channels[cid]
         if wanted is not None and ch.topic not in wanted:
             continue
-        frame, problem = _decode_channel(path, scan, ch, decoders)
+        frame, problem = _decode_channel(path, scan, ch, decoders, keep)
         if problem is not None or frame is None:
             return False
         parts.setdefault(cid, []).append(frame)
@@ -267,7 +283,7 @@ def _topic_info(scan: ScanResult, chans: list[Channel]) -> TopicInfo:
 
 
 def _decode_channel(
-    path: str, scan: ScanResult, ch: Channel, decoders: Decoders
+    path: str, scan: ScanResult, ch: Channel, decoders: Decoders, keep: ColumnFilter | None = None
 ) -> tuple[pl.DataFrame | None, Problem | None]:
     """Decode one channel; return (frame or None when undecodable, what was lost)."""
     msgs = scan.messages.get(ch.id, ChannelMessages())
@@ -306,6 +322,8 @@ def _decode_channel(
         note += f" (first error: {decoded.error})" if decoded.error else ""
         problem = Problem(ProblemKind.DROPPED_MESSAGES, ch.topic, *span, count=lost, message=note)
     frame = decoded.frame
+    if keep is not None:
+        frame = frame.select([c for c in frame.columns if keep(ch.topic, c)])
     if TIME_COLUMN in frame.columns:  # a field named like our time column keeps its value
         frame = frame.rename({TIME_COLUMN: f"{TIME_COLUMN}.field"})
     return frame.insert_column(0, t_ns) if frame.width else pl.DataFrame([t_ns]), problem

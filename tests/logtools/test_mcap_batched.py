@@ -101,3 +101,15 @@ def test_a_corrupt_chunk_sends_the_file_back_to_the_whole_read(
     assert any(
         p.kind.name in ("CHUNK_ERROR", "LOST_CHUNK", "LOST_MESSAGES") for p in batched_read.problems
     )
+
+
+def test_a_column_filter_reads_alike(monkeypatch: pytest.MonkeyPatch, batched: list[bool]) -> None:
+    path = ROOT / "sample_logs" / "tt_mixed_ros2.mcap"
+
+    def keep(topic: str, column: str) -> bool:
+        return ".covariance." not in column and not (topic == "/pose" and column.endswith("z"))
+
+    lean = _read(path, 1, monkeypatch, keep=keep)
+    _same(lean, _read(path, 2**62, monkeypatch, keep=keep))
+    assert batched[0]
+    assert not any(".covariance." in c for f in lean.topics.values() for c in f.columns)
