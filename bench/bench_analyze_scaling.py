@@ -8,8 +8,8 @@ CPU seconds per simulated hour (linear scaling: constant per hour).
 
 Usage: python bench/bench_analyze_scaling.py [--minutes 10 60 240] [--repeat 3]
        [--discovery-minutes 10 60 240] [--discovery-repeat 3] [--profile]
-(the issue-14 figures: --minutes 10 60 240 --discovery-minutes 10 60 240; ~8 min, a 4-hour log
-needs ~1.5 GB)
+(the issue-14 figures: --minutes 10 60 240 --discovery-minutes 10 60 240; ~4 min, a 4-hour log
+needs ~1 GB)
 --profile: one cProfile of the shortest log with discovery, top functions by internal time.
 """
 
