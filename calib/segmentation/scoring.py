@@ -41,6 +41,9 @@ class Scorer:
     def __init__(self, t: np.ndarray, y: np.ndarray, step: int, sigma: float) -> None:
         self.t, self.y, self.step, self.sigma = t, y, step, sigma
         self.log_n = float(np.log(max(t.size / step, 2)))
+        # merging and refining ask for the same stretches again (a boundary that does not
+        # move is rescored on both sides); a fit depends on (a, b, allow_other) alone
+        self._best: dict[tuple[int, int, bool], tuple[TemplateFit, float]] = {}
 
     def best_xy(
         self, tt: np.ndarray, yy: np.ndarray, weight: float, allow_other: bool = True
@@ -82,8 +85,12 @@ class Scorer:
 
     def best(self, a: int, b: int, allow_other: bool = True) -> tuple[TemplateFit, float]:
         """Lowest-BIC template on decimated samples [a, b), thinned to the merge grid."""
-        sl = slice(a, b, self.thin(a, b))
-        return self.best_xy(self.t[sl] - self.t[a], self.y[sl], self.weight(a, b), allow_other)
+        key = (a, b, allow_other)
+        if key not in self._best:
+            sl = slice(a, b, self.thin(a, b))
+            tt, yy = self.t[sl] - self.t[a], self.y[sl]
+            self._best[key] = self.best_xy(tt, yy, self.weight(a, b), allow_other)
+        return self._best[key]
 
 
 def score(seg: Piece, sc: Scorer, allow_other: bool = True) -> Piece:
