@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -11,6 +12,7 @@ import polars as pl
 from logtools.problems import Problem, ProblemKind
 
 __all__ = [
+    "DROPPED_COLUMNS",
     "TIME_COLUMN",
     "ColumnFilter",
     "LogData",
@@ -25,6 +27,13 @@ TIME_COLUMN = "t_ns"
 
 ColumnFilter = Callable[[str, str], bool]
 """(topic, flattened column name) -> whether a reader keeps that column."""
+
+DROPPED_COLUMNS: ContextVar[Callable[[str], bool] | None] = ContextVar(
+    "logcal_dropped_columns", default=None
+)
+"""While a channel is decoded: column name -> whether the reader will drop it. A decoder may
+skip building those columns (``cdr_bulk`` does, for array items); the reader drops them either
+way, so a decoder that ignores this gives the same frames."""
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ import numpy as np
 import polars as pl
 from mcap.records import Schema
 
+from logtools.readers.base import DROPPED_COLUMNS
 from logtools.readers.mcap_scan import Payloads
 
 __all__ = ["decode_cdr_bulk", "max_array_items"]
@@ -407,7 +408,10 @@ def _numeric_array(data: _Payloads, at: Offset, f: _Field, columns: list[_Column
         first = np.where(count > 0, first, at)  # an empty sequence is not aligned
     end = first + count * size
     data.check(end)
+    dropped = DROPPED_COLUMNS.get()  # items the reader drops are not built at all
     for i in range(min(int(count.max(initial=0)), _MAX_ARRAY_ITEMS)):
+        if dropped is not None and dropped(f"{f.path}.{i}"):
+            continue
         present = count > i
         sel = None if bool(present.all()) else np.flatnonzero(present)
         base = first[sel] if sel is not None and isinstance(first, np.ndarray) else first

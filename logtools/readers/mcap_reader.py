@@ -12,6 +12,7 @@ from mcap.records import Channel, ChunkIndex, Statistics
 from logtools.errors import NotAnMcapError, UnknownEncodingError
 from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import (
+    DROPPED_COLUMNS,
     TIME_COLUMN,
     ColumnFilter,
     LogData,
@@ -303,6 +304,7 @@ def _decode_channel(
         )
     if not len(msgs.payloads):
         return pl.DataFrame([t_ns]), None
+    hint = DROPPED_COLUMNS.set(None if keep is None else lambda c: not keep(ch.topic, c))
     try:
         decoded = decode(scan.schemas.get(ch.schema_id), ch, msgs.payloads)
     except ValueError as err:
@@ -314,6 +316,8 @@ def _decode_channel(
             count=n,
             message=f"{where}: {n} messages not decoded: {err}",
         )
+    finally:
+        DROPPED_COLUMNS.reset(hint)
     problem = None
     if decoded.kept is not None:
         t_ns = t_ns.gather(decoded.kept)

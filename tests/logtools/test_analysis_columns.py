@@ -49,3 +49,17 @@ def test_a_channel_map_naming_a_covariance_keeps_them() -> None:
     assert not drop("/odom", "pose.covariance.0")
     assert drop("/odom", "pose.pose.position.x")
     assert drop("/odom", "covariance_note")  # only numbered matrix entries are left out
+
+
+def test_columns_skipped_while_decoding_equal_columns_dropped_after() -> None:
+    """The ROS 2 bulk decoder skips the array items the filter drops (``DROPPED_COLUMNS``);
+    the frames equal a full read with those columns selected away."""
+    keep = analysis_columns()
+    assert keep is not None
+    lean = read_log(ROS2_LOG, keep=keep)
+    full = read_log(ROS2_LOG)
+    for topic, frame in full.topics.items():
+        assert_frame_equal(
+            lean.topics[topic],
+            frame.select([c for c in frame.columns if c == "t_ns" or keep(topic, c)]),
+        )
