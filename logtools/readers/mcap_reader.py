@@ -119,9 +119,11 @@ def read_mcap_batched(
 
     Qualifies: a readable summary with statistics, chunk indexes and an index entry for every
     metadata record; more decompressed bytes than one batch; a decoder for every channel's
-    encoding. Falls back (None) when a batch finds damage, a decoder drops messages, or the
-    messages read differ from the counts the statistics give (a message outside the listed
-    chunks, a summary that disagrees).
+    encoding. Falls back (None) when a batch finds damage, a channel id defined twice or a
+    message of an unknown channel, a decoder drops messages, or the messages read differ from
+    the counts the statistics give (a message outside the listed chunks, a summary that
+    disagrees). A second file appended after the footer leaves no readable summary (a footer
+    inside it), so it is read whole and reported.
     """
     if size < len(MAGIC) + 64:
         return None
@@ -245,8 +247,8 @@ def _decode_batch(
     channel); False on damage or lost messages. Its own function so that nothing refers to
     the batch's decompressed chunks once it returns."""
     scan = scan_chunks(buf, probe, batch)
-    if scan.damage.any or set(scan.messages) - set(scan.channels):
-        return False
+    if scan.damage.any or scan.channel_conflicts or set(scan.messages) - set(scan.channels):
+        return False  # the whole read reports damage, reused channel ids, unknown channels
     for cid, msgs in scan.messages.items():
         times.setdefault(cid, []).append(msgs.log_times)
         ch = scan.channels[cid]

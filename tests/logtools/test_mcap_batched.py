@@ -113,3 +113,16 @@ def test_a_column_filter_reads_alike(monkeypatch: pytest.MonkeyPatch, batched: l
     _same(lean, _read(path, 2**62, monkeypatch, keep=keep))
     assert batched[0]
     assert not any(".covariance." in c for f in lean.topics.values() for c in f.columns)
+
+
+def test_two_files_appended_are_read_whole(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, batched: list[bool]
+) -> None:
+    """The last footer then belongs to the second file: its summary offset points into the
+    first, where the summary read finds a footer; the whole read reports the concatenation."""
+    data = (ROOT / "sample_logs" / "tt_mixed.mcap").read_bytes()
+    path = tmp_path / "twice.mcap"
+    path.write_bytes(data + data)
+    log = _read(path, 1, monkeypatch)
+    assert batched == [False]
+    assert any(p.kind.name == "CONCATENATED" for p in log.problems)
