@@ -364,8 +364,11 @@ def scan_chunks(buf: _Buffer, summary: ScanResult, chunks: Sequence[ChunkIndex])
     scan = _Scan(result, frozenset(c.chunk_start_offset for c in chunks))
     _plan_arena(scan)
     for ci in chunks:
+        end = ci.chunk_start_offset + ci.chunk_length
         try:
-            _read_chunk(buf, ci.chunk_start_offset, ci.chunk_start_offset + ci.chunk_length, scan)
+            if end > len(buf) or buf[ci.chunk_start_offset] != Opcode.CHUNK:
+                raise _CorruptRecordError  # the index points at something else
+            _read_chunk(buf, ci.chunk_start_offset, end, scan)
         except _CorruptRecordError:
             result.damage.lost_chunks.append((ci.message_start_time, ci.message_end_time))
     _finish(scan)
