@@ -90,12 +90,9 @@ def read_log(
         if not stat.S_ISREG(st.st_mode):
             raise NotAnMcapError(name, f"it is not a regular file ({_file_kind(st.st_mode)})")
         if st.st_size >= _BATCHED_MIN_BYTES:  # a large intact MCAP: a batch at a time
-            with open(p, "rb", buffering=0) as fh:
-                head = fh.read(len(MAGIC))
-            if head == MAGIC:
-                batched = read_mcap_batched(name, st.st_size, topics, decoders, keep)
-                if batched is not None:
-                    return batched
+            batched = read_mcap_batched(name, st.st_size, topics, decoders, keep)
+            if batched is not None:
+                return batched
         # unbuffered: the whole-file read is then one allocation of the file's size (through
         # a buffered reader it grows a second copy, twice the file for a moment)
         with open(p, "rb", buffering=0) as fh:

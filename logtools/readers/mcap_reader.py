@@ -106,8 +106,8 @@ def read_mcap_batched(
     keep: ColumnFilter | None = None,
 ) -> LogData | None:
     """Read a large, intact MCAP file ``BATCH_BYTES`` of chunks at a time, never holding the
-    whole file; None when the file does not qualify (the caller then reads it whole, which
-    also reports any damage).
+    whole file; None when the file does not qualify or is not MCAP (the caller then reads it
+    whole, which also reports any damage).
 
     Reading whole holds the file's bytes and every decompressed chunk until the last channel
     is decoded: for a 1 M-message JSON log, 36 MB of file and 75 MB of chunks beside 21 MB of
@@ -127,8 +127,10 @@ def read_mcap_batched(
     """
     if size < len(MAGIC) + 64:
         return None
-    amap = mmap.mmap(-1, size)  # anonymous: only the pages written take memory
     with open(path, "rb", buffering=0) as fh:
+        if fh.read(len(MAGIC)) != MAGIC:
+            return None  # not MCAP: the caller reads it as what it is
+        amap = mmap.mmap(-1, size)  # anonymous: only the pages written take memory
 
         def load(start: int, end: int) -> bool:
             fh.seek(start)
@@ -139,7 +141,7 @@ def read_mcap_batched(
                 view.release()
 
         tail = min(size, 4096)
-        if not (load(0, len(MAGIC)) and load(size - tail, size)):
+        if not load(size - tail, size):
             return None
         summary_start = summary_offset(amap)
         if not summary_start or not load(summary_start, size):
