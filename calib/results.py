@@ -259,7 +259,8 @@ class StageStatus(JsonRecord):
 class AnalysisResult:
     """Everything ``logcal analyze`` found in one log; ``to_dict()`` is the ``--json`` document.
 
-    ``discovery`` is the model-mismatch result (any object with ``to_dict()``), ``truth`` the
+    ``discovery`` is the model-mismatch result (any object with ``to_dict()``), ``adequacy``
+    the verdict on whether the model explains the log (``calib.adequacy.Adequacy``), ``truth`` the
     true parameters when the log carries them (simulated logs), ``source`` facts about the file.
     ``stages`` says how each stage ended. For several runs of one robot, ``estimate`` is the
     pooled one and ``runs`` holds each run's own analysis. ``sections`` holds a robot's own
@@ -274,6 +275,8 @@ class AnalysisResult:
     methods: list[Any]
     estimate: CalibrationResult | None
     discovery: Any = None
+    adequacy: Any = None
+    """``calib.adequacy.Adequacy``: whether the model explains the log (None: not assessed)."""
     truth: Mapping[str, float] = field(default_factory=dict)
     source: Mapping[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
@@ -299,6 +302,10 @@ class AnalysisResult:
                 "segments": [s.to_dict() for s in self.segments],
                 "methods": [m.to_dict() for m in self.methods],
                 "estimate": None if self.estimate is None else self.estimate.to_dict(),
+                "adequacy": (
+                    {"verdict": "not assessed", "reason": "this analysis did not judge its model"}
+                    if self.adequacy is None else self.adequacy.to_dict()
+                ),
                 "discovery": None if self.discovery is None else self.discovery.to_dict(),
                 "truth": dict(self.truth),
                 "warnings": list(self.warnings),

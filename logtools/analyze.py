@@ -96,6 +96,27 @@ def analyze_loaded(
         return plugin.analyze(loaded, config or AnalysisConfig(), progress or _noop)
 
 
+def _pooled_adequacy(pooled: AnalysisResult) -> AnalysisResult:
+    """A pooled result whose plugin set no adequacy gets the runs' combined verdict, and a pooled
+    estimate over runs its model does not explain is widened and not determined (a tight pooled
+    interval over a misfit is the worst kind: pooling shrinks it further)."""
+    if pooled.adequacy is not None or not pooled.runs:
+        return pooled
+    from calib.adequacy import combine_runs, under_misfit_all
+
+    names = [str(r.source.get("path", f"run {i}")) for i, r in enumerate(pooled.runs, 1)]
+    model = pooled.estimate.method if pooled.estimate is not None else "each run's model"
+    adequacy = combine_runs(list(zip(names, [r.adequacy for r in pooled.runs], strict=True)),
+                            model)
+    estimate = pooled.estimate
+    if estimate is not None and adequacy.channels and not adequacy.explains:
+        estimate = replace(
+            estimate, parameters=under_misfit_all(estimate.parameters, adequacy),
+            verdict=estimate.verdict + " " + adequacy.summary,
+        )
+    return replace(pooled, adequacy=adequacy, estimate=estimate)
+
+
 def analyze_logs(
     paths: Sequence[str | os.PathLike[str]],
     *,
@@ -150,6 +171,7 @@ def analyze_logs(
                       "on its own"],
             runs=[r for _, r in runs],
         )
+    pooled = _pooled_adequacy(pooled)
     return [lo for lo, _ in runs], replace(
         pooled,
         source={**pooled.source, "errors": [str(e) for e in errors]},

@@ -50,7 +50,7 @@ import math
 import re
 import tomllib
 from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -99,7 +99,9 @@ __all__ = [
     "ResolvedSignals",
     "is_logical_signal",
     "load_channel_map",
+    "parse_signal_option",
     "resolve_signals",
+    "with_signal_options",
 ]
 
 LOGICAL_SIGNALS: tuple[str, ...] = (*(s for s in SIGNAL_UNITS if s != "kappa"), "q", "qd", "tau")
@@ -333,6 +335,58 @@ def load_channel_map(path: str | Path) -> ChannelMap:
         signals[name] = src
     _check_formula_cycles(file, signals)
     return ChannelMap(signals, frozenset(off), robot, tf_frame, file)
+
+
+SIGNAL_OPTION = "--signal"
+"""Where ``--signal`` entries say they were written (the ``file`` of their errors)."""
+
+
+def parse_signal_option(text: str, robot: RobotConfig | None = None) -> tuple[str, SignalSource]:
+    """One ``--signal NAME=TOPIC:FIELD[:UNIT]`` into ``(NAME, source)``, the same entry as
+    ``[signals.NAME] topic = TOPIC, field = FIELD, unit = UNIT`` of a channel-map TOML.
+
+    The third part may also name a transform (``yaw_from_quaternion``, ``deg_to_rad``). A
+    CSV log's topic is ``csv`` (``--signal v=csv:speed_kmh:km/h``).
+
+    Raises:
+        ChannelMapEntryError: the text is not ``NAME=TOPIC:FIELD[:UNIT]``, or the entry is
+            wrong as a channel-map entry would be (the message names ``--signal`` and the key).
+    """
+    name, eq, rest = text.partition("=")
+    name = name.strip()
+    parts = [p.strip() for p in rest.split(":")] if eq else []
+    if not name or len(parts) not in (2, 3) or not all(parts):
+        raise ChannelMapEntryError(
+            SIGNAL_OPTION, f"signals.{name or '?'}",
+            f"{text!r} is not NAME=TOPIC:FIELD[:UNIT]; e.g. --signal psi=/hitch:data:deg or "
+            "--signal yaw=/mocap/pose:pose.orientation:yaw_from_quaternion",
+        )
+    entry: dict[str, Any] = {"topic": parts[0], "field": parts[1]}
+    if len(parts) == 3:
+        entry["transform" if parts[2] in TRANSFORMS else "unit"] = parts[2]
+    src = _entry(SIGNAL_OPTION, name, entry, robot or RobotConfig())
+    assert src is not None  # an entry with topic and field is never "off"
+    return name, src
+
+
+def with_signal_options(
+    cmap: ChannelMap | None, options: list[str] | tuple[str, ...]
+) -> ChannelMap | None:
+    """``cmap`` (a channel map or None) with ``--signal`` entries added; an entry of the same
+    name replaces the map's (the command line wins), and switches an ``off`` back on.
+
+    Raises:
+        ChannelMapEntryError: an entry is malformed (see :func:`parse_signal_option`).
+    """
+    if not options:
+        return cmap
+    base = cmap if cmap is not None else ChannelMap()
+    signals = dict(base.signals)
+    for text in options:
+        name, src = parse_signal_option(text, base.robot)
+        signals[name] = src
+    path = f"{base.path} + {SIGNAL_OPTION}" if base.path else SIGNAL_OPTION
+    return ChannelMap(signals, base.off - set(signals), base.robot, base.tf_frame, path)
 
 
 def _robot_table(file: str, table: object) -> RobotConfig:
@@ -976,9 +1030,23 @@ def _extract_user(log: LogData, name: str, src: SignalSource) -> pl.DataFrame:
     return _post(_signal_frame(frame, value, time), src)
 
 
+def _topic_pattern(log: LogData, src: SignalSource) -> SignalSource | None:
+    """A default source whose topic starts with ``*`` (``*/odom``) names the first topic (in
+    sorted order) ending with the rest; None when the log has none. Other sources as given."""
+    if not src.topic.startswith("*"):
+        return src
+    suffix = src.topic[1:]
+    found = sorted(t for t in log.info if t.endswith(suffix) and log.info[t].message_count)
+    return replace(src, topic=found[0]) if found else None
+
+
 def _extract_default(
     log: LogData, name: str, src: SignalSource
 ) -> tuple[pl.DataFrame, SignalSource] | None:
+    pattern = _topic_pattern(log, src)
+    if pattern is None:
+        return None
+    src = pattern
     frame = _topic_frame(log, src.topic)
     if frame is None:
         return None

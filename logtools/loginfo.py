@@ -10,11 +10,11 @@ from typing import Any
 
 from calib.results import json_safe
 from logtools.align import Gap, find_gaps
-from logtools.channel_map import FlatSignal, resolve_signals
+from logtools.channel_map import FlatSignal
 from logtools.curvature import KappaCmdOrigin
 from logtools.errors import NoDriveSignalsError
-from logtools.load import gap_notes
-from logtools.readers import TopicInfo, read_log
+from logtools.load import gap_notes, read_and_resolve
+from logtools.readers import TopicInfo
 from logtools.robot import explain_robot
 from logtools.safe_text import printable
 from logtools.signals import SignalSource
@@ -185,8 +185,7 @@ def summarize_log(
     Raises:
         LogcalInputError: the log cannot be read or a signal cannot be repaired.
     """
-    log = read_log(path)
-    resolved = resolve_signals(log, channel_map)
+    log, resolved = read_and_resolve(path, channel_map)  # a LoadRequest: crop, ground truth
     try:
         robot, reason = explain_robot(log, resolved)
         robot_name: str | None = robot

@@ -1,6 +1,8 @@
-"""Readable terminal report of an ``AnalysisResult`` (rich): a header, the robot plugin's own
-part (its ``report``), the recommended estimate, the stages that did not run, discovery and
-notes. The same frame for every robot."""
+"""Readable terminal report of an ``AnalysisResult`` (rich), the answer first: a header, the
+recommended estimate, whether the model explains the log (adequacy) and what discovery found;
+then the robot plugin's own part (its ``report``: method tables, diagnostics), the stages that
+did not run and notes. The same frame for every robot. Text from logs and parameter names are
+passed as plain ``Text`` (never markup), so ``Fc[joint1]`` prints as written."""
 
 from __future__ import annotations
 
@@ -10,8 +12,9 @@ from rich.table import Table
 from rich.text import Text
 
 from calib.results import PM_MEANING, AnalysisResult, Estimate
+from logtools.adequacy_report import adequacy_text
 from logtools.robots import plugin_for
-from logtools.safe_text import printable
+from logtools.safe_text import printable, printable_lines
 
 __all__ = ["print_analysis", "render_analysis"]
 
@@ -34,27 +37,36 @@ def _runs_table(result: AnalysisResult) -> Table:
         for name, e in (r.estimate.parameters.items() if r.estimate else ()):
             units.setdefault(name, e.unit)
     for col in ("run", "estimate", *(f"{n} ({units[n]})" for n in names), "stages not run"):
-        table.add_column(col)
+        table.add_column(Text(printable(col)))
     for r in result.runs:
         skipped = ", ".join(s.stage for s in r.stages if s.status != "ok") or "-"
         params = r.estimate.parameters if r.estimate else {}
         table.add_row(
-            printable(r.source.get("path", "")),
-            r.estimate.method if r.estimate else "none",
-            *(_ci(params[n]) if n in params else "-" for n in names),
-            skipped,
+            Text(printable(r.source.get("path", ""))),
+            Text(printable(r.estimate.method if r.estimate else "none")),
+            *(Text(_ci(params[n]) if n in params else "-") for n in names),
+            Text(printable(skipped)),
         )
     return table
 
 
-def _tail(result: AnalysisResult, parts: list[RenderableType], title: str) -> None:
+def _answer(result: AnalysisResult, parts: list[RenderableType], title: str) -> None:
+    """The recommended estimate and the adequacy verdict: what a person reads first."""
     if result.estimate is not None:
-        parts.append(
-            Panel(result.estimate.report() + "\n  " + PM_MEANING, title=title, expand=False)
-        )
+        body = Text(printable_lines(result.estimate.report()))
+        body.append("\n  " + PM_MEANING, style="dim")
+        parts.append(Panel(body, title=title, expand=False))
+    elif result.runs and any(r.estimate is not None for r in result.runs):
+        parts.append(Text("No pooled estimate: each run's own estimate is in the table above.",
+                          style="yellow"))
     else:
         parts.append(Text("No estimate: no calibration stage could run (see below).",
                           style="bold red"))
+    if result.adequacy is not None:
+        parts.append(adequacy_text(result.adequacy))
+
+
+def _tail(result: AnalysisResult, parts: list[RenderableType]) -> None:
     not_ok = [s for s in result.stages if s.status != "ok"]
     if not_ok:
         parts.append(
@@ -70,7 +82,7 @@ def _tail(result: AnalysisResult, parts: list[RenderableType], title: str) -> No
         text = result.discovery.report()
         if not isinstance(text, str):  # a list of lines
             text = "\n".join(text)
-        parts.append(Panel(Text(text), title="Model mismatch", expand=False))
+        parts.append(Panel(Text(printable_lines(text)), title="Model mismatch", expand=False))
     if result.warnings:
         parts.append(Text("Notes:\n" + "\n".join(f"- {printable(w)}" for w in result.warnings),
                           style="dim"))
@@ -90,8 +102,9 @@ def render_analysis(result: AnalysisResult) -> RenderableType:
     if src.get("signals"):
         found = ", ".join(f"{k} <- {printable(v)}" for k, v in src["signals"].items())
         parts.append(Text("signals: " + found))
+    _answer(result, parts, "Recommended estimate")
     parts += plugin_for(result.robot).report(result)
-    _tail(result, parts, "Recommended estimate")
+    _tail(result, parts)
     return Group(*parts)
 
 
@@ -104,7 +117,8 @@ def _render_pooled(result: AnalysisResult) -> RenderableType:
         ),
         _runs_table(result),
     ]
-    _tail(result, parts, "Recommended estimate (all runs pooled)")
+    _answer(result, parts, "Recommended estimate (all runs pooled)")
+    _tail(result, parts)
     return Group(*parts)
 
 

@@ -1,12 +1,17 @@
 """Command-line log arguments to a list of runs: files as given, folders expanded.
 
 A folder holding a ``metadata.yaml`` is one rosbag2 run; any other folder contributes its
-logs (``.mcap``, ``.csv``, ``.bag``, and rosbag2 folders below it), sorted by name.
+logs (``.mcap``, ``.csv``, ``.bag``, and rosbag2 folders below it), sorted by name. The walk
+never follows a link to a folder, lists regular files only (a FIFO named ``x.csv`` is not a
+log), and a folder it cannot list (deeper than ``PATH_MAX``, no permission) is a clean error
+naming it, not a traceback. (``logcal batch`` walks archives with
+:func:`logtools.batch.archive.find_logs`, which also refuses links to files.)
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import os
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from logtools.errors import LogcalInputError
@@ -19,6 +24,41 @@ LOG_SUFFIXES = (".mcap", ".csv", ".bag")
 
 def _is_rosbag2(p: Path) -> bool:
     return p.is_dir() and (p / "metadata.yaml").is_file()
+
+
+def _walk(folder: Path) -> list[Path]:
+    """The logs below ``folder`` (links to folders not followed).
+
+    Raises:
+        LogcalInputError: a folder below it cannot be listed.
+    """
+    def _fail(err: OSError) -> None:
+        raise LogcalInputError(f"{err.filename}: cannot list this folder "
+                               f"({err.strerror or err})") from err
+
+    try:
+        return _walk_unchecked(folder, _fail)
+    except OSError as err:  # a path too long to test (ENAMETOOLONG) below a listed folder
+        _fail(err)
+        raise
+
+
+def _walk_unchecked(folder: Path, fail: Callable[[OSError], None]) -> list[Path]:
+    found: list[Path] = []
+    for here, dirs, files in os.walk(folder, onerror=fail, followlinks=False):
+        base = Path(here)
+        if base != folder and _is_rosbag2(base):
+            dirs[:] = []
+            continue
+        for d in dirs:
+            if _is_rosbag2(base / d) and not (base / d).is_symlink():
+                found.append(base / d)
+        for f in files:
+            q = base / f
+            if (q.suffix.lower() in LOG_SUFFIXES and q.is_file() and not _is_rosbag2(base)
+                    and not is_optiodom_metadata(q)):
+                found.append(q)
+    return found
 
 
 def expand_runs(paths: Sequence[Path]) -> list[Path]:
@@ -34,12 +74,7 @@ def expand_runs(paths: Sequence[Path]) -> list[Path]:
         if p.is_file() or _is_rosbag2(p):
             out.append(p)
             continue
-        found = sorted(
-            q for q in p.rglob("*")
-            if (q.is_file() and q.suffix.lower() in LOG_SUFFIXES
-                and not _is_rosbag2(q.parent) and not is_optiodom_metadata(q))
-            or _is_rosbag2(q)
-        )
+        found = sorted(_walk(p))
         if not found:
             raise LogcalInputError(
                 f"{p}: the folder holds no log ({', '.join(LOG_SUFFIXES)} files or rosbag2 "

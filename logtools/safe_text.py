@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["printable"]
+__all__ = ["printable", "printable_lines"]
 
 _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f\u202a-\u202e\u2066-\u2069]")
 
@@ -22,3 +22,9 @@ def printable(text: object) -> str:
     """``str(text)`` with every control or bidi-override character replaced by a visible
     escape (``\\x1b``, ``\\n``, ``\\u202e``); ordinary text (including non-ASCII) unchanged."""
     return _CONTROL.sub(_escape, str(text))
+
+
+def printable_lines(text: object) -> str:
+    """Several lines of our own text (which may quote a log's names): each line made
+    :func:`printable`, the line breaks kept."""
+    return "\n".join(printable(line) for line in str(text).split("\n"))

@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.special import chdtrc
 
+from calib.adequacy.whiteness import ljung_box
 from calib.discovery.data import DiscoveryData
 from calib.results import Segment, json_safe
 
@@ -31,19 +31,6 @@ FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
 UNITS = {"omega": "rad/s", "psi": "rad"}
-
-
-def ljung_box(r: FloatArray, lags: int = 20) -> tuple[float, float]:
-    """Ljung-Box statistic Q and its p-value (chi-square, ``lags`` dof) for whiteness of ``r``."""
-    x = np.asarray(r, dtype=float) - np.mean(r)
-    n = x.size
-    lags = max(1, min(lags, n // 4))
-    den = float(np.dot(x, x))
-    if den <= 0:
-        return 0.0, 1.0
-    rho = np.array([np.dot(x[k:], x[:-k]) / den for k in range(1, lags + 1)])
-    q = float(n * (n + 2) * np.sum(rho**2 / (n - np.arange(1, lags + 1))))
-    return q, float(chdtrc(lags, q))  # chi2(lags).sf(q), without importing scipy.stats
 
 
 def cross_correlations(

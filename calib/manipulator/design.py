@@ -39,6 +39,9 @@ __all__ = [
     "Term",
     "coulomb",
     "make_design",
+    "term_column",
+    "term_name",
+    "term_unit",
 ]
 
 Array = NDArray[np.float64]
@@ -74,6 +77,21 @@ ALTERNATIVES = {Term.COULOMB: Term.COULOMB_SMOOTH, Term.COULOMB_SMOOTH: Term.COU
 def coulomb(qd: Array, scale: float = COULOMB_SMOOTHING) -> Array:
     """Coulomb friction's shape: ``tanh(qd / scale)``."""
     return np.tanh(qd / scale)
+
+
+def term_name(term: Term, joint: str) -> str:
+    """The parameter name of ``term`` at ``joint`` (``Fc[Joint1]``); ``payload`` for the payload."""
+    return "payload" if term is Term.PAYLOAD else f"{_PREFIX[term]}[{joint}]"
+
+
+def term_unit(term: Term) -> str:
+    """The unit of ``term``'s coefficient."""
+    return "kg" if term is Term.PAYLOAD else _UNIT[term]
+
+
+def term_column(term: Term, qd: Array) -> Array | float:
+    """The per-joint column of a friction or offset term (its coefficient's multiplier)."""
+    return _term_column(term, qd)
 
 
 def _term_column(term: Term, qd: Array) -> Array | float:

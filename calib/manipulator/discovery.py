@@ -1,54 +1,654 @@
-"""Model-mismatch discovery for arms: which catalogue term did the log's model leave out?
+"""Model-mismatch discovery for arms, through the shared selection engine
+(:func:`calib.adequacy.select_effects`): which physics did the log's model leave out?
 
-Catalogue: ``coulomb_friction``, ``coulomb_friction_smooth`` (its alternative with a 0.1 rad/s
-velocity scale: when the model holds one, the other is tried *in its place*), ``viscous_friction``,
-``torque_offset`` (per joint) and ``payload_mass`` (a point mass at the tool point). The baseline
-is the model the log declares (its ``logcal`` metadata ``model_terms``; without one, the rigid
-body alone). Forward selection: each term not in the model is added in turn, fitted on the first
-60 % (momentum windows, WLS with Newey-West intervals) and judged on the last 40 % (held-out
-torque RMS). A term is named only when
-some coefficient's 95 % interval excludes 0 *and* the held-out RMS falls by at least
-``MIN_IMPROVEMENT``; the best such term joins the model and the rest are tried again.
+Catalogue (:func:`arm_catalogue`, one :class:`~calib.adequacy.EffectSpec` per joint where the
+effect is a joint's):
 
-A payload changes only the last link's base parameters, so against a fitted rigid body it is
-absorbed, not seen: it is tested only against a nominal rigid body (``nominal``: the link
-parameters the log declares), and reported as untestable otherwise.
+* ``coulomb_friction(J)``, ``coulomb_friction_smooth(J)`` (its alternative with a 0.1 rad/s
+  velocity scale: when the model holds one, the other is fitted *in its place*),
+  ``viscous_friction(J)``, ``torque_offset(J)``: one column each;
+* ``payload_mass(tool)``: a point mass at the tool point, only against a nominal rigid body (the
+  link parameters the log declares): against a fitted rigid body it is regrouped into the last
+  link's base parameters and cannot be seen (a payload picked up *mid-log* is a parameter change,
+  :mod:`calib.manipulator.adequacy`);
+* ``actuator_delay(tau)``: the torque acts ``d`` seconds after it is logged (a current-based
+  torque estimate, a bus delay): the model's torque at ``t + d`` is compared with the logged
+  torque at ``t``;
+* ``actuator_lag(tau)``: the torque acts through a first-order lag of time constant ``T``
+  (``tau_act + T tau_act' = tau_logged``); to first order the same as a delay ``d = T``, so the two
+  are confounded on slow motion and listed as alternatives;
+* ``joint_compliance(J)``: an elastic joint whose encoder sits on the motor side: the link is at
+  ``q_J - c tau_J`` (``c = 1/k``, rad/(N·m)). The regressor is linearised in ``c`` about the fitted
+  parameters (a Gauss-Newton column, ``-d(Y theta)/dq_J tau_J``, by a central difference along
+  the torque), which the batch WLS fits with everything else. A compliant joint and a payload
+  both change the gravity torque with the load, so they are declared confounded.
+
+The fitter (:class:`ArmFitter`) fits the baseline model (the terms the log declares, the rigid
+body fitted or nominal) plus a set of effects on the first 60 % of the log (momentum windows,
+WLS with Newey-West intervals; a delay or lag by a bounded 1-D search with the linear parameters
+solved inside, its interval from the Gauss-Newton column at the optimum) and predicts the logged
+torque on the last 40 % at the logged stamps. Residuals are divided by each joint's noise floor
+(:mod:`calib.manipulator.adequacy`) so that joints in different units add. The engine accepts an
+effect when its intervals exclude the null, the held-out fit improves and the BIC falls, and names
+confounds (explanations within the BIC margin that imply different parameters).
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.integrate import cumulative_trapezoid
+from scipy.optimize import minimize_scalar
+from scipy.signal import lfilter
 
+from calib.adequacy import (
+    EXPLAINS_RATIO,
+    EffectKind,
+    EffectParam,
+    EffectSpec,
+    ModelFit,
+    Selection,
+    noise_floor,
+    select_effects,
+)
 from calib.errors import CalibError
-from calib.manipulator.design import ALTERNATIVES, Term, make_design
-from calib.manipulator.identify import IdentifyConfig, fit_holdout
+from calib.manipulator.design import (
+    ALTERNATIVES,
+    Design,
+    Term,
+    make_design,
+    term_column,
+    term_name,
+    term_unit,
+)
+from calib.manipulator.estimators import batch_wls
+from calib.manipulator.identify import IdentifyConfig
 from calib.manipulator.model import ArmModel
-from calib.manipulator.rows import compute_regressors
+from calib.manipulator.rows import Regressors, compute_regressors
 from calib.manipulator.signals import JointSignals
 from calib.results import Estimate
 
-__all__ = ["CATALOGUE", "MIN_IMPROVEMENT", "ArmDiscovery", "EffectFinding", "discover_arm"]
+__all__ = [
+    "COMPLIANCE",
+    "DELAY",
+    "LAG",
+    "MAX_COMPLIANCE_JOINTS",
+    "ArmDiscovery",
+    "ArmFit",
+    "ArmFitter",
+    "EffectFinding",
+    "arm_catalogue",
+    "discover_arm",
+    "noise_timescale",
+]
 
 Array = NDArray[np.float64]
 
-CATALOGUE: tuple[Term, ...] = (
-    Term.COULOMB,
-    Term.COULOMB_SMOOTH,
-    Term.VISCOUS,
-    Term.OFFSET,
-    Term.PAYLOAD,
-)
-MIN_IMPROVEMENT = 0.05
-"""Relative fall of the held-out torque RMS a term must bring to be named."""
+DELAY = "actuator_delay"
+LAG = "actuator_lag"
+COMPLIANCE = "joint_compliance"
+TORQUE_TARGET = "tau"
+TOOL_TARGET = "tool"
+DELAY_BOUNDS = (-0.05, 0.1)
+"""Search range of the actuation delay (s): a negative delay is a torque logged late."""
+LAG_BOUNDS = (0.0, 0.1)
+"""Search range of the first-order lag's time constant (s)."""
+COMPLIANCE_STEP_RAD = 1e-3
+"""Largest position change of the central difference along the torque (rad)."""
+COMPLIANCE_ITERATIONS = 6
+"""Gauss-Newton steps of a compliance fit at most (each recomputes the regressors)."""
+MAX_COMPLIANCE_JOINTS = 3
+"""Joint compliance is tried on arms with at most this many joints: each joint's column needs
+the full regressor at two perturbed states along the whole log (memory and time grow with n^2)."""
+
+_TERM_PHYSICS = {
+    Term.COULOMB: "Coulomb friction, tanh(qd / 0.01 rad/s)",
+    Term.COULOMB_SMOOTH: "friction building up over 0.1 rad/s (pre-sliding, lubricated gear)",
+    Term.VISCOUS: "viscous friction",
+    Term.OFFSET: "a constant torque offset (sensor or current-estimate bias)",
+}
+
+
+def noise_timescale(cutoff_hz: float) -> float:
+    """The longest correlation time counted as torque-sensor noise: a tenth of the zero-phase
+    filter's period, ``1 / (10 f_c)``. The model's prediction carries nothing above the cut-off
+    ``f_c``, so what the residual holds at that spacing is what the log's torque holds beyond
+    the model; a smooth model error at up to ``f_c / 2`` leaks under 10 % of its amplitude into
+    the local-line estimate at that spacing (2 ms-step DFKI runs at 10 Hz: spacings 2-10 ms)."""
+    return 0.1 / cutoff_hz
+
+
+def arm_catalogue(
+    joints: Sequence[str], baseline: Sequence[Term] = (), *, nominal: bool = False
+) -> tuple[EffectSpec, ...]:
+    """The arm's catalogue for these joints, leaving out the terms the baseline already has
+    (their alternatives stay: they are fitted in their place)."""
+    out: list[EffectSpec] = []
+    base = set(baseline)
+    for term in (Term.COULOMB, Term.COULOMB_SMOOTH, Term.VISCOUS, Term.OFFSET):
+        if term in base:
+            continue
+        conf = (f"{ALTERNATIVES[term]}",) if term in ALTERNATIVES else ()
+        for j in joints:
+            name = term_name(term, j)
+            out.append(EffectSpec(
+                str(term), j, EffectKind.SENSOR if term is Term.OFFSET else EffectKind.DYNAMICS,
+                (EffectParam(name, term_unit(term), 0.0, -math.inf, math.inf, 0.0),),
+                _TERM_PHYSICS[term], tuple(f"{c}({j})" for c in conf),
+                sim_switch="friction", truth_key=name,
+            ))
+    if nominal:
+        out.append(EffectSpec(
+            str(Term.PAYLOAD), TOOL_TARGET, EffectKind.DYNAMICS,
+            (EffectParam("payload", "kg", 0.0, -math.inf, math.inf, 0.0),),
+            "a point mass held at the tool point",
+            tuple(f"{COMPLIANCE}({j})" for j in joints), sim_switch="payload",
+            truth_key="payload",
+        ))
+    out.append(EffectSpec(
+        DELAY, TORQUE_TARGET, EffectKind.ACTUATOR,
+        (EffectParam("d", "s", 0.0, *DELAY_BOUNDS, 0.0),),
+        "the torque acts d seconds after it is logged", (f"{LAG}({TORQUE_TARGET})",),
+        sim_switch="delay_s", truth_key="delay_s",
+    ))
+    out.append(EffectSpec(
+        LAG, TORQUE_TARGET, EffectKind.ACTUATOR,
+        (EffectParam("T", "s", 0.0, *LAG_BOUNDS, 0.0),),
+        "the torque acts through a first-order lag of time constant T",
+        (f"{DELAY}({TORQUE_TARGET})",), sim_switch="lag_s", truth_key="lag_s",
+    ))
+    if len(joints) <= MAX_COMPLIANCE_JOINTS:
+        for j in joints:
+            out.append(EffectSpec(
+                COMPLIANCE, j, EffectKind.DYNAMICS,
+                (EffectParam(f"c[{j}]", "rad/(N*m)", 0.0, -math.inf, math.inf, 0.0),),
+                "an elastic joint: the encoder reads the motor side, the link is at q - c tau",
+                (f"{Term.PAYLOAD}({TOOL_TARGET})",), sim_switch="compliance",
+                truth_key=f"c[{j}]",
+            ))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
+class ArmFit:
+    """One fit of the fitter: the parameters (``names``, ``theta``, ``std``, ``identifiable``),
+    the effects' estimates, and the logged-torque residual at the logged stamps ``t_s``
+    (``residual`` (S, n); ``train`` marks the samples the fit saw)."""
+
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    theta: Array
+    std: Array
+    identifiable: Array
+    effect_parameters: dict[str, dict[str, Estimate]]
+    t_s: Array
+    residual: Array
+    train: NDArray[np.bool_]
+    condition_number: float
+
+    def estimates(self) -> dict[str, Estimate]:
+        """The robot's parameters as estimates (effects' own parameters excluded)."""
+        out = {}
+        for k, name in enumerate(self.names):
+            ok = bool(self.identifiable[k]) and math.isfinite(float(self.std[k]))
+            v, s = float(self.theta[k]), float(self.std[k]) if ok else math.nan
+            ci = (v - 1.96 * s, v + 1.96 * s) if ok else (math.nan, math.nan)
+            out[name] = Estimate(name, v, s, ci, ok, self.units[k],
+                                 "" if ok else "regressor column nearly a combination of "
+                                 "the others on this log")
+        return out
+
+    def heldout_rms(self) -> Array:
+        """Per-joint RMS of the residual on the samples the fit did not see (NaN: none)."""
+        test = ~self.train
+        if not test.any():
+            return np.full(self.residual.shape[1], math.nan)
+        return np.sqrt(np.mean(self.residual[test] ** 2, axis=0))
+
+
+@dataclass
+class _Assembled:
+    reg: Regressors
+    names: list[str]
+    units: list[str]
+    keep0: NDArray[np.intp]
+    slices: dict[str, list[int]]
+
+
+class ArmFitter:
+    """Fits the arm's baseline model plus effects (see the module docstring); callable as the
+    shared engine's fitter.
+
+    Args:
+        model: the arm. sig: its prepared signals (with the logged stamps and torque).
+        baseline: the terms the model declares. nominal: full rigid-body parameters to hold
+            fixed (None: the rigid body is fitted). config: window, split.
+        floors: per-joint noise floor (N·m); None: estimated from the baseline's residual.
+    """
+
+    def __init__(
+        self,
+        model: ArmModel,
+        sig: JointSignals,
+        baseline: tuple[Term, ...],
+        nominal: Array | None = None,
+        config: IdentifyConfig | None = None,
+        floors: Array | None = None,
+    ) -> None:
+        self.model, self.sig, self.baseline = model, sig, baseline
+        self.nominal = None if nominal is None else np.asarray(nominal, float)
+        self.cfg = config or IdentifyConfig()
+        lo_hi = model.limits() if hasattr(model, "limits") else None
+        self.design: Design = make_design(
+            model, baseline, rigid=self.nominal is None, fixed_rigid=self.nominal, q_range=lo_hi
+        )
+        self.reg = compute_regressors(self.design, sig)
+        self.n = len(model.joint_names)
+        self.N = len(sig)
+        self.cut = round(self.cfg.train_fraction * self.N)
+        if self.cut < 20 or self.N - self.cut < 20:
+            raise CalibError(f"{self.N} samples are too few to split 60/40")
+        g = sig.t_s
+        if sig.raw_t_s is not None and sig.raw_tau is not None:
+            inside = (sig.raw_t_s >= g[0]) & (sig.raw_t_s <= g[-1])
+            self.t_st, self.tau_st = sig.raw_t_s[inside], sig.raw_tau[inside]
+        else:
+            self.t_st, self.tau_st = g, sig.tau
+        self.train_st = self.t_st < g[self.cut]
+        self._cache: dict[Any, Any] = {}
+        self._rigid_names: tuple[str, ...] | None = None
+        self.weights: Array | None = None
+        self.floors = np.ones(self.n) if floors is None else np.asarray(floors, float)
+        first = self.fit_arm((), 0, self.cut)
+        if first is None:
+            raise CalibError("the baseline model could not be fitted")
+        if floors is None:
+            self.floors = joint_floors(first, self.cfg.cutoff_hz)
+
+    # ------------------------------------------------------------------ assembly
+    def _payload_cols(self) -> tuple[Array, Array, Array]:
+        key = "payload"
+        if key not in self._cache:
+            inc = self.model.payload_increment()
+            s = self.sig
+            self._cache[key] = (
+                (self.model.momentum(s.q, s.qd) @ inc)[:, :, None],
+                (self.model.rest(s.q, s.qd) @ inc)[:, :, None],
+                (self.model.regressor(s.q, s.qd, s.qdd) @ inc)[:, :, None],
+            )
+        out: tuple[Array, Array, Array] = self._cache[key]
+        return out
+
+    def _assemble(self, effects: Sequence[EffectSpec], r0: Regressors) -> _Assembled | None:
+        names = list(self.design.names)
+        units = list(self.design.units)
+        keep = list(range(len(names)))
+        extra_p: list[Array] = []
+        extra_r: list[Array] = []
+        extra_c: list[Array] = []
+        extra_names: list[str] = []
+        extra_units: list[str] = []
+        at: dict[str, int] = {}
+        joints = self.model.joint_names
+        added: set[tuple[Term, str]] = set()
+        for e in effects:
+            if e.id == str(Term.PAYLOAD):
+                if self.nominal is None:
+                    return None
+                cp, cr, cc = self._payload_cols()
+                nm = "payload"
+            elif e.id in {str(t) for t in Term}:
+                term = Term(e.id)
+                j = joints.index(e.target)
+                alt = ALTERNATIVES.get(term)
+                if alt is not None and (alt, e.target) in added:
+                    return None  # a model holds at most one of a pair
+                added.add((term, e.target))
+                if alt is not None and term_name(alt, e.target) in names:
+                    drop = names.index(term_name(alt, e.target))
+                    if drop in keep:
+                        keep.remove(drop)
+                col = np.zeros((self.N, self.n, 1))
+                col[:, j, 0] = np.broadcast_to(term_column(term, self.sig.qd[:, j]), (self.N,))
+                cp, cr, cc = np.zeros_like(col), col, col
+                nm = term_name(term, e.target)
+            else:
+                continue
+            at[e.key] = len(extra_p)
+            extra_p.append(cp)
+            extra_r.append(cr)
+            extra_c.append(cc)
+            extra_names.append(nm)
+            extra_units.append(term_unit(Term(e.id)))
+        k = np.asarray(keep, dtype=np.intp)
+        sel_names = [names[i] for i in keep] + extra_names
+        sel_units = [units[i] for i in keep] + extra_units
+        slices = {key: [len(keep) + v] for key, v in at.items()}
+        reg = Regressors(
+            self.sig,
+            np.concatenate([r0.Xc[:, :, k], *extra_c], axis=2),
+            r0.kc,
+            np.concatenate([r0.Xp[:, :, k], *extra_p], axis=2),
+            np.concatenate([r0.Xr[:, :, k], *extra_r], axis=2),
+            r0.kp,
+            r0.kr,
+        )
+        return _Assembled(reg, sel_names, sel_units, k, slices)
+
+    # ------------------------------------------------------------------ torque transforms
+    def _tau_f(self, kind: str | None, p: float) -> Array:
+        s = self.sig
+        if kind is None or p == 0.0:
+            return s.tau_f
+        if kind == DELAY:  # the torque acting at t was logged at t - d
+            return np.stack([np.interp(s.t_s - p, s.t_s, s.tau_f[:, j])
+                             for j in range(self.n)], axis=1)
+        a = math.exp(-(1.0 / s.rate_hz) / p) if p > 0 else 0.0
+        zi = a * s.tau_f[0]
+        out, _ = lfilter([1.0 - a], [1.0, -a], s.tau_f, axis=0, zi=zi[None, :])
+        return np.asarray(out, dtype=float)
+
+    def _logged(self, kind: str | None, p: float, pred: Array) -> Array:
+        """The logged torque the model predicts from the acting torque ``pred`` (grid)."""
+        if kind is None or p == 0.0:
+            return pred
+        t = self.sig.t_s
+        if kind == DELAY:
+            return np.stack([np.interp(t + p, t, pred[:, j]) for j in range(self.n)], axis=1)
+        return pred + p * np.gradient(pred, t, axis=0)
+
+    def _windows_tau(self, tau_f: Array, start: int, stop: int) -> Array:
+        s = self.sig
+        step = max(1, round(self.cfg.window_s * s.rate_hz))
+        ct = cumulative_trapezoid(tau_f[start:stop], s.t_s[start:stop], axis=0, initial=0.0)
+        b = np.arange(0, stop - start, step)
+        out: Array = ct[b[1:]] - ct[b[:-1]]
+        return out
+
+    # ------------------------------------------------------------------ compliance
+    def _shifted(self, state: tuple[tuple[int, float], ...], extra: tuple[int, float] = (0, 0.0)
+                 ) -> JointSignals:
+        """The signals with q_j moved by ``-c tau_j`` (and its derivatives) for each (j, c) of
+        ``state``, then by ``+h tau_j`` for ``extra`` = (j, h)."""
+        s = self.sig
+        dq = np.zeros_like(s.q)
+        dqd = np.zeros_like(s.q)
+        dqdd = np.zeros_like(s.q)
+        for j, c in (*((j, -c) for j, c in state), extra):
+            if c == 0.0:
+                continue
+            tf = s.tau_f[:, j]
+            td = np.gradient(tf, s.t_s)
+            dq[:, j] += c * tf
+            dqd[:, j] += c * td
+            dqdd[:, j] += c * np.gradient(td, s.t_s)
+        return replace(s, q=s.q + dq, qd=s.qd + dqd, qdd=s.qdd + dqdd)
+
+    def _state_reg(self, state: tuple[tuple[int, float], ...]) -> Regressors:
+        if not state:
+            return self.reg
+        key = ("state", state)
+        if key not in self._cache:
+            self._trim()
+            self._cache[key] = compute_regressors(self.design, self._shifted(state))
+        out: Regressors = self._cache[key]
+        return out
+
+    def _trim(self) -> None:
+        """Keep the compliance caches small (each holds regressors along the whole log)."""
+        keys = [k for k in self._cache if isinstance(k, tuple) and k[0] in ("state", "compsig",
+                                                                             "comp")]
+        for k in keys[: max(0, len(keys) - 24)]:
+            del self._cache[k]
+
+    def _compliance(self, j: int, start: int, stop: int, state: tuple[tuple[int, float], ...]
+                    ) -> tuple[Array, Array, Array, Array]:
+        """d/dh of (window X, window known) and (classic X, classic known) along
+        q_j += h tau_j about the state ``state``, for the baseline columns."""
+        key = ("comp", j, start, stop, state)
+        if key in self._cache:
+            out: tuple[Array, Array, Array, Array] = self._cache[key]
+            return out
+        skey = ("compsig", j, state)
+        if skey not in self._cache:
+            tf = self.sig.tau_f[:, j]
+            h = COMPLIANCE_STEP_RAD / max(float(np.max(np.abs(tf))), 1e-9)
+            regs = [compute_regressors(self.design, self._shifted(state, (j, sgn * h)))
+                    for sgn in (1.0, -1.0)]
+            self._trim()
+            self._cache[skey] = (regs, h)
+        (rp, rm), h = self._cache[skey]
+        xp, up, _ = rp.momentum_windows(start, stop, self.cfg.window_s)
+        xm, um, _ = rm.momentum_windows(start, stop, self.cfg.window_s)
+        dxw, dkw = (xp - xm) / (2 * h), -(up - um) / (2 * h)
+        dxc, dkc = (rp.Xc - rm.Xc) / (2 * h), (rp.kc - rm.kc) / (2 * h)
+        self._cache[key] = (dxw, dkw, dxc, dkc)
+        return dxw, dkw, dxc, dkc
+
+    # ------------------------------------------------------------------ the fit
+    def _lstsq(self, X: Array, u: Array) -> tuple[Array, float]:
+        T, n, P = X.shape
+        w = np.ones(n) if self.weights is None else self.weights
+        A = (X * w[None, :, None]).reshape(T * n, P)
+        b = (u * w[None, :]).reshape(T * n)
+        norms = np.linalg.norm(A, axis=0)
+        norms[norms == 0] = 1.0
+        th, *_ = np.linalg.lstsq(A / norms, b, rcond=None)
+        res = b - (A / norms) @ th
+        return th / norms, float(res @ res)
+
+    def fit_arm(self, effects: Sequence[EffectSpec], start: int = 0,
+                stop: int | None = None) -> ArmFit | None:
+        """Fit the baseline plus ``effects`` on grid samples [start, stop) (default: the whole
+        log); None when the set is not a model (two alternatives) or the fit fails."""
+        stop = self.N if stop is None else stop
+        try:
+            return self._fit(tuple(effects), start, stop)
+        except (CalibError, np.linalg.LinAlgError, ValueError):
+            return None
+
+    def _fit(self, effects: tuple[EffectSpec, ...], start: int, stop: int) -> ArmFit | None:
+        """Compliance is linearised about the current estimate and refitted there until it
+        settles (Gauss-Newton with exact regressors at each step); other effects are linear or
+        profiled."""
+        cj = [self.model.joint_names.index(e.target) for e in effects if e.id == COMPLIANCE]
+        state: tuple[tuple[int, float], ...] = tuple((j, 0.0) for j in cj)
+        fit = None
+        for _ in range(COMPLIANCE_ITERATIONS if cj else 1):
+            fit = self._fit_at(effects, start, stop, state)
+            if fit is None or not cj:
+                return fit
+            new = tuple(
+                (j, float(fit.effect_parameters[e.key][e.params[0].name].value))
+                for j, e in zip(cj, (e for e in effects if e.id == COMPLIANCE), strict=True)
+            )
+            if not all(math.isfinite(c) for _, c in new):
+                return None
+            moved = max(abs(c - c0) for (_, c), (_, c0) in zip(new, state, strict=True))
+            state = tuple((j, round(c, 12)) for j, c in new)
+            size = max(abs(c) for _, c in new)
+            if moved <= 1e-3 * size + 1e-12:
+                break
+        return fit
+
+    def _fit_at(self, effects: tuple[EffectSpec, ...], start: int, stop: int,
+                state: tuple[tuple[int, float], ...]) -> ArmFit | None:
+        asm = self._assemble(effects, self._state_reg(tuple(x for x in state if x[1] != 0.0)))
+        if asm is None:
+            return None
+        st = tuple(x for x in state if x[1] != 0.0)
+        c_at = dict(state)
+        transforms = [e for e in effects if e.id in (DELAY, LAG)]
+        if len(transforms) > 1:
+            return None
+        kind = transforms[0].id if transforms else None
+        comps = [e for e in effects if e.id == COMPLIANCE]
+        cj = [self.model.joint_names.index(e.target) for e in comps]
+        X0, u0, _ = asm.reg.momentum_windows(start, stop, self.cfg.window_s)
+        w0 = self._windows_tau(self.sig.tau_f, start, stop)
+        P0 = len(self.design.names)
+
+        def u_of(p: float) -> Array:
+            if kind is None or p == 0.0:
+                return u0
+            out: Array = u0 + self._windows_tau(self._tau_f(kind, p), start, stop) - w0
+            return out
+
+        def theta0_full(th: Array) -> Array:
+            full = np.zeros(P0)
+            full[asm.keep0] = th[: len(asm.keep0)]
+            return full
+
+        def comp_cols(th: Array) -> Array:
+            cols = []
+            for j in cj:
+                dxw, dkw, _, _ = self._compliance(j, start, stop, st)
+                cols.append(-(dxw @ theta0_full(th) + dkw))
+            return np.stack(cols, axis=2)
+
+        def solve(p: float) -> tuple[Array, float, Array | None]:
+            u = u_of(p)
+            th, sse = self._lstsq(X0, u)
+            C = None
+            for _ in range(2 if cj else 0):
+                C = comp_cols(th)
+                th_c, sse = self._lstsq(np.concatenate([X0, C], axis=2), u)
+                th = th_c[: X0.shape[2]]
+            return th, sse, C
+
+        p_star = 0.0
+        if kind is not None:
+            lo, hi = DELAY_BOUNDS if kind == DELAY else LAG_BOUNDS
+            res = minimize_scalar(lambda p: solve(float(p))[1], bounds=(lo, hi),
+                                  method="bounded", options={"xatol": 2e-4})
+            p_star = float(res.x)
+        _, _, C = solve(p_star)
+        u = u_of(p_star)
+        blocks = [X0] if C is None else [X0, C]
+        if kind is not None:
+            h = 1e-3
+            lo, hi = DELAY_BOUNDS if kind == DELAY else LAG_BOUNDS
+            a, b = max(lo, p_star - h), min(hi, p_star + h)
+            if b <= a:
+                return None
+            blocks.append((-(u_of(b) - u_of(a)) / (b - a))[:, :, None])
+        Xa = np.concatenate(blocks, axis=2)
+        if Xa.shape[2] == 0:  # a nominal model with nothing left to fit
+            theta = std = np.zeros(0)
+            ident = np.zeros(0, dtype=bool)
+            cond = math.nan
+            sigma = np.sqrt(np.mean(u**2, axis=0))
+        else:
+            w = batch_wls(Xa, u)
+            theta, std, ident, cond, sigma = (w.theta, w.std, w.identifiable,
+                                              w.condition_number, w.sigma)
+        if self.weights is None and not effects:
+            self.weights = 1.0 / np.where(sigma > 0, sigma, 1.0)
+        P = X0.shape[2]
+        # prediction of the logged torque on the grid (classic form), then at the stamps
+        tr = np.nan_to_num(theta[:P])
+        pred = asm.reg.Xc @ tr + asm.reg.kc
+        effect_pars: dict[str, dict[str, Estimate]] = {}
+        for i, e in enumerate(comps):
+            _, _, dxc, dkc = self._compliance(cj[i], start, stop, st)
+            c = float(np.nan_to_num(theta[P + i]))
+            pred = pred - c * (dxc @ theta0_full(tr) + dkc)
+            effect_pars[e.key] = {e.params[0].name: _est(
+                e.params[0], c_at[cj[i]] + theta[P + i], std[P + i], ident[P + i])}
+        p_final = p_star
+        if kind is not None:
+            k = P + len(comps)
+            spec = transforms[0]
+            delta = float(np.nan_to_num(theta[k]))
+            p_final = p_star + delta if abs(delta) < 0.5 * (spec.params[0].upper
+                                                            - spec.params[0].lower) else p_star
+            effect_pars[spec.key] = {spec.params[0].name: _est(spec.params[0], p_final, std[k],
+                                                               ident[k])}
+        pred = self._logged(kind, p_star, pred)
+        at = np.stack([np.interp(self.t_st, self.sig.t_s, pred[:, j]) for j in range(self.n)],
+                      axis=1)
+        resid = self.tau_st - at
+        t0, t1 = self.sig.t_s[start], self.sig.t_s[stop - 1]
+        train = (self.t_st >= t0) & (self.t_st <= t1)
+        for key, idx in asm.slices.items():
+            spec = next(e for e in effects if e.key == key)
+            i = idx[0]
+            effect_pars[key] = {spec.params[0].name: _est(spec.params[0], theta[i], std[i],
+                                                          ident[i])}
+        return ArmFit(tuple(asm.names), tuple(asm.units), theta[:P], std[:P], ident[:P],
+                      effect_pars, self.t_st, resid, train, cond)
+
+    # ------------------------------------------------------------------ the engine's fitter
+    def _implied_rigid(self, fit: ArmFit) -> dict[str, Estimate]:
+        """Against a nominal rigid body: the base parameters it implies (nominal plus the
+        payload when fitted), so that explanations implying different bodies can be compared."""
+        assert self.nominal is not None
+        rd = make_design(self.model, (), rigid=True)
+        inc = rd.to_base(self.model.payload_increment())
+        base = rd.to_base(self.nominal)
+        pay = fit.effect_parameters.get(f"{Term.PAYLOAD}({TOOL_TARGET})", {}).get("payload")
+        m, sm = (pay.value, pay.std) if pay is not None else (0.0, 0.0)
+        out = {}
+        for k, (name, unit) in enumerate(zip(rd.names, rd.units, strict=True)):
+            v, s = float(base[k] + m * inc[k]), float(abs(inc[k]) * sm)
+            out[name] = Estimate(name, v, s, (v - 1.96 * s, v + 1.96 * s), True, unit)
+        return out
+
+    def model_fit(self, fit: ArmFit, effects: tuple[EffectSpec, ...]) -> ModelFit:
+        """The shared engine's view of ``fit``: residuals over the noise floors, the held-out
+        sum scaled to the in-sample count (so that the engine's "one unit per sample" holds)."""
+        z = fit.residual / self.floors[None, :]
+        tr = fit.train
+        n = int(tr.sum()) * self.n
+        sse = float(np.sum(z[tr] ** 2))
+        held = math.nan
+        if (~tr).any():
+            held = float(np.sum(z[~tr] ** 2)) * tr.sum() / (~tr).sum()
+        params = fit.estimates() if self.nominal is None else (
+            fit.estimates() | self._implied_rigid(fit))
+        k = len(fit.theta) + sum(len(v) for v in fit.effect_parameters.values())
+        return ModelFit(effects, params, fit.effect_parameters, sse, held, n, k, payload=fit)
+
+    def __call__(self, effects: tuple[EffectSpec, ...]) -> ModelFit | None:
+        fit = self.fit_arm(effects, 0, self.cut)
+        return None if fit is None else self.model_fit(fit, effects)
+
+    def explained(self, mf: ModelFit) -> bool:
+        """Every joint's held-out residual within ``EXPLAINS_RATIO`` of its noise floor."""
+        fit: ArmFit = mf.payload
+        ratio = fit.heldout_rms() / self.floors
+        return bool(np.all(np.isfinite(ratio) & (ratio <= EXPLAINS_RATIO)))
+
+
+def _est(p: EffectParam, v: float, s: float, ok: bool) -> Estimate:
+    v, s = float(v), float(s)
+    good = bool(ok) and math.isfinite(s)
+    s = s if good else math.nan
+    return Estimate(p.name, v, s, (v - 1.96 * s, v + 1.96 * s) if good else (math.nan, math.nan),
+                    good, p.unit)
+
+
+def joint_floors(fit: ArmFit, cutoff_hz: float) -> Array:
+    """Per-joint noise floor of the logged torque around ``fit`` (N·m): the residual's own
+    high-frequency content up to :func:`noise_timescale`, never below the torque's quantisation."""
+    out = []
+    for j in range(fit.residual.shape[1]):
+        nf = noise_floor(fit.t_s, fit.residual[:, j], timescale_s=noise_timescale(cutoff_hz))
+        out.append(nf.std if nf.std > 0 else 1e-12)
+    return np.asarray(out, dtype=float)
+
+
+# ---------------------------------------------------------------------- discovery's result
+@dataclass(frozen=True)
 class EffectFinding:
-    """One catalogue term tried: its fitted coefficients, held-out RMS before/after (N*m), and
-    the term it was tried in place of (``replaces``), if any."""
+    """One effect tried or named: its key, fitted parameters, held-out RMS before/after (N·m,
+    pooled over joints), whether its intervals exclude the null, named or not, and the baseline
+    term it was fitted in place of (``replaces``)."""
 
     effect: str
     estimates: list[Estimate]
@@ -57,6 +657,8 @@ class EffectFinding:
     excludes_null: bool
     named: bool
     replaces: str | None = None
+    delta_bic: float = math.nan
+    key: str = ""
 
     @property
     def improvement(self) -> float:
@@ -65,9 +667,11 @@ class EffectFinding:
     def to_dict(self) -> dict[str, object]:
         return {
             "effect": self.effect,
+            "key": self.key,
             "named": self.named,
             "excludes_null": self.excludes_null,
             "replaces": self.replaces,
+            "delta_bic": None if not math.isfinite(self.delta_bic) else self.delta_bic,
             "heldout_rms_before": self.rms_before,
             "heldout_rms_after": self.rms_after,
             "improvement": self.improvement,
@@ -77,21 +681,32 @@ class EffectFinding:
 
 @dataclass(frozen=True)
 class ArmDiscovery:
-    """Discovery's result: the baseline, the named terms (in order), every trial, notes."""
+    """Discovery's result: the baseline, the named effects (in order), every trial, confounds,
+    notes, and the shared engine's :class:`~calib.adequacy.Selection`."""
 
     baseline: tuple[str, ...]
     nominal: bool
     named: list[EffectFinding]
     trials: list[EffectFinding]
     untestable: list[str] = field(default_factory=list)
+    selection: Selection | None = None
+    confound_notes: list[str] = field(default_factory=list)
+
+    @property
+    def accepted(self) -> tuple[EffectSpec, ...]:
+        return () if self.selection is None else self.selection.accepted
 
     def to_dict(self) -> dict[str, object]:
         return {
             "baseline": list(self.baseline),
             "baseline_rigid_body": "nominal" if self.nominal else "fitted",
             "named": [f.effect for f in self.named],
+            "named_keys": [f.key for f in self.named],
             "findings": [f.to_dict() for f in self.named],
             "trials": [f.to_dict() for f in self.trials],
+            "confounds": [] if self.selection is None else [
+                c.to_dict() for c in self.selection.confounds],
+            "selection": None if self.selection is None else self.selection.to_dict(),
             "untestable": list(self.untestable),
         }
 
@@ -101,47 +716,100 @@ class ArmDiscovery:
             f"Discovery (baseline: {base}; rigid body {'nominal' if self.nominal else 'fitted'})"
         ]
         if not self.named:
-            lines.append("  no catalogue term improves the held-out fit: nothing named")
+            lines.append("  no catalogue effect improves the held-out fit: nothing named")
         for f in self.named:
             instead = f" (in place of {f.replaces})" if f.replaces else ""
             lines.append(
-                f"  {f.effect}{instead}: held-out RMS {f.rms_before:.4g} -> {f.rms_after:.4g} N·m "
-                f"({100 * f.improvement:.0f} % lower)"
+                f"  {f.key or f.effect}{instead}: held-out RMS {f.rms_before:.4g} -> "
+                f"{f.rms_after:.4g} N·m ({100 * f.improvement:.0f} % lower)"
             )
             lines += ["    " + e.report() for e in f.estimates]
+        lines += [f"  Confound: {c}" for c in self.confound_notes]
         lines += [f"  {u}" for u in self.untestable]
         return lines
 
 
-def _fit(
-    model: ArmModel,
-    sig: JointSignals,
-    terms: tuple[Term, ...],
-    nominal: Array | None,
-    cfg: IdentifyConfig,
-) -> tuple[float, dict[Term, list[Estimate]]]:
-    design = make_design(model, terms, rigid=nominal is None, fixed_rigid=nominal)
-    reg = compute_regressors(design, sig)
-    w, hold = fit_holdout(reg, cfg)
-    per_term: dict[Term, list[Estimate]] = {}
-    names, units = design.names, design.units
-    for t in terms:
-        ests = []
-        for k in design.term_slice(t):
-            v, s = float(w.theta[k]), float(w.std[k])
-            ok = bool(w.identifiable[k]) and np.isfinite(s)
-            ests.append(
-                Estimate(
-                    names[k],
-                    v,
-                    s if ok else float("nan"),
-                    (v - 1.96 * s, v + 1.96 * s) if ok else (float("nan"), float("nan")),
-                    identifiable=ok,
-                    unit=units[k],
-                )
-            )
-        per_term[t] = ests
-    return hold.pooled_rms, per_term
+def _pooled(mf: ModelFit) -> float:
+    fit: ArmFit = mf.payload
+    return float(np.sqrt(np.mean(fit.heldout_rms() ** 2)))
+
+
+def discovery_from_selection(
+    sel: Selection,
+    baseline: tuple[Term, ...],
+    nominal: bool,
+    untestable: list[str],
+    path: Sequence[ModelFit | None] = (),
+) -> ArmDiscovery:
+    """Turn the engine's selection into the arm's discovery result; ``path``: the fits of the
+    accepted effects' prefixes (one per named effect, the last being ``sel.final``), for the
+    held-out RMS after each (default: only the final one is known)."""
+    before = _pooled(sel.base)
+    by_key = {e.key: e for e in sel.final.effects}
+    trials = [
+        EffectFinding(t.key.split("(")[0],
+                      list(sel.final.effect_parameters.get(t.key, {}).values()),
+                      before, math.nan, t.excludes_null, t.accepted,
+                      _replaces(t.key, baseline), t.delta_bic, t.key)
+        for t in sel.tried
+    ]
+    named: list[EffectFinding] = []
+    prev = before
+    keys = sel.final.keys
+    for i, key in enumerate(keys):
+        fit = path[i] if i < len(path) else (sel.final if i == len(keys) - 1 else None)
+        fit = sel.final if i == len(keys) - 1 else fit
+        after = _pooled(fit) if fit is not None else math.nan
+        dbic = next((t.delta_bic for t in sel.tried if t.key == key and t.accepted), math.nan)
+        named.append(EffectFinding(by_key[key].id,
+                                   list(sel.final.effect_parameters.get(key, {}).values()),
+                                   prev, after, True, True, _replaces(key, baseline), dbic, key))
+        prev = after
+    notes = [c.note for c in sel.confounds]
+    return ArmDiscovery(tuple(str(t) for t in baseline), nominal, named, trials, untestable,
+                        sel, notes)
+
+
+def _replaces(key: str, baseline: tuple[Term, ...]) -> str | None:
+    eid, _, rest = key.partition("(")
+    try:
+        term = Term(eid)
+    except ValueError:
+        return None
+    alt = ALTERNATIVES.get(term)
+    return f"{alt}({rest}" if alt is not None and alt in baseline else None
+
+
+def run_discovery(
+    fitter: ArmFitter,
+    *,
+    max_effects: int = 2,
+    progress: Callable[[str], None] | None = None,
+) -> ArmDiscovery:
+    """Forward selection over the arm's catalogue through the shared engine."""
+    joints = fitter.model.joint_names
+    untestable: list[str] = []
+    if fitter.nominal is None:
+        untestable.append(
+            "payload_mass: not testable without nominal link parameters (a payload only "
+            "changes the last link's base parameters, which are fitted; a payload picked up "
+            "mid-log is looked for as a parameter change)"
+        )
+    if len(joints) > MAX_COMPLIANCE_JOINTS:
+        untestable.append(
+            f"joint_compliance: not tried on arms with more than {MAX_COMPLIANCE_JOINTS} joints "
+            "(each joint's column needs the regressor along the whole log twice)"
+        )
+    cat = arm_catalogue(joints, fitter.baseline, nominal=fitter.nominal is not None)
+    sel = select_effects(fitter, cat, max_effects=max_effects, explained=fitter.explained,
+                         progress=progress)
+    if sel is None:
+        raise CalibError("discovery: the baseline model could not be fitted")
+    effects = sel.final.effects
+    path: list[ModelFit | None] = [fitter(effects[: i + 1]) for i in range(len(effects) - 1)]
+    path.append(sel.final)
+    return discovery_from_selection(sel, fitter.baseline, fitter.nominal is not None, untestable,
+                                    path)
 
 
 def discover_arm(
@@ -150,53 +818,24 @@ def discover_arm(
     declared: tuple[Term, ...] = (),
     nominal: Array | None = None,
     config: IdentifyConfig | None = None,
+    *,
+    floors: Array | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> ArmDiscovery:
     """Forward selection over the catalogue against the declared model (see module docstring).
 
     ``sig`` are prepared signals (:func:`calib.manipulator.signals.prepare_signals`);
-    ``nominal`` the full rigid-body parameters the log declares, or None.
+    ``nominal`` the full rigid-body parameters the log declares, or None; ``floors`` the
+    per-joint torque noise floors (default: estimated from the baseline's residual).
     """
-    cfg = config or IdentifyConfig()
-    current = tuple(t for t in declared if t in CATALOGUE)
-    untestable: list[str] = []
-    candidates = [t for t in CATALOGUE if t not in current]
-    if nominal is None and Term.PAYLOAD in candidates:
-        candidates.remove(Term.PAYLOAD)
-        untestable.append(
-            "payload_mass: not testable without nominal link parameters (a payload only "
-            "changes the last link's base parameters, which are fitted)"
-        )
-    rms0, _ = _fit(model, sig, current, nominal, cfg)
-    named: list[EffectFinding] = []
-    trials: list[EffectFinding] = []
-    while candidates:
-        best: EffectFinding | None = None
-        best_terms = current
-        for t in candidates:
-            alt = ALTERNATIVES.get(t)
-            swap = alt if alt in current else None
-            trial = (*(x for x in current if x is not swap), t)
-            try:
-                rms, per = _fit(model, sig, trial, nominal, cfg)
-            except (CalibError, np.linalg.LinAlgError) as err:
-                untestable.append(f"{t}: {err}")
-                continue
-            ests = per[t]
-            excl = any(e.identifiable and not (e.ci95[0] <= 0 <= e.ci95[1]) for e in ests)
-            f = EffectFinding(str(t), ests, rms0, rms, excl, False, str(swap) if swap else None)
-            trials.append(f)
-            ok = excl and f.improvement >= MIN_IMPROVEMENT
-            if ok and (best is None or f.rms_after < best.rms_after):
-                best, best_terms = f, trial
-        if best is None:
-            break
-        best = replace(best, named=True)
-        named.append(best)
-        term = Term(best.effect)
-        current = best_terms
-        gone = {term, ALTERNATIVES.get(term)} if best.replaces else {term}
-        candidates = [t for t in candidates if t not in gone]
-        rms0 = best.rms_after
-    return ArmDiscovery(
-        tuple(str(t) for t in declared), nominal is not None, named, trials, untestable
-    )
+    fitter = ArmFitter(model, sig, tuple(declared), nominal, config, floors)
+    return run_discovery(fitter, progress=progress)
+
+
+def effect_estimates(disc: ArmDiscovery) -> Mapping[str, Estimate]:
+    """Every named effect's parameters, by name."""
+    out: dict[str, Estimate] = {}
+    for f in disc.named:
+        for e in f.estimates:
+            out[e.name] = e
+    return out

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -142,29 +142,57 @@ def simulate_planar(
     q0: tuple[float, float] = (-np.pi / 2, 0.0),
     sensors: Sensors = IDEAL,
     seed: int = 0,
+    delay_s: float = 0.0,
+    lag_s: float = 0.0,
+    compliance: tuple[float, ...] = (),
+    payload_change: tuple[float, float] | None = None,
 ) -> ArmRun:
-    """The planar arm driven by ``torque(t)`` from rest at ``q0`` (default hanging down)."""
+    """The planar arm driven by ``torque(t)`` from rest at ``q0`` (default hanging down).
+
+    Switches for discovery (each 0 / empty / None: off):
+
+    * ``delay_s``: the logged torque ``torque(t)`` acts at ``t + delay_s`` (actuation delay);
+    * ``lag_s``: the logged torque acts through a first-order lag of time constant ``lag_s``;
+    * ``compliance``: per joint ``c = 1/k`` (rad/(N·m)) of an elastic joint whose encoder reads
+      the motor side: with no rotor inertia the spring carries the acting torque, so the logged
+      position is the link's plus ``c tau`` (truth keys ``c[joint]``);
+    * ``payload_change``: ``(t_s, kg)``: the payload becomes ``kg`` at ``t_s`` (picked up or put
+      down mid-log; truth keys ``payload_after``, ``payload_change_t``).
+    """
     fr = friction or Friction()
     arm = Planar2Link(params)
     th = params.theta()
+    th_after = th
+    t_change = math.inf
+    if payload_change is not None:
+        t_change = float(payload_change[0])
+        th_after = replace(params, payload=float(payload_change[1])).theta()
     if fr.offset and len(fr.offset) != 2:
         raise ValueError("offset needs one value per joint")
     t = np.arange(0.0, duration_s + 0.5 * dt, dt)
     sub = 4
     h = dt / sub
 
-    a1, a2, a3, a4, a5 = (float(v) for v in th)
+    a_before = tuple(float(v) for v in th)
+    a_after = tuple(float(v) for v in th_after)
     g = params.g
     fc = [float(v) for v in fr.coulomb]
     fv = [float(v) for v in fr.viscous]
     off = [float(v) for v in fr.offset] if fr.offset else [0.0, 0.0]
     vs = COULOMB_SMOOTHING
     half = h / 2
-    fine = torque(np.arange(0.0, duration_s + 2 * dt, half)).tolist()
+    t_fine = np.arange(0.0, duration_s + 2 * dt, half)
+    acting = torque(t_fine - delay_s) if delay_s else torque(t_fine)
+    if lag_s > 0:
+        a_lag = math.exp(-half / lag_s)
+        for k in range(1, len(acting)):
+            acting[k] = a_lag * acting[k - 1] + (1 - a_lag) * acting[k]
+    fine = acting.tolist()
 
     def accel(tt: float, x: tuple[float, ...]) -> tuple[float, float, float, float]:
         # scalar closed form of M^-1 (tau - C qd - tau_g - tau_f): this loop is the hot path
         q1, q2, d1, d2 = x
+        a1, a2, a3, a4, a5 = a_after if tt >= t_change else a_before
         c2, s2 = math.cos(q2), math.sin(q2)
         c1, c12 = math.cos(q1), math.cos(q1 + q2)
         tau1, tau2 = fine[round(tt / half)]
@@ -194,11 +222,24 @@ def simulate_planar(
     q, qd = X[:, :2], X[:, 2:]
     tau = torque(t)
     qdd = np.array([accel(k * dt, tuple(X[k]))[2:] for k in range(len(t))])
+    q_motor = q
+    if compliance:
+        act = np.asarray(acting)[np.round(t / half).astype(int)]  # acting torque at t
+        q_motor = q + np.asarray(compliance, float)[None, :] * act
     rng = np.random.default_rng(seed)
-    stamps, qm, qdm, taum = _apply_sensors(t, q, tau, sensors, rng)
+    stamps, qm, qdm, taum = _apply_sensors(t, q_motor, tau, sensors, rng)
     truth = {f"a{i + 1}": float(v) for i, v in enumerate(th)}
     truth |= _friction_truth(fr, arm.joint_names)
     truth |= {"payload": params.payload, "l1": params.l1, "l2": params.l2, "g": params.g}
+    if delay_s:
+        truth["delay_s"] = float(delay_s)
+    if lag_s:
+        truth["lag_s"] = float(lag_s)
+    for j, c in enumerate(compliance):
+        truth[f"c[{arm.joint_names[j]}]"] = float(c)
+    if payload_change is not None:
+        truth["payload_after"] = float(payload_change[1])
+        truth["payload_change_t"] = float(payload_change[0])
     return ArmRun(
         stamps,
         qm,

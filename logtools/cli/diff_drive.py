@@ -152,6 +152,7 @@ def register_reproduce(group: typer.Typer) -> None:
         """Table 1 of the 1997 4-wheeled mobile robot paper: feedback only vs planned path."""
         from rich.console import Console
         from rich.table import Table
+        from rich.text import Text
 
         from calib.reproduce.wmr import reproduce_wmr
 
@@ -172,7 +173,7 @@ def register_reproduce(group: typer.Typer) -> None:
                 return f"{o} | {pub:{fmt}}"
 
             table.add_row(
-                r.name,
+                Text(r.name),
                 cell(r.x_err, p["x_err"], ".4f"),
                 cell(r.y_err, p["y_err"], ".4f"),
                 cell(r.t_heading, p["t_heading"], ".1f"),
@@ -181,4 +182,4 @@ def register_reproduce(group: typer.Typer) -> None:
         console = Console(width=max(Console().width, 120))
         console.print(table)
         for n in rep.notes:
-            console.print(f"• {n}", style="dim")
+            console.print(f"• {n}", style="dim", markup=False)

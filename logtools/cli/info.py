@@ -1,4 +1,4 @@
-"""`logcal info LOG [--json]`: topics, types, counts, rates, time span, signals found, robot."""
+"""`logcal info LOG... [--json]`: topics, types, counts, rates, time span, signals found, robot."""
 
 from __future__ import annotations
 
@@ -6,6 +6,20 @@ import json
 from pathlib import Path
 
 import typer
+
+from logtools.cli._inputs import (
+    channel_map_option,
+    end_option,
+    ground_truth_option,
+    logs_argument,
+    signal_option,
+    start_option,
+)
+
+_LOGS = logs_argument()
+_CHANNEL_MAP = channel_map_option()
+_SIGNAL = signal_option()
+_GROUND_TRUTH = ground_truth_option()
 
 __all__ = ["register"]
 
@@ -15,21 +29,38 @@ def register(app: typer.Typer) -> None:
 
     @app.command("info")
     def _cmd(
-        log: Path = typer.Argument(
-            ..., help="Drive log: MCAP, CSV or a ROS bag (rosbag2 folder or .bag)."
+        logs: list[Path] = _LOGS,
+        as_json: bool = typer.Option(
+            False, "--json", help="Print a JSON document instead (several logs: one 'logs' list)."
         ),
-        as_json: bool = typer.Option(False, "--json", help="Print a JSON document instead."),
-        channel_map: Path | None = typer.Option(
-            None, "--channel-map", help="TOML mapping topics/fields to logical signals."
-        ),
+        channel_map: Path | None = _CHANNEL_MAP,
+        signal: list[str] | None = _SIGNAL,
+        ground_truth: Path | None = _GROUND_TRUTH,
+        start: float | None = start_option(),
+        end: float | None = end_option(),
     ) -> None:
         """Show what a log holds: topics, types, counts, rates, signals found, robot, problems."""
-        from logtools.channel_map import load_channel_map
+        from logtools.cli._inputs import read_inputs, say
         from logtools.loginfo import summarize_log
+        from logtools.recordings import distinct_recordings
 
-        mapping = load_channel_map(channel_map) if channel_map is not None else None
-        summary = summarize_log(log, mapping)
+        inputs = read_inputs(logs, channel_map=channel_map, signals=signal,
+                             ground_truth=ground_truth, start=start, end=end, dedupe=False)
+        summaries = [summarize_log(run, inputs.channel_map) for run in inputs.runs]
+        same = distinct_recordings(inputs.runs, inputs.channel_map)[1] if len(
+            inputs.runs) > 1 else []
         if as_json:
-            typer.echo(json.dumps(summary.to_dict(), indent=2))
-        else:
-            typer.echo(summary.report())
+            doc = (
+                summaries[0].to_dict() if len(summaries) == 1 else {
+                    "logs": [s.to_dict() for s in summaries],
+                    "same_recordings": [
+                        {"kept": str(g.kept), "same": [str(p) for p in g.same],
+                         "evidence": g.evidence} for g in same
+                    ],
+                }
+            )
+            typer.echo(json.dumps(doc, indent=2))
+            return
+        typer.echo("\n\n".join(s.report() for s in summaries))
+        for group in same:
+            say(f"note: {group.sentence('analyse it once')}", stderr=False)

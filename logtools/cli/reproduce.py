@@ -48,7 +48,7 @@ def _cell_texts(cell: FigureCell) -> tuple[Text, str, str]:
 
 def _figure_table(fig: FigureTable) -> Table:
     counts = ", ".join(f"{k} {v}" for k, v in sorted(fig.counts().items()))
-    table = Table(title=f"Fig. {fig.figure}: {fig.title}  [{counts}]", title_justify="left")
+    table = Table(title=Text(f"Fig. {fig.figure}: {fig.title}  [{counts}]"), title_justify="left")
     amplitudes = sorted({c.published.M for c in fig.cells}, reverse=True)
     for col in ("cmd", "method", "quantity"):
         table.add_column(col)
@@ -60,7 +60,7 @@ def _figure_table(fig: FigureTable) -> Table:
         p = c.published
         rows.setdefault((p.cmd, p.method, p.quantity), {})[p.M] = c
     for (cmd, method, quantity), by_m in rows.items():
-        cells: list[RenderableType] = [cmd, method, quantity]
+        cells: list[RenderableType] = [Text(cmd), Text(method), Text(quantity)]
         for M in amplitudes:
             cell = by_m.get(M)
             cells += list(_cell_texts(cell)) if cell is not None else ["", "", ""]
@@ -69,7 +69,7 @@ def _figure_table(fig: FigureTable) -> Table:
 
 
 def _split_table(rep: PatentReproduction) -> Table:
-    table = Table(title=f"CLS weakness: {rep.split_setting}", title_justify="left")
+    table = Table(title=Text(f"CLS weakness: {rep.split_setting}"), title_justify="left")
     for col in ("true L1", "true L2", "true L1/(L1+L2)", "method", "L1", "L2", "L1/(L1+L2)"):
         table.add_column(col, justify="left" if col == "method" else "right")
     for r in rep.split_rows:
@@ -77,7 +77,7 @@ def _split_table(rep: PatentReproduction) -> Table:
             f"{r.L1_true:.3f}",
             f"{r.L2_true:.3f}",
             f"{r.L1_true / (r.L1_true + r.L2_true):.3f}",
-            r.method,
+            Text(r.method),
             f"{r.L1:.3f}",
             f"{r.L2:.3f}",
             Text(f"{r.split:.3f}", style="yellow"),
@@ -113,12 +113,16 @@ def register(app: typer.Typer) -> None:
     group = typer.Typer(
         name="reproduce",
         help="Reproduce published results from their own scenario.",
-        no_args_is_help=True,
+        invoke_without_command=True,
+        rich_markup_mode=None,
     )
 
     @group.callback()
-    def _group() -> None:
+    def _group(ctx: typer.Context) -> None:
         """Reproduce published results from their own scenario."""
+        if ctx.invoked_subcommand is None:  # bare ``logcal reproduce``: its help, success
+            typer.echo(ctx.get_help())
+            raise typer.Exit(0)
 
     @group.command("patent")
     def patent(

@@ -33,9 +33,9 @@ def render_momentum(rep: MomentumReproduction) -> RenderableType:
     }
     for e in ests:
         tag = short.get(e, e)
-        table.add_column(f"{tag} final", justify="right")
-        table.add_column(f"{tag} conv. (s)", justify="right")
-        table.add_column(f"{tag} jumps (last s)", justify="right")
+        table.add_column(Text(f"{tag} final"), justify="right")
+        table.add_column(Text(f"{tag} conv. (s)"), justify="right")
+        table.add_column(Text(f"{tag} jumps (last s)"), justify="right")
     for r in rep.rows:
         cells: list[RenderableType] = [Text(r.name), f"{r.truth:.4g}"]
         for e in ests:

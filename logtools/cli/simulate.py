@@ -61,8 +61,15 @@ def register(app: typer.Typer) -> None:
     sim = typer.Typer(
         name="simulate",
         help="Write simulated drive logs whose true parameters are in the 'logcal' metadata.",
-        no_args_is_help=True,
+        invoke_without_command=True,
+        rich_markup_mode=None,
     )
+
+    @sim.callback()
+    def _group(ctx: typer.Context) -> None:
+        if ctx.invoked_subcommand is None:  # bare ``logcal simulate``: its help, success
+            typer.echo(ctx.get_help())
+            raise typer.Exit(0)
     app.add_typer(sim, name="simulate")
     from logtools.cli.diff_drive import register_simulate as _diff_drive
 

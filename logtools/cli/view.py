@@ -1,10 +1,28 @@
-"""``logcal view LOG``: analyse LOG, save a rerun recording and open the viewer if one can start."""
+"""``logcal view LOG...``: analyse the log(s), save a rerun recording and open the viewer if one
+can start (without a display, say so plainly and where the recording is)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import typer
+
+from calib.results import Baseline
+from logtools.cli._inputs import (
+    channel_map_option,
+    cutoff_option,
+    end_option,
+    ground_truth_option,
+    logs_argument,
+    signal_option,
+    start_option,
+    urdf_option,
+)
+
+_LOGS = logs_argument()
+_CHANNEL_MAP = channel_map_option()
+_SIGNAL = signal_option()
+_GROUND_TRUTH = ground_truth_option()
 
 __all__ = ["register"]
 
@@ -14,49 +32,89 @@ def register(app: typer.Typer) -> None:
 
     @app.command("view")
     def view(
-        log: Path = typer.Argument(
-            ..., help="Drive log: MCAP, CSV or a ROS bag (rosbag2 folder or .bag)."
-        ),
+        logs: list[Path] = _LOGS,
         rrd: Path | None = typer.Option(
-            None, "--rrd", help="Where to save the recording (default: LOG with suffix .rrd)."
+            None, "--rrd", metavar="FILE.rrd",
+            help="Where to save the recording (default: the first LOG with suffix .rrd; "
+            "several runs: one file holding every run).",
         ),
         method: str | None = typer.Option(
-            None, "--method", help="Also show psi predicted by this method (e.g. OLS1(EM1))."
+            None, "--method", metavar="NAME",
+            help="Also show psi predicted by this method (e.g. OLS1(EM1); tractor-trailer).",
         ),
         no_viewer: bool = typer.Option(False, "--no-viewer", help="Only save the recording."),
-        repeats: int = typer.Option(10, "--repeats", min=1, help="Bootstrap repeats per method."),
-        channel_map: Path | None = typer.Option(
-            None, "--channel-map", help="TOML mapping topics/fields to logical signals."
+        repeats: int = typer.Option(
+            10, "--repeats", min=1, metavar="N", help="Bootstrap repeats per method."
         ),
+        baseline: Baseline = typer.Option(
+            Baseline.TRANSIENT, "--baseline",
+            help="Discovery baseline of the tractor-trailer: transient (default) or steady.",
+        ),
+        urdf: str | None = urdf_option(),
+        cutoff_hz: float | None = cutoff_option(),
+        channel_map: Path | None = _CHANNEL_MAP,
+        signal: list[str] | None = _SIGNAL,
+        ground_truth: Path | None = _GROUND_TRUTH,
+        start: float | None = start_option(),
+        end: float | None = end_option(),
     ) -> None:
         """Show LOG in the rerun viewer (or save the .rrd and say where when none can start)."""
-        from logtools.analyze import AnalysisConfig, analyze_log
-        from logtools.channel_map import load_channel_map
+        from logtools.analyze import AnalysisConfig, analyze_logs
+        from logtools.cli._inputs import read_inputs, say, unused_options
+        from logtools.cli.analyze import write_views
         from logtools.errors import LogcalInputError
-        from logtools.outputs import check_output, write_atomically
+        from logtools.outputs import check_output
         from logtools.robots import plugin_for
-        from logtools.robots.base import load_view
-        from viz.viewer import open_viewer
+        from viz.viewer import can_start_viewer, open_viewer
 
-        target = check_output(
-            rrd or log.with_suffix(".rrd"), option="--rrd", suffixes=(".rrd",), inputs=[log]
-        )
-        cmap = load_channel_map(channel_map) if channel_map else None
+        inputs = read_inputs(logs, channel_map=channel_map, signals=signal,
+                             ground_truth=ground_truth, start=start, end=end)
+        first, given = Path(inputs.runs[0]), logs[0]
+        every = [Path(r) for r in inputs.runs] + list(logs)
+        default = given.with_suffix(".rrd") if given.is_file() else given.resolve().with_name(
+            given.resolve().name + ".rrd")  # a folder's recording beside it
+        target = check_output(rrd or default, option="--rrd", suffixes=(".rrd",), inputs=every)
+        for note in inputs.notes:
+            say(f"logcal: {note}")
         extra = {"method_for_psi": method} if method else {}
-        loaded, result = analyze_log(
-            log, channel_map=cmap, config=AnalysisConfig(repeats=repeats, extra=extra)
+        cfg = AnalysisConfig(
+            repeats=repeats, baseline=baseline,
+            extra=extra | ({"urdf": urdf} if urdf else {})
+            | ({"cutoff_hz": cutoff_hz} if cutoff_hz is not None else {}),
         )
+        loadeds, result = analyze_logs(inputs.runs, channel_map=inputs.channel_map, config=cfg)
+        for warning in unused_options(str(result.robot), {
+            "--urdf": urdf, "--cutoff-hz": cutoff_hz, "--method": method,
+            "--baseline": baseline if baseline is not Baseline.TRANSIENT else None,
+            "--ground-truth": ground_truth,
+        }):
+            say(f"logcal: warning: {warning}")
         plugin = plugin_for(result.robot)
         if plugin.views is None:
-            raise LogcalInputError(f"{log}: the {plugin.title} has no rerun views yet.")
-        draw = load_view(plugin.views)
-        write_atomically(target, lambda tmp: draw(tmp, loaded, result, **extra))
-        out = target
-        viewer = None if no_viewer else open_viewer(out)
+            raise LogcalInputError(f"{first}: the {plugin.title} has no rerun views yet.")
+        opts = extra if plugin.name == "tractor_trailer" else {}
+        out = write_views(loadeds, result, rrd=target, png=None, inputs=every, options=opts)
+        assert out is not None  # the plugin has views
+        if no_viewer:
+            return
+        if not can_start_viewer():
+            say(
+                "logcal: no display here (neither DISPLAY nor WAYLAND_DISPLAY is set), so the "
+                f"viewer cannot open; the recording is saved as {out}: open it where there is "
+                f"a display with: rerun {out}",
+                stderr=False,
+            )
+            return
+        viewer = open_viewer(out)
         if viewer is None:
-            typer.echo(f"rerun recording saved: {out} (open it with: rerun {out})")
+            say(
+                f"logcal: the rerun viewer did not start (or did not answer within 20 s); the "
+                f"recording is saved as {out}: open it with: rerun {out}",
+                stderr=False,
+            )
         else:
-            typer.echo(
-                f"rerun recording saved: {out}; viewer started (pid {viewer.process.pid}, "
-                f"listening on {viewer.host}:{viewer.port} only)"
+            say(
+                f"viewer started (pid {viewer.process.pid}, listening on "
+                f"{viewer.host}:{viewer.port} only) on {out}",
+                stderr=False,
             )

@@ -1,5 +1,10 @@
 """Read a CSV drive log (LOG_FORMAT.md): a header row, time ``t`` in seconds, signals as columns.
 
+The time column may also be named as other tools write it: ``__time`` (PlotJuggler's CSV
+export, s), ``%time`` (``rostopic echo -p``, ns since the epoch) or ``timestamp`` (unit told by
+its magnitude, as for ``t``); the first of ``t``, ``__time``, ``%time``, ``timestamp`` present
+is the time.
+
 A time column in epoch milliseconds, microseconds or nanoseconds (loggers that write their clock
 as is) is recognised by its magnitude (seconds since 1970 are ~1.7e9; nothing in seconds is above
 1e11) and rescaled, with a problem saying so. A time that does not fit the int64 nanosecond
@@ -17,13 +22,21 @@ from logtools.errors import NotAnMcapError, TimestampError
 from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
 
-__all__ = ["CSV_TOPIC", "read_csv"]
+__all__ = ["CSV_TOPIC", "TIME_COLUMNS", "read_csv"]
 
 CSV_TOPIC = "csv"
 """The one pseudo-topic of a CSV log."""
 
 _UNITS = ((1e11, 1.0, "s"), (1e14, 1e-3, "ms"), (1e17, 1e-6, "us"), (1e20, 1e-9, "ns"))
 """(largest median |t|, factor to seconds, unit name): the time unit told by the magnitude."""
+TIME_COLUMNS: tuple[tuple[str, str | None], ...] = (
+    ("t", None),
+    ("__time", "s"),
+    ("%time", "ns"),
+    ("timestamp", None),
+)
+"""(column, unit) of the time columns a CSV may have, in order of preference; unit None: told by
+the magnitude (s, or epoch ms/us/ns)."""
 _INT64_NS_LIMIT_S = 9.2e9
 """|t| (s) beyond which t * 1e9 does not fit an int64 nanosecond count."""
 
@@ -41,12 +54,19 @@ def read_csv(path: str, buf: bytes) -> LogData:
         frame = pl.read_csv(BytesIO(buf), infer_schema_length=None)
     except Exception as err:  # polars raises ComputeError/NoDataError/... for malformed text
         raise NotAnMcapError(path, f"CSV parse failed: {err}") from err
-    if "t" not in frame.columns:
+    found = next(((c, u) for c, u in TIME_COLUMNS if c in frame.columns), None)
+    if found is None:
         cols = ", ".join(frame.columns[:12]) or "(none)"
-        raise NotAnMcapError(path, f"the CSV has no time column 't'; its columns: {cols}")
-    t = frame["t"].cast(pl.Float64, strict=False)
-    if frame["t"].null_count() < t.null_count():
-        raise NotAnMcapError(path, "the CSV time column 't' holds non-numeric values")
+        raise NotAnMcapError(
+            path,
+            f"the CSV has no time column 't'; its columns: {cols} (a time column is 't' or "
+            "'timestamp' (s), '__time' (PlotJuggler, s) or '%time' (rostopic echo -p, ns))",
+        )
+    tcol, declared = found
+    exact_ns = declared == "ns" and frame[tcol].dtype.is_integer()
+    t = frame[tcol].cast(pl.Float64, strict=False)
+    if frame[tcol].null_count() < t.null_count():
+        raise NotAnMcapError(path, f"the CSV time column {tcol!r} holds non-numeric values")
     problems: list[Problem] = []
     cut = _cut_last_row(buf, len(frame.columns))
     if cut and frame.height:
@@ -68,12 +88,16 @@ def read_csv(path: str, buf: bytes) -> LogData:
                 ProblemKind.NO_TIME,
                 CSV_TOPIC,
                 count=dropped,
-                message=f"{path}: {dropped} CSV rows have no finite time 't'; dropped",
+                message=f"{path}: {dropped} CSV rows have no finite time {tcol!r}; dropped",
             )
         )
-    t_s = _to_seconds(path, t.filter(keep), problems)
-    t_ns = (t_s * 1e9).round().cast(pl.Int64).alias(TIME_COLUMN)
-    frame = frame.filter(keep).drop("t").insert_column(0, t_ns)
+    if exact_ns:  # integer nanoseconds: no round trip through float64 (256 ns steps at 2e18)
+        t_ns = frame[tcol].filter(keep).cast(pl.Int64).alias(TIME_COLUMN)
+    else:
+        scale = 1e-9 if declared == "ns" else 1.0
+        t_s = _to_seconds(path, t.filter(keep) * scale, problems, tcol, declared is None)
+        t_ns = (t_s * 1e9).round().cast(pl.Int64).alias(TIME_COLUMN)
+    frame = frame.filter(keep).drop(tcol).insert_column(0, t_ns)
     if not frame[TIME_COLUMN].is_sorted():
         backwards = int((frame[TIME_COLUMN].diff() < 0).sum())
         problems.append(
@@ -81,7 +105,7 @@ def read_csv(path: str, buf: bytes) -> LogData:
                 ProblemKind.UNSORTED,
                 CSV_TOPIC,
                 count=backwards,
-                message=f"{path}: CSV time 't' is not increasing; rows were sorted by 't'",
+                message=f"{path}: CSV time {tcol!r} is not increasing; rows were sorted by it",
             )
         )
         frame = frame.sort(TIME_COLUMN, maintain_order=True)
@@ -108,17 +132,19 @@ def _cut_last_row(buf: bytes, n_fields: int) -> int:
     return k if k < n_fields else 0
 
 
-def _to_seconds(path: str, t: pl.Series, problems: list[Problem]) -> pl.Series:
-    """``t`` in seconds: epoch ms/us/ns told by the magnitude and rescaled (with a problem);
-    a value that cannot be a time on the int64 ns clock is refused."""
+def _to_seconds(
+    path: str, t: pl.Series, problems: list[Problem], column: str = "t", guess: bool = True
+) -> pl.Series:
+    """``t`` in seconds: (``guess``) epoch ms/us/ns told by the magnitude and rescaled (with a
+    problem); a value that cannot be a time on the int64 ns clock is refused."""
     if t.len() == 0:
         return t
     median = float(t.abs().median())  # type: ignore[arg-type]
-    unit = next((u for u in _UNITS if median < u[0]), None)
+    unit = next((u for u in _UNITS if median < u[0]), None) if guess else _UNITS[0]
     if unit is None:
         raise TimestampError(
-            f"{path}: CSV column 't' has a median of {median:.3g}, too large for a time in s, ms, "
-            "us or ns; expected seconds (see LOG_FORMAT.md)"
+            f"{path}: CSV column {column!r} has a median of {median:.3g}, too large for a time "
+            "in s, ms, us or ns; expected seconds (see LOG_FORMAT.md)"
         )
     _, factor, name = unit
     if factor != 1.0:
@@ -128,15 +154,15 @@ def _to_seconds(path: str, t: pl.Series, problems: list[Problem]) -> pl.Series:
                 ProblemKind.TIME_UNIT,
                 CSV_TOPIC,
                 count=t.len(),
-                message=f"{path}: CSV column 't' holds epoch {name} (median {median:.4g}), not "
-                f"seconds; it was divided by {1 / factor:.0e}",
+                message=f"{path}: CSV column {column!r} holds epoch {name} (median "
+                f"{median:.4g}), not seconds; it was divided by {1 / factor:.0e}",
             )
         )
     bad = (t.abs() > _INT64_NS_LIMIT_S).arg_true()
     if bad.len():
         first = float(t[int(bad[0])]) / factor
         raise TimestampError(
-            f"{path}: CSV column 't' holds {first:.6g}, which is no "
+            f"{path}: CSV column {column!r} holds {first:.6g}, which is no "
             f"time in {name} (beyond +-{_INT64_NS_LIMIT_S / factor:.3g}); "
             f"{bad.len()} such rows. Expected seconds (see LOG_FORMAT.md)"
         )

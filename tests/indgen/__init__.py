@@ -40,6 +40,12 @@ L2 = 0.537; topics /cmd_vel (linear.x speed, angular.z steering angle), /encoder
 /kelo_angle (measured steering angle), /tf map->truck_link). The speed on /cmd_vel is the
 commanded speed of the rear-axle reference point C1.
 
+Other robots (``robots.generate_log``): a differential drive (``diffdrive``), a planar 2-link
+arm with its URDF (``arm``) and the tractor-trailer with catalogue-escaping physics
+(``tractor_kinds``); the kinds and the three held-out ones are in ``kinds``; logs are
+``robotlog.RobotLog`` written by ``robot_writers`` (JSON MCAP, CSV), with the effect size of the
+kind in ``truth["effect_size"]``.
+
 Usage::
 
     rng = np.random.default_rng(1)
@@ -50,7 +56,11 @@ Usage::
 
 from .generate import Generated, TopicData, generate
 from .inputs import Command, Speed
+from .kinds import HELD_OUT_KINDS, KINDS, KindDef, kinds_of
 from .physics import Trajectory, integrate
+from .robot_writers import write_log
+from .robotlog import RobotLog, Stream, effect_size
+from .robots import generate_log
 from .scenario import (
     EFFECT_NAMES,
     SMALL_ROBOT,
@@ -75,23 +85,32 @@ from .writers import (
 __all__ = [
     "CSV_COLUMNS",
     "EFFECT_NAMES",
+    "HELD_OUT_KINDS",
+    "KINDS",
     "ROS_TYPES",
     "SMALL_ROBOT",
     "TOPICS",
     "Command",
     "Effects",
     "Generated",
+    "KindDef",
+    "RobotLog",
     "Scenario",
     "Speed",
+    "Stream",
     "TopicData",
     "TopicDef",
     "TopicSpec",
     "Trajectory",
+    "effect_size",
     "generate",
+    "generate_log",
     "integrate",
+    "kinds_of",
     "random_scenario",
     "small_robot_scenario",
     "write_csv",
+    "write_log",
     "write_mcap_json",
     "write_mcap_ros2",
     "write_rosbag1",

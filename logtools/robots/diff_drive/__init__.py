@@ -1,5 +1,7 @@
 """The differential drive (two driven wheels, casters; skid-steer robots with an effective
-track): wheel radii and track from wheel angles and ground-truth pose.
+track): wheel radii and track from wheel angles and ground-truth pose; or, from a log of the
+usual ROS kind (the controller's wheel odometry, an IMU, maybe GPS), what that log determines:
+the odometry's yaw-rate gain against the gyro and a distance scale against GPS.
 
 This module only declares the plugin (signals, identification, aliases, view paths) and stays
 light: every log's robot is resolved by loading all plugin declarations, so the analysis
@@ -10,6 +12,7 @@ light: every log's robot is resolved by loading all plugin declarations, so the 
 from __future__ import annotations
 
 from logtools.robots.base import RobotPlugin, SignalSpec, lazy
+from logtools.signals import SignalSource
 
 __all__ = ["PLUGIN"]
 
@@ -17,21 +20,42 @@ __all__ = ["PLUGIN"]
 def _identify(signals: frozenset[str]) -> str | None:
     if {"wheel_left", "wheel_right"} <= signals:
         return "signals wheel_left, wheel_right"
+    if {"odom_omega", "gyro_z"} <= signals:
+        return "signals odom_omega (wheel odometry), gyro_z (IMU)"
     return None
+
+
+def _sources(pairs: tuple[tuple[str, str], ...]) -> tuple[SignalSource, ...]:
+    return tuple(SignalSource(t, f) for t, f in pairs)
+
+
+_ODOM_TOPICS = ("/odom", "*/odom", "*/wheel_odom", "/odometry/wheel")
+_IMU_TOPICS = ("/imu/data", "/imu", "*/imu/data", "*/imu/data_raw", "*/imu")
+_GPS_TOPICS = ("/gps/fix", "/fix", "/navsat/fix", "*/gps/fix", "*/fix")
 
 
 PLUGIN = RobotPlugin(
     name="diff_drive",
     title="differential-drive robot",
     signals=(
-        SignalSpec("wheel_right", "rad", "cumulative right wheel angle", required=True),
-        SignalSpec("wheel_left", "rad", "cumulative left wheel angle", required=True),
+        SignalSpec("wheel_right", "rad", "cumulative right wheel angle"),
+        SignalSpec("wheel_left", "rad", "cumulative left wheel angle"),
         SignalSpec("x", "m", "ground-truth position of the axle centre"),
         SignalSpec("y", "m", "ground-truth position of the axle centre"),
         SignalSpec("yaw", "rad", "ground-truth heading"),
         SignalSpec("omega", "rad/s", "gyro yaw rate (effective track of a skid-steer robot)"),
         SignalSpec("v_cmd", "m/s", "speed command"),
         SignalSpec("omega_cmd", "rad/s", "yaw-rate command"),
+        SignalSpec("odom_v", "m/s", "wheel odometry forward speed (nav_msgs/Odometry twist)",
+                   sources=_sources(tuple((t, "twist.twist.linear.x") for t in _ODOM_TOPICS))),
+        SignalSpec("odom_omega", "rad/s", "wheel odometry yaw rate (nav_msgs/Odometry twist)",
+                   sources=_sources(tuple((t, "twist.twist.angular.z") for t in _ODOM_TOPICS))),
+        SignalSpec("gyro_z", "rad/s", "IMU yaw rate (sensor_msgs/Imu angular_velocity.z)",
+                   sources=_sources(tuple((t, "angular_velocity.z") for t in _IMU_TOPICS))),
+        SignalSpec("gps_lat", "deg", "GPS latitude (sensor_msgs/NavSatFix)",
+                   sources=_sources(tuple((t, "latitude") for t in _GPS_TOPICS))),
+        SignalSpec("gps_lon", "deg", "GPS longitude (sensor_msgs/NavSatFix)",
+                   sources=_sources(tuple((t, "longitude") for t in _GPS_TOPICS))),
     ),
     identify=_identify,
     analyze=lazy("logtools.robots.diff_drive.pipeline:analyze_diff_drive"),

@@ -1,5 +1,9 @@
 """The differential drive's analysis: least-squares odometry calibration, UMBmark, the
-gyro's effective track, dead reckoning before / after and discovery, for one log or several runs.
+gyro's effective track, dead reckoning before / after, the adequacy of the calibrated model,
+discovery through the shared engine (stuck encoder readings excluded, a radius change split),
+for one log or several runs. A pose that is the wheels' own dead reckoning is not taken as
+ground truth; a log of wheel odometry and an IMU (no encoders, no ground truth) gets what it
+determines: the yaw-rate gain against the gyro.
 
 Imported on first analysis (not by the plugin declaration in ``__init__``): it pulls in
 :mod:`calib.diff_drive`'s estimators and scipy, which resolving a log's signals never needs.
@@ -7,17 +11,31 @@ Imported on first analysis (not by the plugin declaration in ``__init__``): it p
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
+from calib.adequacy import Adequacy, not_assessed, under_misfit
+from calib.diff_drive.adequacy import (
+    StuckSpan,
+    assess_fit,
+    exclude_spans,
+    exclusion_masks,
+    find_stuck_spans,
+    piece_fits,
+    radius_change,
+    split_at,
+)
 from calib.diff_drive.data import DriveRun
 from calib.diff_drive.dead_reckoning import dead_reckon
-from calib.diff_drive.discovery import discover
+from calib.diff_drive.effects import DiffDriveSelection, discover_effects, stuck_spec
 from calib.diff_drive.kinematics import DiffDriveParams
-from calib.diff_drive.odometry_lsq import LsqFit, calibrate_lsq
+from calib.diff_drive.odom_imu import analyze_odom_imu
+from calib.diff_drive.odometry_lsq import LsqFit, calibrate_lsq, fit_lsq, make_estimates
+from calib.diff_drive.provenance import Provenance, pose_provenance
 from calib.diff_drive.skid import effective_track
 from calib.diff_drive.umbmark import umbmark, umbmark_result
 from calib.errors import InsufficientDataError
@@ -133,6 +151,130 @@ def _params_of(result: CalibrationResult) -> DiffDriveParams:
     )
 
 
+LSQ_MODEL = "LSQ (r_R, r_L, b)"
+
+
+def _lsq_section(fit: LsqFit, sections: dict[str, Any]) -> None:
+    if fit.offset is not None:
+        sx, sy = fit.offset_std
+        sections["ground_truth_offset"] = {
+            "x_m": fit.offset.real,
+            "y_m": fit.offset.imag,
+            "x_std_m": sx,
+            "y_std_m": sy,
+            "note": "where the ground-truth marker sits ahead of / left of the axle centre",
+        }
+
+
+def _widen(result: CalibrationResult, adequacy: Adequacy,
+           pieces: Mapping[str, Sequence[float]]) -> CalibrationResult:
+    """``result`` with every radius and the track as a model that does not explain the log
+    allows (:func:`calib.adequacy.under_misfit`)."""
+    if adequacy.explains or not adequacy.channels:
+        return result
+    params = {k: under_misfit(e, adequacy, pieces=pieces.get(k, ()))
+              for k, e in result.parameters.items()}
+    return dataclasses.replace(
+        result, parameters=params,
+        verdict=result.verdict + "; the model does not explain the log: intervals widened, "
+        "not determined")
+
+
+def _model_label(excluded: Sequence[StuckSpan]) -> str:
+    if not excluded:
+        return LSQ_MODEL
+    return LSQ_MODEL + ", samples of " + ", ".join(s.label for s in excluded) + " excluded"
+
+
+def _calibrate_and_judge(
+    runs: list[DriveRun],
+    nominal: DiffDriveParams | None,
+    stages: Stages,
+    seed: int,
+    discovery_on: bool,
+    progress: Progress,
+) -> tuple[CalibrationResult | None, LsqFit | None, Adequacy, DiffDriveSelection | None,
+           dict[str, Any], list[str]]:
+    """LSQ, adequacy, discovery (stuck spans excluded), a radius change (split and estimated
+    per piece), the final adequacy and intervals under misfit."""
+    sections: dict[str, Any] = {}
+    warnings: list[str] = []
+    progress("least-squares odometry calibration")
+    lsq = stages.run("calibration.lsq", lambda: calibrate_lsq(runs, seed=seed))
+    if lsq is None:
+        return None, None, not_assessed(LSQ_MODEL, "no least-squares fit"), None, sections, []
+    result, fit = lsq
+    progress("adequacy")
+    first = stages.run("adequacy", lambda: assess_fit(runs, fit.params, model=LSQ_MODEL,
+                                                      offset=fit.offset))
+    if first is None:
+        _lsq_section(fit, sections)
+        return result, fit, not_assessed(LSQ_MODEL, "the adequacy check failed"), None, \
+            sections, []
+    floor = first.channels[0].noise_floor if first.channels else 0.0
+    spans = find_stuck_spans(runs, fit.params, floor)
+    disc: DiffDriveSelection | None = None
+    if discovery_on:
+        progress("discovery")
+        disc = stages.run("discovery", lambda: discover_effects(
+            runs, nominal, calibrated=fit.params, marker=fit.offset, spans=spans))
+    else:
+        stages.skip("discovery", "switched off")
+    named_keys = {e.key for e in disc.accepted} if disc is not None else set()
+    excluded = [s for s in spans if stuck_spec(s).key in named_keys]
+    if disc is None and spans:  # discovery off or failed: the detection alone decides
+        excluded = list(spans)
+    used = runs
+    if excluded:
+        used = exclude_spans(runs, excluded)
+        warnings.append(
+            "stuck or dropped wheel-encoder readings (" + ", ".join(
+                f"{s.label}: the ground truth turned {s.heading_rad:+.3g} rad the wheels did "
+                "not report" for s in excluded)
+            + "): those samples are left out of the calibration")
+        refit = stages.run("calibration.lsq_excluding_stuck",
+                           lambda: calibrate_lsq(used, seed=seed))
+        if refit is not None:
+            result, fit = refit
+            result = dataclasses.replace(
+                result, method="LSQ", verdict=result.verdict + " (stuck-encoder samples "
+                "excluded: " + ", ".join(s.label for s in excluded) + ")")
+    _lsq_section(fit, sections)
+    change = stages.run("adequacy.radius_change", lambda: radius_change(used, fit.params.b))
+    changes = [change] if change is not None else []
+    pieces: dict[str, list[float]] = {}
+    if change is not None:
+        before_runs, after_runs = split_at(used, change.t_s)
+        per_piece = []
+        def _fit_part(part: list[DriveRun]) -> Callable[[], LsqFit]:
+            return lambda: fit_lsq(part, n_boot=200, seed=seed)
+
+        for label, part in (("before", before_runs), ("after", after_runs)):
+            f = stages.run(f"calibration.lsq_{label}_change", _fit_part(part))
+            if f is None:
+                continue
+            p = f.params
+            est = make_estimates([p.r_R, p.r_L, p.b], f.std.tolist(), True,
+                                 f"LSQ on the part {label} t = {change.t_s:.1f} s",
+                                 f.quantile())
+            per_piece.append({"part": label, "estimate": {k: e.to_dict()
+                                                            for k, e in est.items()}})
+        sections["parameter_change"] = {"change": change.to_dict(), "pieces": per_piece}
+        warnings.append(change.note + ": the log was split there and each part estimated "
+                        "(parameter_change)")
+        for pf in piece_fits(used, fit.params.b):
+            for k, v in pf.values.items():
+                pieces.setdefault(k, []).append(v)
+    masks = exclusion_masks(runs, excluded) if excluded else None
+    notes = [f"{stuck_spec(s).key} excluded from the calibration" for s in excluded]
+    final = stages.run("adequacy.final", lambda: assess_fit(
+        runs, fit.params, model=_model_label(excluded), offset=fit.offset, excluded=masks,
+        before=first if (excluded or changes) else None, changes=changes, notes=notes))
+    adequacy = final if final is not None else first
+    result = _widen(result, adequacy, pieces)
+    return result, fit, adequacy, disc, sections, warnings
+
+
 def _analyze_runs(
     runs: list[DriveRun],
     nominal: DiffDriveParams | None,
@@ -141,30 +283,27 @@ def _analyze_runs(
     gyro: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None,
     side: float | None,
 ) -> tuple[
-    list[CalibrationResult], CalibrationResult | None, dict[str, Any], Any, Any, dict[str, Any]
+    list[CalibrationResult], CalibrationResult | None, dict[str, Any], Any, Any,
+    dict[str, Any], Adequacy, list[str],
 ]:
     stages = Stages(getattr(config, "debug", False))
     seed = int(getattr(config, "seed", 0))
     methods: list[CalibrationResult] = []
     sections: dict[str, Any] = {}
-    progress("least-squares odometry calibration")
-    lsq = stages.run("calibration.lsq", lambda: calibrate_lsq(runs, seed=seed))
-    fit: LsqFit | None = None
-    if lsq is not None:
-        methods.append(lsq[0])
-        fit = lsq[1]
-        if fit.offset is not None:
-            sx, sy = fit.offset_std
-            sections["ground_truth_offset"] = {
-                "x_m": fit.offset.real,
-                "y_m": fit.offset.imag,
-                "x_std_m": sx,
-                "y_std_m": sy,
-                "note": "where the ground-truth marker sits ahead of / left of the axle centre",
-            }
+    warnings: list[str] = []
+    disc: DiffDriveSelection | None = None
+    adequacy = not_assessed(LSQ_MODEL, "no ground-truth pose with wheel angles")
+    if runs:
+        lsq, _fit, adequacy, disc, sec, warnings = _calibrate_and_judge(
+            runs, nominal, stages, seed, bool(getattr(config, "discovery", True)), progress)
+        sections.update(sec)
+        if lsq is not None:
+            methods.append(lsq)
+    else:
+        stages.skip("calibration.lsq", "no ground-truth pose with wheel angles")
     if nominal is None:
         stages.skip("calibration.umbmark", "no nominal parameters to correct")
-    else:
+    elif runs:
         progress("UMBmark")
 
         def _umb() -> CalibrationResult:
@@ -176,7 +315,7 @@ def _analyze_runs(
             methods.append(umb)
     if gyro is not None:
         t, pr, pl, rate = gyro
-        radii = _params_of(methods[0]) if lsq is not None else nominal
+        radii = _params_of(methods[0]) if methods and methods[0].method == "LSQ" else nominal
         if radii is None:
             stages.skip("effective_track.gyro", "no radii (nominal or calibrated)")
         else:
@@ -192,17 +331,12 @@ def _analyze_runs(
                 }
     recommended = methods[0] if methods else None
     progress("dead reckoning")
-    dr = stages.run("dead_reckoning", lambda: _dead_reckoning(runs, nominal, recommended))
     arrays: dict[str, Any] = {}
-    if dr is not None:
-        sections["dead_reckoning"], arrays = dr
-    disc = None
-    if getattr(config, "discovery", True) and fit is not None:
-        progress("discovery")
-        disc = stages.run("discovery", lambda: discover(runs, fit, nominal))
-    elif fit is None:
-        stages.skip("discovery", "no least-squares fit to test")
-    return methods, recommended, sections, disc, stages, arrays
+    if runs:
+        dr = stages.run("dead_reckoning", lambda: _dead_reckoning(runs, nominal, recommended))
+        if dr is not None:
+            sections["dead_reckoning"], arrays = dr
+    return methods, recommended, sections, disc, stages, arrays, adequacy, warnings
 
 
 def _gyro(loaded: LoadedLog) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
@@ -222,6 +356,105 @@ def _side(loaded: LoadedLog) -> float | None:
         return None
 
 
+_NOT_TRUTH = ("odom", "filtered", "ekf", "ukf")
+"""Topic name parts of poses that are (or fuse) the wheels' own odometry."""
+
+
+def _quat_yaw(f: Any, prefix: str) -> np.ndarray:
+    """Yaw (rad) of the quaternion columns ``{prefix}x`` .. ``{prefix}w``."""
+    qx, qy, qz, qw = (f[f"{prefix}{c}"].to_numpy().astype(float) for c in "xyzw")
+    return np.asarray(np.arctan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz)))
+
+
+_POSE_LAYOUTS = (
+    ("pose.pose.position.", "pose.pose.orientation."),  # Odometry, PoseWithCovarianceStamped
+    ("pose.position.", "pose.orientation."),  # PoseStamped
+    ("transform.translation.", "transform.rotation."),  # TransformStamped
+    ("position.", "orientation."),  # Pose
+)
+
+
+def _alternative_pose(loaded: LoadedLog, used: str, t_ns: np.ndarray
+                      ) -> tuple[str, np.ndarray, np.ndarray, np.ndarray] | None:
+    """Another pose topic of the log (motion capture, a localisation) that is not odometry,
+    resampled at ``t_ns``; None when the log has none."""
+    for topic in sorted(loaded.log.topics):
+        if topic == used or any(p in topic.lower() for p in _NOT_TRUTH):
+            continue
+        f = loaded.log.topics[topic]
+        for pos, rot in _POSE_LAYOUTS:
+            cols = [f"{pos}x", f"{pos}y", *(f"{rot}{c}" for c in "xyzw")]
+            if not all(c in f.columns for c in cols) or f.height < 10:
+                continue
+            ts = f["t_ns"].to_numpy().astype(float)
+            order = np.argsort(ts, kind="stable")
+            ts = ts[order]
+            inside = (t_ns >= ts[0]) & (t_ns <= ts[-1])
+            if inside.mean() < 0.8:
+                continue
+            x = f[cols[0]].to_numpy().astype(float)[order]
+            y = f[cols[1]].to_numpy().astype(float)[order]
+            yaw = np.unwrap(_quat_yaw(f, rot)[order])
+            return (topic, np.interp(t_ns, ts, x), np.interp(t_ns, ts, y),
+                    np.interp(t_ns, ts, yaw))
+    return None
+
+
+def _ground_truth(loaded: LoadedLog, run: DriveRun
+                  ) -> tuple[DriveRun | None, Provenance, dict[str, Any]]:
+    """The run with a pose that is ground truth: the logged one unless it is the encoders'
+    dead reckoning, then another pose topic of the log that is not; None when none is."""
+    src = loaded.signals.sources.get("yaw")
+    topic = src.topic if src is not None else "?"
+    prov = pose_provenance(run.wheel_right, run.wheel_left, run.yaw,
+                           source=f"the pose on {topic}")
+    info: dict[str, Any] = {"topic": topic, **prov.to_dict()}
+    if not prov.dead_reckoning:
+        info["verdict"] = "ground truth"
+        return run, prov, info
+    info["verdict"] = "not ground truth"
+    t_ns = loaded.frame["t_ns"].to_numpy()
+    alt = _alternative_pose(loaded, topic, t_ns)
+    if alt is not None:
+        name, x, y, yaw = alt
+        cand = DriveRun(run.t, run.wheel_right, run.wheel_left, x, y, yaw, name=run.name)
+        p2 = pose_provenance(cand.wheel_right, cand.wheel_left, cand.yaw, source=name)
+        if not p2.dead_reckoning:
+            info["used_instead"] = name
+            return cand, prov, info
+    return None, prov, info
+
+
+def _odom_imu(loaded: LoadedLog, nominal: DiffDriveParams | None, stages: Stages, seed: int,
+              ) -> tuple[CalibrationResult | None, Adequacy | None, Any, dict[str, Any]]:
+    f = loaded.frame
+    if not {"odom_omega", "gyro_z"} <= set(f.columns):
+        stages.skip("odometry_imu", "no wheel-odometry yaw rate and IMU yaw rate")
+        return None, None, None, {}
+    t = (f["t_ns"].to_numpy() - f["t_ns"][0]) * 1e-9
+    col = {c: f[c].to_numpy().astype(float) for c in f.columns if c != "t_ns"}
+    gps = (col["gps_lat"], col["gps_lon"]) if {"gps_lat", "gps_lon"} <= set(col) else None
+    res = stages.run("odometry_imu", lambda: analyze_odom_imu(
+        t, col["odom_omega"], col["gyro_z"], odom_v=col.get("odom_v"), gps=gps,
+        geometric_track=None if nominal is None else nominal.b, seed=seed))
+    if res is None:
+        return None, None, None, {}
+    params = {"yaw_rate_gain": res.gain}
+    if res.effective_track is not None:
+        params["track_width"] = res.effective_track
+    if res.distance_scale is not None:
+        params["distance_scale_gps"] = res.distance_scale
+    g = res.gain
+    verdict = (
+        f"odometry yaw rate / gyro yaw rate = {g.value:.4g} [95 %: {g.ci95[0]:.4g}, "
+        f"{g.ci95[1]:.4g}]" + ("" if g.identifiable else " (not determined: " + g.note + ")")
+        + "; wheel radii not determined (no encoder angles and no independent distance"
+        + (")" if res.distance_scale is None else " but GPS)"))
+    cal = CalibrationResult(method="odometry vs gyro", parameters=params, sum_L1_L2=None,
+                            verdict=verdict, details={"windows": res.n_windows})
+    return cal, res.adequacy, res, {"odometry_imu": res.to_dict()}
+
+
 def analyze_diff_drive(loaded: LoadedLog, config: Any, progress: Progress) -> AnalysisResult:
     """Calibrate one differential-drive log (the plugin's ``analyze``)."""
     nominal = nominal_params(loaded)
@@ -233,11 +466,40 @@ def analyze_diff_drive(loaded: LoadedLog, config: Any, progress: Progress) -> An
             "calibration and the effective-track test are not reported"
         )
     stages_pre = Stages(getattr(config, "debug", False))
-    run = stages_pre.run("ground_truth", lambda: _drive_run(loaded))
+    cols = set(loaded.frame.columns)
+    has_wheels = {"wheel_right", "wheel_left"} <= cols
+    run = stages_pre.run("ground_truth", lambda: _drive_run(loaded)) if has_wheels else None
+    if not has_wheels:
+        stages_pre.skip("ground_truth", "no wheel angles")
+    sections: dict[str, Any] = {}
+    if run is not None:
+        checked, prov, info = _ground_truth(loaded, run)
+        sections["ground_truth"] = info
+        if prov.dead_reckoning:
+            warnings.append(
+                prov.note + (f"; {info['used_instead']} is used as the ground truth instead"
+                             if checked is not None else
+                             "; the log has no other pose (motion capture, GPS): the wheel "
+                             "radii and track are not determined by this log"))
+        run = checked
     runs = [run] if run is not None else []
-    methods, rec, sections, disc, stages, arrays = _analyze_runs(
-        runs, nominal, config, progress, _gyro(loaded), _side(loaded)
+    methods, rec, sec, disc, stages, arrays, adequacy, more = _analyze_runs(
+        runs, nominal, config, progress, _gyro(loaded) if runs else None, _side(loaded)
     )
+    sections.update(sec)
+    warnings += more
+    if not runs:
+        cal, ad, _res, sec2 = _odom_imu(loaded, nominal, stages, int(getattr(config, "seed", 0)))
+        sections.update(sec2)
+        if cal is not None:
+            methods.insert(0, cal)
+            rec = cal
+            adequacy = ad if ad is not None else adequacy
+            disc = _res
+        elif "ground_truth" in sections and sections["ground_truth"]["verdict"] == (
+                "not ground truth"):
+            adequacy = not_assessed(LSQ_MODEL, "the log's pose is the wheels' own dead "
+                                    "reckoning, not ground truth")
     if nominal is not None:
         sections["nominal"] = nominal.as_dict()
     return AnalysisResult(
@@ -246,6 +508,7 @@ def analyze_diff_drive(loaded: LoadedLog, config: Any, progress: Progress) -> An
         methods=methods,
         estimate=rec,  # None when no calibration ran: the nominal values are in "nominal"
         discovery=disc,
+        adequacy=adequacy,
         truth=loaded.truth,
         source={"path": loaded.path, "samples": loaded.frame.height},
         warnings=warnings,
@@ -259,16 +522,19 @@ def pool_diff_drive(
     runs: Sequence[tuple[LoadedLog, AnalysisResult]], config: Any, progress: Progress
 ) -> AnalysisResult:
     """All runs together: one least-squares fit, UMBmark over the square runs, dead reckoning
-    of every run with the pooled parameters."""
+    of every run with the pooled parameters, the adequacy of the pooled model."""
     loaded0 = runs[0][0]
     nominal = nominal_params(loaded0)
     drive_runs = []
     for loaded, _ in runs:
         try:
-            drive_runs.append(_drive_run(loaded))
+            run = _drive_run(loaded)
         except InsufficientDataError:
             continue
-    methods, rec, sections, disc, stages, arrays = _analyze_runs(
+        checked, _prov, _info = _ground_truth(loaded, run)
+        if checked is not None:
+            drive_runs.append(checked)
+    methods, rec, sections, disc, stages, arrays, adequacy, more = _analyze_runs(
         drive_runs, nominal, config, progress, None, _side(loaded0)
     )
     if nominal is not None:
@@ -279,9 +545,10 @@ def pool_diff_drive(
         methods=methods,
         estimate=rec,
         discovery=disc,
+        adequacy=adequacy,
         truth=loaded0.truth,
         source={"runs": [lo.path for lo, _ in runs]},
-        warnings=[w for _, r in runs for w in r.warnings],
+        warnings=[w for _, r in runs for w in r.warnings] + more,
         stages=stages.status,
         runs=[r for _, r in runs],
         sections=sections,

@@ -1,4 +1,5 @@
-"""The differential drive's part of the readable report (plain lines from the result)."""
+"""The differential drive's part of the readable report (plain lines from the result); the
+adequacy verdict and discovery are drawn around it by :mod:`logtools.report`."""
 
 from __future__ import annotations
 
@@ -9,9 +10,47 @@ from calib.results import AnalysisResult
 __all__ = ["report_lines"]
 
 
+def _ground_truth_lines(result: AnalysisResult) -> list[str]:
+    gt = result.sections.get("ground_truth")
+    if not gt:
+        return []
+    if gt.get("verdict") == "ground truth":
+        return [f"Ground truth: {gt['topic']} (independent of the encoders: whole-log heading "
+                f"residual {gt['heading_residual_rms_rad']:.2g} rad)"]
+    line = f"Ground truth: NOT {gt['topic']}, which is the encoders' own dead reckoning"
+    line += (f"; using {gt['used_instead']}" if gt.get("used_instead") else
+             "; no other pose in the log: radii and track not determined")
+    return [line]
+
+
+def _adequacy_lines(result: AnalysisResult) -> list[str]:
+    lines = []
+    ad = result.adequacy
+    if ad is not None and ad.channels:
+        lines.append(f"Adequacy ({ad.model}): {ad.verdict}; " + ", ".join(
+            f"{c.channel} {c.judged_ratio:.2g}x its noise floor ({c.noise_floor:.3g} {c.unit})"
+            for c in ad.channels))
+    runs = [r for r in result.runs if r.adequacy is not None and r.adequacy.channels]
+    if runs:
+        lines.append("Adequacy per run:")
+        for r in runs:
+            worst = max(r.adequacy.channels, key=lambda c: c.judged_ratio)
+            lines.append(f"  {r.source.get('path', '?')}: {r.adequacy.verdict} "
+                         f"({worst.channel} {worst.judged_ratio:.2g}x)")
+    change = result.sections.get("parameter_change")
+    if change:
+        lines.append(change["change"]["note"] + "; each part estimated:")
+        for part in change["pieces"]:
+            est = part["estimate"]
+            lines.append(f"  {part['part']}: " + ", ".join(
+                f"{k} {v['value'] * 1e3:.3f} ± {v['std'] * 1e3:.2g} mm" for k, v in est.items()))
+    return lines
+
+
 def report_lines(result: AnalysisResult) -> list[Any]:
-    """Methods, dead-reckoning drift before / after, effective track and discovery, as lines."""
-    lines: list[str] = []
+    """Ground truth, methods, dead-reckoning drift before / after, effective track, the
+    odometry-vs-gyro gain, per-run adequacy and a mid-log change, as lines."""
+    lines: list[str] = _ground_truth_lines(result)
     for m in result.methods:
         lines.append(f"{m.method}:")
         lines += ["  " + e.report() for e in m.parameters.values()]
@@ -23,6 +62,9 @@ def report_lines(result: AnalysisResult) -> list[Any]:
             f"Effective track from the {et['from']}: {e['value']:.4f} ± {e['std']:.2g} m "
             f"(geometric {et['geometric_track_m']} m)"
         )
+    oi = result.discovery if hasattr(result.discovery, "summary_lines") else None
+    if oi is not None:
+        lines += oi.summary_lines()
     dr = result.sections.get("dead_reckoning")
     if dr:
         lines.append(
@@ -39,6 +81,5 @@ def report_lines(result: AnalysisResult) -> list[Any]:
                 + ("-" if cal is None else f"{cal:.4f} m")
                 + ("" if fac is None else f" ({fac:.1f}x)")
             )
-    if result.discovery is not None:
-        lines += result.discovery.report()
+    lines += _adequacy_lines(result)
     return lines

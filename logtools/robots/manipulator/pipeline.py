@@ -8,17 +8,20 @@ never needs.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
+from calib.adequacy import NOT_EXPLAINED, Adequacy
 from calib.errors import CalibError
+from calib.manipulator.adequacy import assess_arm, find_change, piece_fits, spanned, widened
 from calib.manipulator.design import Term
-from calib.manipulator.discovery import ArmDiscovery, discover_arm
+from calib.manipulator.discovery import ArmDiscovery, ArmFitter, run_discovery
 from calib.manipulator.identify import ArmIdentification, IdentifyConfig, identify_arm
 from calib.manipulator.model import ArmModel
 from calib.manipulator.planar import Planar2Link, Planar2Params
-from calib.results import AnalysisResult
+from calib.results import AnalysisResult, CalibrationResult, Estimate
 from logtools.errors import LogcalInputError
 from logtools.load import LoadedLog
 from logtools.robots.base import Progress
@@ -135,41 +138,19 @@ def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> A
     terms = _DEFAULT_TERMS
     extra = getattr(config, "extra", None) or {}
     cutoff = _cutoff(extra.get("cutoff_hz"))
+    cfg = IdentifyConfig(terms=terms, cutoff_hz=cutoff)
     ident = stages.run(
-        "identification",
-        lambda: identify_arm(
-            model, t, q, tau, IdentifyConfig(terms=terms, cutoff_hz=cutoff), progress=progress
-        ),
+        "identification", lambda: identify_arm(model, t, q, tau, cfg, progress=progress)
     )
-    disc: ArmDiscovery | None = None
-    if ident is not None and getattr(config, "discovery", True):
-        nominal = None
-        if meta.get("nominal") == "true" or any(k.startswith("nominal.") for k in meta):
-            nominal = model.nominal
-        baseline = declared if declared is not None else terms
-        sig = ident.sig
-        disc = stages.run(
-            "discovery",
-            lambda: discover_arm(
-                model, sig, baseline, nominal, IdentifyConfig(terms=terms, cutoff_hz=cutoff)
-            ),
+    judged: _Judged | None = None
+    if ident is not None:
+        judged = stages.run(
+            "model adequacy",
+            lambda: _judge(model, ident, meta, declared, cfg, stages,
+                           bool(getattr(config, "discovery", True)), progress),
         )
-        refit_terms = _with_named(terms, disc)
-        if refit_terms != terms:
-            refit = stages.run(
-                "refit with discovered terms",
-                lambda: identify_arm(
-                    model,
-                    t,
-                    q,
-                    tau,
-                    IdentifyConfig(terms=refit_terms, cutoff_hz=cutoff),
-                    progress=progress,
-                ),
-            )
-            if refit is not None:
-                ident = refit
-    elif ident is None:
+    else:
+        stages.skip("model adequacy", "identification did not run")
         stages.skip("discovery", "identification did not run")
     sections: dict[str, Any] = {
         "joints": list(model.joint_names),
@@ -183,8 +164,8 @@ def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> A
         h = ident.holdout
         names = model.joint_names
         methods, estimate = ident.methods, ident.recommended
-        if extra_terms_used := [str(x) for x in ident.design.terms if x not in _DEFAULT_TERMS]:
-            estimate = _renamed(estimate, "momentum-WLS + " + " + ".join(extra_terms_used))
+        if judged is not None:
+            estimate = judged.estimate
         sections |= {
             "excitation": {
                 "condition_number": ident.condition_number,
@@ -204,6 +185,8 @@ def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> A
                 "notes": list(getattr(model, "notes", ())) + ident.notes,
             },
         }
+        if judged is not None:
+            sections |= judged.sections
         truth_base = _truth_base(ident, loaded.truth)
         if truth_base:
             sections["truth_base"] = truth_base
@@ -224,7 +207,8 @@ def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> A
         segments=[],
         methods=methods,
         estimate=estimate,
-        discovery=disc,
+        discovery=None if judged is None else judged.discovery,
+        adequacy=None if judged is None else judged.adequacy,
         truth=dict(loaded.truth),
         source={"path": loaded.path},
         warnings=[str(p) for p in loaded.problems],
@@ -232,6 +216,117 @@ def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> A
         sections=sections,
         artifacts=artifacts,
     )
+
+
+@dataclass(frozen=True)
+class _Judged:
+    """What the adequacy stage found: the verdict, discovery, the recommended estimate as the
+    verdict allows, and the JSON sections (split at a parameter change, confounds)."""
+
+    adequacy: Adequacy
+    discovery: ArmDiscovery | None
+    estimate: CalibrationResult
+    sections: dict[str, Any]
+
+
+def _judge(
+    model: ArmModel,
+    ident: ArmIdentification,
+    meta: dict[str, str],
+    declared: tuple[Term, ...] | None,
+    cfg: IdentifyConfig,
+    stages: Stages,
+    discovery: bool,
+    progress: Progress,
+) -> _Judged:
+    """Adequacy of the identified model, discovery through the shared engine, a parameter
+    change over time pieces, and the recommended estimate under the verdict."""
+    progress("model adequacy")
+    fitter = ArmFitter(model, ident.sig, cfg.terms, None, cfg)
+    first = assess_arm(fitter)
+    if first is None:
+        raise CalibError("the identified model could not be refitted for its adequacy")
+    before = first.adequacy
+    pieces = piece_fits(fitter)
+    split = find_change(fitter, pieces)
+    disc: ArmDiscovery | None = None
+    if discovery:
+        nominal = None
+        if meta.get("nominal") == "true" or any(k.startswith("nominal.") for k in meta):
+            nominal = model.nominal
+        baseline = declared if declared is not None else cfg.terms
+        if nominal is None and baseline == cfg.terms:
+            dfit = fitter
+        else:
+            dfit = ArmFitter(model, ident.sig, baseline, nominal, cfg, fitter.floors)
+        disc = stages.run("discovery", lambda: run_discovery(dfit, progress=progress))
+    else:
+        stages.skip("discovery", "--no-discovery")
+    # a payload is regrouped into the fitted body; a term the fitted model already has is there
+    accepted = [e for e in (disc.accepted if disc else ())
+                if e.id != str(Term.PAYLOAD) and e.id not in {str(t) for t in cfg.terms}]
+    changes = (split.change,) if split is not None else ()
+    final = first
+    if accepted:
+        again = assess_arm(fitter, accepted, before=before, changes=changes)
+        if again is not None:
+            final = again
+        else:
+            accepted = []
+    notes: list[str] = []
+    confounds = list(disc.selection.confounds) if disc and disc.selection else []
+    notes += [f"confound: {c.note}" for c in confounds]
+    unexplained = None
+    if not final.adequacy.explains and split is None:
+        unexplained = (
+            "what the named effects leave is still above the noise floor" if accepted else
+            "no catalogue effect (friction, torque offset, payload, actuation delay or lag, "
+            "joint compliance) and no parameter change explains it")
+    adequacy = final.adequacy.with_(
+        before=before if accepted else None, changes=changes, unexplained=unexplained,
+        notes=tuple(notes),
+        verdict=final.adequacy.verdict if not changes else NOT_EXPLAINED,
+    )
+    # the recommended estimate: the identification's (or the fit with the named effects), then
+    # widened under a misfit, then spanning confounded explanations
+    est = ident.recommended
+    params: dict[str, Estimate] = dict(est.parameters)
+    method = est.method
+    if accepted:
+        params = final.whole.estimates() | {
+            e.name: e for pars in final.whole.effect_parameters.values() for e in pars.values()}
+        method = "momentum-WLS + " + " + ".join(e.key for e in accepted)
+    params = widened(params, adequacy, pieces)
+    sections: dict[str, Any] = {}
+    if confounds:
+        alts = []
+        for c in confounds:
+            alt_effects = [e for e in c.alternative_fit.effects if e.id != str(Term.PAYLOAD)]
+            alt = fitter.fit_arm(tuple(alt_effects))
+            if alt is not None:
+                alts.append((c.alternative, widened(alt.estimates(), adequacy, pieces)))
+        label = " + ".join(e.key for e in accepted) or "baseline"
+        params = spanned(params, alts, label)
+        sections["confounds"] = [c.to_dict() for c in confounds]
+    if split is not None:
+        sections["parameter_change"] = split.to_dict()
+    verdict = _verdict(ident, adequacy)
+    estimate = replace(est, method=method, parameters=params, verdict=verdict)
+    return _Judged(adequacy, disc, estimate, sections)
+
+
+def _verdict(ident: ArmIdentification, adequacy: Adequacy) -> str:
+    """The recommended estimate's verdict: what the log determines, and the adequacy in brief
+    (feasibility is reported once, in the arm's own part of the report)."""
+    n_id = sum(1 for e in ident.recommended.parameters.values() if e.identifiable)
+    head = (
+        f"{n_id} of {len(ident.recommended.parameters)} base parameters determined by the "
+        f"regressor (condition number {ident.condition_number:.3g}); held-out torque error "
+        f"{100 * ident.holdout.ratio:.1f} % of the torque RMS"
+    )
+    if adequacy.explains:
+        return head + "; the model explains the log."
+    return head + "; the model does not explain the log: intervals widened, not determined."
 
 
 def _cutoff(value: Any) -> float:
@@ -245,23 +340,3 @@ def _cutoff(value: Any) -> float:
     if not np.isfinite(hz) or hz <= 0:
         raise LogcalInputError(f"--cutoff-hz {value!r}: expected a positive frequency in Hz")
     return hz
-
-
-def _with_named(terms: tuple[Term, ...], disc: ArmDiscovery | None) -> tuple[Term, ...]:
-    """``terms`` with discovery's named terms added (or swapped in for their alternative)."""
-    out = list(terms)
-    for f in disc.named if disc else []:
-        term = Term(f.effect)
-        if term is Term.PAYLOAD or term in out:
-            continue
-        if f.replaces and Term(f.replaces) in out:
-            out[out.index(Term(f.replaces))] = term
-        else:
-            out.append(term)
-    return tuple(out)
-
-
-def _renamed(est: Any, method: str) -> Any:
-    from dataclasses import replace
-
-    return replace(est, method=method)

@@ -1,5 +1,7 @@
 """The serial arm's part of the readable report: joints, excitation, held-out torque error,
-feasibility, model notes and discovery."""
+feasibility (once), model notes, the estimate on each side of a parameter change and the
+confounds the estimate spans. The adequacy verdict and discovery are printed by
+:mod:`logtools.report` for every robot."""
 
 from __future__ import annotations
 
@@ -50,7 +52,29 @@ def report_text(result: AnalysisResult) -> list[str]:
             else "NOT physically feasible: " + "; ".join(feas["problems"])
         )
     for note in s.get("model", {}).get("notes", []):
+        if feas and not feas["feasible"] and note.startswith("identified parameters are not"):
+            continue  # said once above
         lines.append(f"Note: {note}")
-    if result.discovery is not None and hasattr(result.discovery, "report"):
-        lines += result.discovery.report()
+    lines += _adequacy_lines(result)
+    # discovery's own lines are the report's "Model mismatch" panel (logtools.report)
+    return lines
+
+
+def _adequacy_lines(result: AnalysisResult) -> list[str]:
+    """The arm's own additions to the shared adequacy lines (which ``logtools.report`` prints:
+    verdict, channels, where, change, unexplained): the estimate on each side of a parameter
+    change, and the confounds the recommended estimate spans."""
+    lines: list[str] = []
+    split = result.sections.get("parameter_change")
+    if split:
+        lines.append(f"Parameter change near t = {split['change']['t_s']:.1f} s: the log split "
+                     "there, each side fitted on its own:")
+        for piece in split["pieces"]:
+            vals = ", ".join(
+                f"{k} = {v['value']:.4g}" for k, v in piece["estimate"].items()
+                if not k.startswith(("Fc", "Fv", "Fcs", "tau0"))
+            )
+            lines.append(f"  t {piece['t0_s']:.1f}-{piece['t1_s']:.1f} s: {vals}")
+    for c in result.sections.get("confounds", []):
+        lines.append(f"Confound: {c['note']}; the recommended estimate spans both")
     return lines

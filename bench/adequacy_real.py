@@ -1,0 +1,114 @@
+"""Every real recording in ../shared/realworld_*: does logcal's model explain it?
+
+For each recording (OptiOdom sessions, the Jackal bag, the DFKI double-pendulum runs, the TIAGo
+arm, the rosbag2 test MCAP files) the analysis ``logcal analyze`` runs, and one row: the robot,
+the adequacy verdict, the worst channel's residual over its noise floor (held out where the
+robot holds data out), where the misfit sits, what discovery named, what stays unexplained and
+whether any estimate is still "determined" under a misfit (that would be a defect). A recording
+that cannot be analysed says why (the rosbag2 test files hold no drive signals).
+
+    python bench/adequacy_real.py [--shared DIR] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from logtools.analyze import AnalysisConfig, analyze_logs
+from logtools.errors import LogcalInputError
+
+ROOT = Path(__file__).resolve().parents[2] / "shared"
+
+
+def recordings(shared: Path) -> list[tuple[str, list[Path], dict[str, Any]]]:
+    """(name, paths, extra settings) of every real recording."""
+    out: list[tuple[str, list[Path], dict[str, Any]]] = []
+    opti = shared / "realworld_drive/optiodom"
+    for session in sorted(p for p in opti.glob("*/*") if p.is_dir()):
+        out.append((f"optiodom/{session.parent.name}/{session.name}", [session], {}))
+    jackal = shared / "realworld_drive/jackal/jackal_odom_imu.bag"
+    if jackal.exists():
+        out.append(("jackal", [jackal], {}))
+    dfki = shared / "realworld_arm/dfki_double_pendulum"
+    urdf = dfki / "design_C.0_model_3.1_acrobot.urdf"
+    for run in sorted(dfki.glob("*.mcap")):
+        out.append((f"dfki/{run.stem}", [run], {"urdf": str(urdf)}))
+    tiago = shared / "realworld_arm/tiago_arm/tiago_arm_identification.mcap"
+    if tiago.exists():
+        out.append(("tiago", [tiago], {"urdf": "tiago"}))
+    for f in sorted((shared / "realworld_mcap").glob("*.mcap")):
+        out.append((f"mcap/{f.name}", [f], {}))
+    return out
+
+
+def row(name: str, paths: list[Path], extra: dict[str, Any]) -> dict[str, Any]:
+    t0 = time.process_time()
+    try:
+        _, res = analyze_logs(paths, config=AnalysisConfig(extra=extra))
+    except LogcalInputError as err:
+        return {"recording": name, "robot": "-", "verdict": "not analysed",
+                "why": str(err).splitlines()[0][:160]}
+    d = res.to_dict()
+    adequacy = d.get("adequacy") or {}
+    channels = adequacy.get("channels") or []
+    worst = max(channels, key=lambda c: c.get("judged_ratio") or 0.0, default=None)
+    located = [loc["label"] for loc in adequacy.get("located") or []][:3]
+    disc = d.get("discovery") or {}
+    named = [e.get("label") or e.get("key") or e.get("id")
+             for e in (disc.get("effects") or []) if isinstance(e, dict)]
+    if not named and isinstance(disc.get("accepted"), list):
+        named = disc["accepted"]
+    est = d.get("estimate") or {}
+    determined = [k for k, v in est.items()
+                  if isinstance(v, dict) and "identifiable" in v and v["identifiable"]]
+    confident_over_misfit = adequacy.get("verdict") == "does not explain" and bool(determined)
+    return {
+        "recording": name,
+        "robot": d["robot"],
+        "verdict": adequacy.get("verdict", "not assessed"),
+        "worst_channel": worst["channel"] if worst else None,
+        "ratio": worst.get("judged_ratio") if worst else None,
+        "floor": worst.get("noise_floor") if worst else None,
+        "unit": worst.get("unit") if worst else None,
+        "located": located,
+        "named": named,
+        "unexplained": adequacy.get("unexplained"),
+        "changes": [c.get("note") for c in adequacy.get("changes") or []],
+        "determined": determined,
+        "determined_over_misfit": confident_over_misfit,
+        "cpu_s": time.process_time() - t0,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--shared", type=Path, default=ROOT)
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args(argv)
+    rows = []
+    for name, paths, extra in recordings(args.shared):
+        r = row(name, paths, extra)
+        rows.append(r)
+        ratio = f"{r['ratio']:.3g}x" if r.get("ratio") is not None else "-"
+        print(f"{name:45s} {r['robot']:15s} {r['verdict']:17s} {ratio:>8s}  "
+              f"located: {'; '.join(r.get('located') or []) or '-'}  "
+              f"named: {', '.join(map(str, r.get('named') or [])) or '-'}"
+              + (f"  WHY: {r['why']}" if "why" in r else "")
+              + ("  DETERMINED OVER A MISFIT" if r.get("determined_over_misfit") else ""),
+              flush=True)
+    bad = sum(bool(r.get("determined_over_misfit")) for r in rows)
+    print(f"\n{len(rows)} recordings; {sum(r['verdict'] == 'explains' for r in rows)} explained,"
+          f" {sum(r['verdict'] == 'does not explain' for r in rows)} not explained, "
+          f"{bad} with an estimate determined over a misfit")
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=1, default=str))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

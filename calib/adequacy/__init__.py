@@ -1,0 +1,61 @@
+"""Model adequacy and discovery, shared by every robot: does the model explain the log, where
+does it not, what that does to each number, and which physics (from a robot's catalogue of
+effects) explains it instead.
+
+Arrays in, results out, like the rest of ``calib``. A robot hands in its residual channels
+(:class:`ResidualChannel`) and gets an :class:`Adequacy` verdict (:func:`assess`), widens its
+intervals under a misfit (:func:`under_misfit`), tests its parameters for a change mid-log
+(:func:`parameter_change`), and selects effects from its catalogue with one engine
+(:func:`select_effects` over :class:`EffectSpec` entries and a fitter of its own).
+"""
+
+from calib.adequacy.changes import PieceFit, parameter_change
+from calib.adequacy.channel import ResidualChannel
+from calib.adequacy.combine import combine_runs
+from calib.adequacy.effects import EffectKind, EffectParam, EffectSpec
+from calib.adequacy.intervals import span, under_misfit, under_misfit_all
+from calib.adequacy.locate import Location, locate
+from calib.adequacy.noise import NoiseFloor, noise_floor
+from calib.adequacy.selection import Confound, ModelFit, Selection, Tried, select_effects
+from calib.adequacy.verdict import (
+    EXPLAINS,
+    EXPLAINS_RATIO,
+    NOT_ASSESSED,
+    NOT_EXPLAINED,
+    Adequacy,
+    ChannelAdequacy,
+    ParameterChange,
+    assess,
+    not_assessed,
+)
+
+__all__ = [
+    "EXPLAINS",
+    "EXPLAINS_RATIO",
+    "NOT_ASSESSED",
+    "NOT_EXPLAINED",
+    "Adequacy",
+    "ChannelAdequacy",
+    "Confound",
+    "EffectKind",
+    "EffectParam",
+    "EffectSpec",
+    "Location",
+    "ModelFit",
+    "NoiseFloor",
+    "ParameterChange",
+    "PieceFit",
+    "ResidualChannel",
+    "Selection",
+    "Tried",
+    "assess",
+    "combine_runs",
+    "locate",
+    "noise_floor",
+    "not_assessed",
+    "parameter_change",
+    "select_effects",
+    "span",
+    "under_misfit",
+    "under_misfit_all",
+]

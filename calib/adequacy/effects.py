@@ -1,0 +1,68 @@
+"""The one effect hook every robot's catalogue fills in.
+
+An effect is physics a nominal model leaves out, declared once: its id and target (the channel
+or topic it acts on), its kind (a sensor's reading, an actuator's response, the dynamics, a
+clock), its parameters with the value at which it does nothing, the explanations it is known to
+be confounded with, the simulator switch that produces it and the truth key a study reads.
+How it changes the model is the robot's fitter's business (:class:`calib.adequacy.selection`
+asks the robot for a fit *with* a set of effects); the selection, the confound check and the
+reports are shared.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+
+__all__ = ["EffectKind", "EffectParam", "EffectSpec"]
+
+
+class EffectKind(StrEnum):
+    """Where in the chain an effect acts."""
+
+    SENSOR = "sensor"
+    """What a sensor records differs from the true quantity (offset, gain, play, a stuck
+    reading)."""
+    ACTUATOR = "actuator"
+    """The robot responds to its command otherwise than commanded (delay, lag)."""
+    DYNAMICS = "dynamics"
+    """The physics itself (slip, compliance, friction, a payload)."""
+    CLOCK = "clock"
+    """A topic's time stamps are off (an offset, a drift)."""
+
+
+@dataclass(frozen=True)
+class EffectParam:
+    """One parameter of an effect: ``null`` is the value at which the effect does nothing;
+    the fit keeps it within [``lower``, ``upper``] starting from ``init``."""
+
+    name: str
+    unit: str
+    null: float
+    lower: float
+    upper: float
+    init: float
+
+
+@dataclass(frozen=True)
+class EffectSpec:
+    """One catalogue entry (see the module docstring).
+
+    ``physics``: what it means, in words, for reports; ``confounded_with``: keys of effects
+    (or robot parameters, prefixed "param:") this one can be mistaken for; ``sim_switch``: the
+    name of the simulator option that produces it; ``truth_key``: its key in a simulated log's
+    truth."""
+
+    id: str
+    target: str
+    kind: EffectKind
+    params: tuple[EffectParam, ...]
+    physics: str
+    confounded_with: tuple[str, ...] = ()
+    sim_switch: str = ""
+    truth_key: str = ""
+
+    @property
+    def key(self) -> str:
+        """``id(target)``, e.g. ``sensor_offset(psi)``: unique within a catalogue."""
+        return f"{self.id}({self.target})"

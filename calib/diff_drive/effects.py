@@ -1,0 +1,441 @@
+"""The differential drive's catalogue of effects and its fitter for the shared selection engine
+(:func:`calib.adequacy.select_effects`).
+
+The nominal model: both wheels of one radius r (fitted: a constant slip fraction is exactly a
+smaller radius, so the mean radius is always the effective rolling radius), the nominal track
+(fitted when the log carries none) and the ground-truth marker's offset from the axle. Per
+segment (``segment_s``, each starting from the true pose) the residuals are the yaw change and
+the displacement (x, y) minus the wheels' arcs, in units of their noise floors. Effects:
+
+* ``wheel_radius_asymmetry(wheels)``: r_R / r_L - 1 (null 0);
+* ``effective_track(track)``: b / b_nominal - 1 (null 0): a skid-steer's effective track;
+* ``wheel_slip(wheels)``: each wheel's ground travel its rolling travel x (1 - k |wheel ground
+  speed|), k in s/m (null 0): slip that grows with speed;
+* ``encoder_stuck(<wheel> t0-t1 s)``: one wheel's reading stood still over a span while the
+  other wheel and the ground truth moved (a stuck or dropped encoder); its parameter is the
+  wheel turn the reading missed (rad, null 0). The span's turn is a nuisance parameter, fitted
+  on whichever fold holds it.
+
+Standard errors: Newey-West (Bartlett) over consecutive segments, which share slip and
+ground-truth errors. Held out: two folds of alternating blocks of ``CV_BLOCK`` segments.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+from calib.adequacy import (
+    EffectKind,
+    EffectParam,
+    EffectSpec,
+    ModelFit,
+    Selection,
+    select_effects,
+)
+from calib.diff_drive.adequacy import StuckSpan
+from calib.diff_drive.data import DriveRun
+from calib.diff_drive.kinematics import DiffDriveParams
+from calib.diff_drive.segments import SegmentIndex, cut_segments
+from calib.results import Estimate, json_safe
+
+__all__ = [
+    "ASYMMETRY",
+    "EFFECTIVE_TRACK",
+    "WHEEL_SLIP",
+    "DiffDriveSelection",
+    "catalogue",
+    "discover_effects",
+    "stuck_spec",
+]
+
+Array = NDArray[np.float64]
+Z95 = 1.959963984540054
+CV_BLOCK = 5
+
+ASYMMETRY = EffectSpec(
+    "wheel_radius_asymmetry", "wheels", EffectKind.DYNAMICS,
+    (EffectParam("ratio_minus_1", "1", 0.0, -0.3, 0.3, 0.0),),
+    "the right and left wheels roll on different radii: the robot curves when both turn alike",
+    sim_switch="asymmetry", truth_key="wheel_radius_right",
+)
+EFFECTIVE_TRACK = EffectSpec(
+    "effective_track", "track", EffectKind.DYNAMICS,
+    (EffectParam("track_ratio_minus_1", "1", 0.0, -0.5, 3.0, 0.0),),
+    "the robot turns as if its track were other than nominal (a skid steer's wheels slide "
+    "sideways: effective track wider than the geometric one)",
+    confounded_with=("wheel_slip(wheels)",), sim_switch="skid", truth_key="track_width",
+)
+WHEEL_SLIP = EffectSpec(
+    "wheel_slip", "wheels", EffectKind.DYNAMICS,
+    (EffectParam("k", "s/m", 0.0, -2.0, 2.0, 0.0),),
+    "longitudinal slip growing with speed: each wheel covers (1 - k |speed|) of its rolling "
+    "travel",
+    confounded_with=("effective_track(track)",), sim_switch="slip_per_speed",
+)
+
+
+def stuck_spec(span: StuckSpan) -> EffectSpec:
+    """The catalogue entry of one stuck-encoder span."""
+    return EffectSpec(
+        "encoder_stuck", span.label, EffectKind.SENSOR,
+        (EffectParam("missed_turn", "rad", 0.0, -1e3, 1e3, 0.0),),
+        f"the {span.wheel.replace('_', ' ')} encoder's reading stood still from "
+        f"{span.t0_s:.1f} to {span.t1_s:.1f} s while the other wheel and the ground truth "
+        "moved (a stuck or dropped encoder): those samples are left out of the calibration",
+    )
+
+
+def catalogue(has_nominal_track: bool, spans: Sequence[StuckSpan] = ()) -> list[EffectSpec]:
+    """The effects tested on one log."""
+    out = [ASYMMETRY]
+    if has_nominal_track:
+        out.append(EFFECTIVE_TRACK)
+    out.append(WHEEL_SLIP)
+    out += [stuck_spec(s) for s in spans]
+    return out
+
+
+@dataclass
+class _Problem:
+    runs: Sequence[DriveRun]
+    segments: list[SegmentIndex]
+    b_nominal: float | None
+    r0: float
+    offset: bool
+    spans: dict[str, StuckSpan]
+    sigma_h: float
+    sigma_p: float
+
+    def span_rows(self, key: str) -> set[int]:
+        """Segments a stuck span's samples fall in."""
+        sp = self.spans[key]
+        return {i for i, s in enumerate(self.segments)
+                if s.run == sp.run and s.start < sp.i1 and s.stop > sp.i0}
+
+    def names(self, effects: Sequence[EffectSpec]) -> list[str]:
+        out = ["r"] + ([] if self.b_nominal is not None else ["b"])
+        out += ["lx", "ly"] if self.offset else []
+        for e in effects:
+            out += [f"{e.key}:{p.name}" for p in e.params]
+        return out
+
+    def unpack(self, theta: Array, names: Sequence[str]) -> dict[str, float]:
+        return dict(zip(names, map(float, theta), strict=True))
+
+    def params_of(self, v: dict[str, float]) -> tuple[DiffDriveParams, float]:
+        a = v.get("wheel_radius_asymmetry(wheels):ratio_minus_1", 0.0)
+        r_L = 2 * v["r"] / (2 + a)
+        b = v["b"] if "b" in v else float(self.b_nominal or 1.0) * (
+            1 + v.get("effective_track(track):track_ratio_minus_1", 0.0))
+        return DiffDriveParams(r_L * (1 + a), r_L, b), v.get("wheel_slip(wheels):k", 0.0)
+
+    def residuals(self, theta: Array, names: Sequence[str], rows: NDArray[np.intp]) -> Array:
+        v = self.unpack(theta, names)
+        p, k = self.params_of(v)
+        off = complex(v.get("lx", 0.0), v.get("ly", 0.0))
+        out = np.empty((len(self.segments), 3))
+        by_run: dict[int, list[int]] = {}
+        for i in rows:
+            by_run.setdefault(self.segments[i].run, []).append(int(i))
+        for r, idx in by_run.items():
+            run = self.runs[r]
+            dr, dl = np.diff(run.wheel_right), np.diff(run.wheel_left)
+            for key, span in self.spans.items():
+                name = f"{key}:missed_turn"
+                if span.run == r and name in v:
+                    n = max(1, span.i1 - span.i0)
+                    if span.wheel == "wheel_right":
+                        dr = dr.copy()
+                        dr[span.i0:span.i1] = v[name] / n
+                    else:
+                        dl = dl.copy()
+                        dl[span.i0:span.i1] = v[name] / n
+            if k:
+                dt = np.maximum(np.diff(run.t), 1e-9)
+                dr = dr * (1 - k * p.r_R * np.abs(dr) / dt)
+                dl = dl * (1 - k * p.r_L * np.abs(dl) / dt)
+            dth = (p.r_R * dr - p.r_L * dl) / p.b
+            h = np.concatenate([[0.0], np.cumsum(dth)])
+            step = 0.5 * (p.r_R * dr + p.r_L * dl) * np.sinc(dth / (2 * np.pi)) * np.exp(
+                1j * (h[:-1] + 0.5 * dth))
+            cum = np.concatenate([[0.0], np.cumsum(step)])
+            for i in idx:
+                s = self.segments[i]
+                a, b = s.start, s.stop
+                dyaw = run.yaw[b] - run.yaw[a]
+                disp = complex(run.x[b] - run.x[a], run.y[b] - run.y[a])
+                pred = np.exp(1j * (run.yaw[a] - h[a])) * (cum[b] - cum[a]) + off * (
+                    np.exp(1j * run.yaw[b]) - np.exp(1j * run.yaw[a]))
+                e = disp - pred
+                out[i] = [(dyaw - (h[b] - h[a])) / self.sigma_h, e.real / self.sigma_p,
+                          e.imag / self.sigma_p]
+        return out[rows].ravel()
+
+
+def _bounds(names: Sequence[str], effects: Sequence[EffectSpec]) -> tuple[Array, Array, Array]:
+    lo, hi, x0 = [], [], []
+    spec = {f"{e.key}:{p.name}": p for e in effects for p in e.params}
+    for n in names:
+        if n in spec:
+            p = spec[n]
+            lo.append(p.lower)
+            hi.append(p.upper)
+            x0.append(p.init)
+        else:
+            lo.append(-np.inf)
+            hi.append(np.inf)
+            x0.append(0.0)
+    return np.array(lo), np.array(hi), np.array(x0)
+
+
+def _hac_cov(jac: Array, res: Array, n_seg: int) -> Array:
+    """Newey-West covariance of the least-squares parameters, scores summed per segment."""
+    p = jac.shape[1]
+    scores = (jac * res[:, None]).reshape(n_seg, 3, p).sum(axis=1)
+    lag = max(1, round(n_seg ** (1 / 3)))
+    S = scores.T @ scores
+    for lo in range(1, lag + 1):
+        w = 1 - lo / (lag + 1)
+        G = scores[lo:].T @ scores[:-lo]
+        S += w * (G + G.T)
+    H = np.linalg.pinv(jac.T @ jac)
+    return np.asarray(H @ S @ H)
+
+
+class _Fitter:
+    """The fitter :func:`select_effects` calls: nominal model + ``effects`` -> ModelFit."""
+
+    def __init__(self, prob: _Problem) -> None:
+        self.prob = prob
+        n = len(prob.segments)
+        block = (np.arange(n) // CV_BLOCK) % 2
+        self.folds = (np.flatnonzero(block == 0).astype(np.intp),
+                      np.flatnonzero(block == 1).astype(np.intp))
+
+    def _x0(self, names: Sequence[str], effects: Sequence[EffectSpec]) -> tuple[Array, ...]:
+        lo, hi, x0 = _bounds(names, effects)
+        for i, n in enumerate(names):
+            if n == "r":
+                x0[i] = self.prob.r0
+            elif n == "b":
+                x0[i] = self.prob.b_nominal or 0.3
+        return lo, hi, x0
+
+    def _solve(self, names: list[str], effects: Sequence[EffectSpec], rows: NDArray[np.intp],
+               x0: Array, free: NDArray[np.bool_] | None = None) -> Any:
+        lo, hi, _ = self._x0(names, effects)
+        fr = np.ones(len(names), bool) if free is None else free
+
+        def f(z: Array) -> Array:
+            th = x0.copy()
+            th[fr] = z
+            return self.prob.residuals(th, names, rows)
+
+        return least_squares(f, np.clip(x0[fr], lo[fr] + 1e-12, hi[fr] - 1e-12),
+                             bounds=(lo[fr], hi[fr]), x_scale="jac", method="trf")
+
+    def __call__(self, effects: tuple[EffectSpec, ...]) -> ModelFit | None:
+        prob = self.prob
+        names = prob.names(effects)
+        n = len(prob.segments)
+        all_rows = np.arange(n, dtype=np.intp)
+        _, _, x0 = self._x0(names, effects)
+        try:
+            sol = self._solve(names, effects, all_rows, x0)
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        theta = np.asarray(sol.x, dtype=float)
+        res = np.asarray(sol.fun, dtype=float)
+        cov = _hac_cov(np.asarray(sol.jac, dtype=float), res, n)
+        std = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        held = self._heldout(names, effects, theta)
+        v = prob.unpack(theta, names)
+        params, _ = prob.params_of(v)
+        pars = self._robot_estimates(names, theta, cov, params)
+        eff: dict[str, dict[str, Estimate]] = {}
+        for e in effects:
+            for p in e.params:
+                i = names.index(f"{e.key}:{p.name}")
+                eff.setdefault(e.key, {})[p.name] = Estimate(
+                    p.name, float(theta[i]), float(std[i]),
+                    (float(theta[i] - Z95 * std[i]), float(theta[i] + Z95 * std[i])),
+                    bool(std[i] > 0), p.unit, "Newey-West over segments")
+        return ModelFit(effects, pars, eff, float(res @ res), held, res.size, len(names),
+                        payload={"params": params, "values": v})
+
+    def _robot_estimates(self, names: Sequence[str], theta: Array, cov: Array,
+                         p: DiffDriveParams) -> dict[str, Estimate]:
+        """r_R, r_L, b with delta-method standard errors (numerical gradient)."""
+        def f(th: Array) -> Array:
+            q, _ = self.prob.params_of(self.prob.unpack(th, names))
+            return np.array([q.r_R, q.r_L, q.b])
+
+        base = f(theta)
+        G = np.zeros((3, theta.size))
+        for i in range(theta.size):
+            h = 1e-6 * max(1.0, abs(theta[i]))
+            tp = theta.copy()
+            tp[i] += h
+            G[:, i] = (f(tp) - base) / h
+        sd = np.sqrt(np.maximum(np.diag(G @ cov @ G.T), 0.0))
+        out = {}
+        for name, val, s in zip(("wheel_radius_right", "wheel_radius_left", "track_width"),
+                                base, sd, strict=True):
+            out[name] = Estimate(name, float(val), float(s),
+                                 (float(val - Z95 * s), float(val + Z95 * s)), True, "m")
+        return out
+
+    def _heldout(self, names: list[str], effects: Sequence[EffectSpec], theta: Array) -> float:
+        """Held-out sum of squares over the two folds; span parameters (nuisance, local) are
+        refitted on the held-out fold with the global ones fixed."""
+        local = np.array([n.startswith("encoder_stuck(") for n in names])
+        total = 0.0
+        for train, test in (self.folds, self.folds[::-1]):
+            if train.size < 6 or test.size == 0:
+                return math.nan
+            in_train = set(train.tolist())
+            free = ~local | np.array([
+                n.startswith("encoder_stuck(") and bool(
+                    self.prob.span_rows(n.split(":")[0]) & in_train) for n in names])
+            try:
+                sol = self._solve(names, effects, train, theta.copy(), free=free)
+                th = theta.copy()
+                th[free] = sol.x
+                if local.any():
+                    sol2 = self._solve(names, effects, test, th, free=local)
+                    th[local] = sol2.x
+                r = self.prob.residuals(th, names, test)
+            except (ValueError, np.linalg.LinAlgError):
+                return math.nan
+            total += float(r @ r)
+        return total
+
+
+@dataclass(frozen=True)
+class DiffDriveSelection:
+    """What discovery found on one log (``selection``: the shared engine's record) in the
+    shape the report and the JSON read: ``named`` effect ids, one line per effect tried."""
+
+    selection: Selection | None
+    catalogue: tuple[EffectSpec, ...]
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def named(self) -> list[str]:
+        if self.selection is None:
+            return []
+        return list(dict.fromkeys(e.id for e in self.selection.accepted))
+
+    @property
+    def accepted(self) -> tuple[EffectSpec, ...]:
+        return () if self.selection is None else self.selection.accepted
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe({
+            "engine": "calib.adequacy.select_effects",
+            "named": self.named,
+            "catalogue": [{"key": e.key, "kind": str(e.kind), "physics": e.physics}
+                          for e in self.catalogue],
+            "selection": None if self.selection is None else self.selection.to_dict(),
+            "notes": list(self.notes),
+        })
+
+    def report(self) -> list[str]:
+        sel = self.selection
+        if sel is None:
+            return ["Discovery: nothing tested. " + " ".join(self.notes)]
+        head = ("Discovery: " + ", ".join(e.key for e in sel.accepted) if sel.accepted else
+                "Discovery: no catalogued effect improves the held-out fit")
+        lines = [head]
+        for e in sel.accepted:
+            pars = sel.final.effect_parameters.get(e.key, {})
+            vals = ", ".join(f"{n} = {p.value:.4g} ± {p.std:.2g} {p.unit}"
+                             for n, p in pars.items())
+            lines.append(f"  {e.key}: {vals}; {e.physics}")
+        b, a = sel.base.heldout_sse, sel.final.heldout_sse
+        if sel.accepted and math.isfinite(b) and math.isfinite(a):
+            lines.append(f"  held-out sum of squares (noise units) {b:.4g} -> {a:.4g}")
+        not_named = [t.key for t in sel.tried if not t.accepted]
+        if not_named:
+            lines.append("  tried, not named: " + ", ".join(dict.fromkeys(not_named)))
+        lines += [f"  {c.note}" for c in sel.confounds]
+        lines += [f"  {n}" for n in self.notes]
+        return lines
+
+
+def _mad(x: Array) -> float:
+    x = x[np.isfinite(x)]
+    return 1.4826 * float(np.median(np.abs(x - np.median(x)))) if x.size else 0.0
+
+
+def _lrv_ratio(x: Array) -> float:
+    """Long-run variance (Bartlett) over variance of a segment residual series (>= 1): how
+    much consecutive segments' shared errors (slip, ground-truth drift) inflate what a sum of
+    squares counts as independent noise."""
+    x = x[np.isfinite(x)] - np.median(x[np.isfinite(x)]) if np.isfinite(x).any() else x
+    n = x.size
+    if n < 8:
+        return 1.0
+    clip = 4 * max(_mad(x), 1e-15)
+    x = np.clip(x, -clip, clip)  # a stuck span must not pass for correlation
+    v0 = float(x @ x) / n
+    if v0 <= 0:
+        return 1.0
+    lag = max(1, round(n ** (1 / 3)))
+    lrv = v0 + 2 * sum((1 - k / (lag + 1)) * float(x[k:] @ x[:-k]) / n
+                       for k in range(1, lag + 1))
+    return max(1.0, lrv / v0)
+
+
+def _raw_residuals(prob: _Problem, p: DiffDriveParams, marker: complex) -> Array:
+    """Per-segment residuals (unscaled) of the free radii and track ``p``."""
+    effects = (ASYMMETRY,) + ((EFFECTIVE_TRACK,) if prob.b_nominal is not None else ())
+    names = prob.names(effects)
+    v = {"r": 0.5 * (p.r_R + p.r_L), "b": p.b, "lx": marker.real, "ly": marker.imag,
+         "wheel_radius_asymmetry(wheels):ratio_minus_1": p.r_R / p.r_L - 1}
+    if prob.b_nominal is not None:
+        v["effective_track(track):track_ratio_minus_1"] = p.b / prob.b_nominal - 1
+    a = v["wheel_radius_asymmetry(wheels):ratio_minus_1"]
+    v["r"] = p.r_L * (2 + a) / 2
+    theta = np.array([v[n] for n in names])
+    return prob.residuals(theta, names, np.arange(len(prob.segments), dtype=np.intp))
+
+
+def discover_effects(
+    runs: Sequence[DriveRun],
+    nominal: DiffDriveParams | None,
+    *,
+    calibrated: DiffDriveParams,
+    marker: complex | None = None,
+    spans: Sequence[StuckSpan] = (),
+    segment_s: float = 4.0,
+) -> DiffDriveSelection:
+    """Select effects from :func:`catalogue` on ``runs``. ``calibrated`` (r_R, r_L, b free,
+    with the ground-truth ``marker`` offset) sets the noise scale per segment: the robust
+    (MAD) spread of what it leaves in heading and in position, so that a model as good as the
+    calibrated one leaves about one unit per residual."""
+    segments = cut_segments(runs, segment_s)
+    cat = catalogue(nominal is not None, spans)
+    if len(segments) < 4 * CV_BLOCK:
+        return DiffDriveSelection(None, tuple(cat), [
+            f"only {len(segments)} moving segments of {segment_s:g} s: discovery needs "
+            f"{4 * CV_BLOCK}"])
+    turned = sum(abs(runs[s.run].yaw[s.stop] - runs[s.run].yaw[s.start]) for s in segments)
+    prob = _Problem(runs, segments, None if nominal is None else nominal.b,
+                    0.5 * (calibrated.r_R + calibrated.r_L), turned >= math.pi / 2,
+                    {stuck_spec(s).key: s for s in spans}, 1.0, 1.0)
+    raw = _raw_residuals(prob, calibrated, marker or 0j).reshape(-1, 3)
+    prob.sigma_h = max(_mad(raw[:, 0]) * math.sqrt(_lrv_ratio(raw[:, 0])), 1e-9)
+    prob.sigma_p = max(_mad(raw[:, 1:].ravel()) * math.sqrt(
+        max(_lrv_ratio(raw[:, 1]), _lrv_ratio(raw[:, 2]))), 1e-9)
+    sel = select_effects(_Fitter(prob), cat, max_effects=2 + len(spans))
+    notes = [] if nominal is not None else [
+        "no nominal track in the log: the effective track is not tested (the track is fitted)"]
+    return DiffDriveSelection(sel, tuple(cat), notes)

@@ -1,0 +1,202 @@
+"""The input vocabulary every command that reads logs shares (``info``, ``analyze``, ``view``):
+the same log arguments (files, rosbag2 folders, folders of runs, OptiOdom session folders) and
+the same options saying how to read them (``--channel-map``, ``--signal``, ``--ground-truth``,
+``--start``, ``--end``), plus a warning when an option does not apply to the robot found."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import typer
+
+if TYPE_CHECKING:  # the CLI starts without polars; commands import what they use
+    from logtools.channel_map import ChannelMap
+    from logtools.recordings import SameRecording
+
+__all__ = [
+    "OPTION_ROBOTS",
+    "Inputs",
+    "channel_map_option",
+    "cutoff_option",
+    "end_option",
+    "ground_truth_option",
+    "logs_argument",
+    "read_inputs",
+    "say",
+    "signal_option",
+    "start_option",
+    "unused_options",
+    "urdf_option",
+]
+
+LOGS_HELP = (
+    "Drive logs: MCAP, CSV, ROS bags (rosbag2 folder or .bag), TUM trajectories (.tum), or "
+    "folders of them (an OptiOdom session folder too)."
+)
+
+
+def logs_argument(help_text: str = LOGS_HELP) -> Any:
+    """The ``LOG...`` argument (one or more files or folders)."""
+    return typer.Argument(..., metavar="LOG", help=help_text, show_default=False)
+
+
+def channel_map_option() -> Any:
+    """``--channel-map FILE.toml``."""
+    return typer.Option(
+        None, "--channel-map", metavar="FILE.toml",
+        help="TOML mapping topics/fields to logical signals (docs/LOG_FORMAT.md).",
+    )
+
+
+def signal_option() -> Any:
+    """``--signal NAME=TOPIC:FIELD[:UNIT]`` (repeatable)."""
+    return typer.Option(
+        None, "--signal", metavar="NAME=TOPIC:FIELD[:UNIT]",
+        help="Read a logical signal from this topic and field, as a [signals.NAME] entry of a "
+        "channel map would (repeatable; wins over --channel-map). UNIT converts to SI (deg, "
+        "km/h, ...) or is a transform (yaw_from_quaternion); a CSV's topic is 'csv'.",
+    )
+
+
+def ground_truth_option() -> Any:
+    """``--ground-truth FILE.tum``."""
+    return typer.Option(
+        None, "--ground-truth", metavar="FILE.tum",
+        help="A ground-truth trajectory on the log's clock (TUM: t x y z qx qy qz qw, s and "
+        "m), whose x, y, yaw replace the log's own pose.",
+    )
+
+
+def start_option() -> Any:
+    """``--start SECONDS``."""
+    return typer.Option(
+        None, "--start", min=0.0, metavar="SECONDS",
+        help="Use the log from this many seconds after its first sample.",
+    )
+
+
+def end_option() -> Any:
+    """``--end SECONDS``."""
+    return typer.Option(
+        None, "--end", min=0.0, metavar="SECONDS",
+        help="Use the log up to this many seconds after its first sample.",
+    )
+
+
+def urdf_option() -> Any:
+    """``--urdf PATH_OR_NAME`` (arms)."""
+    return typer.Option(
+        None, "--urdf", metavar="PATH_OR_NAME",
+        help="An arm's URDF file, or a model name of example-robot-data (e.g. panda).",
+    )
+
+
+def cutoff_option() -> Any:
+    """``--cutoff-hz HZ`` (arms)."""
+    return typer.Option(
+        None, "--cutoff-hz", metavar="HZ",
+        help="An arm's zero-phase low-pass cut-off for q, q', q'' and torque (Hz; default 10).",
+    )
+
+
+OPTION_ROBOTS: dict[str, tuple[str, ...]] = {
+    "--urdf": ("manipulator",),
+    "--cutoff-hz": ("manipulator",),
+    "--baseline": ("tractor_trailer",),
+    "--discovery-span": ("tractor_trailer",),
+    "--method": ("tractor_trailer",),
+    "--ground-truth": ("tractor_trailer", "diff_drive"),
+}
+"""The robots (plugin names) each robot-specific option applies to."""
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """The logs a command reads and how.
+
+    Attributes:
+        runs: the runs (files or rosbag2 folders), folders expanded, each recording once.
+        channel_map: the channel map with ``--signal`` entries, span and ground truth (None:
+            defaults).
+        same: files left out because they hold a recording already among ``runs``.
+    """
+
+    runs: list[Path]
+    channel_map: ChannelMap | None
+    same: list[SameRecording] = field(default_factory=list)
+
+    @property
+    def notes(self) -> list[str]:
+        """One sentence per group of files holding one recording."""
+        return [s.sentence() for s in self.same]
+
+
+def read_inputs(
+    logs: Iterable[Path],
+    *,
+    channel_map: Path | None = None,
+    signals: list[str] | None = None,
+    ground_truth: Path | None = None,
+    start: float | None = None,
+    end: float | None = None,
+    dedupe: bool = True,
+) -> Inputs:
+    """Expand the log arguments, build the channel map from the options and (``dedupe``) keep
+    one file per recording.
+
+    Raises:
+        LogcalInputError: a path does not exist, a folder holds no log, the channel map or a
+            ``--signal`` is wrong, ``--end`` is not after ``--start``, or the ground truth is
+            missing.
+    """
+    from logtools.channel_map import load_channel_map, with_signal_options
+    from logtools.errors import LogcalInputError
+    from logtools.load import LoadRequest
+    from logtools.recordings import distinct_recordings
+    from logtools.runs import expand_runs
+
+    if start is not None and end is not None and end <= start:
+        raise LogcalInputError(f"--end {end:g} s is not after --start {start:g} s")
+    if ground_truth is not None and not ground_truth.is_file():
+        raise LogcalInputError(f"--ground-truth {ground_truth}: no such file")
+    runs = expand_runs(list(logs))
+    cmap = load_channel_map(channel_map) if channel_map is not None else None
+    cmap = with_signal_options(cmap, signals or [])
+    cmap = LoadRequest.of(cmap, ground_truth=ground_truth, start_s=start, end_s=end)
+    same: list[SameRecording] = []
+    if dedupe and len(runs) > 1:
+        runs, same = distinct_recordings(runs, cmap)
+    return Inputs(runs, cmap, same)
+
+
+def unused_options(robot: str, given: Mapping[str, object], where: str = "") -> list[str]:
+    """One warning per option in ``given`` (option -> value, None or False: not given) that
+    does not apply to ``robot``."""
+    from logtools.robots import plugin_for
+
+    plugin = plugin_for(robot)
+    out = []
+    for option, value in given.items():
+        applies = OPTION_ROBOTS.get(option)
+        if value is None or value is False or applies is None or plugin.name in applies:
+            continue
+        out.append(
+            f"{option} applies to {' and '.join(applies)} logs; "
+            f"{where or 'the log'} is a {plugin.name} log ({plugin.title}): {option} was not "
+            "used"
+        )
+    return out
+
+
+def say(text: str, *, stderr: bool = True) -> None:
+    """Print ``text`` as written (no markup, control characters escaped)."""
+    from rich.console import Console
+
+    from logtools.safe_text import printable
+
+    Console(stderr=stderr, highlight=False, soft_wrap=True).print(
+        printable(text), markup=False, highlight=False
+    )
