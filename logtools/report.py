@@ -16,38 +16,78 @@ from logtools.adequacy_report import adequacy_text
 from logtools.robots import plugin_for
 from logtools.safe_text import printable, printable_lines
 
-__all__ = ["print_analysis", "render_analysis"]
+__all__ = ["DETAILS", "print_analysis", "render_analysis"]
+
+DETAILS = ("quiet", "answer", "methods")
+"""How much a report shows: the answer alone; the answer, what the robot's summary holds,
+stages and notes (the default); all of that and every method table and diagnostic."""
 
 
 def _ci(e: Estimate) -> str:
     if not e.identifiable:
-        return f"{e.value:.4g} (not determined)"
+        return f"{e.value:.4g} *"
     return f"{e.value:.4g} [{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
 
 
+def short_names(paths: list[str]) -> list[str]:
+    """The shortest trailing part of each path (whole components) that tells the runs apart:
+    ``.../square/231220200029/231220200029_run-02.csv`` -> ``231220200029_run-02.csv``."""
+    parts = [p.replace("\\", "/").rstrip("/").split("/") for p in paths]
+    for k in range(1, max((len(p) for p in parts), default=1) + 1):
+        names = ["/".join(p[-k:]) for p in parts]
+        if len(set(names)) == len(names):
+            return names
+    return list(paths)
+
+
+def _cell(e: Estimate) -> str:
+    if not e.identifiable:
+        return f"{e.value:.4g} *"
+    return f"{e.value:.4g}\n[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
+
+
 def _runs_table(result: AnalysisResult) -> Table:
+    """Each run's own estimate: runs by their shortest unique names, values whole (an interval
+    on its own line), the method in the title when every run used the same one, the stages
+    that did not run as footnotes."""
     names: list[str] = []
-    for r in result.runs:
-        for name in r.estimate.parameters if r.estimate else ():
-            if name not in names:
-                names.append(name)
-    table = Table(title="Each run on its own (95 % intervals)", title_justify="left")
     units: dict[str, str] = {}
     for r in result.runs:
         for name, e in (r.estimate.parameters.items() if r.estimate else ()):
+            if name not in names:
+                names.append(name)
             units.setdefault(name, e.unit)
-    for col in ("run", "estimate", *(f"{n} ({units[n]})" for n in names), "stages not run"):
-        table.add_column(Text(printable(col)))
-    for r in result.runs:
-        skipped = ", ".join(s.stage for s in r.stages if s.status != "ok") or "-"
+    methods = {r.estimate.method if r.estimate else "none" for r in result.runs}
+    one_method = len(methods) == 1
+    title = "Each run on its own (95 % intervals" + (
+        f"; {printable(next(iter(methods)))})" if one_method else ")")
+    table = Table(title=Text(title), title_justify="left")
+    table.add_column("run", no_wrap=True)
+    if not one_method:
+        table.add_column("estimate", overflow="fold")
+    for n in names:
+        table.add_column(Text(printable(f"{n} ({units[n]})")), overflow="fold")
+    notes: list[str] = []
+    runs = short_names([str(r.source.get("path", "")) for r in result.runs])
+    for r, run_name in zip(result.runs, runs, strict=True):
         params = r.estimate.parameters if r.estimate else {}
+        skipped = [s.stage for s in r.stages if s.status != "ok"]
+        if skipped:
+            notes.append(f"{run_name}: stages not run: {', '.join(skipped)}")
         table.add_row(
-            Text(printable(r.source.get("path", ""))),
-            Text(printable(r.estimate.method if r.estimate else "none")),
-            *(Text(_ci(params[n]) if n in params else "-") for n in names),
-            Text(printable(skipped)),
+            Text(printable(run_name)),
+            *([] if one_method else [Text(printable(r.estimate.method if r.estimate
+                                                     else "none"))]),
+            *(Text(_cell(params[n]) if n in params else "-") for n in names),
         )
+    caption = ["* not determined (the run's own report says why)"]
+    table.caption = Text("\n".join(printable(x) for x in caption + notes))
+    table.caption_justify = "left"
     return table
+
+
+SHORT_DISCOVERY = 8
+"""Lines of discovery's report shown without ``--methods``."""
 
 
 def _answer(result: AnalysisResult, parts: list[RenderableType], title: str) -> None:
@@ -66,7 +106,7 @@ def _answer(result: AnalysisResult, parts: list[RenderableType], title: str) -> 
         parts.append(adequacy_text(result.adequacy))
 
 
-def _tail(result: AnalysisResult, parts: list[RenderableType]) -> None:
+def _tail(result: AnalysisResult, parts: list[RenderableType], detail: str) -> None:
     not_ok = [s for s in result.stages if s.status != "ok"]
     if not_ok:
         parts.append(
@@ -82,16 +122,20 @@ def _tail(result: AnalysisResult, parts: list[RenderableType]) -> None:
         text = result.discovery.report()
         if not isinstance(text, str):  # a list of lines
             text = "\n".join(text)
+        lines = text.split("\n")
+        if detail != "methods" and len(lines) > SHORT_DISCOVERY:
+            text = "\n".join([*lines[:SHORT_DISCOVERY], "... (all of it: --methods)"])
         parts.append(Panel(Text(printable_lines(text)), title="Model mismatch", expand=False))
     if result.warnings:
         parts.append(Text("Notes:\n" + "\n".join(f"- {printable(w)}" for w in result.warnings),
                           style="dim"))
 
 
-def render_analysis(result: AnalysisResult) -> RenderableType:
-    """Everything a person reads after ``logcal analyze``, as one rich renderable."""
+def render_analysis(result: AnalysisResult, detail: str = "methods") -> RenderableType:
+    """What a person reads after ``logcal analyze``, as one rich renderable; ``detail`` one of
+    ``DETAILS``."""
     if result.runs:
-        return _render_pooled(result)
+        return _render_pooled(result, detail)
     parts: list[RenderableType] = []
     src = result.source
     head = Text(printable(src.get("path", "")), style="bold")
@@ -103,12 +147,20 @@ def render_analysis(result: AnalysisResult) -> RenderableType:
         found = ", ".join(f"{k} <- {printable(v)}" for k, v in src["signals"].items())
         parts.append(Text("signals: " + found))
     _answer(result, parts, "Recommended estimate")
-    parts += plugin_for(result.robot).report(result)
-    _tail(result, parts)
+    if detail == "quiet":
+        return Group(*parts)
+    plugin = plugin_for(result.robot)
+    if plugin.summary is not None:
+        parts += plugin.summary(result)
+    if detail == "methods":
+        parts += plugin.report(result)
+    _tail(result, parts, detail)
+    if detail == "answer":
+        parts.append(Text("(every method's table: --methods)", style="dim"))
     return Group(*parts)
 
 
-def _render_pooled(result: AnalysisResult) -> RenderableType:
+def _render_pooled(result: AnalysisResult, detail: str) -> RenderableType:
     parts: list[RenderableType] = [
         Text.assemble(
             (f"{len(result.runs)} runs", "bold"),
@@ -118,10 +170,17 @@ def _render_pooled(result: AnalysisResult) -> RenderableType:
         _runs_table(result),
     ]
     _answer(result, parts, "Recommended estimate (all runs pooled)")
-    _tail(result, parts)
+    if detail == "quiet":
+        return Group(*parts[1:]) if len(parts) > 1 else Group(*parts)
+    plugin = plugin_for(result.robot)
+    if plugin.pooled_summary is not None:
+        parts += plugin.pooled_summary(result)
+    _tail(result, parts, detail)
     return Group(*parts)
 
 
-def print_analysis(result: AnalysisResult, console: Console | None = None) -> None:
+def print_analysis(
+    result: AnalysisResult, console: Console | None = None, detail: str = "methods"
+) -> None:
     """Print ``render_analysis`` to ``console`` (default: stdout)."""
-    (console or Console()).print(render_analysis(result))
+    (console or Console()).print(render_analysis(result, detail))

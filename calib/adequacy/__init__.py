@@ -17,6 +17,7 @@ from calib.adequacy.intervals import span, under_misfit, under_misfit_all
 from calib.adequacy.locate import Location, locate
 from calib.adequacy.noise import NoiseFloor, noise_floor
 from calib.adequacy.selection import Confound, ModelFit, Selection, Tried, select_effects
+from calib.adequacy.stability import PieceStability, piece_stability, widen_unstable
 from calib.adequacy.verdict import (
     EXPLAINS,
     EXPLAINS_RATIO,
@@ -45,6 +46,7 @@ __all__ = [
     "NoiseFloor",
     "ParameterChange",
     "PieceFit",
+    "PieceStability",
     "ResidualChannel",
     "Selection",
     "Tried",
@@ -54,8 +56,10 @@ __all__ = [
     "noise_floor",
     "not_assessed",
     "parameter_change",
+    "piece_stability",
     "select_effects",
     "span",
     "under_misfit",
     "under_misfit_all",
+    "widen_unstable",
 ]

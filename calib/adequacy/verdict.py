@@ -3,7 +3,11 @@ does it not.
 
 A channel is explained when its residual RMS (held out when the robot computed a held-out
 residual, else in-sample) is within ``EXPLAINS_RATIO`` of the noise floor estimated from the
-data (:mod:`calib.adequacy.noise`). The model explains the log when every channel is explained.
+data (:mod:`calib.adequacy.noise`), and not significantly above it: a ratio over
+``SIGNIFICANT_RATIO`` whose excess is ``SIGNIFICANT_Z`` standard errors from one (counted at the
+residual's effective sample size) does not explain the log either; a long log shows a small
+systematic misfit that a short one cannot. The model explains the log when every channel is
+explained.
 Whiteness (Ljung-Box at the noise's own time scale) is reported beside it, not decisive: at
 hundreds of hertz any real sensor's noise is coloured.
 """
@@ -40,7 +44,25 @@ NOT_EXPLAINED = "does not explain"
 NOT_ASSESSED = "not assessed"
 
 EXPLAINS_RATIO = 1.5
-"""A channel is explained while its residual RMS is at most this times its noise floor."""
+"""A channel is explained while its residual RMS is at most this times its noise floor..."""
+SIGNIFICANT_RATIO = 1.2
+SIGNIFICANT_Z = 5.0
+"""... and while a ratio above SIGNIFICANT_RATIO is not SIGNIFICANT_Z standard errors above one."""
+
+
+def effective_samples(r: np.ndarray) -> float:
+    """n / (1 + 2 sum of the residual's autocorrelation up to its first non-positive lag)."""
+    from calib.estimators._stats import autocorrelation
+
+    x = np.asarray(r, dtype=float)
+    x = x[np.isfinite(x)]
+    n = x.size
+    if n < 8 or not np.any(x != x[0]):
+        return float(n)
+    rho = autocorrelation(x, min(n // 4, 500))[1:]
+    cut = np.nonzero(rho <= 0)[0]
+    rho = rho[: cut[0]] if cut.size else rho
+    return float(n / max(1.0, 1.0 + 2.0 * float(rho.sum())))
 
 
 @dataclass(frozen=True)
@@ -189,7 +211,11 @@ def _channel(ch: ResidualChannel, ratio_limit: float) -> ChannelAdequacy:
         step = max(1, round(ch.timescale_s / dt)) if dt > 0 else 1
         white_p = ljung_box(r[ok][::step], 20)[1] if ok.sum() // step >= 40 else None
     judged = held_ratio if held_ratio is not None else rms / f
-    explains = bool(math.isfinite(judged) and judged <= ratio_limit)
+    n_eff = effective_samples(ch.heldout if held_ratio is not None and ch.heldout is not None
+                              else r)
+    z = (judged**2 - 1.0) * math.sqrt(n_eff / 2.0) if math.isfinite(judged) else math.inf
+    significant = judged > SIGNIFICANT_RATIO and z > SIGNIFICANT_Z
+    explains = bool(math.isfinite(judged) and judged <= ratio_limit and not significant)
     if floor.std <= 0 and rms == 0:
         explains = True
     return ChannelAdequacy(ch.name, ch.unit, int(ok.sum()), rms, floor.std, floor, rms / f,

@@ -29,6 +29,13 @@ offset on every measured topic moves both, exactly as a dead time would but for 
 changes within it: the dead time (one cause) is reported and the two offsets listed as its
 alternative unless BIC separates them by more than 10. A command topic stamped late looks
 exactly like an actuator delay and is reported as one.
+
+Confounds of the link lengths (``confounds``): where the log does not tell two explanations
+apart and they imply different L1, L2 or different corrections of the joint-angle sensor
+(the dead time says the joint angle is on time, the two clock offsets that it is late; a
+joint-angle gain that L1 + L2 absorb at small angles), the result lists both with the link
+lengths each implies, and ``sensor_effects_for_fit(result)`` tells a fit of L1, L2 along the
+measured path what it may take in and what it must span (``calib.discovery.confounds``).
 """
 
 from __future__ import annotations
@@ -42,6 +49,12 @@ import numpy as np
 import polars as pl
 
 from calib.discovery.confirm import EQUIVALENCE_MARGIN, Confirmed, confirm_effects, effect_values
+from calib.discovery.confounds import (
+    SensorEffectsForFit,
+    SpanChoice,
+    find_confounds,
+    sensor_effects_for_fit,
+)
 from calib.discovery.data import DiscoveryData, prepare_data
 from calib.discovery.diagnostics import (
     UNITS,
@@ -63,9 +76,12 @@ from calib.discovery.fit import (
 from calib.discovery.model import BASE_PARAMS, ModelSpec, predict
 from calib.discovery.result import (
     AlternativeExplanation,
+    Confound,
     DiscoveryResult,
     EffectFit,
+    ExplanationFit,
     JointFit,
+    SensorCorrections,
     StepFailure,
 )
 from calib.discovery.selection import SelectionRules, SelectionStep, select_effects
@@ -78,16 +94,22 @@ from calib.results import Estimate, Segment
 __all__ = [
     "DEFAULT_BASELINE",
     "AlternativeExplanation",
+    "Confound",
     "DiscoveryResult",
     "Effect",
     "EffectFit",
+    "ExplanationFit",
     "JointFit",
     "MismatchRegion",
     "SelectionRules",
+    "SensorCorrections",
+    "SensorEffectsForFit",
+    "SpanChoice",
     "SparseResidualModel",
     "StepFailure",
     "catalogue",
     "discover",
+    "sensor_effects_for_fit",
 ]
 
 # The baseline discovery compares against unless told otherwise: the transient kinematics named
@@ -402,12 +424,16 @@ def discover(
     alternatives = list(conf.alternatives) if conf is not None else []
     effects: list[EffectFit] = []
     joint = None
+    confounds: list[Confound] = []
     if conf is not None:
         effects = [
             _effect_fit(e, conf, data, [a.label for a in alternatives if e.key in a.reported])
             for e in conf.effects
         ]
         joint = _step("joint fit", failures, lambda: _joint_fit(conf, data, baseline), None)
+        confounds = _step(
+            "confounds", failures, lambda: find_confounds(data, base_spec, conf, pool), []
+        )
     final_train = conf.train if conf is not None else base_train
     base = _step(
         "baseline full fit",
@@ -482,6 +508,7 @@ def discover(
         link_lengths={"L1": float(final.theta[0]), "L2": float(final.theta[1])},
         joint_fit=joint,
         alternatives=alternatives,
+        confounds=confounds,
         status="partial" if failures else "ok",
         reason="; ".join(f"{f.step}: {f.reason}" for f in failures) or None,
         failures=failures,

@@ -46,7 +46,7 @@ from calib.discovery.fit import (
 )
 from calib.discovery.model import ModelSpec, Vector
 from calib.discovery.result import AlternativeExplanation
-from calib.discovery.selection import SelectionRules, weighted_holdout, z_scores
+from calib.discovery.selection import SelectionRules, is_material, weighted_holdout, z_scores
 
 __all__ = [
     "EQUIVALENCES",
@@ -55,7 +55,9 @@ __all__ = [
     "Equivalence",
     "Evidence",
     "confirm_effects",
+    "effect_ci95",
     "effect_values",
+    "fit_set",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -179,7 +181,15 @@ class Evidence:
 @dataclass(frozen=True)
 class Confirmed:
     """The confirmed effects, their training fit, the final joint fit over all valid rows
-    (``final``, ``cov``), the evidence per effect key, alternatives and what was dropped."""
+    (``final``, ``cov``), the evidence per effect key, alternatives and what was dropped.
+
+    ``close``: equivalent explanations that BIC separated by more than the margin but whose
+    held-out errors differ immaterially (neither is better than the other by ``min_gain`` on
+    any output, ``selection.is_material``), and a dead time against clock offsets that agree
+    with each other (within ``COMMON_SHIFT_Z`` combined standard errors: one shift of every
+    measured topic, the dead time's signature): not listed as alternatives (BIC decides the
+    name), but candidates for confounds of the link lengths (``confounds``); each with why
+    the log does not tell them apart."""
 
     effects: list[Effect]
     train: ModelFit
@@ -189,6 +199,7 @@ class Confirmed:
     alternatives: list[AlternativeExplanation] = field(default_factory=list)
     dropped: list[dict[str, object]] = field(default_factory=list)
     swaps: list[dict[str, object]] = field(default_factory=list)
+    close: list[tuple[AlternativeExplanation, str]] = field(default_factory=list)
 
 
 def effect_values(fit: ModelFit) -> Values:
@@ -206,7 +217,7 @@ def _theta(spec: ModelSpec, L: Vector, values: Mapping[str, Mapping[str, float]]
     return out
 
 
-def _fit_set(
+def fit_set(
     baseline: ModelSpec,
     effects: Sequence[Effect],
     data: DiscoveryData,
@@ -216,12 +227,18 @@ def _fit_set(
     *,
     fine: bool = False,
 ) -> ModelFit:
+    """``effects`` added to ``baseline``, fitted with L1, L2 on ``mask`` from the lengths ``L``
+    and the effects' ``values`` (their initial values where missing)."""
     spec = ModelSpec(baseline.baseline, (*baseline.effects, *effects))
     return fit_model(spec, data, _theta(spec, L, values), mask, fine=fine, tol=1e-6)
 
 
-def _ci95(fit: ModelFit, data: DiscoveryData) -> dict[str, dict[str, tuple[float, float]]]:
-    cov = covariance(fit, data)
+def effect_ci95(
+    fit: ModelFit, data: DiscoveryData, cov: FloatArray | None = None
+) -> dict[str, dict[str, tuple[float, float]]]:
+    """95 % intervals of the effects' parameters of ``fit`` (``cov``: its covariance, computed
+    if not given)."""
+    cov = covariance(fit, data) if cov is None else cov
     out: dict[str, dict[str, tuple[float, float]]] = {}
     vals = effect_values(fit)
     for e in fit.spec.effects:
@@ -241,10 +258,17 @@ def _equivalences(
     pool: Sequence[Effect],
     factors: Mapping[str, float],
     rules: SelectionRules,
-) -> tuple[list[Effect], ModelFit, list[AlternativeExplanation], list[dict[str, object]]]:
+) -> tuple[
+    list[Effect],
+    ModelFit,
+    list[AlternativeExplanation],
+    list[dict[str, object]],
+    list[tuple[AlternativeExplanation, str]],
+]:
     by_key = {e.key: e for e in pool}
     mask = data.train_mask()
     alternatives: list[AlternativeExplanation] = []
+    close: list[tuple[AlternativeExplanation, str]] = []
     swaps: list[dict[str, object]] = []
     for eq in EQUIVALENCES:
         sides = (eq.one(data.channels), eq.other(data.channels))
@@ -257,7 +281,7 @@ def _equivalences(
             best_fit, best_side, best_d = None, None, math.inf
             for side in sorted(sides, key=len, reverse=True):
                 kept = [e for e in effects if e.key not in side]
-                g = _fit_set(baseline, kept, data, train.theta[:2], vals, mask)
+                g = fit_set(baseline, kept, data, train.theta[:2], vals, mask)
                 d = bic(g, factors) - bic(train, factors)
                 if d < best_d:
                     best_fit, best_side, best_d = g, side, d
@@ -285,7 +309,7 @@ def _equivalences(
             start.update(convert[i](vals, list(want if i == 0 else have), data))
             kept = [e for e in effects if e.key not in have]
             new = kept + [by_key[k] for k in want]
-            g = _fit_set(baseline, new, data, train.theta[:2], start, mask)
+            g = fit_set(baseline, new, data, train.theta[:2], start, mask)
             z = {k: z_scores(g, by_key[k], data) for k in want}
             if not all(v >= rules.min_z for zz in z.values() for v in zz.values()):
                 continue
@@ -304,6 +328,25 @@ def _equivalences(
                 math.sqrt(abs(h_new[c] ** 2 - h_cur[c] ** 2)) < RESOLUTION[c] for c in h_cur
             )
             tie = abs(d_bic) <= EQUIVALENCE_MARGIN or below
+            # neither is materially better on the held-out blocks (selection's own test of a
+            # gain): BIC may name one, but the log does not tell their consequences apart
+            close_why = ""
+            if not is_material(
+                data.channels, h_new, h_cur, data, rules.min_gain
+            ) and not is_material(data.channels, h_cur, h_new, data, rules.min_gain):
+                close_why = (
+                    f"neither fits the held-out data better by {100 * rules.min_gain:.0f} % "
+                    "on any output"
+                )
+            elif eq.rule == "dead_time_vs_clock_offsets":
+                # the same offset on every measured topic is what a dead time looks like: only
+                # speed changes within it (and the model's accuracy) tell them apart
+                clocks = (g, want) if i == 0 else (train, have)
+                if _common_shift(clocks[0], clocks[1], data):
+                    close_why = (
+                        "the clock offsets agree with each other: one shift of every measured "
+                        "topic, which is what a dead time looks like"
+                    )
             better = d_bic < -EQUIVALENCE_MARGIN and w_new <= w_cur and not below
             switch = better or (
                 tie and (fewer or (same and d_bic < 0)) and w_new <= TIE_HOLDOUT_SLACK * w_cur
@@ -319,6 +362,10 @@ def _equivalences(
                 swaps.append({"rule": eq.rule, "from": list(have), "to": list(want), "why": why})
                 if tie:  # the replaced side stays as the alternative
                     alternatives.append(_alternative(eq, want, have, train, data, -d_bic, why))
+                elif close_why:
+                    close.append(
+                        (_alternative(eq, want, have, train, data, -d_bic, why), close_why)
+                    )
                 effects, train = new, g
             elif tie:
                 why = (
@@ -327,8 +374,35 @@ def _equivalences(
                     else f"BIC lower by {d_bic:.1f}"
                 )
                 alternatives.append(_alternative(eq, have, want, g, data, d_bic, why))
+            elif close_why:
+                close.append(
+                    (_alternative(eq, have, want, g, data, d_bic, f"BIC {-d_bic:+.1f}"), close_why)
+                )
             break  # one side was in the set and the other tried: done with this pair
-    return effects, train, alternatives, swaps
+    return effects, train, alternatives, swaps, close
+
+
+COMMON_SHIFT_Z = 2.0
+
+
+def _common_shift(fit: ModelFit, keys: Sequence[str], data: DiscoveryData) -> bool:
+    """The clock offsets ``keys`` of ``fit`` (two or more) agree within ``COMMON_SHIFT_Z``
+    combined standard errors: one shift of every measured topic."""
+    if len(keys) < 2:
+        return False
+    cov = covariance(fit, data)
+    vals = effect_values(fit)
+    res = data.time_resolution_s
+    pts = []
+    for k in keys:
+        sd = param_std(fit, cov, f"{k}.offset", True, res)
+        pts.append((vals[k]["offset"], sd))
+    for a in range(len(pts)):
+        for b in range(a + 1, len(pts)):
+            s = math.hypot(pts[a][1], pts[b][1])
+            if not (math.isfinite(s) and abs(pts[a][0] - pts[b][0]) <= COMMON_SHIFT_Z * s):
+                return False
+    return True
 
 
 def _alternative(
@@ -342,7 +416,7 @@ def _alternative(
 ) -> AlternativeExplanation:
     """``d_bic_alt``: BIC(alternative) - BIC(reported)."""
     vals = effect_values(alt_fit)
-    ci = _ci95(alt_fit, data)
+    ci = effect_ci95(alt_fit, data)
     return AlternativeExplanation(
         reported=tuple(reported),
         alternative=tuple(alt),
@@ -371,7 +445,7 @@ def _evidence(
     without: dict[str, ModelFit] = {}
     for e in effects:
         rest = [x for x in effects if x is not e]
-        g = _fit_set(baseline, rest, data, train.theta[:2], vals, mask)
+        g = fit_set(baseline, rest, data, train.theta[:2], vals, mask)
         hold_g = holdout_rms(g.spec, g.theta, data, test)
         ci_ok = True
         for p in e.params:
@@ -443,12 +517,12 @@ def _single_swaps(
                 continue
             new = [by_key[k] if x is e else x for x in effects]
             start = {x: v for x, v in vals.items() if x != e.key}
-            g = _fit_set(baseline, new, data, train.theta[:2], start, data.train_mask())
+            g = fit_set(baseline, new, data, train.theta[:2], start, data.train_mask())
             if not all(z >= rules.min_z for z in z_scores(g, by_key[k], data).values()):
                 continue
             d_bic = bic(g, factors) - bic(train, factors)
             if d_bic <= EQUIVALENCE_MARGIN:
-                gv, ci = effect_values(g), _ci95(g, data)
+                gv, ci = effect_values(g), effect_ci95(g, data)
                 out.append(
                     AlternativeExplanation(
                         reported=(e.key,),
@@ -488,7 +562,7 @@ def confirm_effects(
     effects, train, final, cov, evidence = _prune(
         data, baseline, list(effects), train, factors, dropped
     )
-    effects2, train2, alternatives, swaps = _equivalences(
+    effects2, train2, alternatives, swaps, close = _equivalences(
         data, baseline, effects, train, pool, factors, rules
     )
     if swaps:
@@ -497,8 +571,9 @@ def confirm_effects(
         )
     keys = {e.key for e in effects}
     alternatives = [a for a in alternatives if set(a.reported) <= keys]
+    close = [(a, why) for a, why in close if set(a.reported) <= keys]
     known = {(a.reported, a.alternative) for a in alternatives}
     alternatives += _single_swaps(
         data, baseline, effects, train, pool, factors, rules, candidates or {}, known
     )
-    return Confirmed(effects, train, final, cov, evidence, alternatives, dropped, swaps)
+    return Confirmed(effects, train, final, cov, evidence, alternatives, dropped, swaps, close)

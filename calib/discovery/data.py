@@ -366,15 +366,22 @@ HOLD_JUMPS_MAX_PERIOD_S = 0.02
 
 
 def _raw(
-    signals: Mapping[str, pl.DataFrame] | None, name: str
+    signals: Mapping[str, pl.DataFrame] | None, name: str, t0_ns: int
 ) -> tuple[FloatArray, FloatArray] | None:
-    """(t_ns as float, value) of a raw signal frame (``t_ns``, ``value``), finite rows only."""
+    """(time in ns from ``t0_ns`` as float, value) of a raw signal frame (``t_ns``,
+    ``value``), finite rows only, in time order.
+
+    The difference is taken in integers before the conversion to float: an absolute stamp
+    (ns since 1970, ~1.8e18) is only resolved to 256 ns as a float64, so converting first
+    made the times, and with them every fitted time shift, depend on the log's epoch (a CSV
+    copy stamped from 0 and an MCAP copy of the same log gave different answers)."""
     if not signals or name not in signals:
         return None
     f = signals[name]
     if "t_ns" not in f.columns or "value" not in f.columns or f.height < 4:
         return None
-    t = f.get_column("t_ns").cast(pl.Int64).to_numpy().astype(float)
+    t_int = f.get_column("t_ns").cast(pl.Int64).to_numpy()
+    t = (t_int - np.int64(t0_ns)).astype(float)
     y = f.get_column("value").cast(pl.Float64).to_numpy()
     ok = np.isfinite(y)
     order = np.argsort(t[ok], kind="stable")
@@ -398,7 +405,7 @@ def _interpolated_from(
     no catalogue effect explains (a clock offset fitted to it drifts with the conditions).
     Recording the model the same way removes it.
     """
-    raw = _raw(signals, name)
+    raw = _raw(signals, name, int(t_ns[0]))
     if raw is None:
         return None
     t_raw, y_raw = raw
@@ -406,8 +413,7 @@ def _interpolated_from(
     t_raw, y_raw = t_raw[keep], y_raw[keep]
     if t_raw.size < 4 or t_raw.size >= 0.8 * t_ns.size:
         return None
-    base = float(t_ns[0])
-    ts = (t_raw - base) / 1e9
+    ts = t_raw / 1e9
     t_s = (t_ns - t_ns[0]) / 1e9
     inside = (t_s >= ts[0]) & (t_s <= ts[-1])
     if not inside.any():
@@ -487,7 +493,7 @@ def prepare_data(
             sampled[c] = ts
     sigma, sigma_d = {}, {}
     for c, y in outputs.items():
-        raw = _raw(signals, c)
+        raw = _raw(signals, c, int(t_ns[0]))
         if raw is not None and raw[0].size >= 12:
             period = float(np.median(np.diff(raw[0]))) / 1e9
             s = _quantised_floor(raw[1], robust_noise_std(raw[1]))
@@ -526,9 +532,9 @@ def prepare_data(
             f"{MIN_FIT_SAMPLES} fitting samples"
         )
     th_s = _half_grid(t_s, t_s)
-    raw_cmd = _raw(signals, "kappa_cmd")
+    raw_cmd = _raw(signals, "kappa_cmd", int(t_ns[0]))
     if raw_cmd is not None:
-        tk, yk = (raw_cmd[0] - float(t_ns[0])) / 1e9, raw_cmd[1]
+        tk, yk = raw_cmd[0] / 1e9, raw_cmd[1]
         keep = np.concatenate([[True], np.diff(tk) > 0])
         tk, yk = tk[keep], yk[keep]
     else:

@@ -17,9 +17,12 @@ from calib.results import Estimate, json_safe
 __all__ = [
     "BASELINE_DESCRIPTIONS",
     "AlternativeExplanation",
+    "Confound",
     "DiscoveryResult",
     "EffectFit",
+    "ExplanationFit",
     "JointFit",
+    "SensorCorrections",
     "StepFailure",
 ]
 
@@ -85,6 +88,146 @@ class AlternativeExplanation:
                 "delta_bic": self.delta_bic,
                 "rule": self.rule,
                 "note": self.note,
+            }
+        )
+
+
+@dataclass(frozen=True)
+class SensorCorrections:
+    """What an explanation says about the joint-angle sensor, in the terms a fit of the link
+    lengths along the measured path can take in: ``psi_offset`` (fit a constant offset of the
+    recorded joint angle), ``psi_shift_s`` (the joint-angle topic is stamped this many seconds
+    late: compare the model at t - shift), ``psi_scale`` (recorded = scale x true: divide the
+    recorded angle by it; 1.0 for none); ``labels``: the effects they come from. Effects on the
+    actuator (dead time, lag, understeer) and on the yaw rate do not enter such a fit."""
+
+    psi_offset: bool = False
+    psi_shift_s: float = 0.0
+    psi_scale: float = 1.0
+    labels: tuple[str, ...] = ()
+
+    @property
+    def empty(self) -> bool:
+        return not self.psi_offset and self.psi_shift_s == 0.0 and self.psi_scale == 1.0
+
+    def same_as(self, other: SensorCorrections, *, shift_tol_s: float = 0.0) -> bool:
+        """The same corrections (time shifts within ``shift_tol_s``; scales to 1e-9)."""
+        return (
+            self.psi_offset == other.psi_offset
+            and abs(self.psi_shift_s - other.psi_shift_s) <= shift_tol_s
+            and abs(self.psi_scale - other.psi_scale) <= 1e-9
+        )
+
+    def as_tuple(self) -> tuple[bool, float, list[str]]:
+        """(fit a joint-angle offset, joint-angle clock shift in s, labels): the shape of the
+        tractor-trailer pipeline's ``_sensor_effects``."""
+        return self.psi_offset, self.psi_shift_s, list(self.labels)
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe(
+            {
+                "psi_offset": self.psi_offset,
+                "psi_shift_s": self.psi_shift_s,
+                "psi_scale": self.psi_scale,
+                "labels": list(self.labels),
+            }
+        )
+
+
+@dataclass(frozen=True)
+class ExplanationFit:
+    """One explanation of a confound: its effects fitted jointly with L1, L2 on every valid
+    row (the fit ``JointFit`` is for the reported one). ``effects``: labels (empty: the
+    baseline alone); ``parameters``/``std``/``ci95``: L1 and L2 (m); ``effect_parameters``:
+    the effects' values; ``corrections``: what it says about the joint-angle sensor."""
+
+    effects: tuple[str, ...]
+    parameters: Mapping[str, float]
+    std: Mapping[str, float]
+    ci95: Mapping[str, tuple[float, float]]
+    effect_parameters: Mapping[str, Mapping[str, float]]
+    effect_ci95: Mapping[str, Mapping[str, tuple[float, float]]]
+    corrections: SensorCorrections
+
+    @property
+    def label(self) -> str:
+        return " + ".join(self.effects) or "no effect"
+
+    def lengths(self) -> str:
+        return ", ".join(
+            f"{k} = {v:.4g} m [{self.ci95[k][0]:.4g}, {self.ci95[k][1]:.4g}]"
+            for k, v in self.parameters.items()
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe(
+            {
+                "effects": list(self.effects),
+                "label": self.label,
+                "parameters": dict(self.parameters),
+                "std": dict(self.std),
+                "ci95": {k: list(v) for k, v in self.ci95.items()},
+                "effect_parameters": {k: dict(v) for k, v in self.effect_parameters.items()},
+                "effect_ci95": {
+                    k: {n: list(ci) for n, ci in v.items()} for k, v in self.effect_ci95.items()
+                },
+                "corrections": self.corrections.to_dict(),
+            }
+        )
+
+
+@dataclass(frozen=True)
+class Confound:
+    """Two explanations this log does not tell apart that imply different link lengths, or
+    different corrections of the joint-angle sensor (which a fit of L1, L2 along the measured
+    path would take in). An estimate of L1, L2 must then span both (refit with each side's
+    ``corrections`` and take the union of the intervals) or be "not determined"; it may not
+    take one side's. ``calib.discovery.sensor_effects_for_fit`` says which.
+
+    ``rule``: the equivalence (``confirm.EQUIVALENCES``), "same_round", or
+    "joint_angle_gain_vs_link_lengths" (a gain of the joint-angle sensor that L1 + L2 absorb:
+    at small angles psi ~ kappa (L1 + L2)); ``reported``/``alternative``: the two
+    explanations (``reported`` the one in ``DiscoveryResult.effects``); ``delta_bic``:
+    BIC(alternative) - BIC(reported) on the training blocks (NaN where not compared);
+    ``why``: why the log does not tell them apart (within ``EQUIVALENCE_MARGIN`` BIC, held-out
+    errors that differ immaterially, or a parameter the fit cannot pin); ``lengths_differ``:
+    L1 or L2 differ by more than one combined standard error; ``corrections_differ``: the
+    sides correct the joint-angle sensor differently.
+    """
+
+    rule: str
+    reported: ExplanationFit
+    alternative: ExplanationFit
+    delta_bic: float
+    why: str
+    lengths_differ: bool
+    corrections_differ: bool
+
+    def span(self) -> dict[str, tuple[float, float]]:
+        """Union of the two sides' 95 % intervals of L1 and L2 (m), from discovery's fits."""
+        out = {}
+        for k in self.reported.ci95:
+            a, b = self.reported.ci95[k], self.alternative.ci95.get(k, self.reported.ci95[k])
+            out[k] = (min(a[0], b[0]), max(a[1], b[1]))
+        return out
+
+    def report(self) -> str:
+        return (
+            f"{self.reported.label} ({self.reported.lengths()}) or {self.alternative.label} "
+            f"({self.alternative.lengths()}): {self.why}"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe(
+            {
+                "rule": self.rule,
+                "reported": self.reported.to_dict(),
+                "alternative": self.alternative.to_dict(),
+                "delta_bic": self.delta_bic,
+                "why": self.why,
+                "lengths_differ": self.lengths_differ,
+                "corrections_differ": self.corrections_differ,
+                "span": {k: list(v) for k, v in self.span().items()},
             }
         )
 
@@ -247,11 +390,13 @@ class DiscoveryResult:
     the final model (the values of ``joint_fit``); ``joint_fit``: L1, L2 with intervals and
     covariance from the final joint fit and the model it came from (baseline + accepted
     effects; None if that fit failed); ``alternatives``: explanations the log barely tells
-    from the reported effects; ``residuals``: "t_ns" and "<output>_before"/"<output>_after"
-    (recorded - modelled) on the aligned grid; ``windows``: the part of a long log discovery
-    looked at (None: all of it); ``diagnostics``: bins, whiteness,
-    cross-correlations, the selection rounds and the confirmation ("confirmation": dropped
-    effects and equivalence swaps).
+    from the reported effects; ``confounds``: the pairs of explanations the log does not
+    tell apart that imply different link lengths or joint-angle corrections, each with the
+    L1, L2 it implies (an estimate must span them: ``sensor_effects_for_fit``);
+    ``residuals``: "t_ns" and "<output>_before"/"<output>_after" (recorded - modelled) on the
+    aligned grid; ``windows``: the part of a long log discovery looked at (None: all of it);
+    ``diagnostics``: bins, whiteness, cross-correlations, the selection rounds and the
+    confirmation ("confirmation": dropped effects and equivalence swaps).
 
     ``status``: "ok"; "partial" (a step failed, listed in ``failures``; the rest is
     reported); "not_run" (the log gives discovery nothing to work on; ``reason`` says why).
@@ -268,6 +413,7 @@ class DiscoveryResult:
     link_lengths: Mapping[str, float] = field(default_factory=dict)
     joint_fit: JointFit | None = None
     alternatives: list[AlternativeExplanation] = field(default_factory=list)
+    confounds: list[Confound] = field(default_factory=list)
     status: str = "ok"
     reason: str | None = None
     failures: list[StepFailure] = field(default_factory=list)
@@ -336,6 +482,12 @@ class DiscoveryResult:
             lines += ["  - " + a.report() for a in self.alternatives]
         if self.effects and self.joint_fit is not None:
             lines.append(self.joint_fit.report() + ".")
+        if self.confounds:
+            lines.append(
+                "Confounds: explanations this log does not tell apart that imply different "
+                "link lengths (an estimate of L1, L2 must span them or is not determined):"
+            )
+            lines += ["  - " + c.report() for c in self.confounds]
         if self.residual_model is not None:
             lines.append("Beyond the catalogue: " + self.residual_model.describe() + ".")
         if self.failures:
@@ -357,6 +509,7 @@ class DiscoveryResult:
                 "link_lengths": dict(self.link_lengths),
                 "joint_fit": None if self.joint_fit is None else self.joint_fit.to_dict(),
                 "alternatives": [a.to_dict() for a in self.alternatives],
+                "confounds": [c.to_dict() for c in self.confounds],
                 "status": self.status,
                 "reason": self.reason,
                 "failures": [f.to_dict() for f in self.failures],

@@ -117,6 +117,11 @@ class PathTransientFit:
         resolution_check: refit on the path at half its resolution and add the difference
             (a bound of the discretisation error) to the covariance, so that clean or sparsely
             sampled logs do not claim a precision the path's sampling cannot give.
+        extra_covariance: a 2 x 2 covariance of (L1, L2) added to the fit's own (what the
+            caller knows the fit cannot see: e.g. the uncertainty of joint-angle effects fitted
+            elsewhere and undone in the data).
+        rate_noise_check: measure what an odometry path's integrated noise does to the
+            estimate (fresh noise draws; off for quick fits whose intervals are not reported).
 
     Attributes (after ``fit``):
         L1_, L2_, psi_offset_: estimates (m, m, rad). cov_: covariance of (L1, L2[, offset]).
@@ -137,8 +142,12 @@ class PathTransientFit:
         bounds_L2_m: tuple[float, float] = (0.02, 50.0),
         chunk_nodes: int | None = None,
         resolution_check: bool = True,
+        extra_covariance: np.ndarray | None = None,
+        rate_noise_check: bool = True,
     ) -> None:
         self.resolution_check = resolution_check
+        self.rate_noise_check = rate_noise_check
+        self.extra_covariance = extra_covariance
         self.rel_tol = rel_tol
         self.fit_psi_offset = fit_psi_offset
         self.bounds_L1_m = bounds_L1_m
@@ -470,6 +479,9 @@ class PathTransientFit:
         self._x_[:2] += self.bias_correction_
         extra = self._resolution_error(path, t_psi, psi, gaps, self._x_, q)
         extra = extra + self._rate_noise_cov(path, gaps, q)
+        if self.extra_covariance is not None:
+            extra = extra.copy()
+            extra[:2, :2] += np.asarray(self.extra_covariance, dtype=float)[:2, :2]
         self._finish(sol, r, J, q, lo, hi, extra)
         for c in self._eval_caches:  # the last residuals and Jacobian: n x (3 + pieces) floats
             c.clear()
@@ -548,7 +560,7 @@ class PathTransientFit:
         estimate: the path is rebuilt with ``_RATE_DRAWS`` fresh draws of the rates' measured
         white noise, and the linearised shifts of the estimate averaged. A residual sandwich
         alone misses most of it: integrated noise wanders slowly, beyond its lag window."""
-        if path.perturbed is None:
+        if path.perturbed is None or not self.rate_noise_check:
             return np.zeros((q, q))
         rng = np.random.default_rng(12345)
         shifts = []

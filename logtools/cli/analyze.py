@@ -75,6 +75,16 @@ def register(app: typer.Typer) -> None:
             "over it (default 600; 0: all of it, slower).",
         ),
         seed: int = typer.Option(0, "--seed", metavar="N", help="Seed of the bootstrap draws."),
+        methods: bool = typer.Option(
+            False, "--methods", "-v",
+            help="Also print every method's table and the robot's diagnostics (the report "
+            "opens with the answer either way).",
+        ),
+        quiet: bool = typer.Option(
+            False, "--quiet", "-q",
+            help="Print only the answer: the recommended estimate and whether the model "
+            "explains the log.",
+        ),
     ) -> None:
         """Calibrate the robot's parameters from LOG(s) and explain model mismatch."""
         from logtools.analyze import AnalysisConfig, analyze_logs
@@ -142,7 +152,8 @@ def register(app: typer.Typer) -> None:
         if as_json:
             sys.stdout.write(json.dumps(result.to_dict(), indent=2) + "\n")
         else:
-            print_analysis(result)
+            print_analysis(result, detail="quiet" if quiet else "methods" if methods
+                           else "answer")
         bad = result.source.get("errors") or []
         if bad:
             for message in bad:
@@ -217,6 +228,6 @@ def write_views(
 
 
 def _debug() -> bool:
-    from logtools.cli.main import debug_enabled
+    from logtools.cli.state import debug_enabled
 
     return debug_enabled()

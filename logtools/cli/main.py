@@ -13,6 +13,7 @@ from typing import Any, get_args, get_origin
 import typer
 
 from calib.errors import CalibError
+from logtools.cli.state import debug_enabled, set_debug
 from logtools.errors import LogcalError
 from logtools.safe_text import printable
 
@@ -36,9 +37,6 @@ app = typer.Typer(
     context_settings={"help_option_names": HELP_OPTIONS},
 )
 
-_state = {"debug": False}
-
-
 def _version(value: bool) -> None:
     if value:
         from importlib.metadata import PackageNotFoundError, version
@@ -60,15 +58,10 @@ def _root(
         help="Print logcal's version and exit.",
     ),
 ) -> None:
-    _state["debug"] = debug
+    set_debug(debug)
     if ctx.invoked_subcommand is None:  # bare ``logcal``: the help, and success
         typer.echo(ctx.get_help())
         raise typer.Exit(0)
-
-
-def debug_enabled() -> bool:
-    """Whether ``--debug`` was given (errors then keep their traceback)."""
-    return bool(_state["debug"])
 
 
 def _register() -> None:
@@ -172,13 +165,13 @@ def launch(argv: Sequence[str] | None = None) -> int:
     is a bug of ours: one line, exit 1 (``--debug`` shows the traceback of either).
     """
     args = list(sys.argv[1:] if argv is None else argv)
-    _state["debug"] = "--debug" in args
+    set_debug("--debug" in args)
     try:
         command().main(args=args, prog_name="logcal", standalone_mode=True)
     except SystemExit as ex:  # standalone typer/click ends every run with SystemExit
         return int(ex.code or 0) if isinstance(ex.code, int) else 1
     except KNOWN_ERRORS as err:
-        if _state["debug"]:
+        if debug_enabled():
             traceback.print_exc()
         print(f"logcal: error: {printable(err)}", file=sys.stderr)
         return 2
@@ -186,7 +179,7 @@ def launch(argv: Sequence[str] | None = None) -> int:
         print("Interrupted.", file=sys.stderr)
         return 130
     except Exception as err:  # a bug of ours: one line for the user, the traceback on --debug
-        if _state["debug"]:
+        if debug_enabled():
             traceback.print_exc()
         print(
             f"logcal: internal error: {type(err).__name__}: {printable(err)} (run with --debug "

@@ -42,7 +42,7 @@ import numpy as np
 import polars as pl
 
 from calib._compiled import INT64S, UINT8S, load_library
-from logtools.readers.decoders import MAX_ARRAY_ITEMS, flatten_object
+from logtools.readers.flatten import MAX_ARRAY_ITEMS, flatten_object
 from logtools.readers.mcap_scan import Payloads
 
 __all__ = ["compiled_available", "decode_uniform", "parse_number"]

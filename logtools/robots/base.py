@@ -87,8 +87,13 @@ class RobotPlugin:
             ("signals wheel_left, wheel_right") when they identify this robot, else None. Asked
             in ``_PLUGIN_MODULES`` order when neither channel map nor metadata names the robot.
         analyze: analyse one log.
-        report: the robot's own part of the readable report (rich renderables: tables, text);
-            the header, estimate, stages, discovery and notes are drawn around it.
+        report: the robot's own detailed part of the readable report (rich renderables: method
+            tables, diagnostics), shown with ``--methods``; the header, estimate, adequacy,
+            stages and notes are drawn around it.
+        summary: the few lines of the robot's own that belong beside the answer in every
+            report (e.g. dead reckoning before/after); None: none.
+        pooled_summary: the same for a pooled report of several runs (e.g. each run's dead
+            reckoning before/after, and which runs calibration made worse).
         pool: analyse several runs together (None: each run is reported on its own).
         views: import path ``"viz.module:function"`` of the rerun views, a function
             ``(out_path, loaded, result, **options) -> Path`` returning the file written;
@@ -108,6 +113,8 @@ class RobotPlugin:
     analyze: AnalyzeFn
     report: Callable[[AnalysisResult], list[RenderableType]]
     pool: PoolFn | None = None
+    summary: Callable[[AnalysisResult], list[RenderableType]] | None = None
+    pooled_summary: Callable[[AnalysisResult], list[RenderableType]] | None = None
     views: str | None = None
     png: str | None = None
     aliases: tuple[str, ...] = ()

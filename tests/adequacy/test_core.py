@@ -247,3 +247,23 @@ def test_parameter_change_ignores_a_tiny_or_drifting_difference() -> None:
     drift = [PieceFit(10.0 * i, 10.0 * (i + 1), {"m": 1.0 + 0.05 * i}, {"m": 1e-3})
              for i in range(8)]
     assert parameter_change(drift, ["m"]) is None  # a steady drift is not one change
+
+
+def test_piece_stability_widens_only_a_parameter_that_scatters() -> None:
+    from calib.adequacy import piece_stability, widen_unstable
+
+    rng = np.random.default_rng(17)
+    pieces = [PieceFit(10.0 * i, 10.0 * (i + 1),
+                       {"a": 1.0 + rng.normal(0, 0.01), "b": 2.0 + 0.2 * (-1) ** i},
+                       {"a": 0.01, "b": 0.01}) for i in range(6)]
+    st = piece_stability(pieces, ["a", "b"])
+    assert not st["a"].unstable
+    assert st["b"].unstable
+    assert st["b"].factor > 10
+    est = {"a": Estimate("a", 1.0, 0.004, (0.992, 1.008)),
+           "b": Estimate("b", 2.0, 0.004, (1.992, 2.008))}
+    w = widen_unstable(est, st, rel_tol=0.05)
+    assert w["a"] is est["a"]
+    assert w["b"].std > 0.2
+    assert not w["b"].identifiable
+    assert w["b"].ci95[0] < 1.8

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import polars as pl
 
+from calib.errors import CalibError
 from calib.estimators.noslip import NoSlipRegression
 from calib.estimators.path_transient import PathTransientFit
 from calib.estimators.steering import SteeringGeometry
@@ -26,6 +27,7 @@ from calib.results import (
     Segment,
     StageStatus,
 )
+from calib.tractor_trailer.path_discovery import PathDiscovery
 from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.load import LoadedLog
 from logtools.stages import Stages
@@ -144,18 +146,104 @@ def _path_fit(
     return inp, fit
 
 
-def _sensor_effects(discovery: object) -> tuple[bool, float, list[str]]:
-    """From accepted discovery effects: (fit a joint-angle offset, joint-angle clock offset
-    (s), labels used). Effects on the actuator do not enter a path-driven fit."""
-    offset, shift, used = False, 0.0, []
-    for e in getattr(discovery, "effects", []) or []:
-        if e.id == "sensor_offset" and e.target == "psi":
-            offset = True
-            used.append(e.label)
-        elif e.id == "clock_offset" and e.target in ("hitch", "psi"):
-            shift = float(next(iter(e.parameters.values())))
-            used.append(e.label)
-    return offset, shift, used
+def _sensor_effects(discovery: object) -> tuple[bool, float, list[str], tuple[Any, ...]]:
+    """From command-driven discovery: (fit a joint-angle offset, joint-angle clock offset (s),
+    labels used, the confounds the estimate must span). Only the joint-angle effects that no
+    confound involves are folded into the fit (``calib.discovery.sensor_effects_for_fit``);
+    an actuator dead time that the log cannot tell from clock offsets is spanned, never folded
+    as offsets. The joint-angle gain is judged along the measured path (path discovery), so the
+    command side's gain confound is left to it. Effects on the actuator do not enter a
+    path-driven fit."""
+    from calib.discovery import DiscoveryResult, sensor_effects_for_fit
+    from calib.discovery.confounds import GAIN_RULE
+
+    if not isinstance(discovery, DiscoveryResult):
+        return False, 0.0, [], ()
+    plan = sensor_effects_for_fit(discovery)
+    offset, shift, labels = plan.fold.as_tuple()
+    spans = tuple(ch for ch in plan.span if ch.confound.rule != GAIN_RULE)
+    return offset, shift, list(labels), spans
+
+
+REJECT_CHI2 = 10.83
+"""An explanation whose joint-angle corrections raise the path fit's sum of squares over the
+best of them by more than this (chi-square, one degree of freedom, p = 0.001, counted at the
+residual's effective sample size) is rejected by the measured path: the path sees the joint
+angle's clock and offset directly, so the command-driven confound is resolved there, and the
+report says so."""
+
+
+def _effective_samples(r: np.ndarray) -> float:
+    """n / (1 + 2 sum of the residual's autocorrelation up to its first zero crossing)."""
+    from calib.estimators._stats import autocorrelation
+
+    n = r.size
+    if n < 8:
+        return float(n)
+    rho = autocorrelation(r, min(n // 4, 200))[1:]
+    cut = np.nonzero(rho <= 0)[0]
+    rho = rho[: cut[0]] if cut.size else rho
+    return float(n / max(1.0, 1.0 + 2.0 * float(rho.sum())))
+
+
+def _span_confounds(
+    loaded: LoadedLog, estimate: CalibrationResult, path_fit: PathTransientFit,
+    spans: tuple[Any, ...], notes: list[str], stages: Stages,
+) -> CalibrationResult:
+    """The estimate spanning explanations command-driven discovery cannot tell apart (e.g. an
+    actuator dead time vs the same clock offset on the command topics): the path fit refitted
+    with each explanation's joint-angle corrections; those the measured path does not reject
+    (``REJECT_RMS_RATIO``) are spanned (the union of the intervals)."""
+    from calib.adequacy import span
+
+    fits: list[tuple[str, PathTransientFit]] = []
+    for choice in spans:
+        for option in choice.options:
+            label = " + ".join(option.labels) or "no joint-angle correction"
+
+            def fit(o: Any = option) -> PathTransientFit:
+                return _path_fit(loaded, psi_offset=o.psi_offset, psi_shift_s=o.psi_shift_s)[1]
+
+            refit = stages.run(f"refit for the confound ({label})", fit)
+            if refit is not None and refit.sound_:
+                fits.append((label, refit))
+    if not fits:
+        return estimate
+    best = min([path_fit.residual_rms_, *(f.residual_rms_ for _, f in fits)])
+    n_eff = _effective_samples(np.asarray(path_fit.residual_, dtype=float))
+
+    def rejected_by_path(f: PathTransientFit) -> bool:
+        return bool(n_eff * ((f.residual_rms_ / best) ** 2 - 1.0) > REJECT_CHI2)
+
+    kept = [(lab, f.result_) for lab, f in fits if not rejected_by_path(f)]
+    rejected = [(lab, f.residual_rms_ / best) for lab, f in fits if rejected_by_path(f)]
+    for choice in spans:
+        notes.append(choice.confound.report())
+    if rejected:
+        notes.append("the measured path rejects " + "; ".join(
+            f"{lab} (joint-angle residual {r:.3g}x the best)" for lab, r in rejected
+        ) + ": the confound is resolved by the path, not spanned")
+    alts = [(lab, res) for lab, res in kept
+            if any(abs(res.parameters[k].value - e.value) > 1e-12
+                   for k, e in estimate.parameters.items() if k in res.parameters)]
+    if not alts:
+        return estimate
+    params = {
+        k: span([e, *(a.parameters[k] for _, a in alts if k in a.parameters)],
+                [estimate.method, *(lab for lab, a in alts if k in a.parameters)],
+                rel_tol=0.1, scale=0.05)
+        for k, e in estimate.parameters.items()
+    }
+    total = estimate.sum_L1_L2
+    if total is not None:
+        total = span([total, *(a.sum_L1_L2 for _, a in alts if a.sum_L1_L2 is not None)],
+                     [estimate.method, *(lab for lab, a in alts if a.sum_L1_L2 is not None)],
+                     rel_tol=0.1, scale=0.05)
+    return replace(
+        estimate, parameters=params, sum_L1_L2=total,
+        verdict=estimate.verdict + " Discovery cannot tell apart explanations that imply "
+        "different link lengths; the intervals span them (see the notes).",
+    )
 
 
 def _recommend(
@@ -268,6 +356,84 @@ def _with_kappa_cmd_from_steering(
 
 
 _PATH_STAGE = "transient fit along the path"
+_PATH_DISCOVERY_STAGE = "discovery along the path"
+
+
+def _path_discovery(
+    inp: PathInputs, fit: PathTransientFit, frame: pl.DataFrame, segments: list[Segment],
+    cfg: Any, stages: Stages, progress: Progress,
+) -> PathDiscovery | None:
+    """Discovery along the measured path (joint-angle effects, a mid-log change), or, when it
+    is switched off or the log is short, only the nominal path fit's adequacy."""
+    from calib.tractor_trailer.path_discovery import (
+        MIN_DURATION_S,
+        discover_along_path,
+        judge_path_fit,
+    )
+
+    off = (int(frame["t_ns"][0]) - inp.t0_ns) / 1e9 if frame.height else 0.0
+    segs = [(str(s.command_type), s.start_s + off, s.end_s + off) for s in segments]
+    dur = float(np.ptp(inp.t_psi_s)) if inp.t_psi_s.size else 0.0
+    why = ""
+    if not cfg.discovery:
+        why = "switched off (--no-discovery)"
+    elif dur < MIN_DURATION_S:
+        why = f"the log is {dur:.3g} s long; discovery along the path needs {MIN_DURATION_S:g} s"
+    if why:
+        if cfg.discovery:  # (switched off, the "discovery" stage says so already)
+            stages.skip(_PATH_DISCOVERY_STAGE, why)
+        progress("adequacy of the path fit")
+        try:
+            return judge_path_fit(inp.path, inp.t_psi_s, inp.psi_rad, inp.gaps, fit,
+                                  segments=segs, reason=why)
+        except (CalibError, ValueError, FloatingPointError, np.linalg.LinAlgError) as err:
+            if cfg.debug:
+                raise
+            return PathDiscovery("failed", f"the path fit's adequacy failed: {err}")
+    progress(_PATH_DISCOVERY_STAGE)
+    return stages.run(
+        _PATH_DISCOVERY_STAGE,
+        lambda: discover_along_path(inp.path, inp.t_psi_s, inp.psi_rad, inp.gaps, fit,
+                                    segments=segs, progress=progress),
+    )
+
+
+_PSI_EFFECTS = {"sensor_offset": "sensor_offset(psi)", "clock_offset": "clock_offset(hitch)"}
+
+
+def _judged(
+    estimate: CalibrationResult | None, disc: PathDiscovery | None,
+    path_fit: PathTransientFit | None, used: list[str], notes: list[str],
+) -> tuple[CalibrationResult | None, Any]:
+    """The recommended estimate after discovery along the path (the sensor effects either
+    engine accepted, confounds spanned, widened and not determined under a misfit or a change
+    mid-log) and the adequacy of its model."""
+    from calib.adequacy import not_assessed
+    from calib.tractor_trailer.path_discovery import adopt_effects, recommended
+
+    if estimate is None:
+        return None, not_assessed("none", "no estimate")
+    if path_fit is None or not estimate.method.startswith(path_fit.name):
+        return estimate, not_assessed(
+            estimate.method, "the recommended estimate is not the fit along the path; its "
+            "residual is not judged")
+    if disc is None or disc.adequacy is None:
+        return estimate, not_assessed(estimate.method, disc.reason if disc is not None else
+                                      "discovery along the path failed (see the stages)")
+    command_keys = [k for label in used for i, k in _PSI_EFFECTS.items()
+                    if label.startswith(i)]
+    keys = list(dict.fromkeys([e.key for e in disc.accepted] + command_keys))
+    if disc.status == "ok" and disc.change is None and set(keys) != {
+        e.key for e in disc.accepted
+    }:
+        adopt_effects(disc, keys)
+    elif disc.status == "ok" and command_keys and not disc.accepted and disc.estimate is None:
+        notes.append("the joint-angle effects command-driven discovery named are kept in the "
+                     "estimate")
+    base = estimate if not disc.accepted else path_fit.result_
+    out = recommended(base, disc)
+    return out, disc.adequacy
+
 _NOSLIP_STAGE = "no-slip regression on the trailer pose"
 
 
@@ -394,7 +560,7 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
             )
             if status == "not_run":
                 discovery = None
-    offset, shift, used = _sensor_effects(discovery)
+    offset, shift, used, confounded = _sensor_effects(discovery)
     shown_fit, shown_shift = path_fit, 0.0  # the fit whose prediction the views draw
     if used and path_fit is not None:
         progress("refit with the effects discovery named")
@@ -410,7 +576,27 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
                 res, method=model,
                 details={**res.details, "model": model, "effects_included": used},
             )
+    path_disc = None
+    if path_out and path_fit is not None and not still:
+        path_disc = _path_discovery(path_out[0], path_fit, frame, segments, cfg, stages,
+                                    progress)
+    estimate, adequacy = _judged(estimate, path_disc, path_fit, used, notes)
+    if confounded and estimate is not None and path_fit is not None and (
+        estimate.method.startswith(path_fit.name)
+    ):
+        progress("refits for the confounded explanations")
+        estimate = _span_confounds(loaded, estimate, path_fit, confounded, notes, stages)
+    judged = estimate
     estimate = _unexplained(estimate, discovery, path_fit)
+    if estimate is not judged and adequacy is not None and adequacy.channels:
+        adequacy = adequacy.with_(notes=(*adequacy.notes, (
+            "command-driven discovery finds structure in the joint angle that no catalogued "
+            f"effect explains ({discovery.residual_model.describe()}); the estimate is not "  # type: ignore[union-attr]
+            "determined")))
+    if path_disc is not None and path_disc.solution is not None and estimate is not None and (
+        estimate.method.startswith(PathTransientFit.name) and path_disc.accepted
+    ):
+        shown_fit = None  # the views draw the nominal fit only where it is the estimate
     if estimate is not None and path_fit is not None and estimate.method.startswith(
         path_fit.name
     ):
@@ -434,12 +620,21 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
         source["path_source"] = path_out[0].path.source
     if geometry is not None:
         source["steering_geometry"] = geometry.to_dict()
+    sections: dict[str, Any] = {}
+    shown: Any = discovery
+    if path_disc is not None and path_disc.status == "ok":
+        if discovery is None:
+            shown = path_disc
+        else:
+            sections["path_discovery"] = path_disc
     result = AnalysisResult(
         robot=str(loaded.robot),
         segments=segments,
         methods=methods,
         estimate=estimate,
-        discovery=discovery,
+        discovery=shown,
+        adequacy=adequacy,
+        sections=sections,
         truth=dict(loaded.truth),
         source=source,
         warnings=[str(p) for p in loaded.problems] + notes,

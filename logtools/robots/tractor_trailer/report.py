@@ -1,4 +1,5 @@
-"""The tractor-trailer's part of the readable report: segments and the method tables."""
+"""The tractor-trailer's part of the readable report: segments, the method tables and, when
+command-driven discovery also ran, what discovery along the measured path found."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from rich.text import Text
 
 from calib.results import AnalysisResult, MethodResult
 from calib.results import format_pm as _pm
+from logtools.safe_text import printable_lines
 
 __all__ = ["CLS_SPLIT_NOTE", "report_lines"]
 
@@ -70,4 +72,7 @@ def report_lines(result: AnalysisResult, per_segment: bool = True) -> list[Rende
         if rows:
             parts.append(_methods_table(rows, label, truth))
     parts.append(Text(CLS_SPLIT_NOTE, style="yellow"))
+    path_disc = result.sections.get("path_discovery")
+    if path_disc is not None and hasattr(path_disc, "report"):
+        parts.append(Text(printable_lines("\n".join(path_disc.report()))))
     return parts
