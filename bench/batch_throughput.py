@@ -22,8 +22,8 @@ from pathlib import Path
 
 import polars as pl
 
-from calib.sim.presets import preset
-from calib.sim.tractor_trailer import simulate_tractor_trailer
+from calib.tractor_trailer.sim.presets import preset
+from calib.tractor_trailer.sim.tractor_trailer import simulate_tractor_trailer
 from logtools.batch.engines import Engine
 from logtools.batch.runner import (
     read_records,

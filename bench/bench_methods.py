@@ -21,8 +21,8 @@ from collections.abc import Callable
 import numpy as np
 
 from calib.lsq import OLS1, OLS2, TLS
-from calib.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.methods import METHOD_NAMES, evaluate_methods, method_spec
+from calib.tractor_trailer.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.patent_models import em_design, lengths_from_beta, pm_design
 from calib.tractor_trailer.repeats import methods_over_repeats, methods_table
 

@@ -23,14 +23,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "viz"))
 from conftest import make_result
 
 from calib.results import CommandType
-from calib.sim.commands import CommandSequence, CommandSpec
-from calib.sim.tractor_trailer import (
+from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
+from calib.tractor_trailer.sim.tractor_trailer import (
     SpeedProfile,
     TractorTrailerSim,
     simulate_tractor_trailer,
 )
-from viz.plots import write_report_png
-from viz.recording import write_recording
+from viz.tractor_trailer.plots import write_report_png
+from viz.tractor_trailer.recording import write_recording
 
 
 def simulate(hours: float, rate_hz: float):

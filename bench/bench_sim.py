@@ -18,9 +18,9 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from calib.models.hitch_kinematics import psi_rate
-from calib.sim.presets import patent_mixed
-from calib.sim.tractor_trailer import (
+from calib.tractor_trailer.models.hitch_kinematics import psi_rate
+from calib.tractor_trailer.sim.presets import patent_mixed
+from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,
     NoiseSpec,
     TractorTrailerSim,

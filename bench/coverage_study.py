@@ -21,10 +21,10 @@ from multiprocessing import Pool
 
 import numpy as np
 
-from calib.estimators import TransientFit, calibrate_link_lengths
 from calib.results import CommandType
-from calib.sim.commands import CommandSequence, CommandSpec
-from calib.sim.tractor_trailer import (
+from calib.tractor_trailer.estimators import TransientFit, calibrate_link_lengths
+from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
+from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,
     NoiseSpec,
     SimulatedRun,

@@ -4,7 +4,8 @@ Each log is drawn at random (``numpy.random.default_rng([seed, i])`` for log i, 
 the study is reproducible on its own) from the independent generator in ``tests/indgen``
 (``--generator indgen``, the default; its own ODE solution, per-topic rates 5-200 Hz, phase
 offsets, jitter, dropouts, stalls, quantisation, written as MCAP and read back through
-``logtools.load.load_log``) or from ``calib.sim`` (``--generator sim``: ``wide_run``).
+``logtools.load.load_log``) or from ``calib.tractor_trailer.sim`` (``--generator sim``:
+``wide_run``).
 Conditions: speed 0.2-8 m/s (constant, ramps, stops, random smooth), command shapes (the
 patent's H/C/L, constant, random smooth, chirps, steering-rate-limited steps), L1/(L1 + L2)
 from -0.05 to 0.6, noise 0-3x, optional topics present or absent.
@@ -274,10 +275,10 @@ def refit_signals(
     What refitting L1, L2 absorbs (a scale on the joint angle at small angles is a change of
     L1 + L2) raises nothing here: such an effect is not detectable from the log.
     """
-    from calib.discovery.data import prepare_data
-    from calib.discovery.effects import catalogue
-    from calib.discovery.fit import fit_model, holdout_rms
-    from calib.discovery.model import ModelSpec
+    from calib.tractor_trailer.discovery.data import prepare_data
+    from calib.tractor_trailer.discovery.effects import catalogue
+    from calib.tractor_trailer.discovery.fit import fit_model, holdout_rms
+    from calib.tractor_trailer.discovery.model import ModelSpec
 
     data = prepare_data(frame, signals)
     pool = {e.key: e for e in catalogue(baseline, data.channels)}  # type: ignore[arg-type]
@@ -309,12 +310,13 @@ def refit_signals(
 def frame_sim(
     rng: np.random.Generator, truth: dict[str, dict[str, float]], seed: int
 ) -> tuple[Any, float, float, dict[str, Any]]:
-    """(aligned frame, L1, L2, conditions) of one log of ``calib.sim`` (wide conditions)."""
+    """(aligned frame, L1, L2, conditions) of one log of ``calib.tractor_trailer.sim`` (wide
+    conditions)."""
     sys.path.insert(0, str(ROOT / "tests"))
     from discovery_simruns import wide_run  # type: ignore[import-not-found]
     from sim_frame import aligned_frame_from_run  # type: ignore[import-not-found]
 
-    from calib.sim.tractor_trailer import Effects
+    from calib.tractor_trailer.sim.tractor_trailer import Effects
 
     del seed
     kw: dict[str, Any] = {}
@@ -336,7 +338,7 @@ def frame_sim(
         elif k.startswith("clock_offset"):
             clocks[k[13:-1]] = v
     if UNCATALOGUED in truth:
-        raise ValueError("calib.sim has no trailer slip")
+        raise ValueError("calib.tractor_trailer.sim has no trailer slip")
     w = wide_run(rng, Effects(sensor_offset=offs, sensor_scale=scales, clock_offset_s=clocks, **kw))
     c = dict(w.conditions)
     c["generator"] = "sim"
@@ -350,7 +352,7 @@ def run_one(
     seed: int, i: int, generator: str, baseline: str, use_signals: bool = True
 ) -> dict[str, Any]:
     """Draw, generate and discover log ``i``; the record the tables are made of."""
-    from calib.discovery import discover
+    from calib.tractor_trailer.discovery import discover
 
     rng = np.random.default_rng([seed, i])
     truth = draw_truth(rng)

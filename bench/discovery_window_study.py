@@ -1,7 +1,8 @@
 """Discovery through windows on long logs: does it name what whole-log discovery names?
 
 ``discover`` looks at a log longer than ``max_span_s`` (default 600 s) through windows spread
-evenly over it (``calib.discovery.windows``). This study draws long logs (15-30 min) from the
+evenly over it (``calib.tractor_trailer.discovery.windows``). This study draws long logs (15-30
+min) from the
 independent generator ``tests/indgen`` with the same truth distribution as
 ``bench/discovery_confusion_study.py`` (clean, one effect, two effects, uncatalogued slip; any
 speed and topic-rate condition; the command a random sum of sines (``--command random``, the
@@ -53,7 +54,7 @@ def _wilson(k: int, n: int) -> str:
 
 
 def run_one(seed: int, i: int, command: str | None = "random") -> dict[str, Any]:
-    from calib.discovery import discover
+    from calib.tractor_trailer.discovery import discover
 
     rng = np.random.default_rng([seed, i])
     truth = study.draw_truth(rng)

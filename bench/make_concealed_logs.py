@@ -18,8 +18,8 @@ import numpy as np
 import polars as pl
 
 from calib.results import CommandType as C
-from calib.sim.commands import CommandSequence, CommandSpec
-from calib.sim.tractor_trailer import (
+from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
+from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,
     SimulatedRun,
     SpeedProfile,

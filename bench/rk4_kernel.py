@@ -1,10 +1,11 @@
-"""Speed of the joint-angle RK4 loop (calib.models.hitch_rk4): compiled, numpy, Python, solve_ivp.
+"""Speed of the joint-angle RK4 loop (calib.tractor_trailer.models.hitch_rk4): compiled, numpy,
+Python, solve_ivp.
 
 Integrates the hitch dynamics d psi/dt = v (kappa (1 + L1/L2 cos psi) - sin(psi)/L2) over a
 60 s drive at 100 Hz (6000 steps), in the same run:
 
 - ``rk4_hitch``: the compiled loop (one trajectory on libm's sin/cos; 64 parameter sets stepped
-  together on the vectorised sin/cos of calib/_sincos.h, per set);
+  together on the vectorised sin/cos of calib/tractor_trailer/_sincos.h, per set);
 - ``rk4_hitch(..., reference=True)``: the numpy reference of the same arithmetic, 64 sets side
   by side, per set (the fallback when the extension is not built);
 - the same RK4 as a Python loop over floats with the right-hand side written out (what the
@@ -27,7 +28,7 @@ from collections.abc import Callable
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from calib.models.hitch_rk4 import compiled_available, rk4_hitch
+from calib.tractor_trailer.models.hitch_rk4 import compiled_available, rk4_hitch
 
 L1, L2 = 1.25, 2.48
 RATE_HZ, DURATION_S, M_SETS, REPEATS = 100.0, 60.0, 64, 5

@@ -18,8 +18,8 @@ from dataclasses import replace
 import numpy as np
 
 from calib.results import CommandType, Segment
-from calib.segmentation import segment_command
-from calib.sim.commands import CommandSequence, CommandSpec, command_value
+from calib.tractor_trailer.segmentation import segment_command
+from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec, command_value
 
 AMBIGUOUS_BEFORE_CONSTANT = (CommandType.CONSTANT, CommandType.CURVE, CommandType.STEP)
 CONTINUOUS_NOT_BEFORE_STEP = (CommandType.STEP, CommandType.CURVE)
@@ -39,7 +39,7 @@ def random_sequence(
 
     Left out, because the command alone cannot tell where the simulator put the boundary:
     two constants in a row, a constant next to a step (which of the jumps between the levels
-    is the step's is a guess, see calib.segmentation.step_rule), and a constant
+    is the step's is a guess, see calib.tractor_trailer.segmentation.step_rule), and a constant
     after a curve (it may sit at the tanh's saturation level). Steps jump at 40-60 % of
     their length; steps may follow steps (their levels pair up unambiguously).
 

@@ -58,12 +58,6 @@ import numpy as np
 import polars as pl
 
 from logtools.align import resample_at
-from logtools.curvature import (
-    STEER_SATURATION_RAD,
-    KappaCmdKind,
-    KappaCmdOrigin,
-    kappa_from_steering,
-)
 from logtools.errors import (
     ChannelMapEntryError,
     ChannelMapError,
@@ -74,6 +68,12 @@ from logtools.errors import (
 from logtools.outliers import drop_outliers
 from logtools.problems import Problem
 from logtools.readers import CSV_TOPIC, TIME_COLUMN, LogData, ProblemKind, known_encodings
+from logtools.robots.tractor_trailer.curvature import (
+    STEER_SATURATION_RAD,
+    KappaCmdKind,
+    KappaCmdOrigin,
+    kappa_from_steering,
+)
 from logtools.signals import (
     COMMAND_SIGNALS,
     DERIVED_TOPIC,

@@ -3,7 +3,8 @@
 ``load_log`` composes :func:`logtools.readers.read_log`,
 :func:`logtools.channel_map.resolve_signals`, :func:`logtools.robot.infer_robot`,
 :func:`logtools.align.align_signals` (its module docstring gives the alignment method and
-tolerance), :func:`logtools.align.find_gaps` and :func:`logtools.curvature.derive_kappa`.
+tolerance), :func:`logtools.align.find_gaps` and
+:func:`logtools.robots.tractor_trailer.curvature.derive_kappa`.
 The signal resolution excludes single-sample outliers (:mod:`logtools.outliers`); they are
 listed in ``problems`` with their times.
 
@@ -27,7 +28,6 @@ import polars as pl
 
 from logtools.align import AlignMethod, Gap, align_signals, find_gaps
 from logtools.channel_map import ChannelMap, ResolvedSignals, resolve_signals
-from logtools.curvature import KappaCmdOrigin
 from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.problems import Problem, ProblemKind
 from logtools.readers import (
@@ -41,6 +41,7 @@ from logtools.readers import (
 )
 from logtools.readers.tum import is_tum, read_tum
 from logtools.robot import METADATA_RECORD, infer_robot
+from logtools.robots.tractor_trailer.curvature import KappaCmdOrigin
 from logtools.signals import RobotConfig, SignalSource
 
 __all__ = [

@@ -11,11 +11,11 @@ from typing import Any
 from calib.results import json_safe
 from logtools.align import Gap, find_gaps
 from logtools.channel_map import FlatSignal
-from logtools.curvature import KappaCmdOrigin
 from logtools.errors import NoDriveSignalsError
 from logtools.load import gap_notes, read_and_resolve
 from logtools.readers import TopicInfo
 from logtools.robot import explain_robot
+from logtools.robots.tractor_trailer.curvature import KappaCmdOrigin
 from logtools.safe_text import printable
 from logtools.signals import SignalSource
 

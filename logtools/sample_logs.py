@@ -14,8 +14,12 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from calib.sim.presets import harmonic, patent_mixed
-from calib.sim.tractor_trailer import SimulatedRun, TractorTrailerSim, simulate_tractor_trailer
+from calib.tractor_trailer.sim.presets import harmonic, patent_mixed
+from calib.tractor_trailer.sim.tractor_trailer import (
+    SimulatedRun,
+    TractorTrailerSim,
+    simulate_tractor_trailer,
+)
 from logtools.writers.tractor_trailer import Encoding, run_metadata, write_run
 
 __all__ = ["SAMPLES", "SampleLog", "main", "write_sample_logs"]

@@ -8,8 +8,8 @@ import dataclasses
 import shutil
 from pathlib import Path
 
-from calib.sim.presets import preset
-from calib.sim.tractor_trailer import simulate_tractor_trailer
+from calib.tractor_trailer.sim.presets import preset
+from calib.tractor_trailer.sim.tractor_trailer import simulate_tractor_trailer
 from logtools.batch.worker import AnalysisOptions
 from logtools.writers.mcap_writer import JsonEncoder, write_frames_mcap
 from logtools.writers.tractor_trailer import JSON_BINDINGS, run_frames, run_metadata, write_run

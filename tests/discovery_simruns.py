@@ -1,6 +1,7 @@
 """Random simulated runs for discovery studies (null study, coverage checks).
 
-Test and bench helper (moved out of ``calib.discovery``); imported as ``discovery_simruns``
+Test and bench helper (moved out of ``calib.tractor_trailer.discovery``); imported as
+``discovery_simruns``
 with ``tests/`` on the path.
 
 A run holds nothing beyond a baseline's physics when it is simulated with the matching hitch
@@ -16,10 +17,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 from sim_frame import aligned_frame_from_run
 
-from calib.discovery import discover
 from calib.results import CommandType
-from calib.sim.commands import CommandSequence, CommandSpec
-from calib.sim.tractor_trailer import (
+from calib.tractor_trailer.discovery import discover
+from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
+from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,
     NoiseSpec,
     SimulatedRun,

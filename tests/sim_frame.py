@@ -1,6 +1,7 @@
 """An aligned frame built from a simulated run, for tests and studies without logtools.
 
-Test and bench helper (moved out of ``calib.discovery``: the library has no use for it);
+Test and bench helper (moved out of ``calib.tractor_trailer.discovery``: the library has no use for
+it);
 imported as ``sim_frame`` with ``tests/`` on the path (pytest's ``pythonpath``; bench scripts
 insert it).
 """
@@ -10,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import polars as pl
 
-from calib.sim.tractor_trailer import SimulatedRun
+from calib.tractor_trailer.sim.tractor_trailer import SimulatedRun
 
 __all__ = ["aligned_frame_from_run"]
 

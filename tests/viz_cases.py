@@ -16,8 +16,12 @@ from calib.results import (
     Estimate,
     MethodResult,
 )
-from calib.sim.commands import CommandSequence, CommandSpec
-from calib.sim.tractor_trailer import SpeedProfile, TractorTrailerSim, simulate_tractor_trailer
+from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
+from calib.tractor_trailer.sim.tractor_trailer import (
+    SpeedProfile,
+    TractorTrailerSim,
+    simulate_tractor_trailer,
+)
 from calib.tractor_trailer.views_data import tractor_views_data
 
 L1_TRUE, L2_TRUE = 1.25, 2.48

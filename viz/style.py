@@ -28,7 +28,8 @@ COLORS: dict[str, tuple[int, int, int]] = {
     "truth": (250, 250, 250),
     "L1": (230, 25, 75),
     "L2": (0, 130, 200),
-    # the differential drive's paths (viz.diff_drive draws them; the screenshot looks for them)
+    # the differential drive's paths (viz.diff_drive.views draws them; the screenshot looks for
+    # them)
     "dd_nominal": (220, 60, 60),
     "dd_calibrated": (40, 120, 220),
 }

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from calib.estimators._stats import detect_quantum
 from calib.results import JsonRecord
+from calib.stats import detect_quantum
 
 __all__ = ["NoiseFloor", "noise_floor"]
 

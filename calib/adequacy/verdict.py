@@ -52,7 +52,7 @@ SIGNIFICANT_Z = 5.0
 
 def effective_samples(r: np.ndarray) -> float:
     """n / (1 + 2 sum of the residual's autocorrelation up to its first non-positive lag)."""
-    from calib.estimators._stats import autocorrelation
+    from calib.stats import autocorrelation
 
     x = np.asarray(r, dtype=float)
     x = x[np.isfinite(x)]

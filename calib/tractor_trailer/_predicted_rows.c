@@ -9,7 +9,7 @@
  * the 3 x 3 R factor of each block of 256 consecutive rows (Householder QR of the block).
  * The caller stacks the block factors and reduces them once more (a tall-skinny QR).
  *
- * sin and cos: calib/_sincos.h (branch-free, vectorisable; a few ulp for |angle| <= 1e5 rad;
+ * sin and cos: calib/tractor_trailer/_sincos.h (branch-free, vectorisable; a few ulp for |angle| <= 1e5 rad;
  * the caller uses numpy beyond: it checks |a| max|k| + |b|).
  */
 #define PY_SSIZE_T_CLEAN
@@ -20,7 +20,7 @@
 #define BLOCK 256 /* rows per block factor; a multiple of LANES */
 #define LANES 8   /* partial sums per reduction, so that the sums vectorise */
 
-#include "../_sincos.h"
+#include "_sincos.h"
 
 /* x_j[0..m) = column j of the block's rows; rows m..mp are zero. */
 static inline void fill_rows(int64_t m, int64_t mp, const double *restrict kappa,

@@ -24,8 +24,8 @@ from calib.adequacy import (
     noise_floor,
     under_misfit,
 )
-from calib.estimators.path_transient import PathTransientFit
 from calib.results import CalibrationResult
+from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.path_effects import JointPathModel, JointSolution
 
 __all__ = [

@@ -42,10 +42,10 @@ from calib.adequacy import (
     span,
 )
 from calib.errors import CalibError
-from calib.estimators.drive_path import DrivePath
-from calib.estimators.identifiability import undetermined
-from calib.estimators.path_transient import PathTransientFit
 from calib.results import CalibrationResult, Estimate, json_safe
+from calib.tractor_trailer.estimators.drive_path import DrivePath
+from calib.tractor_trailer.estimators.identifiability import undetermined
+from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.path_adequacy import (
     estimate_under_misfit,
     heldout_residual,

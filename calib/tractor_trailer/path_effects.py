@@ -1,8 +1,10 @@
 """The tractor-trailer's catalogue of joint-angle effects for discovery along the measured path,
 and the joint fit of (L1, L2, one initial angle per piece) with any set of them.
 
-The kinematics are integrated along link 1's measured path (``calib.models.hitch_path`` through
-the layout of :class:`calib.estimators.path_transient.PathTransientFit`); the effects act only
+The kinematics are integrated along link 1's measured path
+(``calib.tractor_trailer.models.hitch_path`` through
+the layout of :class:`calib.tractor_trailer.estimators.path_transient.PathTransientFit`); the
+effects act only
 on how the true angle becomes the recorded one, in this order:
 
     clock   the joint angle is stamped at tau = t - c - d (t - t_first): an offset c (s, the
@@ -28,9 +30,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from calib.adequacy import EffectKind, EffectParam, EffectSpec
-from calib.estimators._stats import bartlett_bandwidth, hac_covariance
-from calib.estimators.drive_path import DrivePath
-from calib.estimators.path_transient import PathTransientFit
+from calib.stats import bartlett_bandwidth, hac_covariance
+from calib.tractor_trailer.estimators.drive_path import DrivePath
+from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 
 __all__ = [
     "CATALOGUE",

@@ -17,7 +17,8 @@ at load time). On the 1-hour 100 Hz log the six bootstrap tables take 0.42 s CPU
 1.11 s with the numpy rows. We write it ourselves because no library we may depend on offers
 a vectorised float64 sin/cos (glibc's vector functions are only called from code compiled with
 -ffast-math), and fusing the rows with their QR avoids writing them to memory; numba would do
-it but costs ~115 MB of RSS and a JIT compile per process (see ``calib.models.hitch_rk4``).
+it but costs ~115 MB of RSS and a JIT compile per process (see
+``calib.tractor_trailer.models.hitch_rk4``).
 
 The numpy reference (``reference=True``) computes the same factor with ``em_columns`` and the
 blocked QR of ``calib.lsq.base``; it is the fallback when the compiled library is missing, for

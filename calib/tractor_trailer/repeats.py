@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calib.estimators._stats import autocorrelation
 from calib.results import MethodResult
+from calib.stats import autocorrelation
 from calib.tractor_trailer.methods import (
     METHOD_NAMES,
     ResampledData,

@@ -11,7 +11,8 @@ sample of the log (n samples):
   (the patent's model; NaN where no steady state exists);
 - ``psi_steady_method``: the same at the lengths of the method named by ``method_for_psi``;
 - ``C1``, ``P``, ``C2`` (n, 2): link points (m, world frame); ``O``, ``Q`` (n, 2), ``R`` (n,)
-  and ``icr_valid`` (n,): the instantaneous-centre construction (``calib.models.icr``).
+  and ``icr_valid`` (n,): the instantaneous-centre construction
+  (``calib.tractor_trailer.models.icr``).
 
 and, when the recommended estimate is a transient fit along the path (``transient`` given),
 per joint-angle sample that fit used (m samples, on the joint angle's own stamps):
@@ -34,9 +35,9 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from calib.models.hitch_kinematics import steady_state_psi
-from calib.models.icr import KAPPA_MIN, icr_construction
 from calib.results import AnalysisResult, MethodResult
+from calib.tractor_trailer.models.hitch_kinematics import steady_state_psi
+from calib.tractor_trailer.models.icr import KAPPA_MIN, icr_construction
 
 __all__ = [
     "VIEWS",
@@ -55,7 +56,8 @@ FloatArray = NDArray[np.float64]
 
 
 class TransientPrediction(Protocol):
-    """What a fitted ``calib.estimators.path_transient.PathTransientFit`` offers the views."""
+    """What a fitted ``calib.tractor_trailer.estimators.path_transient.PathTransientFit``
+    offers the views."""
 
     t_s_: np.ndarray
     psi_fit_: np.ndarray

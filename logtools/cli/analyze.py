@@ -114,11 +114,12 @@ def register(app: typer.Typer) -> None:
             | ({"discovery_span_s": discovery_span} if discovery_span is not None else {}),
         )
         err = Console(stderr=True)
-        from calib.models.hitch_rk4 import compiled_available
+        from calib.tractor_trailer.models.hitch_rk4 import compiled_available
 
         if not compiled_available():
             err.print(
-                "logcal: the compiled integrator (calib/models/_hitch_rk4.c) is not built here; "
+                "logcal: the compiled integrator (calib/tractor_trailer/models/_hitch_rk4.c) is "
+                "not built here; "
                 "analysing on its numpy loop, about 5x slower (pip install . builds it)",
                 markup=False,
             )

@@ -154,7 +154,7 @@ def register_reproduce(group: typer.Typer) -> None:
         from rich.table import Table
         from rich.text import Text
 
-        from calib.reproduce.wmr import reproduce_wmr
+        from calib.diff_drive.reproduce import reproduce_wmr
 
         rep = reproduce_wmr("paper" if law is TrackingLawOption.PAPER else "control_point")
         if as_json:

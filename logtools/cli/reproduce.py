@@ -14,7 +14,7 @@ from rich.table import Table
 from rich.text import Text
 
 if TYPE_CHECKING:
-    from calib.reproduce import FigureCell, FigureTable, PatentReproduction
+    from calib.tractor_trailer.reproduce import FigureCell, FigureTable, PatentReproduction
 
 __all__ = ["register", "render_reproduction"]
 
@@ -131,7 +131,7 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", help="Seed of the simulated sensor noise."),
     ) -> None:
         """Recompute the patent's Figs. 8-13 beside the published numbers."""
-        from calib.reproduce import reproduce_patent
+        from calib.tractor_trailer.reproduce import reproduce_patent
         from logtools.errors import LogcalInputError
 
         if repeats < 1:
@@ -151,7 +151,7 @@ def register(app: typer.Typer) -> None:
         png: str | None = typer.Option(None, "--png", help="Save the trajectories as PNG."),
     ) -> None:
         """JKROS 2012: its constrained estimator vs RLS on the paper's 2-link arm."""
-        from calib.reproduce.momentum import reproduce_momentum, save_png
+        from calib.manipulator.reproduce import reproduce_momentum, save_png
         from logtools.cli.reproduce_momentum import render_momentum
 
         rep = reproduce_momentum()

@@ -8,7 +8,7 @@ from rich.console import Group, RenderableType
 from rich.table import Table
 from rich.text import Text
 
-from calib.reproduce.momentum import PAPER_STATES, MomentumReproduction
+from calib.manipulator.reproduce import PAPER_STATES, MomentumReproduction
 
 __all__ = ["render_momentum"]
 

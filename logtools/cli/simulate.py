@@ -3,8 +3,10 @@
 ``logcal simulate tractor-trailer --out FILE [--encoding json|ros2|csv] [--preset NAME] ...``
 ``logcal simulate samples [DIR]`` regenerates ``sample_logs/``.
 
-The library (:mod:`calib.sim`) decides which parameters make physical sense; this module only
-translates its :class:`~calib.sim.validation.SimParameterError` into the option's name.
+The library (:mod:`calib.tractor_trailer.sim`) decides which parameters make physical sense; this
+module only
+translates its :class:`~calib.tractor_trailer.sim.validation.SimParameterError` into the option's
+name.
 """
 
 from __future__ import annotations
@@ -17,11 +19,11 @@ from typing import TYPE_CHECKING
 import typer
 
 from calib.manipulator.choices import Conceal
-from calib.sim.choices import HitchModel, PresetName
+from calib.tractor_trailer.sim.choices import HitchModel, PresetName
 from logtools.writers.encoding import LogEncoding
 
 if TYPE_CHECKING:
-    from calib.sim.validation import SimParameterError
+    from calib.tractor_trailer.sim.validation import SimParameterError
     from logtools.errors import LogcalInputError
 
 __all__ = ["OPTION_OF_PARAMETER", "input_error", "register"]
@@ -44,7 +46,7 @@ OPTION_OF_PARAMETER: dict[str, str] = {
 
 def input_error(err: SimParameterError) -> LogcalInputError:
     """``err`` as the CLI's one-line message: the option, the value given, what was expected."""
-    from calib.sim.validation import show
+    from calib.tractor_trailer.sim.validation import show
     from logtools.errors import LogcalInputError
 
     names = [err.parameter, *err.related]
@@ -118,9 +120,9 @@ def register(app: typer.Typer) -> None:
         ),
     ) -> None:
         """Simulate a tractor with an off-axle trailer and write its drive log."""
-        from calib.sim.presets import preset as make_preset
-        from calib.sim.tractor_trailer import Effects, simulate_tractor_trailer
-        from calib.sim.validation import SimParameterError
+        from calib.tractor_trailer.sim.presets import preset as make_preset
+        from calib.tractor_trailer.sim.tractor_trailer import Effects, simulate_tractor_trailer
+        from calib.tractor_trailer.sim.validation import SimParameterError
         from logtools.outputs import check_output, write_atomically
         from logtools.writers.tractor_trailer import run_metadata, write_run
 

@@ -1,4 +1,5 @@
-"""Write a simulated tractor-trailer run (:class:`calib.sim.tractor_trailer.SimulatedRun`) as
+"""Write a simulated tractor-trailer run
+(:class:`calib.tractor_trailer.sim.tractor_trailer.SimulatedRun`) as
 an MCAP (JSON or ROS 2) or CSV log exactly per LOG_FORMAT.md."""
 
 from __future__ import annotations
@@ -9,7 +10,7 @@ from collections.abc import Mapping
 import numpy as np
 import polars as pl
 
-from calib.sim.tractor_trailer import SimulatedRun
+from calib.tractor_trailer.sim.tractor_trailer import SimulatedRun
 from logtools.errors import LogWriteError
 from logtools.writers.csv_writer import write_frames_csv
 from logtools.writers.encoding import ENCODINGS, Encoding, LogEncoding

@@ -12,17 +12,22 @@ from discovery_logs import ISSUE_CATALOGUE
 from discovery_simruns import null_study  # type: ignore[import-not-found]
 from sim_frame import aligned_frame_from_run  # type: ignore[import-not-found]
 
-from calib.discovery import catalogue, discover
-from calib.discovery.data import CommandSignal, prepare_data
-from calib.discovery.diagnostics import ljung_box
-from calib.discovery.effects.actuator_lag import first_order_lag
-from calib.discovery.model import ModelSpec, as_recorded, integrate_hitch_half, predict
-from calib.discovery.sparse import stlsq
 from calib.errors import InsufficientDataError
-from calib.models.hitch_kinematics import steady_state_psi
 from calib.results import CommandType
-from calib.sim.commands import CommandSequence, CommandSpec
-from calib.sim.tractor_trailer import (
+from calib.tractor_trailer.discovery import catalogue, discover
+from calib.tractor_trailer.discovery.data import CommandSignal, prepare_data
+from calib.tractor_trailer.discovery.diagnostics import ljung_box
+from calib.tractor_trailer.discovery.effects.actuator_lag import first_order_lag
+from calib.tractor_trailer.discovery.model import (
+    ModelSpec,
+    as_recorded,
+    integrate_hitch_half,
+    predict,
+)
+from calib.tractor_trailer.discovery.sparse import stlsq
+from calib.tractor_trailer.models.hitch_kinematics import steady_state_psi
+from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
+from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,
     NoiseSpec,
     SimulatedRun,
@@ -258,7 +263,7 @@ def test_yaw_rate_only_log() -> None:
 def test_command_integral_finds_each_querys_interval_as_searchsorted_does() -> None:
     # the interval lookup goes through np.interp of knot positions; it must agree with
     # searchsorted(side="right") - 1, repeated sample times and queries on knots included
-    from calib.discovery.data import CommandSignal
+    from calib.tractor_trailer.discovery.data import CommandSignal
 
     rng = np.random.default_rng(0)
     for _ in range(100):

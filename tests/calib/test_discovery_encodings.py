@@ -6,7 +6,8 @@ scenario's start) and read back through ``logtools.load.load_log``. Deterministi
 
 Tolerance of "the same answer": the same named set, the same confound rules, and every effect
 parameter and L1, L2 within one standard error of the JSON copy's. (Since discovery takes its
-times relative to the first row in integers, ``calib.discovery.data._raw``, the three copies
+times relative to the first row in integers, ``calib.tractor_trailer.discovery.data._raw``, the
+three copies
 give bit-identical numbers; the tolerance is what the test promises.)
 """
 
@@ -21,16 +22,16 @@ import numpy as np
 import polars as pl
 import pytest
 
-from calib.discovery import (
+from calib.results import Estimate
+from calib.tractor_trailer.discovery import (
     DiscoveryResult,
     SensorCorrections,
     discover,
     sensor_effects_for_fit,
 )
-from calib.discovery.confounds import GAIN_KEY, GAIN_RULE
-from calib.discovery.data import prepare_data
-from calib.discovery.result import EffectFit
-from calib.results import Estimate
+from calib.tractor_trailer.discovery.confounds import GAIN_KEY, GAIN_RULE
+from calib.tractor_trailer.discovery.data import prepare_data
+from calib.tractor_trailer.discovery.result import EffectFit
 from logtools.load import load_log
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))

@@ -22,11 +22,11 @@ import pytest
 from discovery_logs import LOG_DIR, read_aligned
 from sim_frame import aligned_frame_from_run  # type: ignore[import-not-found]
 
-from calib.discovery import DEFAULT_BASELINE, DiscoveryResult, catalogue, discover
-from calib.discovery.model import BASE_PARAMS
 from calib.results import CommandType
-from calib.sim.commands import CommandSequence, CommandSpec
-from calib.sim.tractor_trailer import (
+from calib.tractor_trailer.discovery import DEFAULT_BASELINE, DiscoveryResult, catalogue, discover
+from calib.tractor_trailer.discovery.model import BASE_PARAMS
+from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
+from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,
     SpeedProfile,
     TractorTrailerSim,

@@ -10,17 +10,17 @@ import numpy as np
 import pytest
 from sim_frame import aligned_frame_from_run  # type: ignore[import-not-found]
 
-import calib.discovery.model as model
-from calib.discovery import catalogue
-from calib.discovery.data import DiscoveryData, prepare_data
-from calib.discovery.effects import ActuatorLag
-from calib.discovery.fit import fit_model
-from calib.discovery.model import ModelSpec, integrate_hitch_half, predict
-from calib.models.hitch_rk4 import compiled_available
+import calib.tractor_trailer.discovery.model as model
 from calib.results import CommandType
-from calib.sim.commands import CommandSequence, CommandSpec
-from calib.sim.tractor_trailer import NoiseSpec, SpeedProfile, TractorTrailerSim
-from calib.sim.tractor_trailer import simulate_tractor_trailer as simulate
+from calib.tractor_trailer.discovery import catalogue
+from calib.tractor_trailer.discovery.data import DiscoveryData, prepare_data
+from calib.tractor_trailer.discovery.effects import ActuatorLag
+from calib.tractor_trailer.discovery.fit import fit_model
+from calib.tractor_trailer.discovery.model import ModelSpec, integrate_hitch_half, predict
+from calib.tractor_trailer.models.hitch_rk4 import compiled_available
+from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
+from calib.tractor_trailer.sim.tractor_trailer import NoiseSpec, SpeedProfile, TractorTrailerSim
+from calib.tractor_trailer.sim.tractor_trailer import simulate_tractor_trailer as simulate
 
 
 @pytest.fixture(scope="module")

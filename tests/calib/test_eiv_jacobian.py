@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib.estimators.eiv import _g, _profiled_jacobian, project_onto_curve
+from calib.tractor_trailer.estimators.eiv import _g, _profiled_jacobian, project_onto_curve
 
 
 def test_profiled_jacobian_matches_central_differences() -> None:

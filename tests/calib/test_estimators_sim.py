@@ -1,4 +1,5 @@
-"""calib.estimators on simulated drive logs, checked against the simulator's truth."""
+"""calib.tractor_trailer.estimators on simulated drive logs, checked against the simulator's
+truth."""
 
 from __future__ import annotations
 
@@ -7,10 +8,10 @@ import json
 import numpy as np
 import pytest
 
-from calib.estimators import TransientFit, calibrate_link_lengths
 from calib.results import CommandType
-from calib.sim.commands import CommandSequence, CommandSpec
-from calib.sim.tractor_trailer import (
+from calib.tractor_trailer.estimators import TransientFit, calibrate_link_lengths
+from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
+from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,
     NoiseSpec,
     SimulatedRun,

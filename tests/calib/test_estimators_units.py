@@ -1,4 +1,5 @@
-"""Unit checks of calib.estimators against closed forms and brute-force computations."""
+"""Unit checks of calib.tractor_trailer.estimators against closed forms and brute-force
+computations."""
 
 from __future__ import annotations
 
@@ -8,12 +9,12 @@ import numpy as np
 import pytest
 
 from calib.errors import InsufficientDataError, SolverError
-from calib.estimators import SteadyStateEIV, TransientFit, identifiability
-from calib.estimators._integrate import plan_steps, simulate_psi
-from calib.estimators._propagate import adjoint_apply
-from calib.estimators._stats import hac_covariance, hf_noise_std
-from calib.estimators.eiv import project_onto_curve
-from calib.models.hitch_kinematics import steady_state_kappa, steady_state_psi
+from calib.stats import hac_covariance, hf_noise_std
+from calib.tractor_trailer.estimators import SteadyStateEIV, TransientFit, identifiability
+from calib.tractor_trailer.estimators._integrate import plan_steps, simulate_psi
+from calib.tractor_trailer.estimators._propagate import adjoint_apply
+from calib.tractor_trailer.estimators.eiv import project_onto_curve
+from calib.tractor_trailer.models.hitch_kinematics import steady_state_kappa, steady_state_psi
 
 # --------------------------------------------------------------------------- identifiability
 

@@ -1,10 +1,10 @@
-"""calib.estimators._stats: the FFT length and the autocorrelation built on it."""
+"""calib.stats: the FFT length and the autocorrelation built on it."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from calib.estimators._stats import autocorrelation, fft_length
+from calib.stats import autocorrelation, fft_length
 
 
 def _smooth(m: int) -> bool:

@@ -9,14 +9,20 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib.discovery.effects.actuator_lag import first_order_lag
-from calib.models import hitch_rk4
-from calib.models.hitch_rk4 import compiled_available, rk4_hitch, rk4_hitch_sensitivities
+from calib.tractor_trailer.discovery.effects.actuator_lag import first_order_lag
+from calib.tractor_trailer.models import hitch_rk4
+from calib.tractor_trailer.models.hitch_rk4 import (
+    compiled_available,
+    rk4_hitch,
+    rk4_hitch_sensitivities,
+)
 
 
 def test_the_compiled_loop_is_built() -> None:
     # `pip install -e .` builds it; without it every fit runs ~25x slower on the numpy loop
-    assert compiled_available(), "calib/models/_hitch_rk4.c was not built: run pip install -e ."
+    assert compiled_available(), (
+        "calib/tractor_trailer/models/_hitch_rk4.c was not built: run pip install -e ."
+    )
 
 
 @settings(max_examples=40, deadline=None)

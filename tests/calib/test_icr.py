@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib.models.hitch_kinematics import steady_state_psi
-from calib.models.icr import icr_construction
+from calib.tractor_trailer.models.hitch_kinematics import steady_state_psi
+from calib.tractor_trailer.models.icr import icr_construction
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -16,9 +16,9 @@ import pytest
 from indgen import Command, Scenario, Speed, TopicSpec, generate, small_robot_scenario
 
 from calib.errors import InsufficientDataError
-from calib.estimators.drive_path import DrivePath, pool_runs
-from calib.estimators.path_transient import PathTransientFit
-from calib.models.hitch_path import advance_psi
+from calib.tractor_trailer.estimators.drive_path import DrivePath, pool_runs
+from calib.tractor_trailer.estimators.path_transient import PathTransientFit
+from calib.tractor_trailer.models.hitch_path import advance_psi
 
 
 def _clean_scenario(rate_hz: float, **kw: object) -> Scenario:
@@ -134,9 +134,10 @@ def test_a_robot_that_stands_still_is_refused() -> None:
 
 
 def test_noslip_regression_from_the_trailer_pose_is_exact_on_clean_data() -> None:
-    """The tractor axle's no-slip constraint written on the trailer pose (calib.estimators.
+    """The tractor axle's no-slip constraint written on the trailer pose
+    (calib.tractor_trailer.estimators.
     noslip) holds exactly on the independent generator's noise-free trailer (L1 < 0)."""
-    from calib.estimators.noslip import NoSlipRegression
+    from calib.tractor_trailer.estimators.noslip import NoSlipRegression
 
     scn = small_robot_scenario(np.random.default_rng(100))
     scn = dc.replace(scn, topics={k: dc.replace(v, noise={}, quantum={}, stamp_noise_s=0.0,
@@ -155,7 +156,7 @@ def test_noslip_regression_from_the_trailer_pose_is_exact_on_clean_data() -> Non
 def test_steering_geometry_recovers_the_wheelbase_and_offset() -> None:
     """kappa = tan(delta - delta0) / wheelbase on the generator's small robot (wheelbase
     0.42 m), with a steering sensor zero offset of 0.03 rad added."""
-    from calib.estimators.steering import fit_steering_geometry
+    from calib.tractor_trailer.estimators.steering import fit_steering_geometry
 
     scn = small_robot_scenario(np.random.default_rng(101))
     gen = generate(scn, seed=1)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from calib.errors import InsufficientDataError
-from calib.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.methods import evaluate_methods
+from calib.tractor_trailer.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.repeats import (
     block_length,
     bootstrap_counts,
@@ -132,8 +132,8 @@ def test_bootstrap_counts_are_the_multiplicities_of_the_same_draws() -> None:
 def _simulated_log() -> tuple[np.ndarray, np.ndarray]:
     """A simulated run of the patent's mixed commands (249 s at 50 Hz, transient trailer),
     with noise on κ and Ψ."""
-    from calib.sim.presets import patent_mixed
-    from calib.sim.tractor_trailer import simulate_tractor_trailer
+    from calib.tractor_trailer.sim.presets import patent_mixed
+    from calib.tractor_trailer.sim.tractor_trailer import simulate_tractor_trailer
 
     run = simulate_tractor_trailer(patent_mixed(rate_hz=50.0), seed=3)
     rng = np.random.default_rng(0)

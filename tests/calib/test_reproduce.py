@@ -7,8 +7,8 @@ from collections import Counter
 
 import pytest
 
-from calib.reproduce import PatentReproduction, reproduce_patent
-from calib.reproduce.published import half_unit, load_published
+from calib.tractor_trailer.reproduce import PatentReproduction, reproduce_patent
+from calib.tractor_trailer.reproduce.published import half_unit, load_published
 
 # Ideal-data cells where we differ from the print (all by about one unit in the last digit, or
 # intercepts at the 1e-6 level that are zero for practical purposes). Listed so that any new

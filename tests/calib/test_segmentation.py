@@ -9,10 +9,10 @@ import pytest
 
 from calib.results import CommandType as C
 from calib.results import Segment
-from calib.segmentation import segment_command
-from calib.sim.commands import CommandSequence
-from calib.sim.commands import CommandSpec as S
-from calib.sim.tractor_trailer import TractorTrailerSim, simulate_tractor_trailer
+from calib.tractor_trailer.segmentation import segment_command
+from calib.tractor_trailer.sim.commands import CommandSequence
+from calib.tractor_trailer.sim.commands import CommandSpec as S
+from calib.tractor_trailer.sim.tractor_trailer import TractorTrailerSim, simulate_tractor_trailer
 
 # Mixed command with known boundaries. Harmonic -> curve is a smooth join (sin ends near 0
 # with slope M w, tanh starts at 0 with slope M w); step -> harmonic(phase pi/2) joins with

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from calib.errors import CalibError
-from calib.models.hitch_kinematics import kappa_limit, steady_state_kappa
 from calib.results import CommandType
-from calib.sim.commands import CommandSequence, CommandSpec
-from calib.sim.presets import (
+from calib.tractor_trailer.models.hitch_kinematics import kappa_limit, steady_state_kappa
+from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
+from calib.tractor_trailer.sim.presets import (
     MIXED_CYCLE_S,
     PRESET_PSI_MAX_RAD,
     PRESETS,
@@ -21,14 +21,14 @@ from calib.sim.presets import (
     preset,
     scaled_noise,
 )
-from calib.sim.tractor_trailer import (
+from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,
     NoiseSpec,
     SpeedProfile,
     TractorTrailerSim,
     simulate_tractor_trailer,
 )
-from calib.sim.validation import PSI_LIMIT_RAD, SimParameterError
+from calib.tractor_trailer.sim.validation import PSI_LIMIT_RAD, SimParameterError
 
 
 def test_mixed_sequence_and_rescaling() -> None:

@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from calib.discovery.diagnostics import ljung_box
-from calib.estimators._stats import hac_covariance
+from calib.stats import hac_covariance
+from calib.tractor_trailer.discovery.diagnostics import ljung_box
 from calib.tractor_trailer.repeats import block_length
 
 sm = pytest.importorskip("statsmodels.api")

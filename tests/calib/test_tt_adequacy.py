@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from indgen.tractor_kinds import tractor_log
 
-from calib.estimators.drive_path import DrivePath
-from calib.estimators.path_transient import PathTransientFit
 from calib.results import CalibrationResult, Estimate
+from calib.tractor_trailer.estimators.drive_path import DrivePath
+from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.path_discovery import (
     PathDiscovery,
     discover_along_path,

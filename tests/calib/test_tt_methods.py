@@ -9,7 +9,6 @@ import pytest
 
 from calib.errors import InsufficientDataError
 from calib.lsq import OLS1, OLS2, TLS, triangular_factor
-from calib.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.methods import (
     CLS_TABLE,
     METHOD_NAMES,
@@ -19,6 +18,7 @@ from calib.tractor_trailer.methods import (
     family_of,
     method_spec,
 )
+from calib.tractor_trailer.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.patent_models import (
     ExactModel,
     em_columns,
@@ -81,7 +81,8 @@ def _one_unit(printed: str) -> float:
 )
 def test_condition_numbers_match_methods_md(M: float, ols1, tls) -> None:
     """OLS1 ones are scale-free (631-sample grid of METHODS.md); the TLS ones are absolute and
-    match the 630-sample grid of calib.reproduce. Allowed: one unit in the last printed digit
+    match the 630-sample grid of calib.tractor_trailer.reproduce. Allowed: one unit in the last
+    printed digit
     (we get 673.78 and 337.24 for the printed 673.7 and 337.3)."""
     est = evaluate_methods(*harmonic(M), EMLS)
     for i, printed in enumerate(ols1, 1):

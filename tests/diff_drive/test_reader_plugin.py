@@ -84,7 +84,7 @@ def test_turtlebot_joint_states_is_a_diff_drive(tmp_path: Path) -> None:
 
 def test_views_write_an_rrd(square_run: Path, tmp_path: Path) -> None:
     from logtools.analyze import analyze_log
-    from viz.diff_drive import log_views
+    from viz.diff_drive.views import log_views
 
     loaded, res = analyze_log(square_run)
     out = log_views(tmp_path / "dd.rrd", loaded, res)

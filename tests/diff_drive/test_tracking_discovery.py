@@ -12,9 +12,9 @@ from calib.diff_drive.discovery import FAMILY_ALPHA, discover
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.odometry_lsq import calibrate_lsq
 from calib.diff_drive.planner import plan_path
+from calib.diff_drive.reproduce import W_MAX_RAD_S, design_kp
 from calib.diff_drive.sim import SimConfig, mixed_commands, simulate_diff_drive
 from calib.diff_drive.tracker import TrackerGains, track
-from calib.reproduce.wmr import W_MAX_RAD_S, design_kp
 
 NOM = DiffDriveParams(0.05, 0.05, 0.30)
 GAINS = TrackerGains(kp=1.5, kd=0.0, l_c=0.1, w_max=100.0)

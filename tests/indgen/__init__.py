@@ -14,7 +14,8 @@ sin psi = kappa (L2 + L1 cos psi); psi > 0 when turning left (kappa > 0). Solved
 (rtol 1e-10, atol 1e-12, dense output) piecewise between input discontinuities; every sensor
 is evaluated at its own true sample instants.
 
-Effects and signs (same meaning as calib/discovery/effects; truth keys and parameter names
+Effects and signs (same meaning as calib/tractor_trailer/discovery/effects; truth keys and
+parameter names
 match calib's catalogue keys, e.g. ``sensor_offset(psi)`` -> {"offset": b}):
 
 - ``actuator_delay`` {delay: d} (s): kappa(t) = kappa_cmd(t - d) (the command before t = 0 is

@@ -160,7 +160,7 @@ def test_bad_baseline_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> No
 def test_a_missing_compiled_integrator_is_said_once(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    import calib.models.hitch_rk4 as rk4
+    import calib.tractor_trailer.models.hitch_rk4 as rk4
 
     monkeypatch.setattr(rk4, "_library", lambda: None)  # as in a source tree never built
     code = main(["analyze", str(SAMPLES / "tt_harmonic_clean.mcap"), "--json", "--repeats", "1",

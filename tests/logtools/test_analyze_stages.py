@@ -88,12 +88,12 @@ def test_a_short_log_skips_what_needs_more(tmp_path: Path) -> None:
 def test_a_failing_stage_is_recorded_and_the_rest_report(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import calib.discovery
+    import calib.tractor_trailer.discovery
 
     def boom(*a: object, **k: object) -> None:
         raise np.linalg.LinAlgError("singular matrix")
 
-    monkeypatch.setattr(calib.discovery, "discover", boom)
+    monkeypatch.setattr(calib.tractor_trailer.discovery, "discover", boom)
     res = analyze_loaded(_log(tmp_path), config=FAST)
     st_ = _status(res)
     assert st_["discovery"] == ("failed", "LinAlgError: singular matrix")
@@ -102,12 +102,12 @@ def test_a_failing_stage_is_recorded_and_the_rest_report(
 
 
 def test_debug_lets_a_failing_stage_raise(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    import calib.discovery
+    import calib.tractor_trailer.discovery
 
     def boom(*a: object, **k: object) -> None:
         raise np.linalg.LinAlgError("singular matrix")
 
-    monkeypatch.setattr(calib.discovery, "discover", boom)
+    monkeypatch.setattr(calib.tractor_trailer.discovery, "discover", boom)
     with pytest.raises(np.linalg.LinAlgError):
         analyze_loaded(_log(tmp_path), config=dc.replace(FAST, debug=True))
 

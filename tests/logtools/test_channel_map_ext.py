@@ -13,10 +13,10 @@ from mcap.writer import Writer
 from logtools.align import find_gaps
 from logtools.channel_map import ChannelMap, load_channel_map, resolve_signals
 from logtools.cli.main import main
-from logtools.curvature import KappaCmdKind
 from logtools.errors import ChannelMapEntryError, ChannelMapError, LogcalInputError
 from logtools.load import load_log
 from logtools.readers import read_log
+from logtools.robots.tractor_trailer.curvature import KappaCmdKind
 from logtools.signals import Formula, FormulaError, SignalSource, Stamp
 
 TOPICS = {

@@ -9,12 +9,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from calib.results import CommandType as C
-from calib.sim.commands import CommandSequence
-from calib.sim.commands import CommandSpec as S
-from calib.sim.tractor_trailer import TractorTrailerSim, simulate_tractor_trailer
+from calib.tractor_trailer.sim.commands import CommandSequence
+from calib.tractor_trailer.sim.commands import CommandSpec as S
+from calib.tractor_trailer.sim.tractor_trailer import TractorTrailerSim, simulate_tractor_trailer
 from logtools.align import align_signals
-from logtools.curvature import derive_kappa, path_curvature
 from logtools.errors import LogcalInputError
+from logtools.robots.tractor_trailer.curvature import derive_kappa, path_curvature
 
 RATE = 50.0
 

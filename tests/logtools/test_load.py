@@ -7,9 +7,9 @@ import polars as pl
 import pytest
 
 from calib.results import CommandType as C
-from calib.sim.commands import CommandSequence
-from calib.sim.commands import CommandSpec as S
-from calib.sim.tractor_trailer import TractorTrailerSim, simulate_tractor_trailer
+from calib.tractor_trailer.sim.commands import CommandSequence
+from calib.tractor_trailer.sim.commands import CommandSpec as S
+from calib.tractor_trailer.sim.tractor_trailer import TractorTrailerSim, simulate_tractor_trailer
 from logtools.errors import LogcalInputError
 from logtools.load import load_log, metadata_truth
 from logtools.signals import SignalSource

@@ -13,11 +13,11 @@ from bagmaker import T0_NS, WHEELBASE, Drive, write_foxy_db3, write_rosbag2
 
 from logtools.channel_map import ChannelMap, load_channel_map, resolve_signals
 from logtools.cli.main import main
-from logtools.curvature import KappaCmdKind
 from logtools.errors import ChannelMapEntryError
 from logtools.load import load_log
 from logtools.problems import ProblemKind
 from logtools.readers import read_log
+from logtools.robots.tractor_trailer.curvature import KappaCmdKind
 
 # The README's worked example (kept in step with it).
 TRUCK_MAP = """

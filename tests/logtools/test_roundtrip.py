@@ -10,8 +10,13 @@ import numpy as np
 import polars as pl
 import pytest
 
-from calib.sim.presets import patent_mixed
-from calib.sim.tractor_trailer import SENSOR_GROUPS, Effects, SimulatedRun, simulate_tractor_trailer
+from calib.tractor_trailer.sim.presets import patent_mixed
+from calib.tractor_trailer.sim.tractor_trailer import (
+    SENSOR_GROUPS,
+    Effects,
+    SimulatedRun,
+    simulate_tractor_trailer,
+)
 from logtools.readers import read_log
 from logtools.signals import DEFAULT_JSON_MAP, DEFAULT_ROS2_MAP
 from logtools.writers import write_csv, write_mcap_json, write_mcap_ros2

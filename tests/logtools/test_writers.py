@@ -13,8 +13,12 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from calib.sim.presets import harmonic
-from calib.sim.tractor_trailer import Effects, SimulatedRun, simulate_tractor_trailer
+from calib.tractor_trailer.sim.presets import harmonic
+from calib.tractor_trailer.sim.tractor_trailer import (
+    Effects,
+    SimulatedRun,
+    simulate_tractor_trailer,
+)
 from logtools.errors import LogWriteError
 from logtools.readers import read_log
 from logtools.writers import (

@@ -8,9 +8,9 @@ from calib.manipulator.design import Term
 from calib.manipulator.discovery import discover_arm
 from calib.manipulator.identify import IdentifyConfig, identify_arm
 from calib.manipulator.planar import Planar2Link, Planar2Params
+from calib.manipulator.reproduce import reproduce_momentum
 from calib.manipulator.signals import prepare_signals
 from calib.manipulator.simulate import IDEAL, Friction, Sensors, simulate_planar
-from calib.reproduce.momentum import reproduce_momentum
 
 
 def test_noise_free_identification_is_exact() -> None:

@@ -8,7 +8,7 @@ import numpy as np
 
 from calib.results import MethodResult
 from viz._frame import robust_limits
-from viz.methods import forest_rows, nice_ticks, robust_range, zoom_range
+from viz.tractor_trailer.methods import forest_rows, nice_ticks, robust_range, zoom_range
 
 
 def test_robust_limits_ignore_a_spike():

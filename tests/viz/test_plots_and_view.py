@@ -11,8 +11,8 @@ from matplotlib import image as mpimg
 from rrd_read import read_rrd
 
 from viz import viewer
-from viz.plots import write_report_png
 from viz.style import COLORS
+from viz.tractor_trailer.plots import write_report_png
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_logs" / "tt_mixed.csv"
 

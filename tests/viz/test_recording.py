@@ -10,12 +10,12 @@ import pytest
 from rrd_read import read_rrd
 from viz_cases import views_for
 
-from calib.models.hitch_kinematics import steady_state_psi
 from calib.results import PM_MEANING
+from calib.tractor_trailer.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.views_data import transient_prediction
-from viz.methods import forest_rows
-from viz.recording import write_recording
 from viz.style import COLORS
+from viz.tractor_trailer.methods import forest_rows
+from viz.tractor_trailer.recording import write_recording
 
 POS = "Points2D:positions"
 STRIPS = "LineStrips2D:strips"

@@ -8,7 +8,6 @@ from pathlib import Path
 
 import pytest
 
-from viz.recording import write_recording
 from viz.screenshot import (
     CHROMIUM,
     READY_COLORS,
@@ -16,6 +15,7 @@ from viz.screenshot import (
     color_pixel_counts,
     screenshot_rrd,
 )
+from viz.tractor_trailer.recording import write_recording
 
 pytestmark = [
     pytest.mark.browser,

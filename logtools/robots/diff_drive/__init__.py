@@ -61,8 +61,8 @@ PLUGIN = RobotPlugin(
     analyze=lazy("logtools.robots.diff_drive.pipeline:analyze_diff_drive"),
     report=lazy("logtools.robots.diff_drive.report:report_lines"),
     pool=lazy("logtools.robots.diff_drive.pipeline:pool_diff_drive"),
-    views="viz.diff_drive:log_views",
-    png="viz.diff_drive:write_png",
+    views="viz.diff_drive.views:log_views",
+    png="viz.diff_drive.views:write_png",
     aliases=("diff", "differential_drive"),
     span_signals=("wheel_right", "wheel_left", "x", "y", "yaw"),
 )

@@ -37,8 +37,8 @@ PLUGIN = RobotPlugin(
     identify=_identify,
     analyze=lazy("logtools.robots.manipulator.pipeline:analyze_manipulator"),
     report=lazy("logtools.robots.manipulator.report:report_lines"),
-    views="viz.manipulator:log_views",
-    png="viz.manipulator:write_png",
+    views="viz.manipulator.views:log_views",
+    png="viz.manipulator.views:write_png",
     aliases=("manipulator_2link",),
     span_signals=("q", "tau"),
 )

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import polars as pl
 
-from logtools.curvature import derive_kappa
 from logtools.robots.base import RobotPlugin, SignalSpec, lazy
+from logtools.robots.tractor_trailer.curvature import derive_kappa
 from logtools.signals import RobotConfig
 
 __all__ = ["PLUGIN"]
@@ -49,8 +49,8 @@ PLUGIN = RobotPlugin(
     analyze=lazy("logtools.robots.tractor_trailer.pipeline:analyze_tractor_trailer"),
     report=lazy("logtools.robots.tractor_trailer.report:report_lines"),
     pool=lazy("logtools.robots.tractor_trailer.pipeline:pool_tractor_trailer"),
-    views="viz.views:tractor_trailer_rrd",
-    png="viz.views:tractor_trailer_png",
+    views="viz.tractor_trailer.views:tractor_trailer_rrd",
+    png="viz.tractor_trailer.views:tractor_trailer_png",
     span_signals=("psi", "kappa_cmd", "v", "omega", "x", "y", "yaw"),
     prepare=_prepare,
 )

@@ -16,9 +16,6 @@ import numpy as np
 import polars as pl
 
 from calib.errors import CalibError
-from calib.estimators.noslip import NoSlipRegression
-from calib.estimators.path_transient import PathTransientFit
-from calib.estimators.steering import SteeringGeometry
 from calib.results import (
     AnalysisResult,
     CalibrationResult,
@@ -27,17 +24,20 @@ from calib.results import (
     Segment,
     StageStatus,
 )
+from calib.tractor_trailer.estimators.noslip import NoSlipRegression
+from calib.tractor_trailer.estimators.path_transient import PathTransientFit
+from calib.tractor_trailer.estimators.steering import SteeringGeometry
 from calib.tractor_trailer.path_discovery import PathDiscovery
 from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.load import LoadedLog
-from logtools.stages import Stages
-from logtools.tt_path import (
+from logtools.robots.tractor_trailer.path_inputs import (
     PathInputs,
     RobotDidNotMoveError,
     path_inputs,
     relaxation_window_s,
     trailer_pose_inputs,
 )
+from logtools.stages import Stages
 
 if TYPE_CHECKING:
     from logtools.analyze import AnalysisConfig
@@ -67,7 +67,7 @@ def _usable_rows(frame: pl.DataFrame, cols: tuple[str, ...]) -> pl.DataFrame:
 
 
 def _segments(t_s: np.ndarray, frame: pl.DataFrame) -> list[Segment]:
-    from calib.segmentation import segment_command
+    from calib.tractor_trailer.segmentation import segment_command
 
     if "kappa_cmd" not in frame.columns:
         return [Segment(0.0, float(t_s[-1]), CommandType.OTHER, 0, len(t_s))]
@@ -149,13 +149,14 @@ def _path_fit(
 def _sensor_effects(discovery: object) -> tuple[bool, float, list[str], tuple[Any, ...]]:
     """From command-driven discovery: (fit a joint-angle offset, joint-angle clock offset (s),
     labels used, the confounds the estimate must span). Only the joint-angle effects that no
-    confound involves are folded into the fit (``calib.discovery.sensor_effects_for_fit``);
+    confound involves are folded into the fit
+    (``calib.tractor_trailer.discovery.sensor_effects_for_fit``);
     an actuator dead time that the log cannot tell from clock offsets is spanned, never folded
     as offsets. The joint-angle gain is judged along the measured path (path discovery), so the
     command side's gain confound is left to it. Effects on the actuator do not enter a
     path-driven fit."""
-    from calib.discovery import DiscoveryResult, sensor_effects_for_fit
-    from calib.discovery.confounds import GAIN_RULE
+    from calib.tractor_trailer.discovery import DiscoveryResult, sensor_effects_for_fit
+    from calib.tractor_trailer.discovery.confounds import GAIN_RULE
 
     if not isinstance(discovery, DiscoveryResult):
         return False, 0.0, [], ()
@@ -175,7 +176,7 @@ report says so."""
 
 def _effective_samples(r: np.ndarray) -> float:
     """n / (1 + 2 sum of the residual's autocorrelation up to its first zero crossing)."""
-    from calib.estimators._stats import autocorrelation
+    from calib.stats import autocorrelation
 
     n = r.size
     if n < 8:
@@ -291,7 +292,7 @@ def _unexplained(
         return estimate
     if not estimate.method.startswith(path_fit.name):
         return estimate
-    from calib.estimators.identifiability import undetermined
+    from calib.tractor_trailer.estimators.identifiability import undetermined
 
     why = (
         "the joint angle keeps structure no catalogued effect explains "
@@ -319,7 +320,7 @@ def _steering_geometry(
     steer = next((c for c in ("steer", "steer_cmd") if c in loaded.frame.columns), None)
     if steer is None or "kappa" not in loaded.frame.columns:
         return None
-    from calib.estimators.steering import fit_steering_geometry
+    from calib.tractor_trailer.estimators.steering import fit_steering_geometry
 
     progress("steering geometry")
     rows = _usable_rows(loaded.frame, ("kappa", steer))
@@ -506,7 +507,7 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
         if tables:
             methods += tables[0]
             notes += tables[1]
-        from calib.estimators.recommend import calibrate_link_lengths
+        from calib.tractor_trailer.estimators.recommend import calibrate_link_lengths
 
         progress("steady-state and time-domain estimators")
         own = stages.run(
@@ -538,8 +539,8 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
         stages.skip("discovery", "discovery compares against the curvature command; the log "
                     "has none (kappa_cmd)")
     else:
-        from calib.discovery import discover
-        from calib.discovery.windows import DEFAULT_MAX_SPAN_S
+        from calib.tractor_trailer.discovery import discover
+        from calib.tractor_trailer.discovery.windows import DEFAULT_MAX_SPAN_S
 
         progress("model-mismatch discovery")
         span = cfg.extra.get("discovery_span_s", DEFAULT_MAX_SPAN_S)
@@ -712,7 +713,7 @@ def pool_tractor_trailer(
 
 def _pooled_fit(inputs: list[PathInputs]) -> PathTransientFit:
     from calib.errors import InsufficientDataError
-    from calib.estimators.drive_path import pool_runs
+    from calib.tractor_trailer.estimators.drive_path import pool_runs
 
     if not inputs:
         raise InsufficientDataError("no run has both a moving path and joint-angle samples")

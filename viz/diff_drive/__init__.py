@@ -1,0 +1,1 @@
+"""The differential drive's rerun views and report image."""

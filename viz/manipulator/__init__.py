@@ -1,0 +1,1 @@
+"""The arm's rerun views and report image."""

@@ -1,0 +1,2 @@
+"""The tractor-trailer's rerun views and report image: world and instantaneous-centre
+construction, signals, method error bars, fits and residuals."""
