@@ -39,7 +39,6 @@ from logtools.readers import (
     TopicInfo,
     read_log,
 )
-from logtools.readers.tum import is_tum, read_tum
 from logtools.robot import METADATA_RECORD, infer_robot
 from logtools.robots.tractor_trailer.curvature import KappaCmdOrigin
 from logtools.signals import RobotConfig, SignalSource
@@ -308,9 +307,9 @@ def read_input(
     decoders: Decoders = DEFAULT_DECODERS,
     keep: ColumnFilter | None = None,
 ) -> LogData:
-    """Read ``path`` as :func:`logtools.readers.read_log` does, and also a TUM trajectory
-    (``.tum``, or a ``.txt`` of 8 numbers a line); cropped as a :class:`LoadRequest` says."""
-    log = read_tum(path) if is_tum(path) else read_log(path, decoders=decoders, keep=keep)
+    """Read ``path`` with :func:`logtools.readers.read_log` (any registered format, TUM
+    trajectories included); cropped as a :class:`LoadRequest` says."""
+    log = read_log(path, decoders=decoders, keep=keep)
     if isinstance(channel_map, LoadRequest):
         log = crop_log(log, channel_map.start_s, channel_map.end_s)
     return log
@@ -351,7 +350,7 @@ def join_ground_truth(
         LogcalInputError: the file cannot be read, has no pose, or shares no time with the log.
     """
     gt_path = os.fspath(ground_truth)
-    gt_log = read_tum(gt_path) if is_tum(gt_path) else read_log(gt_path)
+    gt_log = read_log(gt_path)
     origin, last = _log_origin(log), _log_end(log)
     if crop and origin is not None and last is not None and last > origin:
         gt_log = crop_log(gt_log, 0.0, (last - origin) * 1e-9, origin_ns=origin)

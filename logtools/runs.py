@@ -15,11 +15,13 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from logtools.errors import LogcalInputError
-from logtools.readers.optiodom import is_optiodom_metadata
+from logtools.readers.formats import log_suffixes, skipped
 
 __all__ = ["LOG_SUFFIXES", "expand_runs"]
 
-LOG_SUFFIXES = (".mcap", ".csv", ".bag")
+LOG_SUFFIXES = log_suffixes()
+"""The built-in formats' suffixes at import (the archive walk's; ``log_suffixes()`` also counts
+formats registered later)."""
 
 
 def _is_rosbag2(p: Path) -> bool:
@@ -55,8 +57,8 @@ def _walk_unchecked(folder: Path, fail: Callable[[OSError], None]) -> list[Path]
                 found.append(base / d)
         for f in files:
             q = base / f
-            if (q.suffix.lower() in LOG_SUFFIXES and q.is_file() and not _is_rosbag2(base)
-                    and not is_optiodom_metadata(q)):
+            if (q.suffix.lower() in log_suffixes() and q.is_file() and not _is_rosbag2(base)
+                    and not skipped(q)):
                 found.append(q)
     return found
 
@@ -77,7 +79,7 @@ def expand_runs(paths: Sequence[Path]) -> list[Path]:
         found = sorted(_walk(p))
         if not found:
             raise LogcalInputError(
-                f"{p}: the folder holds no log ({', '.join(LOG_SUFFIXES)} files or rosbag2 "
+                f"{p}: the folder holds no log ({', '.join(log_suffixes())} files or rosbag2 "
                 "folders with a metadata.yaml)"
             )
         out += found

@@ -1,8 +1,10 @@
-"""Read drive logs (MCAP, ROS bags or CSV) into per-topic polars frames.
+"""Read drive logs (MCAP, ROS bags, CSV and the other registered formats) into per-topic polars
+frames.
 
-``read_log(path)`` picks the reader from the path and the file's first bytes: a rosbag2 folder
-(with ``metadata.yaml``; a ``.db3`` file reads its folder) or a ROS 1 ``.bag`` through
-``rosbags``; MCAP (magic ``0x89 MCAP0``); or CSV. Every frame has the int64 nanosecond time column
+``read_log(path)`` asks the format registry (:mod:`logtools.readers.formats`) which format reads
+the path, from its name and first bytes: a rosbag2 folder (with ``metadata.yaml``; a ``.db3``
+file reads its folder) or a ROS 1 ``.bag`` through ``rosbags``; MCAP (magic ``0x89 MCAP0``);
+an OptiOdom run; a TUM trajectory; or CSV. Every frame has the int64 nanosecond time column
 ``t_ns`` (MCAP ``log_time``, the bag's record time) and the message fields flattened by path
 (``twist.twist.linear.x``; arrays as ``position.0``). Damage is repaired where possible and
 described in ``LogData.problems`` (:class:`logtools.problems.Problem` records); input that
@@ -24,14 +26,11 @@ from pathlib import Path
 from logtools.errors import LogFileNotFoundError, NotAnMcapError
 from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, ColumnFilter, LogData, TopicInfo
-from logtools.readers.csv_reader import CSV_TOPIC, read_csv
+from logtools.readers.csv_reader import CSV_TOPIC
 from logtools.readers.decoders import DEFAULT_DECODERS, Decoders, MessageDecoder, known_encodings
-from logtools.readers.mcap_reader import read_mcap, read_mcap_batched
+from logtools.readers.formats import HEAD_BYTES, FormatReader, ReadRequest, format_for
 from logtools.readers.mcap_scan import MAGIC
-from logtools.readers.rosbag_reader import is_rosbag, read_rosbag
-
-_BATCHED_MIN_BYTES = 2**20
-"""Smaller files are read whole (no batch could hold less than all of their chunks)."""
+from logtools.readers.rosbag_reader import read_rosbag
 
 __all__ = [
     "CSV_TOPIC",
@@ -39,6 +38,7 @@ __all__ = [
     "TIME_COLUMN",
     "ColumnFilter",
     "Decoders",
+    "FormatReader",
     "LogData",
     "MessageDecoder",
     "Problem",
@@ -57,7 +57,8 @@ def read_log(
     decoders: Decoders = DEFAULT_DECODERS,
     keep: ColumnFilter | None = None,
 ) -> LogData:
-    """Read an MCAP, ROS bag or CSV drive log.
+    """Read a drive log in any registered format (:mod:`logtools.readers.formats`: MCAP, ROS
+    bags, OptiOdom runs, TUM trajectories, CSV, and any format a plugin registers).
 
     Args:
         path: the log file, a rosbag2 folder (or one of its ``.db3`` files), or a ROS 1 ``.bag``.
@@ -73,7 +74,7 @@ def read_log(
 
     Raises:
         LogFileNotFoundError: ``path`` does not exist.
-        NotAnMcapError: the file is neither a readable MCAP nor a CSV log.
+        NotAnMcapError: no format reads the file (it names what the file starts with).
         NotARosbagError: a ROS bag that cannot be read.
         UnknownEncodingError: no topic is in an encoding logcal can decode.
     """
@@ -81,54 +82,28 @@ def read_log(
     p = Path(name)
     if not p.exists():
         raise LogFileNotFoundError(name)
-    if p.is_dir():
-        if is_rosbag(p):
-            return _kept(read_rosbag(name, topics), keep)
-        raise NotAnMcapError(name, "it is a directory without a rosbag2 metadata.yaml")
-    try:
-        st = p.stat()
-        if not stat.S_ISREG(st.st_mode):
-            raise NotAnMcapError(name, f"it is not a regular file ({_file_kind(st.st_mode)})")
-        if st.st_size >= _BATCHED_MIN_BYTES:  # a large intact MCAP: a batch at a time
-            batched = read_mcap_batched(name, st.st_size, topics, decoders, keep)
-            if batched is not None:
-                return batched
-        # unbuffered: the whole-file read is then one allocation of the file's size (through
-        # a buffered reader it grows a second copy, twice the file for a moment)
-        with open(p, "rb", buffering=0) as fh:
-            head = fh.read(len(MAGIC))
-            if head != MAGIC and is_rosbag(p, head + fh.read(16)):
-                return _kept(read_rosbag(name, topics), keep)
-            fh.seek(0)
-            buf = fh.readall()  # one read: ``head + rest`` would hold the file twice
-    except OSError as err:
-        raise NotAnMcapError(name, f"cannot read it: {err.strerror or err}") from err
-    except MemoryError as err:
-        raise NotAnMcapError(name, f"{st.st_size} bytes do not fit in memory") from err
-    if head == MAGIC:
-        return read_mcap(name, buf, topics, decoders, keep)
-    if not buf:
-        raise NotAnMcapError(name, "the file is empty")
-    if MAGIC.startswith(buf):
-        raise NotAnMcapError(name, f"only {len(buf)} bytes of an MCAP header: truncated")
-    if p.suffix.lower() == ".csv" or _looks_like_csv(buf):
-        from logtools.readers.optiodom import is_optiodom_run, read_optiodom
-
-        if is_optiodom_run(p, buf[:4096]):  # headerless run file with a type=diff sibling
-            return _kept(read_optiodom(name), keep)
-        return _kept(read_csv(name, buf), keep)
-    raise NotAnMcapError(name, f"it starts with the bytes {buf[:8]!r}")
-
-
-def _kept(log: LogData, keep: ColumnFilter | None) -> LogData:
-    """``log`` with only the columns ``keep`` keeps (and ``t_ns``)."""
-    if keep is None:
-        return log
-    for topic, frame in log.topics.items():
-        cols = [c for c in frame.columns if c == TIME_COLUMN or keep(topic, c)]
-        if len(cols) != frame.width:
-            log.topics[topic] = frame.select(cols)
-    return log
+    head = b""
+    size = 0
+    if not p.is_dir():
+        try:
+            st = p.stat()
+            if not stat.S_ISREG(st.st_mode):
+                raise NotAnMcapError(name, f"it is not a regular file ({_file_kind(st.st_mode)})")
+            size = st.st_size
+            with open(p, "rb", buffering=0) as fh:
+                head = fh.read(HEAD_BYTES)
+        except OSError as err:
+            raise NotAnMcapError(name, f"cannot read it: {err.strerror or err}") from err
+    reader = format_for(p, head)
+    if reader is None:
+        if p.is_dir():
+            raise NotAnMcapError(name, "it is a directory without a rosbag2 metadata.yaml")
+        if not head:
+            raise NotAnMcapError(name, "the file is empty")
+        if MAGIC.startswith(head):
+            raise NotAnMcapError(name, f"only {len(head)} bytes of an MCAP header: truncated")
+        raise NotAnMcapError(name, f"it starts with the bytes {head[:8]!r}")
+    return reader.read(name, ReadRequest(topics, keep, decoders, size))
 
 
 def _file_kind(mode: int) -> str:
@@ -139,12 +114,3 @@ def _file_kind(mode: int) -> str:
         (stat.S_ISSOCK, "a socket"),
     )
     return next((text for test, text in kinds if test(mode)), "not a regular file")
-
-
-def _looks_like_csv(buf: bytes) -> bool:
-    head = buf[:4096].split(b"\n", 1)[0]
-    try:
-        text = head.decode("utf-8").strip()
-    except UnicodeDecodeError:
-        return False
-    return "," in text and "t" in [c.strip().strip('"') for c in text.split(",")]

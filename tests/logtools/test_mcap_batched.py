@@ -7,8 +7,7 @@ from pathlib import Path
 import pytest
 from polars.testing import assert_frame_equal
 
-import logtools.readers
-from logtools.readers import LogData, mcap_reader, read_log
+from logtools.readers import LogData, builtin_formats, mcap_reader, read_log
 
 ROOT = Path(__file__).resolve().parents[2]
 LOGS = sorted((ROOT / "sample_logs").glob("*.mcap")) + sorted(
@@ -19,7 +18,7 @@ LOGS = sorted((ROOT / "sample_logs").glob("*.mcap")) + sorted(
 def _read(path: Path, batch_bytes: int, monkeypatch: pytest.MonkeyPatch, **kw: object) -> LogData:
     """``read_log`` with batches of ``batch_bytes`` for a file of any size (2**62: whole)."""
     monkeypatch.setattr(mcap_reader, "BATCH_BYTES", batch_bytes)
-    monkeypatch.setattr(logtools.readers, "_BATCHED_MIN_BYTES", 0)
+    monkeypatch.setattr(builtin_formats, "_BATCHED_MIN_BYTES", 0)
     return read_log(path, **kw)  # type: ignore[arg-type]
 
 
@@ -45,7 +44,7 @@ def batched(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
         used.append(out is not None)
         return out
 
-    monkeypatch.setattr(logtools.readers, "read_mcap_batched", spy)
+    monkeypatch.setattr(mcap_reader, "read_mcap_batched", spy)
     return used
 
 
