@@ -207,7 +207,12 @@ def summarize_log(
             max=float(values.max()),  # type: ignore[arg-type]
             source=src.describe(),
         )
-    gaps = find_gaps(resolved.signals)
+    # a derived kappa_cmd (omega / v from a twist command) is undefined while the command's
+    # speed is zero (a stop, a spot turn): those stretches are not gaps of the recording,
+    # whose own gaps show in the signals it is derived from
+    derived = resolved.kappa_cmd_origin is not None and resolved.kappa_cmd_origin.kind == "twist"
+    gaps = find_gaps({k: v for k, v in resolved.signals.items()
+                      if not (derived and k == "kappa_cmd")})
     origin = min((i.first_ns for i in log.info.values() if i.first_ns is not None), default=0)
     return LogSummary(
         path=log.path,
