@@ -36,6 +36,7 @@ __all__ = [
     "ChannelAdequacy",
     "ParameterChange",
     "assess",
+    "describe_misfit",
     "not_assessed",
 ]
 
@@ -124,6 +125,8 @@ class Adequacy:
     before: Adequacy | None = None
     reason: str = ""
     notes: Sequence[str] = field(default_factory=tuple)
+    described_by_robot: bool = True
+    """False when ``unexplained`` is the generic description of the located misfit."""
 
     @property
     def explains(self) -> bool:
@@ -154,7 +157,7 @@ class Adequacy:
         if not self.explains and self.located:
             labels = list(dict.fromkeys(loc.label for loc in self.located))
             head += "; " + ", ".join(labels[:3])
-        if self.unexplained:
+        if self.unexplained and self.described_by_robot:
             head += f". Unexplained: {self.unexplained}"
         if self.changes:
             head += ". " + "; ".join(c.note for c in self.changes)
@@ -222,6 +225,20 @@ def _channel(ch: ResidualChannel, ratio_limit: float) -> ChannelAdequacy:
                            held_rms, held_ratio, white_p, explains)
 
 
+def describe_misfit(channels: Sequence[ChannelAdequacy], located: Sequence[Location]) -> str:
+    """What the model leaves, in words: each unexplained channel's ratio to its floor and the
+    places its excess concentrates (the robot's own description, when it has one, replaces
+    this)."""
+    parts = []
+    for c in channels:
+        if c.explains:
+            continue
+        where = list(dict.fromkeys(loc.label for loc in located if loc.channel == c.channel))
+        parts.append(f"{c.channel} keeps {c.judged_ratio:.2g}x its noise floor"
+                     + (f", concentrated at {', '.join(where[:3])}" if where else ""))
+    return "; ".join(parts)
+
+
 def assess(
     channels: Sequence[ResidualChannel],
     *,
@@ -246,7 +263,11 @@ def assess(
         if not res.explains:
             located += locate(ch, res.noise_floor, ratio_limit)
     explains = all(c.explains for c in judged) and not changes
+    by_robot = True
+    if not explains and unexplained is None:
+        unexplained = describe_misfit(judged, located) or None
+        by_robot = False
     return Adequacy(
         EXPLAINS if explains else NOT_EXPLAINED, model, tuple(judged), tuple(located),
-        tuple(changes), unexplained, before, notes=tuple(notes),
+        tuple(changes), unexplained, before, notes=tuple(notes), described_by_robot=by_robot,
     )
