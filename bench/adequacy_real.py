@@ -21,6 +21,7 @@ from typing import Any
 
 from logtools.analyze import AnalysisConfig, analyze_logs
 from logtools.errors import LogcalInputError
+from logtools.runs import expand_runs
 
 ROOT = Path(__file__).resolve().parents[2] / "shared"
 
@@ -49,7 +50,8 @@ def recordings(shared: Path) -> list[tuple[str, list[Path], dict[str, Any]]]:
 def row(name: str, paths: list[Path], extra: dict[str, Any]) -> dict[str, Any]:
     t0 = time.process_time()
     try:
-        _, res = analyze_logs(paths, config=AnalysisConfig(extra=extra))
+        runs = expand_runs(paths)  # a session folder: its runs, as the CLI reads it
+        _, res = analyze_logs(runs, config=AnalysisConfig(extra=extra))
     except LogcalInputError as err:
         return {"recording": name, "robot": "-", "verdict": "not analysed",
                 "why": str(err).splitlines()[0][:160]}

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +41,7 @@ __all__ = [
     "exclude_spans",
     "find_stuck_spans",
     "piece_fits",
+    "piece_length",
     "radius_change",
     "residual_channels",
 ]
@@ -58,7 +59,13 @@ STUCK_MIN_RAD = 0.02
 """Smallest heading disagreement (rad) over a span that names a stuck reading, whatever the
 noise floor (a tick missed now and then is not a stuck encoder)."""
 PIECE_S = 20.0
-"""Length (s) of the pieces fitted separately to look for a parameter change."""
+"""Longest piece (s) fitted separately to look for a parameter change."""
+PIECE_MIN_S = 3.0
+"""Shortest piece (s): a few segments that turn and drive straight."""
+PIECE_NAMES = ("mean_wheel_radius", "wheel_radius_difference")
+"""What each piece estimates: (r_R + r_L) / 2 and r_R - r_L (m)."""
+PIECES_WANTED = 10
+"""Pieces a log is cut into when that keeps them between ``PIECE_MIN_S`` and ``PIECE_S``."""
 
 
 @dataclass(frozen=True)
@@ -335,51 +342,141 @@ def split_at(runs: Sequence[DriveRun], t_s: float) -> tuple[list[DriveRun], list
     return before, after
 
 
-def piece_fits(runs: Sequence[DriveRun], track: float, piece_s: float = PIECE_S,
-               segment_s: float = 2.0) -> list[PieceFit]:
-    """Wheel radii per piece of ``piece_s`` seconds with the track held at ``track``: the yaw
-    change per ``segment_s`` segment regressed on the wheel turns (OLS standard errors)."""
+def piece_length(runs: Sequence[DriveRun]) -> float:
+    """Length (s) of the pieces fitted separately: ``PIECE_S`` for a long log, shorter for a
+    short one so that it still gives about ``PIECES_WANTED`` pieces (never under
+    ``PIECE_MIN_S``)."""
+    total = sum(float(r.t[-1] - r.t[0]) for r in runs if r.n >= 2)
+    return float(min(PIECE_S, max(PIECE_MIN_S, total / PIECES_WANTED)))
+
+
+def _segment_rows(run: DriveRun, p: DiffDriveParams, offset: complex, seg: float
+                  ) -> tuple[Array, Array, Array, Array, Array]:
+    """Per segment of ``seg`` seconds of ``run``: mid time, heading residual, along-track
+    residual of ``p``, and the rows of their derivatives with respect to (r_R, r_L)."""
+    h, cum = _run_prediction(run, p)
+    edges = np.unique(np.searchsorted(run.t, np.arange(run.t[0], run.t[-1], seg)))
+    edges = np.append(edges, run.n - 1) if edges[-1] != run.n - 1 else edges
+    ia, ib = edges[:-1], edges[1:]
+    dr = run.wheel_right[ib] - run.wheel_right[ia]
+    dl = run.wheel_left[ib] - run.wheel_left[ia]
+    dyaw = run.yaw[ib] - run.yaw[ia]
+    e_h = dyaw - (h[ib] - h[ia])
+    disp = (run.x[ib] - run.x[ia]) + 1j * (run.y[ib] - run.y[ia])
+    pred = np.exp(1j * (run.yaw[ia] - h[ia])) * (cum[ib] - cum[ia]) + offset * (
+        np.exp(1j * run.yaw[ib]) - np.exp(1j * run.yaw[ia]))
+    u = np.exp(1j * 0.5 * (run.yaw[ia] + run.yaw[ib]))
+    e_p = ((disp - pred) * np.conj(u)).real
+    t = 0.5 * (run.t[ia] + run.t[ib])
+    return (t, e_h, e_p, np.column_stack([dr / p.b, -dl / p.b]),
+            np.column_stack([0.5 * dr, 0.5 * dl]))
+
+
+LRV_FLOOR = 0.2
+"""Smallest long-run / plain variance ratio credited to segment residuals: consecutive
+segments share the ground truth's sample at their common end, so their errors cancel in
+sums (the ratio falls towards zero); a floor keeps the pieces' errors from being trusted
+beyond that."""
+
+
+def _lrv_ratio(x: Array) -> float:
+    """Bartlett long-run variance over variance of a residual series (``LRV_FLOOR`` to 4):
+    what a sum over many consecutive segments holds of their variances."""
+    x = x[np.isfinite(x)]
+    n = x.size
+    if n < 8:
+        return 1.0
+    x = x - x.mean()
+    v0 = float(x @ x) / n
+    if v0 <= 0:
+        return 1.0
+    lag = max(1, round(n ** (1 / 3)))
+    lrv = v0 + 2 * sum((1 - k / (lag + 1)) * float(x[k:] @ x[:-k]) / n
+                       for k in range(1, lag + 1))
+    return float(min(4.0, max(LRV_FLOOR, lrv / v0)))
+
+
+def piece_fits(runs: Sequence[DriveRun], params: DiffDriveParams, piece_s: float | None = None,
+               segment_s: float | None = None, offset: complex | None = None) -> list[PieceFit]:
+    """The mean wheel radius and the radius difference per piece of ``piece_s`` seconds
+    (None: :func:`piece_length`), as corrections to ``params`` fitted on the segments
+    (``segment_s``, None: a sixth of a piece, 0.5-2 s) of that piece: the heading residual
+    determines the difference, the along-track residual the mean, so the two come out nearly
+    uncorrelated and each precise (raw r_R, r_L from the heading alone are strongly correlated
+    whenever a piece mostly drives straight). Both residuals are weighted by one variance per
+    channel pooled over all pieces' own fits (a piece has only a few segments: its own variance
+    would make the pieces' chi-square heavy-tailed)."""
+    piece_s = piece_length(runs) if piece_s is None else piece_s
+    seg = min(2.0, max(0.5, piece_s / 6)) if segment_s is None else segment_s
+    off = offset or 0j
     offs = _run_offsets(runs)
-    out = []
+    raw: list[tuple[float, float, Array, Array, Array, Array]] = []
     for k, run in enumerate(runs):
         if run.n < 4:
             continue
+        t, e_h, e_p, A_h, A_p = _segment_rows(run, params, off, seg)
         for t0 in np.arange(run.t[0], run.t[-1] - 0.5 * piece_s, piece_s):
             t1 = min(t0 + piece_s, float(run.t[-1]))
             if run.t[-1] - t1 < 0.5 * piece_s:
                 t1 = float(run.t[-1])
-            a, b = np.searchsorted(run.t, [t0, t1])
-            b = min(int(b), run.n - 1)
-            if b - a < 8:
-                continue
-            sub = _sub(run, int(a), b)
-            edges = np.unique(np.searchsorted(sub.t, np.arange(sub.t[0], sub.t[-1], segment_s)))
-            edges = np.append(edges, sub.n - 1) if edges[-1] != sub.n - 1 else edges
-            ia, ib = edges[:-1], edges[1:]
-            X = np.column_stack([sub.wheel_right[ib] - sub.wheel_right[ia],
-                                 -(sub.wheel_left[ib] - sub.wheel_left[ia])])
-            y = sub.yaw[ib] - sub.yaw[ia]
-            if X.shape[0] < 4 or np.linalg.matrix_rank(X) < 2:
-                continue
-            coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-            res = y - X @ coef
-            s2 = float(res @ res) / max(1, X.shape[0] - 2)
-            cov = s2 * np.linalg.inv(X.T @ X)
-            sd = np.sqrt(np.maximum(np.diag(cov), 0.0)) * track
-            if np.linalg.cond(X / np.linalg.norm(X, axis=0)) > 1e3:
-                continue
-            out.append(PieceFit(float(t0 + offs[k]), float(t1 + offs[k]),
-                                {"wheel_radius_right": float(coef[0] * track),
-                                 "wheel_radius_left": float(coef[1] * track)},
-                                {"wheel_radius_right": float(sd[0]),
-                                 "wheel_radius_left": float(sd[1])}))
+            m = (t >= t0) & (t < t1) if t1 < run.t[-1] else t >= t0
+            if m.sum() >= 3:
+                raw.append((float(t0 + offs[k]), float(t1 + offs[k]), e_h[m], e_p[m], A_h[m],
+                            A_p[m]))
             if t1 >= run.t[-1]:
                 break
+    if len(raw) < 2:
+        return []
+    # per-channel variance pooled over the pieces' own two-parameter fits, per channel alone
+    pooled = []
+    for c in (0, 1):
+        sse, dof, series = 0.0, 0, []
+        for piece in raw:
+            e = np.asarray(piece[2 + c], dtype=float)
+            A = np.asarray(piece[4 + c], dtype=float)
+            coef, *_ = np.linalg.lstsq(A, e, rcond=None)
+            res = e - A @ coef
+            sse += float(res @ res)
+            dof += max(0, e.size - 2)
+            series.append(res)
+        ratio = _lrv_ratio(np.concatenate(series)) if series else 1.0
+        pooled.append(sse / dof * ratio if dof > 0 and sse > 0 else math.nan)
+    if not all(math.isfinite(v) for v in pooled):
+        return []
+    s_h, s_p = (math.sqrt(v) for v in pooled)
+    T = np.array([[0.5, 0.5], [1.0, -1.0]])  # (r_R, r_L) -> (mean, difference)
+    out = []
+    for t0, t1, e_h, e_p, A_h, A_p in raw:
+        A = np.vstack([A_h / s_h, A_p / s_p])
+        y = np.concatenate([e_h / s_h, e_p / s_p])
+        if np.linalg.matrix_rank(A) < 2:
+            continue
+        coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+        cov = T @ np.linalg.inv(A.T @ A) @ T.T
+        val = T @ coef + T @ np.array([params.r_R, params.r_L])
+        sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        out.append(PieceFit(t0, t1, {PIECE_NAMES[0]: float(val[0]), PIECE_NAMES[1]: float(val[1])},
+                            {PIECE_NAMES[0]: float(sd[0]), PIECE_NAMES[1]: float(sd[1])}))
     return out
 
 
-def radius_change(runs: Sequence[DriveRun], track: float) -> ParameterChange | None:
+def radius_change(runs: Sequence[DriveRun], params: DiffDriveParams,
+                  offset: complex | None = None) -> ParameterChange | None:
     """A change of the wheel radii mid-log (:func:`calib.adequacy.parameter_change` over
-    :func:`piece_fits`), or None."""
-    pieces = piece_fits(runs, track)
-    return parameter_change(pieces, ("wheel_radius_right", "wheel_radius_left"))
+    :func:`piece_fits`: the mean radius and the radius difference, tested together), reported
+    as each wheel's radius before and after; None when one set describes the log."""
+    pieces = piece_fits(runs, params, offset=offset)
+    r = 0.5 * (params.r_R + params.r_L)
+    ch = parameter_change(pieces, PIECE_NAMES, min_relative=0.002,
+                          scale={PIECE_NAMES[0]: r, PIECE_NAMES[1]: r})
+    if ch is None:
+        return None
+
+    def wheels(v: Mapping[str, float]) -> dict[str, float]:
+        m, d = v[PIECE_NAMES[0]], v[PIECE_NAMES[1]]
+        return {"wheel_radius_right": m + 0.5 * d, "wheel_radius_left": m - 0.5 * d}
+
+    before, after = wheels(ch.before), wheels(ch.after)
+    desc = ", ".join(f"{n} {before[n]:.4g} -> {after[n]:.4g} m" for n in before)
+    return ParameterChange(ch.t_s, ch.t_range_s, tuple(before), before, after, ch.statistic,
+                           f"the wheel radii change near t = {ch.t_s:.1f} s ({desc})")

@@ -42,7 +42,7 @@ from calib.adequacy import (
 from calib.diff_drive.adequacy import StuckSpan
 from calib.diff_drive.data import DriveRun
 from calib.diff_drive.kinematics import DiffDriveParams
-from calib.diff_drive.segments import SegmentIndex, cut_segments
+from calib.diff_drive.segments import SegmentIndex, cut_segments, segment_length
 from calib.results import Estimate, json_safe
 
 __all__ = [
@@ -212,8 +212,9 @@ def _hac_cov(jac: Array, res: Array, n_seg: int) -> Array:
 class _Fitter:
     """The fitter :func:`select_effects` calls: nominal model + ``effects`` -> ModelFit."""
 
-    def __init__(self, prob: _Problem) -> None:
+    def __init__(self, prob: _Problem, heldout: bool = True) -> None:
         self.prob = prob
+        self.heldout = heldout
         n = len(prob.segments)
         block = (np.arange(n) // CV_BLOCK) % 2
         self.folds = (np.flatnonzero(block == 0).astype(np.intp),
@@ -255,7 +256,7 @@ class _Fitter:
         res = np.asarray(sol.fun, dtype=float)
         cov = _hac_cov(np.asarray(sol.jac, dtype=float), res, n)
         std = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        held = self._heldout(names, effects, theta)
+        held = self._heldout(names, effects, theta) if self.heldout else math.nan
         v = prob.unpack(theta, names)
         params, _ = prob.params_of(v)
         pars = self._robot_estimates(names, theta, cov, params)
@@ -326,12 +327,14 @@ class DiffDriveSelection:
     selection: Selection | None
     catalogue: tuple[EffectSpec, ...]
     notes: list[str] = field(default_factory=list)
+    also_named: tuple[str, ...] = ()
+    """Effect ids named by a dedicated test outside the forward selection (the joint slip fit
+    of :mod:`calib.diff_drive.slip`)."""
 
     @property
     def named(self) -> list[str]:
-        if self.selection is None:
-            return []
-        return list(dict.fromkeys(e.id for e in self.selection.accepted))
+        found = [] if self.selection is None else [e.id for e in self.selection.accepted]
+        return list(dict.fromkeys([*found, *self.also_named]))
 
     @property
     def accepted(self) -> tuple[EffectSpec, ...]:
@@ -408,6 +411,17 @@ def _raw_residuals(prob: _Problem, p: DiffDriveParams, marker: complex) -> Array
     return prob.residuals(theta, names, np.arange(len(prob.segments), dtype=np.intp))
 
 
+def noise_scales(prob: _Problem, calibrated: DiffDriveParams, marker: complex
+                 ) -> tuple[float, float]:
+    """Heading and position noise scales per segment: the robust (MAD) spread of what the
+    calibrated model leaves, inflated by the residuals' long-run variance ratio."""
+    raw = _raw_residuals(prob, calibrated, marker).reshape(-1, 3)
+    sigma_h = max(_mad(raw[:, 0]) * math.sqrt(_lrv_ratio(raw[:, 0])), 1e-9)
+    sigma_p = max(_mad(raw[:, 1:].ravel()) * math.sqrt(
+        max(_lrv_ratio(raw[:, 1]), _lrv_ratio(raw[:, 2]))), 1e-9)
+    return sigma_h, sigma_p
+
+
 def discover_effects(
     runs: Sequence[DriveRun],
     nominal: DiffDriveParams | None,
@@ -415,12 +429,15 @@ def discover_effects(
     calibrated: DiffDriveParams,
     marker: complex | None = None,
     spans: Sequence[StuckSpan] = (),
-    segment_s: float = 4.0,
+    segment_s: float | None = None,
 ) -> DiffDriveSelection:
     """Select effects from :func:`catalogue` on ``runs``. ``calibrated`` (r_R, r_L, b free,
     with the ground-truth ``marker`` offset) sets the noise scale per segment: the robust
     (MAD) spread of what it leaves in heading and in position, so that a model as good as the
-    calibrated one leaves about one unit per residual."""
+    calibrated one leaves about one unit per residual. ``segment_s``: None picks a length
+    that gives a short log enough segments for the two-fold check (:func:`segment_length`)."""
+    if segment_s is None:
+        segment_s = segment_length(runs, 6 * CV_BLOCK)
     segments = cut_segments(runs, segment_s)
     cat = catalogue(nominal is not None, spans)
     if len(segments) < 4 * CV_BLOCK:
@@ -431,10 +448,7 @@ def discover_effects(
     prob = _Problem(runs, segments, None if nominal is None else nominal.b,
                     0.5 * (calibrated.r_R + calibrated.r_L), turned >= math.pi / 2,
                     {stuck_spec(s).key: s for s in spans}, 1.0, 1.0)
-    raw = _raw_residuals(prob, calibrated, marker or 0j).reshape(-1, 3)
-    prob.sigma_h = max(_mad(raw[:, 0]) * math.sqrt(_lrv_ratio(raw[:, 0])), 1e-9)
-    prob.sigma_p = max(_mad(raw[:, 1:].ravel()) * math.sqrt(
-        max(_lrv_ratio(raw[:, 1]), _lrv_ratio(raw[:, 2]))), 1e-9)
+    prob.sigma_h, prob.sigma_p = noise_scales(prob, calibrated, marker or 0j)
     sel = select_effects(_Fitter(prob), cat, max_effects=2 + len(spans))
     notes = [] if nominal is not None else [
         "no nominal track in the log: the effective track is not tested (the track is fitted)"]

@@ -43,6 +43,7 @@ from calib.adequacy import (
     select_effects,
     under_misfit,
 )
+from calib.adequacy.intervals import Z95
 from calib.errors import InsufficientDataError
 from calib.results import Estimate, json_safe
 
@@ -209,6 +210,36 @@ def _fit_gain(w: _Windows, rows: NDArray[np.intp]) -> tuple[float, float]:
     X = np.column_stack([w.odo[rows], w.dt[rows]])
     (a, bias), *_ = np.linalg.lstsq(X, w.gyro[rows], rcond=None)
     return (1.0 / a if a != 0 else math.nan), float(bias)
+
+
+def _gain_under_misfit(gain: Estimate, adequacy: Adequacy, pieces: Sequence[float]
+                       ) -> Estimate:
+    """:func:`calib.adequacy.under_misfit` of the yaw-rate gain G = 1 / a taken on a, the
+    slope the regression fits (gyro = a odometry + bias): a piece that barely turns gives an a
+    near its error and a G that blows up, so the pieces' spread is taken on a (well behaved,
+    errors symmetric) and the widened interval mapped back through 1 / a (open above when it
+    reaches a = 0)."""
+    if not (math.isfinite(gain.value) and gain.value != 0 and math.isfinite(gain.std)):
+        return under_misfit(gain, adequacy)
+    a = 1.0 / gain.value
+    a_est = Estimate("odometry_to_gyro_slope", a, gain.std * a * a,
+                     (a - Z95 * gain.std * a * a, a + Z95 * gain.std * a * a), gain.identifiable,
+                     "1")
+    a_pieces = [1.0 / g for g in pieces if math.isfinite(g) and g != 0]
+    wa = under_misfit(a_est, adequacy, pieces=a_pieces)
+    if wa is a_est:
+        return gain
+    lo_a, hi_a = wa.ci95
+    if not (math.isfinite(lo_a) and math.isfinite(hi_a)):
+        return Estimate(gain.name, gain.value, math.nan, (-math.inf, math.inf), False,
+                        gain.unit, wa.note)
+    if lo_a * hi_a <= 0:  # the interval of a reaches zero: G unbounded on one side
+        ci = (1.0 / hi_a, math.inf) if a > 0 else (-math.inf, 1.0 / lo_a)
+    else:
+        ci = (min(1.0 / lo_a, 1.0 / hi_a), max(1.0 / lo_a, 1.0 / hi_a))
+    std = wa.std / (a * a)
+    return Estimate(gain.name, gain.value, std, ci, False, gain.unit,
+                    wa.note + "; spread taken on the slope 1 / G and mapped")
 
 
 def _block_boot(n: int, rng: np.random.Generator, reps: int) -> list[NDArray[np.intp]]:
@@ -422,7 +453,7 @@ def analyze_odom_imu(
             rows = np.intersect1d(use, np.flatnonzero((w.t >= f0) & (w.t < f0 + FOLD_S)))
             if rows.size >= 8 and float(np.sum(np.abs(w.odo[rows]))) >= 1.0:
                 pieces.append(_fit_gain(w, rows.astype(np.intp))[0])
-        gain = under_misfit(gain, adequacy, pieces=pieces)
+        gain = _gain_under_misfit(gain, adequacy, pieces)
         if eff is not None and geometric_track is not None:
             eff = Estimate("effective_track", geometric_track * gain.value,
                            geometric_track * gain.std, (geometric_track * gain.ci95[0],

@@ -11,7 +11,7 @@ import numpy as np
 
 from calib.diff_drive.data import DriveRun
 
-__all__ = ["SegmentIndex", "cut_segments"]
+__all__ = ["SegmentIndex", "cut_segments", "segment_length"]
 
 MIN_WHEEL_TRAVEL_RAD = 0.5
 """A segment counts only if a wheel turned at least this much (rad) in it: standing still
@@ -52,3 +52,14 @@ def cut_segments(runs: Sequence[DriveRun], segment_s: float) -> list[SegmentInde
             if b > a and travel >= MIN_WHEEL_TRAVEL_RAD:
                 out.append(SegmentIndex(k, int(a), int(b)))
     return out
+
+
+def segment_length(runs: Sequence[DriveRun], want: int = 30, longest: float = 4.0,
+                   shortest: float = 1.0) -> float:
+    """A segment length (s) that cuts ``runs`` into about ``want`` segments: ``longest`` for a
+    long log, down to ``shortest`` for a short one (a 30 s log still gives the joint fits and
+    the two-fold check a few dozen segments)."""
+    total = sum(float(r.t[-1] - r.t[0]) for r in runs if r.n >= 2)
+    if total <= 0:
+        return longest
+    return float(min(longest, max(shortest, total / want)))

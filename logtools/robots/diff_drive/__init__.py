@@ -65,4 +65,6 @@ PLUGIN = RobotPlugin(
     png="viz.diff_drive.views:write_png",
     aliases=("diff", "differential_drive"),
     span_signals=("wheel_right", "wheel_left", "x", "y", "yaw"),
+    simulate="logtools.robots.diff_drive.commands:register_simulate",
+    reproduce="logtools.robots.diff_drive.commands:register_reproduce",
 )

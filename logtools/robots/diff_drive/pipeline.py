@@ -18,8 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from calib.adequacy import Adequacy, not_assessed, under_misfit
+from calib.adequacy import NOT_EXPLAINED, Adequacy, Location, not_assessed, under_misfit
 from calib.diff_drive.adequacy import (
+    PIECE_NAMES,
     StuckSpan,
     assess_fit,
     exclude_spans,
@@ -34,9 +35,16 @@ from calib.diff_drive.dead_reckoning import dead_reckon
 from calib.diff_drive.effects import DiffDriveSelection, discover_effects, stuck_spec
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.odom_imu import analyze_odom_imu
-from calib.diff_drive.odometry_lsq import LsqFit, calibrate_lsq, fit_lsq, make_estimates
+from calib.diff_drive.odometry_lsq import (
+    PARAMETER_NAMES,
+    LsqFit,
+    calibrate_lsq,
+    fit_lsq,
+    make_estimates,
+)
 from calib.diff_drive.provenance import Provenance, pose_provenance
 from calib.diff_drive.skid import effective_track
+from calib.diff_drive.slip import SlipFit, fit_slip, slip_corrected, spanned
 from calib.diff_drive.umbmark import umbmark, umbmark_result
 from calib.errors import InsufficientDataError
 from calib.results import AnalysisResult, CalibrationResult
@@ -186,6 +194,36 @@ def _model_label(excluded: Sequence[StuckSpan]) -> str:
     return LSQ_MODEL + ", samples of " + ", ".join(s.label for s in excluded) + " excluded"
 
 
+def _log_verdict(adequacy: Adequacy, first: Adequacy, excluded: Sequence[StuckSpan],
+                 slip: SlipFit | None) -> Adequacy:
+    """The log's verdict: samples left out (a stuck encoder) or a named slip mean that the
+    constant-parameter odometry model does not explain the log as recorded, even when the model
+    with them explains the rest; the places are named. The estimates were judged (and widened)
+    on the model with them, before this."""
+    if not excluded and slip is None:
+        return adequacy
+    ch = {c.channel: c for c in (first.channels or adequacy.channels)}
+    head = ch.get("heading increment")
+    along = ch.get("along-track displacement")
+    locs: list[Location] = []
+    total = max((float(c.n) for c in ch.values()), default=1.0)
+    for s in excluded:
+        floor = head.noise_floor if head is not None and head.noise_floor > 0 else math.nan
+        locs.append(Location("heading increment", "time", f"stuck encoder {s.label}", s.t0_s,
+                             s.t1_s, abs(s.heading_rad), abs(s.heading_rad) / floor, 1.0,
+                             min(1.0, (s.t1_s - s.t0_s) / max(total * 0.5, 1e-9))))
+    if slip is not None and along is not None:
+        locs.append(Location("along-track displacement", "speed (m/s)",
+                             f"speed-dependent slip (k = {slip.k.value:.3g} s/m)", 0.0,
+                             math.inf, along.residual_rms, along.ratio, 1.0, 1.0))
+    what = [f"{len(excluded)} stuck encoder span(s) left out"] if excluded else []
+    what += ["speed-dependent wheel slip named"] if slip is not None else []
+    notes = (*adequacy.notes, "the constant-parameter odometry model does not explain the log "
+             "as recorded (" + "; ".join(what) + f"); with them: {adequacy.verdict}")
+    return adequacy.with_(verdict=NOT_EXPLAINED, located=(*locs, *adequacy.located),
+                          notes=notes, unexplained=adequacy.unexplained or ", ".join(what))
+
+
 def _calibrate_and_judge(
     runs: list[DriveRun],
     nominal: DiffDriveParams | None,
@@ -240,7 +278,29 @@ def _calibrate_and_judge(
                 result, method="LSQ", verdict=result.verdict + " (stuck-encoder samples "
                 "excluded: " + ", ".join(s.label for s in excluded) + ")")
     _lsq_section(fit, sections)
-    change = stages.run("adequacy.radius_change", lambda: radius_change(used, fit.params.b))
+    progress("speed-dependent slip")
+    slip = stages.run("calibration.slip", lambda: fit_slip(used, fit.params, fit.offset))
+    judged_runs, judged_params, offset = runs, fit.params, fit.offset
+    model = _model_label(excluded)
+    if slip is not None:
+        sections["wheel_slip"] = slip.to_dict()
+        if slip.significant:
+            k = slip.k.value
+            judged_runs, judged_params, offset = slip_corrected(runs, slip.params, k), \
+                slip.params, slip.offset
+            used = slip_corrected(used, slip.params, k)
+            model += " + wheel_slip(wheels)"
+            result = dataclasses.replace(
+                result, method="LSQ", parameters={**result.parameters, **{
+                    n: slip.with_slip[n] for n in PARAMETER_NAMES}},
+                verdict=result.verdict + "; " + slip.note)
+            warnings.append(slip.note + " (wheel_slip)")
+            if disc is not None:
+                disc = dataclasses.replace(disc, also_named=("wheel_slip",))
+        else:
+            result = dataclasses.replace(result, parameters=spanned(result.parameters, slip))
+    change = stages.run("adequacy.radius_change",
+                        lambda: radius_change(used, judged_params, offset))
     changes = [change] if change is not None else []
     pieces: dict[str, list[float]] = {}
     if change is not None:
@@ -262,16 +322,22 @@ def _calibrate_and_judge(
         sections["parameter_change"] = {"change": change.to_dict(), "pieces": per_piece}
         warnings.append(change.note + ": the log was split there and each part estimated "
                         "(parameter_change)")
-        for pf in piece_fits(used, fit.params.b):
-            for k, v in pf.values.items():
-                pieces.setdefault(k, []).append(v)
+        for pf in piece_fits(used, judged_params, offset=offset):
+            mean, diff = (pf.values[n] for n in PIECE_NAMES)
+            pieces.setdefault("wheel_radius_right", []).append(mean + 0.5 * diff)
+            pieces.setdefault("wheel_radius_left", []).append(mean - 0.5 * diff)
     masks = exclusion_masks(runs, excluded) if excluded else None
     notes = [f"{stuck_spec(s).key} excluded from the calibration" for s in excluded]
+    if slip is not None and slip.significant:
+        notes.append(slip.note)
     final = stages.run("adequacy.final", lambda: assess_fit(
-        runs, fit.params, model=_model_label(excluded), offset=fit.offset, excluded=masks,
-        before=first if (excluded or changes) else None, changes=changes, notes=notes))
+        judged_runs, judged_params, model=model, offset=offset, excluded=masks,
+        before=first if (excluded or changes or judged_runs is not runs) else None,
+        changes=changes, notes=notes))
     adequacy = final if final is not None else first
     result = _widen(result, adequacy, pieces)
+    adequacy = _log_verdict(adequacy, first, excluded, slip if (
+        slip is not None and slip.significant) else None)
     return result, fit, adequacy, disc, sections, warnings
 
 
