@@ -33,7 +33,8 @@ P_UNSTABLE = 0.001
 class PieceStability(JsonRecord):
     """One parameter across pieces: ``chi2`` of the pieces about their weighted mean with
     ``dof`` degrees of freedom, its ``p_value``, the ``factor`` sqrt(chi2/dof) (>= 1) and the
-    pieces' sample standard deviation ``spread``; ``unstable``: p below ``P_UNSTABLE``."""
+    pieces' precision-weighted standard deviation ``spread``; ``unstable``: p below
+    ``P_UNSTABLE``."""
 
     name: str
     pieces: int
@@ -60,8 +61,10 @@ def piece_stability(pieces: Sequence[PieceFit], names: Sequence[str]) -> dict[st
         chi2 = sum(((v - mean) / s) ** 2 for v, s in vals)
         dof = len(vals) - 1
         p = float(chdtrc(dof, chi2))
-        plain = sum(v for v, _ in vals) / len(vals)
-        spread = math.sqrt(sum((v - plain) ** 2 for v, _ in vals) / dof)
+        # precision-weighted spread: a piece that barely determines the parameter (a piece
+        # that hardly turns) does not dominate it
+        spread = math.sqrt(sum(wi * (v - mean) ** 2 for wi, (v, _) in zip(w, vals, strict=True))
+                           / sum(w) * len(vals) / dof)
         out[n] = PieceStability(n, len(vals), chi2, dof, p, max(1.0, math.sqrt(chi2 / dof)),
                                 spread, p < P_UNSTABLE)
     return out
