@@ -54,20 +54,32 @@ def test_slice_runs_end_to_end(records: list[dict[str, Any]], study: ModuleType)
     for r in records:
         assert r["error"] is None, r.get("traceback")
         for key in ("verdict", "located", "changes", "is_located", "named", "params",
-                    "effect_size", "held_out", "seconds"):
+                    "effect_size", "refit_effect_size", "heldout_effect_size", "held_out",
+                    "seconds"):
             assert key in r
         assert r["verdict"] in ("explains", "does not explain", "not assessed")
         assert not r["held_out"]
         if r["kind"] is None:
             assert r["effect_size"] == 0.0
+            assert r["refit_effect_size"] == 0.0
+            assert r["heldout_effect_size"] == 0.0
         else:
             assert r["effect_size"] > 0.0
+            assert r["refit_effect_size"] >= 0.0
+            assert r["heldout_effect_size"] >= 0.0
         for p in r["params"]:
             assert p["confident_wrong"] == (
                 p["identifiable"] and not any(p["ci95"][0] <= t <= p["ci95"][1]
                                               for t in p["truth"]))
     s = study.summarise(records)
     assert s["n_logs"] == 5
+    big = [r for r in records if r["kind"] and r["heldout_effect_size"] > study.EFFECT_THRESHOLD]
+    big_raw = [r for r in records if r["kind"] and r["effect_size"] > study.EFFECT_THRESHOLD]
+    assert s["flagged_located_big"]["n"] == len(big)
+    assert s["flagged_located_big_raw"]["n"] == len(big_raw)
+    for c in s["cells"].values():
+        for key in ("median_effect", "median_refit_effect", "median_heldout_effect"):
+            assert key in c
     assert set(s["cells"])
     assert s["n_errors"] == 0
     study.print_table(s, 0.0)

@@ -9,11 +9,21 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from indgen.arm import ArmParams, forward_dynamics, inverse_dynamics, rigid_torque, urdf_text
+from indgen.arm import (
+    ArmParams,
+    arm_log,
+    forward_dynamics,
+    inverse_dynamics,
+    rigid_torque,
+    urdf_text,
+)
+from indgen.diffdrive import diff_drive_log
 from indgen.kinds import HELD_OUT_KINDS, KINDS, ROBOTS, kinds_of
+from indgen.refit import refit_effect
 from indgen.robot_writers import write_log
+from indgen.robotlog import effect_size
 from indgen.robots import generate_log
-from indgen.tractor_kinds import backlash
+from indgen.tractor_kinds import backlash, tractor_log
 from scipy.integrate import solve_ivp
 
 INDGEN = Path(__file__).parent / "indgen"
@@ -42,6 +52,11 @@ def test_each_kind_changes_the_recording(kind: str) -> None:
     assert log.truth["max_effect_size"] > 0
     assert log.truth["kind"] == kind
     assert log.truth["magnitude"] == m
+    for key in ("refit_effect_size", "heldout_effect_size"):
+        assert math.isfinite(log.truth[key])
+        assert log.truth[key] >= 0
+    assert log.truth["refit_effect_size"] == max(log.truth["refit_effect_channels"].values())
+    json.dumps(log.truth)
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
@@ -50,10 +65,44 @@ def test_clean_log_has_zero_effect_and_is_deterministic(robot: str) -> None:
     b = generate_log(robot, 4, None, duration_s=25.0)
     assert a.truth["max_effect_size"] == 0.0
     assert all(v == 0.0 for v in a.truth["effect_size"].values())
+    assert a.truth["refit_effect_size"] == 0.0
+    assert a.truth["heldout_effect_size"] == 0.0
     for topic, s in a.streams.items():
         assert np.array_equal(s.stamps_ns, b.streams[topic].stamps_ns)
         for f, v in s.fields.items():
             assert np.array_equal(v, b.streams[topic].fields[f])
+
+
+@pytest.mark.parametrize(("gen", "param", "rel", "raw_min"), [
+    (tractor_log, "L2", 0.01, 0.5), (tractor_log, "L2", 0.1, 5.0),
+    (diff_drive_log, "r_R", 0.01, 50.0), (arm_log, "m2", 0.05, 5.0),
+])
+def test_refit_absorbs_a_pure_parameter_change(gen, param: str, rel: float,
+                                               raw_min: float) -> None:
+    """A 'physics' that is only the robot's own parameter changed (the clean recording with
+    L2 / r_R / m2 scaled) changes the recording a lot, but a refit takes all of it."""
+    seed = 1
+    clean = gen(seed, duration_s=30.0)
+    base = clean.truth["arm"][param] if param == "m2" else clean.truth[param]
+    changed = gen(seed, duration_s=30.0, perturb={param: rel * base})
+    raw = max(effect_size(changed, clean).values())
+    rf = refit_effect(gen, seed, changed, clean, duration_s=30.0)
+    assert raw > raw_min
+    assert max(rf["refit"].values()) < 0.02 * raw
+    assert max(rf["refit"].values()) < 0.05
+    assert max(rf["heldout"].values()) < 0.05
+
+
+def test_refit_effect_keeps_what_a_refit_cannot_absorb() -> None:
+    """A mid-log radius change is partly absorbed (one constant radius fits both halves
+    halfway), a stuck encoder hardly at all; the held-out flavour is not below the in-sample."""
+    rc = generate_log("diff_drive", 11, "radius_change", 0.1, duration_s=30.0).truth
+    assert 0.5 < rc["refit_effect_size"] < 0.2 * rc["max_effect_size"]
+    assert rc["heldout_effect_size"] >= 0.9 * rc["refit_effect_size"]
+    beta = rc["refit"]["beta"]["r_R" if rc["wheel"] == "right" else "r_L"]
+    assert 0 < beta / (0.1 * rc["params"]["r_R" if rc["wheel"] == "right" else "r_L"]) < 1
+    st = generate_log("diff_drive", 11, "stuck_encoder", 3.0, duration_s=30.0).truth
+    assert st["refit_effect_size"] > 5.0
 
 
 def test_backlash_operator() -> None:

@@ -35,6 +35,7 @@ import numpy as np
 from .robotlog import FloatArray, RobotLog, Stream, grid, quantise
 
 __all__ = [
+    "PERTURBABLE",
     "ArmParams",
     "arm_log",
     "forward_dynamics",
@@ -214,14 +215,37 @@ def _params(rng: np.random.Generator) -> ArmParams:
     )
 
 
+PERTURBABLE = ("m1", "m2", "cx1", "cy1", "cx2", "cy2", "I1", "I2", "Fc1", "Fc2", "Fv1", "Fv2",
+               "Ia1", "Ia2")
+"""Parameters ``arm_log(perturb=...)`` shifts (additively): mass, centre of mass, inertia of
+each link, Coulomb and viscous friction of each joint, and a rotor (armature) inertia ``Ia`` per
+joint (0 unperturbed: the arm has none, logcal's model has one; it adds Ia qdd to the torque)."""
+
+
+def _perturbed(p: ArmParams, dp: dict[str, float]) -> tuple[ArmParams, FloatArray]:
+    if set(dp) - set(PERTURBABLE):
+        raise ValueError(f"cannot perturb {sorted(set(dp) - set(PERTURBABLE))}")
+    scalar = {k: getattr(p, k) + v for k, v in dp.items() if k[:2] not in ("Fc", "Fv", "Ia")}
+    Fc = (p.Fc[0] + dp.get("Fc1", 0.0), p.Fc[1] + dp.get("Fc2", 0.0))
+    Fv = (p.Fv[0] + dp.get("Fv1", 0.0), p.Fv[1] + dp.get("Fv2", 0.0))
+    Ia = np.array([dp.get("Ia1", 0.0), dp.get("Ia2", 0.0)])
+    return replace(p, **scalar, Fc=Fc, Fv=Fv), Ia
+
+
 def arm_log(
-    seed: int, kind: str | None = None, magnitude: float = 0.0, duration_s: float | None = None
+    seed: int, kind: str | None = None, magnitude: float = 0.0, duration_s: float | None = None,
+    *, perturb: dict[str, float] | None = None,
 ) -> RobotLog:
     """An arm log (``/joint_states``, JSON arrays) with ``kind`` at ``magnitude`` (None / 0:
-    clean); ``files["arm.urdf"]`` is the URDF of the (payload-free) arm. Draws from ``seed``."""
+    clean); ``files["arm.urdf"]`` is the URDF of the (payload-free) arm. Draws from ``seed``.
+    ``perturb``: additive shifts of ``PERTURBABLE`` parameters (the truth reports the shifted
+    values), for ``refit.refit_effect``."""
     rng = np.random.default_rng([seed, 0])
     T = duration_s if duration_s is not None else round(float(rng.uniform(20.0, 45.0)), 1)
     p = _params(rng)
+    armature = np.zeros(2)
+    if perturb:
+        p, armature = _perturbed(p, dict(perturb))
     traj = _trajectory(rng)
     rate = float(rng.uniform(200.0, 500.0))
     ticks = int(rng.choice([2**14, 2**16, 2**18]))
@@ -239,10 +263,11 @@ def arm_log(
 
     def torque(tt: FloatArray) -> FloatArray:
         q, qd, qdd = traj.eval(tt), traj.eval(tt, 1), traj.eval(tt, 2)
-        tau = inverse_dynamics(p, q, qd, qdd)
+        tau = inverse_dynamics(p, q, qd, qdd) + armature * qdd
         if kind == "payload_pickup" and m > 0:
             late = tt >= t_pick
-            tau[late] = inverse_dynamics(p.with_tip_mass(m), q[late], qd[late], qdd[late])
+            tau[late] = (inverse_dynamics(p.with_tip_mass(m), q[late], qd[late], qdd[late])
+                         + armature * qdd[late])
         if kind == "stribeck":
             tau = tau + m * np.exp(-((qd / vs) ** 2)) * np.sign(qd)
         if kind == "cogging":
@@ -269,12 +294,15 @@ def arm_log(
         "/joint_states", stamps, t, {"position": pos, "velocity": vel, "effort": eff},
         {"position": qq / math.sqrt(12), "velocity": qd_sd, "effort": tau_sd},
         constants={"name": list(JOINTS)},
+        expected={"position": q, "velocity": qd, "effort": effort},
     )
     truth: dict[str, Any] = {
         "robot": "arm", "seed": seed, "duration_s": T, "kind": kind, "magnitude": m,
         "rate_hz": rate, "arm": dict(p.__dict__),
         "params": full_parameters(p),
     }
+    if np.any(armature):
+        truth["armature"] = [float(a) for a in armature]
     if kind == "payload_pickup":
         truth["t_pick_s"] = t_pick
     if kind == "stribeck":

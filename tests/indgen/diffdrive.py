@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 from .robotlog import FloatArray, RobotLog, Stream, grid, quantise, wrap
 
-__all__ = ["diff_drive_log"]
+__all__ = ["PERTURBABLE", "diff_drive_log"]
 
 
 def _inputs(rng: np.random.Generator, T: float) -> tuple[Any, Any, float]:
@@ -70,22 +70,35 @@ def _encoder(kind: str | None, m: float, wheel: int, k: int, phi: FloatArray, t:
     return phi
 
 
+PERTURBABLE = ("r_R", "r_L", "b")
+"""True parameters ``diff_drive_log(perturb=...)`` shifts (additively); the nominal ones (the
+motor controller's) stay, so the wheel rates stay and the motion changes."""
+
+
 def diff_drive_log(
     seed: int,
     kind: str | None = None,
     magnitude: float = 0.0,
     duration_s: float | None = None,
     variant: str | None = None,
+    *,
+    perturb: dict[str, float] | None = None,
 ) -> RobotLog:
     """A differential-drive log with ``kind`` at ``magnitude`` (None / 0: clean). ``variant``:
     ``logcal`` (/wheels, /cmd/vel, /pose) or ``gyro`` (also /odom and /imu/data); None: drawn.
-    Every random draw comes from ``seed`` only (not from the kind)."""
+    Every random draw comes from ``seed`` only (not from the kind). ``perturb``: additive
+    shifts of the true ``PERTURBABLE`` parameters (the truth reports the shifted values), for
+    ``refit.refit_effect``."""
     rng = np.random.default_rng([seed, 0])
     T = duration_s if duration_s is not None else round(float(rng.uniform(20.0, 60.0)), 1)
     r0 = float(rng.uniform(0.03, 0.15))
     r_R, r_L = r0 * (1 + rng.uniform(-0.03, 0.03)), r0 * (1 + rng.uniform(-0.03, 0.03))
     b = float(rng.uniform(0.2, 0.7))
     nom = {"r_R": r0, "r_L": r0, "b": b * (1 + float(rng.uniform(-0.05, 0.05)))}
+    dp = dict(perturb or {})
+    if set(dp) - set(PERTURBABLE):
+        raise ValueError(f"cannot perturb {sorted(set(dp) - set(PERTURBABLE))}")
+    r_R, r_L, b = r_R + dp.get("r_R", 0.0), r_L + dp.get("r_L", 0.0), b + dp.get("b", 0.0)
     v_cmd, w_cmd, ramp = _inputs(rng, T)
     ticks = int(rng.choice([512, 1024, 2048, 4096, 8192]))
     wheel_hz = float(rng.uniform(30.0, 100.0))
@@ -150,11 +163,13 @@ def diff_drive_log(
     sw = state(tw)
     u = g.random(tw.size)
     t0 = float(krng.uniform(0.1, 0.8) * T)
-    left = quantise(_encoder(kind, m, wheel, 0, sw[3], tw, t0, u), q)
-    right = quantise(_encoder(kind, m, wheel, 1, sw[4], tw, t0, u), q)
+    left_e = _encoder(kind, m, wheel, 0, sw[3], tw, t0, u)
+    right_e = _encoder(kind, m, wheel, 1, sw[4], tw, t0, u)
+    left, right = quantise(left_e, q), quantise(right_e, q)
     qsd = q / math.sqrt(12)
     streams["/wheels"] = Stream("/wheels", stamps(tw, g), tw, {"left": left, "right": right},
-                                {"left": qsd, "right": qsd})
+                                {"left": qsd, "right": qsd},
+                                expected={"left": left_e, "right": right_e})
     g = np.random.default_rng([seed, 2])
     tp = grid(g, pose_hz, T)
     sp = state(tp)
@@ -164,6 +179,7 @@ def diff_drive_log(
         {"x": sp[0] + g.normal(0, pos_sd, n), "y": sp[1] + g.normal(0, pos_sd, n),
          "yaw": wrap(sp[2] + g.normal(0, yaw_sd, n))},
         {"x": pos_sd, "y": pos_sd, "yaw": yaw_sd}, angle=("yaw",),
+        expected={"x": sp[0], "y": sp[1], "yaw": sp[2]},
     )
     g = np.random.default_rng([seed, 3])
     tc = grid(g, 20.0, T)

@@ -41,7 +41,9 @@ class Stream:
     """One topic: ``stamps_ns`` (int64, absolute), ``t_true`` (s since the start: the true sample
     instants), ``fields`` (name -> values), ``noise_std`` (name -> recorded error std),
     ``constants`` (fields written unchanged in every message, e.g. joint names), ``angle``
-    (fields that are wrapped angles, compared modulo 2 pi)."""
+    (fields that are wrapped angles, compared modulo 2 pi), ``expected`` (name -> the value of
+    a field before noise and quantisation, angles unwrapped; never written, used by
+    ``refit.refit_effect``)."""
 
     topic: str
     stamps_ns: NDArray[np.int64]
@@ -50,6 +52,7 @@ class Stream:
     noise_std: dict[str, float] = field(default_factory=dict)
     constants: dict[str, Any] = field(default_factory=dict)
     angle: tuple[str, ...] = ()
+    expected: dict[str, FloatArray] = field(default_factory=dict)
 
 
 @dataclass

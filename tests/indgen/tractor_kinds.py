@@ -17,6 +17,7 @@ the kind (magnitude 0) shares every random draw.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from itertools import pairwise
 from typing import Any
 
@@ -27,7 +28,7 @@ from .generate import _sample
 from .robotlog import FloatArray, RobotLog, Stream, grid, quantise, wrap
 from .scenario import TOPICS, Scenario, random_scenario
 
-__all__ = ["backlash", "tractor_log"]
+__all__ = ["PERTURBABLE", "backlash", "tractor_log"]
 
 _STD = {"v": 0.02, "omega": 0.005, "x": 0.02, "y": 0.02, "yaw": 0.005, "angle": 0.005,
         "curvature": 0.0}
@@ -48,11 +49,12 @@ def backlash(u: FloatArray, width: float) -> FloatArray:
     return y
 
 
-def _integrate(scn: Scenario, L2_after: float, t_swap: float, c: float) -> tuple[Any, ...]:
+def _integrate(scn: Scenario, L2_after: float, t_swap: float, c: float,
+               psi0: float = 0.0) -> tuple[Any, ...]:
     cmd, spd, L1, T = scn.command, scn.speed, scn.L1, scn.duration_s
     brk = set(cmd.breaks()) | set(spd.breaks()) | {t_swap}
     edges = [0.0, *sorted(b for b in brk if 1e-9 < b < T - 1e-9), T]
-    y0 = [0.0, 0.0, 0.0, 0.0]
+    y0 = [0.0, 0.0, 0.0, psi0]
     pieces = []
     for a, b in pairwise(edges):
         if b - a < 1e-9:
@@ -96,21 +98,35 @@ def _hitch(kind: str | None, m: float, psi: FloatArray) -> FloatArray:
     return psi
 
 
+PERTURBABLE = ("L1", "L2", "psi0")
+"""Parameters ``tractor_log(perturb=...)`` shifts (additively): the link lengths and the
+initial hitch angle (0 unperturbed)."""
+
+
 def tractor_log(
-    seed: int, kind: str | None = None, magnitude: float = 0.0, duration_s: float | None = None
+    seed: int, kind: str | None = None, magnitude: float = 0.0, duration_s: float | None = None,
+    *, perturb: dict[str, float] | None = None,
 ) -> RobotLog:
     """A tractor-trailer log (``tractor_trailer`` topics of LOG_FORMAT.md) with ``kind`` at
-    ``magnitude`` (None or magnitude 0: clean). Draws from ``seed`` only (not from the kind)."""
+    ``magnitude`` (None or magnitude 0: clean). Draws from ``seed`` only (not from the kind).
+    ``perturb``: additive shifts of ``PERTURBABLE`` parameters (the same draws otherwise; the
+    truth reports the shifted values), for ``refit.refit_effect``."""
     rng = np.random.default_rng([seed, 0])
     T = duration_s if duration_s is not None else round(float(rng.uniform(30.0, 60.0)), 1)
     scn = random_scenario(rng, duration_s=T)
+    dp = dict(perturb or {})
+    if set(dp) - set(PERTURBABLE):
+        raise ValueError(f"cannot perturb {sorted(set(dp) - set(PERTURBABLE))}")
+    if dp.get("L1") or dp.get("L2"):
+        scn = replace(scn, L1=scn.L1 + dp.get("L1", 0.0), L2=scn.L2 + dp.get("L2", 0.0))
     krng = np.random.default_rng([seed, 99])
     t_swap = float(krng.uniform(0.3, 0.7) * T)
     noise_scale = float(krng.choice([0.3, 1.0, 3.0]))
     m = magnitude if kind is not None else 0.0
     L2_after = scn.L2 * (1.0 + m) if kind == "trailer_swap" else scn.L2
     c = m if kind == "trailer_slip" else 0.0
-    pieces = _integrate(scn, L2_after, t_swap if kind == "trailer_swap" else T + 1.0, c)
+    pieces = _integrate(scn, L2_after, t_swap if kind == "trailer_swap" else T + 1.0, c,
+                        dp.get("psi0", 0.0))
     dense_t = grid(np.random.default_rng(0), _DENSE_HZ, T)
     dense_psi = _state(pieces, dense_t)[3]
     rec_psi = _hitch(kind, m, dense_psi)
@@ -135,7 +151,9 @@ def tractor_log(
                 "psi": np.interp(t, dense_t, rec_psi)}
         fields: dict[str, FloatArray] = {}
         noise: dict[str, float] = {}
+        expected: dict[str, FloatArray] = {}
         for f, sig in zip(tdef.fields, tdef.signals, strict=True):
+            expected[f] = np.asarray(true[sig], dtype=float)
             sd = 0.0 if group.startswith("cmd") else noise_scale * _STD[f]
             q = float(spec.quantum.get(f, 0.0))
             val = true[sig] + grng.normal(0.0, 1.0, t.size) * sd
@@ -147,7 +165,8 @@ def tractor_log(
             stamp_s = stamp_s * (1.0 + m)
         stamps = start_ns + np.round(stamp_s * 1e9).astype(np.int64)
         streams[tdef.topic] = Stream(tdef.topic, stamps, t, fields, noise,
-                                     angle=("yaw",) if "yaw" in fields else ())
+                                     angle=("yaw",) if "yaw" in fields else (),
+                                     expected=expected)
     truth: dict[str, Any] = {
         "robot": "tractor_trailer", "seed": seed, "duration_s": T,
         "L1": scn.L1, "L2": scn.L2, "kind": kind, "magnitude": m,
