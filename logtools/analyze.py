@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
-from typing import Any
+from dataclasses import dataclass, field, fields, replace
+from typing import Any, TypeVar
 
 from threadpoolctl import threadpool_limits
 
@@ -24,6 +24,7 @@ from calib.results import AnalysisResult, Baseline
 from logtools.errors import LogcalInputError
 from logtools.load import LoadedLog, load_log
 from logtools.robots import plugin_for
+from logtools.robots.options import RobotOptions
 from logtools.signals import SignalSource
 
 __all__ = [
@@ -31,12 +32,14 @@ __all__ = [
     "analyze_loaded",
     "analyze_log",
     "analyze_logs",
+    "options_from_settings",
 ]
 
 Progress = Callable[[str], None]
+T = TypeVar("T", bound=RobotOptions)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class AnalysisConfig:
     """Settings of one analysis.
 
@@ -45,11 +48,17 @@ class AnalysisConfig:
         baseline: the model discovery compares against (``Baseline.TRANSIENT``, the default:
             the off-axle trailer kinematics, which diagnoses best in
             bench/discovery_confusion_study.py; ``Baseline.STEADY``: the patent's steady state).
+            A tractor-trailer setting (its plugin's ``uses_settings``).
         seed: seed of every random draw (bootstrap), for reproducible reports.
         discovery: run model-mismatch discovery.
         per_segment: also report the method table per command type.
         debug: let a failing stage raise (with its traceback) instead of recording it.
-        extra: robot-specific settings by name (e.g. ``urdf`` for an arm).
+        robot_options: each robot's own options by plugin name (an instance of that plugin's
+            ``options`` class); a robot not named gets its options' defaults. Read them with
+            :meth:`options`.
+        extra: (transition only, keyword) the former untyped settings by key (``urdf``,
+            ``cutoff_hz``, ``discovery_span_s``, ``method_for_psi``): each key goes to the
+            options of every robot declaring it; a key no robot declares is an error.
     """
 
     repeats: int = 10
@@ -58,7 +67,81 @@ class AnalysisConfig:
     discovery: bool = True
     per_segment: bool = True
     debug: bool = False
-    extra: Mapping[str, Any] = field(default_factory=dict)
+    robot_options: Mapping[str, RobotOptions] = field(default_factory=dict)
+
+    def __init__(
+        self,
+        repeats: int = 10,
+        baseline: Baseline = Baseline.TRANSIENT,
+        seed: int = 0,
+        discovery: bool = True,
+        per_segment: bool = True,
+        debug: bool = False,
+        robot_options: Mapping[str, RobotOptions] | None = None,
+        *,
+        extra: Mapping[str, Any] | None = None,
+    ) -> None:
+        given = dict(robot_options or {})
+        for name, opts in given.items():
+            if not isinstance(opts, RobotOptions):
+                raise TypeError(f"robot_options[{name!r}]: expected a RobotOptions instance, "
+                                f"got {type(opts).__name__}")
+        if extra:
+            given = {**options_from_settings(extra, where="AnalysisConfig extra"), **given}
+        for name, value in (("repeats", repeats), ("baseline", baseline), ("seed", seed),
+                            ("discovery", discovery), ("per_segment", per_segment),
+                            ("debug", debug), ("robot_options", given)):
+            object.__setattr__(self, name, value)
+
+    def options(self, cls: type[T]) -> T:
+        """The options of class ``cls`` given for this analysis, else ``cls()`` (defaults)."""
+        for opts in self.robot_options.values():
+            if type(opts) is cls:
+                return opts
+        return cls()
+
+    @property
+    def extra(self) -> dict[str, Any]:
+        """Transition only: every given robot option that is set (not None), by settings key.
+
+        Read-only; use :meth:`options` (``config.options(ManipulatorOptions).urdf``)."""
+        out: dict[str, Any] = {}
+        for opts in self.robot_options.values():
+            for f in fields(opts):
+                value = getattr(opts, f.name)
+                if value is not None:
+                    out.setdefault(f.name, value)
+        return out
+
+
+def options_from_settings(
+    values: Mapping[str, Any], *, where: str = "settings"
+) -> dict[str, RobotOptions]:
+    """Robot options by plugin name from settings keys (``{"urdf": "panda"}``): each key goes to
+    every registered robot whose options declare it; robots given no key are left out.
+
+    Raises:
+        LogcalInputError: a key no robot declares (the message lists the known keys), or a value
+            that is not what its option expects (:func:`~logtools.robots.options.build_options`).
+    """
+    from logtools.robots import plugins
+    from logtools.robots.options import build_options, option_specs
+
+    out: dict[str, RobotOptions] = {}
+    known: set[str] = set()
+    for plugin in plugins():
+        keys = {s.key for s in option_specs(plugin)}
+        known |= keys
+        mine = {k: v for k, v in values.items() if k in keys}
+        if mine:
+            out[plugin.name] = build_options(plugin.options, mine, where=where)
+    unknown = sorted(set(values) - known)
+    if unknown:
+        raise LogcalInputError(
+            f"{where}: {unknown[0]!r} is not an option of any robot; expected one of: "
+            f"{', '.join(sorted(known)) or 'none'}"
+        )
+    return out
 
 
 def _noop(_: str) -> None:

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,7 +60,11 @@ NAMES = ("wheel_radius_right", "wheel_radius_left", "track_width")
 class SlipFit(JsonRecord):
     """The nominal model fitted with (``with_slip``) and without (``without``) the slip
     coefficient ``k`` (s/m); ``z`` = k / std; ``significant``: |z| > ``SLIP_Z``; ``params``:
-    the slip model's radii and track; ``segment_s``, ``n_segments``: the segments fitted."""
+    the slip model's radii and track; ``segment_s``, ``n_segments``: the segments fitted.
+    ``params`` and the marker ``offset`` stay out of the JSON (``with_slip`` holds the radii
+    and track with their intervals)."""
+
+    json_skip: ClassVar[tuple[str, ...]] = ("params", "offset")
 
     with_slip: Mapping[str, Estimate]
     without: Mapping[str, Estimate]

@@ -1,11 +1,12 @@
 """The input vocabulary every command that reads logs shares (``info``, ``analyze``, ``view``):
 the same log arguments (files, rosbag2 folders, folders of runs, OptiOdom session folders) and
 the same options saying how to read them (``--channel-map``, ``--signal``, ``--ground-truth``,
-``--start``, ``--end``), plus a warning when an option does not apply to the robot found."""
+``--start``, ``--end``). The robots' own options are generated from their plugins
+(:mod:`logtools.cli._robot_options`)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -17,10 +18,8 @@ if TYPE_CHECKING:  # the CLI starts without polars; commands import what they us
     from logtools.recordings import SameRecording
 
 __all__ = [
-    "OPTION_ROBOTS",
     "Inputs",
     "channel_map_option",
-    "cutoff_option",
     "end_option",
     "ground_truth_option",
     "logs_argument",
@@ -28,8 +27,6 @@ __all__ = [
     "say",
     "signal_option",
     "start_option",
-    "unused_options",
-    "urdf_option",
 ]
 
 LOGS_HELP = (
@@ -84,33 +81,6 @@ def end_option() -> Any:
         None, "--end", min=0.0, metavar="SECONDS",
         help="Use the log up to this many seconds after its first sample.",
     )
-
-
-def urdf_option() -> Any:
-    """``--urdf PATH_OR_NAME`` (arms)."""
-    return typer.Option(
-        None, "--urdf", metavar="PATH_OR_NAME",
-        help="An arm's URDF file, or a model name of example-robot-data (e.g. panda).",
-    )
-
-
-def cutoff_option() -> Any:
-    """``--cutoff-hz HZ`` (arms)."""
-    return typer.Option(
-        None, "--cutoff-hz", metavar="HZ",
-        help="An arm's zero-phase low-pass cut-off for q, q', q'' and torque (Hz; default 10).",
-    )
-
-
-OPTION_ROBOTS: dict[str, tuple[str, ...]] = {
-    "--urdf": ("manipulator",),
-    "--cutoff-hz": ("manipulator",),
-    "--baseline": ("tractor_trailer",),
-    "--discovery-span": ("tractor_trailer",),
-    "--method": ("tractor_trailer",),
-    "--ground-truth": ("tractor_trailer", "diff_drive"),
-}
-"""The robots (plugin names) each robot-specific option applies to."""
 
 
 @dataclass(frozen=True)
@@ -170,25 +140,6 @@ def read_inputs(
     if dedupe and len(runs) > 1:
         runs, same = distinct_recordings(runs, cmap)
     return Inputs(runs, cmap, same)
-
-
-def unused_options(robot: str, given: Mapping[str, object], where: str = "") -> list[str]:
-    """One warning per option in ``given`` (option -> value, None or False: not given) that
-    does not apply to ``robot``."""
-    from logtools.robots import plugin_for
-
-    plugin = plugin_for(robot)
-    out = []
-    for option, value in given.items():
-        applies = OPTION_ROBOTS.get(option)
-        if value is None or value is False or applies is None or plugin.name in applies:
-            continue
-        out.append(
-            f"{option} applies to {' and '.join(applies)} logs; "
-            f"{where or 'the log'} is a {plugin.name} log ({plugin.title}): {option} was not "
-            "used"
-        )
-    return out
 
 
 def say(text: str, *, stderr: bool = True) -> None:

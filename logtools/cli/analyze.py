@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import json
 import sys
-import tempfile
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import typer
 from rich.console import Console
@@ -17,15 +16,17 @@ from calib.results import Baseline
 from logtools.cli._inputs import (
     LOGS_HELP,
     channel_map_option,
-    cutoff_option,
     end_option,
     ground_truth_option,
     logs_argument,
     signal_option,
     start_option,
-    urdf_option,
 )
+from logtools.cli._robot_options import GivenOptions, with_robot_options
 from logtools.errors import LogcalInputError
+
+if TYPE_CHECKING:
+    from logtools.views import WrittenViews
 
 _LOGS = logs_argument(
     LOGS_HELP + " Several runs of one robot are also pooled into one estimate; files holding the "
@@ -35,13 +36,14 @@ _CHANNEL_MAP = channel_map_option()
 _SIGNAL = signal_option()
 _GROUND_TRUTH = ground_truth_option()
 
-__all__ = ["register", "write_views"]
+__all__ = ["register", "say_written"]
 
 
 def register(app: typer.Typer) -> None:
     """Add the ``analyze`` command to ``app``."""
 
     @app.command("analyze")
+    @with_robot_options("analyze")
     def analyze(
         logs: list[Path] = _LOGS,
         as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
@@ -61,19 +63,12 @@ def register(app: typer.Typer) -> None:
             help="Discovery baseline of the tractor-trailer: transient (default) or steady "
             "(the patent's view).",
         ),
-        urdf: str | None = urdf_option(),
-        cutoff_hz: float | None = cutoff_option(),
         channel_map: Path | None = _CHANNEL_MAP,
         signal: list[str] | None = _SIGNAL,
         ground_truth: Path | None = _GROUND_TRUTH,
         start: float | None = start_option(),
         end: float | None = end_option(),
         no_discovery: bool = typer.Option(False, "--no-discovery", help="Skip discovery."),
-        discovery_span: float | None = typer.Option(
-            None, "--discovery-span", min=0.0, metavar="SECONDS",
-            help="Seconds of a long tractor-trailer log discovery looks at, in windows spread "
-            "over it (default 600; 0: all of it, slower).",
-        ),
         seed: int = typer.Option(0, "--seed", metavar="N", help="Seed of the bootstrap draws."),
         methods: bool = typer.Option(
             False, "--methods", "-v",
@@ -85,13 +80,18 @@ def register(app: typer.Typer) -> None:
             help="Print only the answer: the recommended estimate and whether the model "
             "explains the log.",
         ),
+        *,
+        robot_options: GivenOptions,
     ) -> None:
         """Calibrate the robot's parameters from LOG(s) and explain model mismatch."""
         from logtools.analyze import AnalysisConfig, analyze_logs
-        from logtools.cli._inputs import read_inputs, say, unused_options
+        from logtools.cli._inputs import read_inputs, say
+        from logtools.cli._robot_options import general_warnings
         from logtools.outputs import check_output
         from logtools.report import print_analysis
+        from logtools.robots import plugin_for
         from logtools.safe_text import printable
+        from logtools.views import write_views
 
         inputs = read_inputs(logs, channel_map=channel_map, signals=signal,
                              ground_truth=ground_truth, start=start, end=end)
@@ -108,10 +108,7 @@ def register(app: typer.Typer) -> None:
                 )
         cfg = AnalysisConfig(
             repeats=repeats, baseline=baseline, seed=seed, discovery=not no_discovery,
-            debug=_debug(),
-            extra=({"urdf": urdf} if urdf else {})
-            | ({"cutoff_hz": cutoff_hz} if cutoff_hz is not None else {})
-            | ({"discovery_span_s": discovery_span} if discovery_span is not None else {}),
+            debug=_debug(), robot_options=robot_options.by_robot(),
         )
         err = Console(stderr=True)
         from calib.tractor_trailer.models.hitch_rk4 import compiled_available
@@ -131,10 +128,10 @@ def register(app: typer.Typer) -> None:
                 )
         else:
             loadeds, result = analyze_logs(runs, channel_map=inputs.channel_map, config=cfg)
-        unused = unused_options(str(result.robot), {
-            "--urdf": urdf, "--cutoff-hz": cutoff_hz, "--discovery-span": discovery_span,
-            "--baseline": baseline if baseline is not Baseline.TRANSIENT else None,
-            "--ground-truth": ground_truth,
+        plugin = plugin_for(str(result.robot))
+        unused = robot_options.unused(plugin) + general_warnings(plugin, {
+            "--baseline": ("baseline", baseline if baseline is not Baseline.TRANSIENT else None),
+            "--ground-truth": ("pose", ground_truth),
         })
         for warning in unused:
             say(f"logcal: warning: {warning}")
@@ -148,8 +145,8 @@ def register(app: typer.Typer) -> None:
                 ]},
             )
         if rrd is not None or png is not None:
-            write_views(loadeds, result, rrd=rrd, png=png, inputs=every,
-                        implicit_png=png is None)
+            say_written(write_views(loadeds, result, rrd=rrd, png=png, inputs=every,
+                                    implicit_png=png is None, config=cfg))
         if as_json:
             sys.stdout.write(json.dumps(result.to_dict(), indent=2) + "\n")
         else:
@@ -163,69 +160,12 @@ def register(app: typer.Typer) -> None:
             raise typer.Exit(2)
 
 
-def write_views(
-    loadeds: list[Any],
-    result: Any,
-    *,
-    rrd: Path | None,
-    png: Path | None,
-    inputs: list[Path],
-    implicit_png: bool = False,
-    options: dict[str, Any] | None = None,
-) -> Path | None:
-    """Write the robot's rerun recording to ``rrd`` (several runs: one file holding each run's
-    recording) and its report image to ``png`` (or beside ``rrd`` when ``implicit_png``; one
-    run only); say what was written on stderr. Returns the .rrd written, if any.
-
-    Raises:
-        LogcalInputError: the robot has no rerun views and ``rrd`` was asked for, or the runs'
-            recordings could not be merged.
-    """
+def say_written(written: WrittenViews) -> None:
+    """Say on stderr what :func:`logtools.views.write_views` wrote, and what not and why."""
     from logtools.cli._inputs import say
-    from logtools.outputs import check_output, write_atomically
-    from logtools.recordings import merge_recordings
-    from logtools.robots import plugin_for
-    from logtools.robots.base import load_view
 
-    plugin = plugin_for(result.robot)
-    per_run = result.runs or [result]
-    extra = options or {}
-    written = None
-    if rrd is not None:
-        if plugin.views is None:
-            say(f"logcal: the {plugin.title} has no rerun recording yet; not written")
-        else:
-            out = check_output(rrd, option="--rrd", suffixes=(".rrd",), inputs=inputs)
-            draw = load_view(plugin.views)
-
-            def write_all(tmp: Path) -> Path:
-                if len(per_run) == 1:
-                    return draw(tmp, loadeds[0], per_run[0], **extra)
-                with tempfile.TemporaryDirectory(prefix=".logcal-runs-", dir=tmp.parent) as d:
-                    parts = [
-                        draw(Path(d) / f"run{i + 1}.rrd", lo, res, **extra)
-                        for i, (lo, res) in enumerate(zip(loadeds, per_run, strict=True))
-                    ]
-                    return merge_recordings(parts, tmp)
-
-            write_atomically(out, write_all)
-            runs_note = f" ({len(per_run)} runs, one recording each)" if len(per_run) > 1 else ""
-            say(f"rerun recording saved: {out}{runs_note}")
-            written = out
-    png_path = png if png is not None else (
-        rrd.with_suffix(".png") if rrd is not None and implicit_png else None
-    )
-    if png_path is not None:
-        if len(per_run) > 1:
-            say(f"logcal: no report image: {png_path} would show one run of {len(per_run)}")
-        elif plugin.png is None:
-            say(f"logcal: the {plugin.title} has no report image yet; not written")
-        else:
-            out = check_output(png_path, option="--png", suffixes=(".png",), inputs=inputs)
-            draw_png = load_view(plugin.png)
-            write_atomically(out, lambda tmp: draw_png(tmp, loadeds[0], per_run[0]))
-            say(f"report image saved: {out}")
-    return written
+    for kind, text in written.messages:
+        say(text if kind == "saved" else f"logcal: {text}")
 
 
 def _debug() -> bool:

@@ -143,7 +143,13 @@ def _plain_arguments(command: Any) -> None:
 
 
 def command() -> Any:
-    """The click command of ``logcal`` (built from ``app``, arguments shown plainly)."""
+    """The click command of ``logcal`` (built from ``app`` and the robot plugins registered now,
+    arguments shown plainly)."""
+    from logtools.cli import reproduce, simulate
+
+    simulate.sync()
+    reproduce.sync()
+    readable_metavars(app)
     cmd = typer.main.get_command(app)
     _plain_arguments(cmd)
     return cmd

@@ -10,14 +10,13 @@ import typer
 from calib.results import Baseline
 from logtools.cli._inputs import (
     channel_map_option,
-    cutoff_option,
     end_option,
     ground_truth_option,
     logs_argument,
     signal_option,
     start_option,
-    urdf_option,
 )
+from logtools.cli._robot_options import GivenOptions, with_robot_options
 
 _LOGS = logs_argument()
 _CHANNEL_MAP = channel_map_option()
@@ -31,16 +30,13 @@ def register(app: typer.Typer) -> None:
     """Add the ``view`` command to ``app``."""
 
     @app.command("view")
+    @with_robot_options("view")
     def view(
         logs: list[Path] = _LOGS,
         rrd: Path | None = typer.Option(
             None, "--rrd", metavar="FILE.rrd",
             help="Where to save the recording (default: the first LOG with suffix .rrd; "
             "several runs: one file holding every run).",
-        ),
-        method: str | None = typer.Option(
-            None, "--method", metavar="NAME",
-            help="Also show psi predicted by this method (e.g. OLS1(EM1); tractor-trailer).",
         ),
         no_viewer: bool = typer.Option(False, "--no-viewer", help="Only save the recording."),
         repeats: int = typer.Option(
@@ -50,21 +46,23 @@ def register(app: typer.Typer) -> None:
             Baseline.TRANSIENT, "--baseline",
             help="Discovery baseline of the tractor-trailer: transient (default) or steady.",
         ),
-        urdf: str | None = urdf_option(),
-        cutoff_hz: float | None = cutoff_option(),
         channel_map: Path | None = _CHANNEL_MAP,
         signal: list[str] | None = _SIGNAL,
         ground_truth: Path | None = _GROUND_TRUTH,
         start: float | None = start_option(),
         end: float | None = end_option(),
+        *,
+        robot_options: GivenOptions,
     ) -> None:
         """Show LOG in the rerun viewer (or save the .rrd and say where when none can start)."""
         from logtools.analyze import AnalysisConfig, analyze_logs
-        from logtools.cli._inputs import read_inputs, say, unused_options
-        from logtools.cli.analyze import write_views
+        from logtools.cli._inputs import read_inputs, say
+        from logtools.cli._robot_options import general_warnings
+        from logtools.cli.analyze import say_written
         from logtools.errors import LogcalInputError
         from logtools.outputs import check_output
         from logtools.robots import plugin_for
+        from logtools.views import write_views
         from viz.viewer import can_start_viewer, open_viewer
 
         inputs = read_inputs(logs, channel_map=channel_map, signals=signal,
@@ -76,24 +74,20 @@ def register(app: typer.Typer) -> None:
         target = check_output(rrd or default, option="--rrd", suffixes=(".rrd",), inputs=every)
         for note in inputs.notes:
             say(f"logcal: {note}")
-        extra = {"method_for_psi": method} if method else {}
-        cfg = AnalysisConfig(
-            repeats=repeats, baseline=baseline,
-            extra=extra | ({"urdf": urdf} if urdf else {})
-            | ({"cutoff_hz": cutoff_hz} if cutoff_hz is not None else {}),
-        )
+        cfg = AnalysisConfig(repeats=repeats, baseline=baseline,
+                             robot_options=robot_options.by_robot())
         loadeds, result = analyze_logs(inputs.runs, channel_map=inputs.channel_map, config=cfg)
-        for warning in unused_options(str(result.robot), {
-            "--urdf": urdf, "--cutoff-hz": cutoff_hz, "--method": method,
-            "--baseline": baseline if baseline is not Baseline.TRANSIENT else None,
-            "--ground-truth": ground_truth,
+        plugin = plugin_for(result.robot)
+        for warning in robot_options.unused(plugin) + general_warnings(plugin, {
+            "--baseline": ("baseline", baseline if baseline is not Baseline.TRANSIENT else None),
+            "--ground-truth": ("pose", ground_truth),
         }):
             say(f"logcal: warning: {warning}")
-        plugin = plugin_for(result.robot)
         if plugin.views is None:
             raise LogcalInputError(f"{first}: the {plugin.title} has no rerun views yet.")
-        opts = extra if plugin.name == "tractor_trailer" else {}
-        out = write_views(loadeds, result, rrd=target, png=None, inputs=every, options=opts)
+        written = write_views(loadeds, result, rrd=target, png=None, inputs=every, config=cfg)
+        say_written(written)
+        out = written.rrd
         assert out is not None  # the plugin has views
         if no_viewer:
             return

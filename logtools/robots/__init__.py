@@ -15,8 +15,10 @@ from importlib.metadata import entry_points
 
 from logtools.errors import LogcalInputError
 from logtools.robots.base import RobotPlugin, SignalSpec
+from logtools.robots.options import RobotOptions
 
 __all__ = [
+    "RobotOptions",
     "RobotPlugin",
     "SignalSpec",
     "UnknownRobotError",

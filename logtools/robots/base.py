@@ -2,8 +2,10 @@
 logs apart, its analysis (segmentation, methods, estimators, discovery), its pooled analysis of
 several runs, its readable report and its rerun views.
 
-``logcal analyze``, ``info``, the report, the JSON and the .rrd go through this interface only, so
-a new robot adds its own files plus one line in :mod:`logtools.robots` (``_PLUGIN_MODULES``).
+``logcal analyze``, ``view``, ``info``, ``simulate``, ``reproduce``, the report, the JSON and the
+.rrd go through this interface only, so a new robot adds its own files plus one line in
+:mod:`logtools.robots` (``_PLUGIN_MODULES``, or ``register(...)``). Its options are a typed
+dataclass (:mod:`logtools.robots.options`) from which the CLI's options are generated.
 Modelled on evo's one entry point per trajectory kind and pysindy's pluggable feature libraries:
 the pipeline is generic, what differs between robots is declared in one object.
 
@@ -16,21 +18,38 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
+from logtools.robots.options import RobotOptions
 from logtools.signals import SignalSource
 
 if TYPE_CHECKING:
     from pathlib import Path
 
     import polars as pl
+    import typer
     from rich.console import RenderableType
 
     from calib.results import AnalysisResult
+    from logtools.analyze import AnalysisConfig
     from logtools.load import LoadedLog
     from logtools.signals import RobotConfig
 
-__all__ = ["AnalyzeFn", "PoolFn", "Progress", "RobotPlugin", "SignalSpec", "lazy", "load_view"]
+__all__ = [
+    "AnalyzeFn",
+    "CommandsFn",
+    "PoolFn",
+    "Progress",
+    "RobotPlugin",
+    "SignalSpec",
+    "Views",
+    "lazy",
+    "load_commands",
+    "load_view",
+    "load_views",
+]
+
+O_contra = TypeVar("O_contra", bound=RobotOptions, contravariant=True)
 
 Progress = Callable[[str], None]
 
@@ -44,7 +63,9 @@ class AnalyzeFn(Protocol):
     subclass naming file, topic and field) only when the log cannot be analysed at all.
     """
 
-    def __call__(self, loaded: LoadedLog, config: Any, progress: Progress) -> AnalysisResult: ...
+    def __call__(
+        self, loaded: LoadedLog, config: AnalysisConfig, progress: Progress
+    ) -> AnalysisResult: ...
 
 
 class PoolFn(Protocol):
@@ -54,9 +75,30 @@ class PoolFn(Protocol):
     def __call__(
         self,
         runs: Sequence[tuple[LoadedLog, AnalysisResult]],
-        config: Any,
+        config: AnalysisConfig,
         progress: Progress,
     ) -> AnalysisResult: ...
+
+
+class Views(Protocol[O_contra]):
+    """A robot's rerun views: ``(out, loaded, result, options) -> Path``, the file written.
+
+    ``options`` is the robot's own options (an instance of ``RobotPlugin.options``, e.g. the
+    tractor-trailer's ``method_for_psi``); ``loaded`` the read log, ``result`` its analysis (a
+    pooled analysis is drawn run by run, each into its own file). Named by an import path
+    (``RobotPlugin.views``) so that ``logtools`` never imports rerun.
+    """
+
+    def __call__(
+        self, out: Path, loaded: LoadedLog, result: AnalysisResult, options: O_contra, /
+    ) -> Path: ...
+
+
+class CommandsFn(Protocol):
+    """Adds a robot's subcommands to a command group (``logcal simulate`` or ``reproduce``):
+    ``(group: typer.Typer) -> None``."""
+
+    def __call__(self, group: typer.Typer, /) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -95,10 +137,20 @@ class RobotPlugin:
         pooled_summary: the same for a pooled report of several runs (e.g. each run's dead
             reckoning before/after, and which runs calibration made worse).
         pool: analyse several runs together (None: each run is reported on its own).
-        views: import path ``"viz.module:function"`` of the rerun views, a function
-            ``(out_path, loaded, result, **options) -> Path`` returning the file written;
+        views: import path ``"viz.module:function"`` of the rerun views, a :class:`Views`
+            function ``(out, loaded, result, options) -> Path`` returning the file written;
             None: no views yet.
-        png: the same for a static PNG report image; None: none.
+        png: import path of a static PNG report image ``(out, loaded, result) -> Path``;
+            None: none.
+        options: the robot's own options, a frozen :class:`RobotOptions` dataclass whose fields
+            are declared with :func:`logtools.robots.options.option` (flag, help, whether
+            ``view`` takes it); ``analyze``/``view`` offer them, settings files name them by
+            field name, the analysis reads them with ``AnalysisConfig.options(cls)``.
+        uses_settings: the general ``AnalysisConfig`` settings only this robot reads (the
+            tractor-trailer's ``baseline``): giving one for another robot is warned about.
+        simulate: import path ``"module:function"`` of a :class:`CommandsFn` adding the robot's
+            ``logcal simulate`` subcommand(s); None: none.
+        reproduce: the same for ``logcal reproduce`` (published results); None: none.
         aliases: other names accepted for ``name`` (older metadata).
         span_signals: signals whose common time span sets the aligned frame (a joint signal
             ``q3`` matches ``q``; none present: all signals).
@@ -120,6 +172,10 @@ class RobotPlugin:
     aliases: tuple[str, ...] = ()
     span_signals: tuple[str, ...] = ()
     prepare: Callable[[pl.DataFrame, RobotConfig], pl.DataFrame] | None = None
+    options: type[RobotOptions] = RobotOptions
+    uses_settings: tuple[str, ...] = ()
+    simulate: str | None = None
+    reproduce: str | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
 
     @property
@@ -129,11 +185,26 @@ class RobotPlugin:
 
 
 def load_view(path: str) -> Callable[..., Path]:
-    """The function named by a ``"module:function"`` import path (``RobotPlugin.views``)."""
+    """The function named by a ``"module:function"`` import path (``RobotPlugin.png``)."""
     import importlib
 
     module, _, name = path.partition(":")
     fn: Callable[..., Path] = getattr(importlib.import_module(module), name)
+    return fn
+
+
+def load_views(path: str) -> Views[Any]:
+    """The :class:`Views` function named by ``RobotPlugin.views``."""
+    fn: Views[Any] = load_view(path)
+    return fn
+
+
+def load_commands(path: str) -> CommandsFn:
+    """The :class:`CommandsFn` named by ``RobotPlugin.simulate`` / ``reproduce``."""
+    import importlib
+
+    module, _, name = path.partition(":")
+    fn: CommandsFn = getattr(importlib.import_module(module), name)
     return fn
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import rerun as rr
@@ -18,6 +18,11 @@ import rerun.blueprint as rrb
 
 from calib.results import PM_MEANING, AnalysisResult, CalibrationResult
 from viz.style import COLORS
+
+if TYPE_CHECKING:
+    from logtools.load import LoadedLog
+    from logtools.robots.base import Views
+    from logtools.robots.options import RobotOptions
 
 __all__ = ["log_views", "write_png"]
 
@@ -69,10 +74,12 @@ def _table(result: AnalysisResult) -> str:
     return "\n".join(lines)
 
 
-def log_views(recording_path: Path, loaded: Any, result: AnalysisResult, **_: Any) -> Path:
-    """Write the .rrd to ``recording_path`` (a view per run and the methods table) and return
-    it."""
-    out = Path(recording_path)
+def log_views(
+    out: Path, loaded: LoadedLog, result: AnalysisResult, options: RobotOptions | None = None
+) -> Path:
+    """Write the .rrd to ``out`` (a view per run and the methods table) and return it; the
+    differential drive has no options of its own and draws what ``result`` carries."""
+    out = Path(out)
     rec = rr.RecordingStream("logcal_diff_drive")
     rec.save(out)
     views: list[rrb.View] = []
@@ -119,7 +126,7 @@ def log_views(recording_path: Path, loaded: Any, result: AnalysisResult, **_: An
     return out
 
 
-def write_png(out: Path, loaded: Any, result: AnalysisResult) -> Path:
+def write_png(out: Path, loaded: LoadedLog, result: AnalysisResult) -> Path:
     """Static report image: up to six runs' paths (truth, nominal, calibrated dead reckoning)
     and one error-bar panel per parameter (each method's value and 95 % interval, mm)."""
     import matplotlib
@@ -169,3 +176,7 @@ def write_png(out: Path, loaded: Any, result: AnalysisResult) -> Path:
     fig.savefig(out)
     plt.close(fig)
     return out
+
+
+if TYPE_CHECKING:
+    _views: Views[RobotOptions] = log_views

@@ -5,7 +5,7 @@ convergence of the recursive estimators. Draws only what ``result.artifacts`` ca
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import rerun as rr
@@ -13,14 +13,22 @@ import rerun.blueprint as rrb
 
 from calib.results import AnalysisResult
 
+if TYPE_CHECKING:
+    from logtools.load import LoadedLog
+    from logtools.robots.base import Views
+    from logtools.robots.manipulator.options import ManipulatorOptions
+
 __all__ = ["log_views", "write_png"]
 
 
-def log_views(recording_path: str | Path, loaded: Any, result: AnalysisResult) -> Path:
-    """Save the arm's views of ``result`` to ``recording_path`` (.rrd); ``loaded`` is unused
-    (the arrays drawn are in ``result.artifacts``)."""
+def log_views(
+    out: Path, loaded: LoadedLog, result: AnalysisResult,
+    options: ManipulatorOptions | None = None,
+) -> Path:
+    """Save the arm's views of ``result`` to ``out`` (.rrd); ``loaded`` and ``options`` are
+    unused (the arrays drawn are in ``result.artifacts``, computed with the options)."""
     art = result.artifacts
-    out = Path(recording_path)
+    out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     rec = rr.RecordingStream("logcal")
     rec.save(out)
@@ -80,7 +88,7 @@ def log_views(recording_path: str | Path, loaded: Any, result: AnalysisResult) -
     return out
 
 
-def write_png(out: Path, loaded: Any, result: AnalysisResult) -> Path:
+def write_png(out: Path, loaded: LoadedLog, result: AnalysisResult) -> Path:
     """Static report image: held-out torque, measured vs predicted, per joint (up to 8)."""
     import matplotlib
 
@@ -125,3 +133,7 @@ def _summary(result: AnalysisResult) -> str:
     if result.estimate is not None:
         lines += ["```", result.estimate.report(), "```"]
     return "\n\n".join(lines)
+
+
+if TYPE_CHECKING:
+    _views: Views[ManipulatorOptions] = log_views

@@ -1,32 +1,45 @@
 """Entry points the robot plugins name for their views (``RobotPlugin.views``/``png``).
 
-Each takes ``(out_path, loaded, result, **options)`` and returns the file written; ``loaded`` is
-the read log (its aligned ``frame``), ``result`` the analysis; they draw what those carry."""
+The rerun views are a ``logtools.robots.base.Views`` function ``(out, loaded, result, options)``
+returning the file written; ``loaded`` is the read log (its aligned ``frame``), ``result`` the
+analysis, ``options`` the robot's own options; they draw what those carry. The report image is
+``(out, loaded, result)``."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from calib.results import AnalysisResult
+
+if TYPE_CHECKING:
+    from logtools.load import LoadedLog
+    from logtools.robots.base import Views
+    from logtools.robots.tractor_trailer.options import TractorTrailerOptions
 
 __all__ = ["tractor_trailer_png", "tractor_trailer_rrd"]
 
 
 def tractor_trailer_rrd(
-    out: Path, loaded: Any, result: AnalysisResult, method_for_psi: str | None = None
+    out: Path, loaded: LoadedLog, result: AnalysisResult,
+    options: TractorTrailerOptions | None = None,
 ) -> Path:
     """The tractor-trailer's rerun recording (world, ICR construction, signals, methods);
-    ``method_for_psi`` names the method whose lengths drew the steady-state joint angle (the
-    analysis computed it: ``AnalysisConfig.extra["method_for_psi"]``)."""
+    ``options.method_for_psi`` names the method whose lengths drew the steady-state joint angle
+    too (the analysis computed it from the same options)."""
     from viz.tractor_trailer.recording import write_recording
 
-    return write_recording(out, loaded.frame, result, method_for_psi=method_for_psi)
+    method = options.method_for_psi if options is not None else None
+    return write_recording(out, loaded.frame, result, method_for_psi=method)
 
 
-def tractor_trailer_png(out: Path, loaded: Any, result: AnalysisResult) -> Path:
+def tractor_trailer_png(out: Path, loaded: LoadedLog, result: AnalysisResult) -> Path:
     """The tractor-trailer's static report image."""
     from viz.tractor_trailer.plots import write_report_png
 
     write_report_png(out, loaded.frame, result)
     return out
+
+
+if TYPE_CHECKING:
+    _views: Views[TractorTrailerOptions] = tractor_trailer_rrd

@@ -1,8 +1,8 @@
 """Serial arms (``manipulator``, n joints): dynamic parameters from joint logs.
 
 Reads ``q1..qn`` and ``tau1..n`` (``/joint_states``), the joint names, and picks the model: the
-URDF given by ``--urdf`` (``config.extra["urdf"]``), the channel map's ``[robot] urdf`` or the
-``logcal`` metadata ``urdf`` (a path or an example-robot-data NAME), else the planar 2-link arm
+URDF given by ``--urdf`` (``ManipulatorOptions.urdf``), the channel map's ``[robot] urdf`` or
+the ``logcal`` metadata ``urdf`` (a path or an example-robot-data NAME), else the planar 2-link arm
 when the metadata says ``model = planar2``.
 
 This module only declares the plugin (signals, identification, aliases, view paths) and stays
@@ -14,8 +14,9 @@ light: every log's robot is resolved by loading all plugin declarations, so the 
 from __future__ import annotations
 
 from logtools.robots.base import RobotPlugin, SignalSpec, lazy
+from logtools.robots.manipulator.options import ManipulatorOptions
 
-__all__ = ["PLUGIN"]
+__all__ = ["PLUGIN", "ManipulatorOptions"]
 
 
 def _identify(signals: frozenset[str]) -> str | None:
@@ -41,4 +42,7 @@ PLUGIN = RobotPlugin(
     png="viz.manipulator.views:write_png",
     aliases=("manipulator_2link",),
     span_signals=("q", "tau"),
+    options=ManipulatorOptions,
+    simulate="logtools.robots.manipulator.commands:register_simulate",
+    reproduce="logtools.robots.manipulator.commands:register_reproduce",
 )

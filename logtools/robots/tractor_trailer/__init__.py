@@ -3,16 +3,21 @@ L1 (hitch behind link 1's axle, m) and L2 (hitch to trailer axle, m)."""
 
 from __future__ import annotations
 
-import polars as pl
+from typing import TYPE_CHECKING
 
 from logtools.robots.base import RobotPlugin, SignalSpec, lazy
-from logtools.robots.tractor_trailer.curvature import derive_kappa
-from logtools.signals import RobotConfig
+from logtools.robots.tractor_trailer.options import TractorTrailerOptions
 
-__all__ = ["PLUGIN"]
+if TYPE_CHECKING:
+    import polars as pl
+
+    from logtools.signals import RobotConfig
+
+__all__ = ["PLUGIN", "TractorTrailerOptions"]
 
 # the pipeline imports calib's estimators (scipy): named by import path and imported on first
-# analysis (``lazy``), so that `logcal info` and robot inference stay fast
+# analysis (``lazy``), so that `logcal info` and robot inference stay fast; polars too is imported
+# only when a frame is prepared (the CLI loads every declaration to offer the robots' options)
 
 
 def _identify(signals: frozenset[str]) -> str | None:
@@ -21,6 +26,8 @@ def _identify(signals: frozenset[str]) -> str | None:
 
 def _prepare(frame: pl.DataFrame, robot: RobotConfig) -> pl.DataFrame:
     """The measured curvature ``kappa`` from odometry, pose or steering, where the log has one."""
+    from logtools.robots.tractor_trailer.curvature import derive_kappa
+
     has_odom = {"v", "omega"} <= set(frame.columns)
     has_pose = {"x", "y"} <= set(frame.columns)
     has_steer = "steer" in frame.columns and robot.wheelbase is not None
@@ -53,4 +60,8 @@ PLUGIN = RobotPlugin(
     png="viz.tractor_trailer.views:tractor_trailer_png",
     span_signals=("psi", "kappa_cmd", "v", "omega", "x", "y", "yaw"),
     prepare=_prepare,
+    options=TractorTrailerOptions,
+    uses_settings=("baseline",),
+    simulate="logtools.robots.tractor_trailer.commands:register_simulate",
+    reproduce="logtools.robots.tractor_trailer.commands:register_reproduce",
 )

@@ -1,0 +1,29 @@
+"""The arm's own options (``logcal analyze``/``view`` flags, settings keys)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from logtools.robots.options import RobotOptions, option
+
+__all__ = ["ManipulatorOptions"]
+
+
+@dataclass(frozen=True)
+class ManipulatorOptions(RobotOptions):
+    """Options of an arm analysis (None: not given, the analysis' default).
+
+    Attributes:
+        urdf: the arm's URDF file or an example-robot-data model name (else the channel map's
+            ``[robot] urdf`` or the log's metadata).
+        cutoff_hz: zero-phase low-pass cut-off for q, q', q'' and torque (Hz; default 10).
+    """
+
+    urdf: str | None = option(
+        flag="--urdf", metavar="PATH_OR_NAME", view=True,
+        help="An arm's URDF file, or a model name of example-robot-data (e.g. panda).",
+    )
+    cutoff_hz: float | None = option(
+        flag="--cutoff-hz", metavar="HZ", above=0.0,
+        help="An arm's zero-phase low-pass cut-off for q, q', q'' and torque (Hz; default 10).",
+    )

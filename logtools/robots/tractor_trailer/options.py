@@ -1,0 +1,31 @@
+"""The tractor-trailer's own options (``logcal analyze``/``view`` flags, settings keys)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from logtools.robots.options import RobotOptions, option
+
+__all__ = ["TractorTrailerOptions"]
+
+
+@dataclass(frozen=True)
+class TractorTrailerOptions(RobotOptions):
+    """Options of a tractor-trailer analysis (None: not given, the analysis' default).
+
+    Attributes:
+        discovery_span_s: seconds of a long log discovery looks at, in windows spread over it
+            (default 600; 0: all of it).
+        method_for_psi: a method (e.g. ``OLS1(EM1)``) whose steady-state joint angle the views
+            also draw.
+    """
+
+    discovery_span_s: float | None = option(
+        flag="--discovery-span", metavar="SECONDS", at_least=0.0,
+        help="Seconds of a long tractor-trailer log discovery looks at, in windows spread "
+        "over it (default 600; 0: all of it, slower).",
+    )
+    method_for_psi: str | None = option(
+        flag="--method", metavar="NAME", view=True,
+        help="In the rerun views, also draw psi predicted by this method (e.g. OLS1(EM1)).",
+    )
