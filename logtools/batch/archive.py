@@ -1,37 +1,69 @@
 """Walk a log archive: every log (as ``logcal analyze FOLDER`` finds them), its settings from
 the ``logcal.toml`` files above it, and its content hash.
 
+A log is data, never instructions: the walk reads regular files inside the archive only.
+Symbolic links are never followed (a link named like a log, or a link to a folder, becomes a
+failed entry that says so, instead of being read under the archive's name); FIFOs, sockets and
+devices are never opened (a failed entry names their kind); nothing on ``/proc``, ``/sys`` or
+``/dev`` is read; a folder that cannot be listed (too deep for ``PATH_MAX``, no permission)
+becomes a failed entry and the walk goes on. Each entry is isolated: whatever goes wrong with
+one becomes that entry's error, never the batch's.
+
 The hash is SHA-256 over the file's bytes (a rosbag2 folder: over its files' relative names and
 bytes, sorted), so that a rerun can tell a changed log from a finished one without trusting
-modification times (copies and ``rsync`` reset them).
+modification times (copies and ``rsync`` reset them). Files are opened with ``O_NOFOLLOW`` and
+``O_NONBLOCK`` and checked with ``fstat`` to be regular before a byte is read.
+
+Every log has an id (:func:`log_id`) derived from its path's *bytes*: two names that differ
+only in bytes that are not UTF-8 have two ids, two records and two readable names.
 """
 
 from __future__ import annotations
 
+import errno
 import hashlib
+import os
+import re
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
-from logtools.batch.settings import LogSettings, SettingsError, settings_for
+from logtools.batch.settings import (
+    SETTINGS_FILE,
+    LogSettings,
+    SettingsError,
+    open_regular,
+    settings_for,
+)
 from logtools.errors import LogcalInputError
+from logtools.outputs import special_devices, special_filesystem
+from logtools.readers.optiodom import is_optiodom_metadata
 from logtools.runs import LOG_SUFFIXES
 
-__all__ = ["LogJob", "content_hash", "find_logs", "log_id"]
+__all__ = ["ID_PATTERN", "SETTINGS_FILE", "EntryError", "LogJob", "content_hash", "display_name",
+           "file_kind", "find_logs", "log_id"]
 
 _CHUNK = 1 << 20
+METADATA_FILE = "metadata.yaml"
+ID_PATTERN = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,60}-[0-9a-f]{10,64}")
+"""What every log id looks like (:func:`log_id`); anything else in a manifest is not ours."""
 
 
 @dataclass(frozen=True)
 class LogJob:
-    """One log of the archive, ready to be analysed.
+    """One entry of the archive: a log ready to be analysed, or one that cannot be read.
 
     Attributes:
-        rel: path relative to the archive (POSIX separators): the log's name in every output.
-        path: absolute path.
-        id: file-name-safe identifier of ``rel`` (outputs are ``logs/<id>.json`` ...).
-        content_hash: SHA-256 of the log's content.
-        settings: its ``logcal.toml`` settings; None when ``settings_error`` says why not.
+        rel: path relative to the archive (POSIX separators), readable: bytes that are not
+            UTF-8 shown as ``\\xNN``. The log's name in every output (escaped there).
+        path: absolute path (undecodable bytes kept, as ``os.fsdecode`` gives them).
+        id: file-name-safe identifier of the path's bytes (outputs are ``logs/<id>.json``...).
+        content_hash: SHA-256 of the log's content ("" for an entry that cannot be read).
+        settings: its ``logcal.toml`` settings; None when ``settings_error`` or
+            ``entry_error`` says why not.
         settings_error: the message of a ``logcal.toml`` that cannot be used.
+        entry_error: why the entry is not read at all (a link, a FIFO, a folder that cannot
+            be listed); the entry fails with this message.
     """
 
     rel: str
@@ -40,72 +72,223 @@ class LogJob:
     content_hash: str
     settings: LogSettings | None
     settings_error: str | None = None
+    entry_error: str | None = None
 
 
-def _is_rosbag2(p: Path) -> bool:
-    return p.is_dir() and (p / "metadata.yaml").is_file()
+class EntryError(LogcalInputError):
+    """An archive entry logcal does not read (link, special file, unreadable folder)."""
 
 
-def content_hash(path: Path) -> str:
-    """SHA-256 (hex) of a log file, or of a rosbag2 folder's files (names and bytes)."""
+def file_kind(mode: int) -> str:
+    """What a file of ``mode`` is, in words (``a FIFO``, ``a symbolic link``...)."""
+    kinds = (
+        (stat.S_ISREG, "a regular file"), (stat.S_ISDIR, "a folder"),
+        (stat.S_ISLNK, "a symbolic link"), (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    )
+    return next((text for test, text in kinds if test(mode)), "a special file")
+
+
+def _lstat(path: str) -> os.stat_result | None:
+    try:
+        return os.lstat(path)
+    except OSError:
+        return None
+
+
+def _is_rosbag2(path: str) -> bool:
+    """A real folder (not a link) holding a ``metadata.yaml`` entry of any kind."""
+    st = _lstat(path)
+    return (st is not None and stat.S_ISDIR(st.st_mode)
+            and _lstat(os.path.join(path, METADATA_FILE)) is not None)
+
+
+def _hash_file(path: str, digest: hashlib._Hash, special: set[int]) -> None:
+    fd = open_regular(path, special=special)
+    with os.fdopen(fd, "rb", buffering=0) as fh:
+        while chunk := fh.read(_CHUNK):
+            digest.update(chunk)
+
+
+def _rosbag2_files(folder: str) -> list[str]:
+    """Relative names of a rosbag2 folder's files, sorted by bytes.
+
+    Raises:
+        EntryError: a link or special file inside it, or a subfolder that cannot be listed.
+    """
+    found: list[str] = []
+    stack = [""]
+    while stack:
+        sub = stack.pop()
+        here = os.path.join(folder, sub) if sub else folder
+        try:
+            with os.scandir(here) as it:
+                entries = list(it)
+        except OSError as err:
+            raise EntryError(f"cannot list {sub or '.'} in the rosbag2 folder "
+                             f"({err.strerror or err})") from err
+        for e in entries:
+            rel = os.path.join(sub, e.name) if sub else e.name
+            st = e.stat(follow_symlinks=False)
+            if stat.S_ISDIR(st.st_mode):
+                stack.append(rel)
+            elif stat.S_ISREG(st.st_mode):
+                found.append(rel)
+            else:
+                raise EntryError(f"{display_name(rel)} in the rosbag2 folder is "
+                                 f"{file_kind(st.st_mode)}; logcal reads regular files only")
+    return sorted(found, key=os.fsencode)
+
+
+def content_hash(path: Path | str, *, special: set[int] | None = None) -> str:
+    """SHA-256 (hex) of a log file, or of a rosbag2 folder's files (names and bytes).
+
+    Raises:
+        EntryError: the log (or a file of the folder) is not a regular file, or is a link.
+        OSError: it cannot be read.
+    """
+    name = os.fspath(path)
+    special = special_devices() if special is None else special
     digest = hashlib.sha256()
-    files = [path] if path.is_file() else sorted(q for q in path.rglob("*") if q.is_file())
-    for f in files:
-        if f is not path:
-            digest.update(f.relative_to(path).as_posix().encode("utf-8", "surrogateescape"))
+    st = os.lstat(name)
+    if stat.S_ISDIR(st.st_mode):
+        for rel in _rosbag2_files(name):
+            digest.update(os.fsencode(rel))
             digest.update(b"\0")
-        with f.open("rb") as fh:
-            while chunk := fh.read(_CHUNK):
-                digest.update(chunk)
+            _hash_file(os.path.join(name, rel), digest, special)
+    else:
+        _hash_file(name, digest, special)
     return digest.hexdigest()
 
 
-def log_id(rel: str) -> str:
-    """A file-name-safe, unique id of the relative path ``rel``: its readable characters
-    (others replaced by ``_``, at most 60) and 10 hex digits of its SHA-1."""
-    keep = "".join(c if c.isascii() and (c.isalnum() or c in "._-") else "_" for c in rel)
+def display_name(rel: str) -> str:
+    """``rel`` readable: bytes that are not UTF-8 (kept by ``os.fsdecode`` as surrogates)
+    shown as ``\\xNN``, so that two such names stay two names."""
+    return os.fsencode(rel).decode("utf-8", "backslashreplace")
+
+
+def log_id(rel: str | bytes, digits: int = 10) -> str:
+    """A file-name-safe id of the relative path ``rel`` (its bytes: ``os.fsencode``): its
+    readable characters (others replaced by ``_``, at most 60) and ``digits`` hex digits of the
+    bytes' SHA-1 (10 by default; :func:`find_logs` lengthens the ids that would collide)."""
+    raw = rel if isinstance(rel, bytes) else os.fsencode(rel)
+    text = raw.decode("utf-8", "replace")
+    keep = "".join(c if c.isascii() and (c.isalnum() or c in "._-") else "_" for c in text)
     keep = keep.strip("._") or "log"
-    return f"{keep[:60]}-{hashlib.sha1(rel.encode('utf-8', 'surrogateescape')).hexdigest()[:10]}"
+    if digits <= 40:
+        tail = hashlib.sha1(raw).hexdigest()[:digits]
+    else:
+        tail = hashlib.sha256(raw).hexdigest()[:digits]
+    return f"{keep[:60]}-{tail}"
 
 
-def _walk(archive: Path, skip: tuple[Path, ...]) -> list[Path]:
-    found: list[Path] = []
-    for q in sorted(archive.rglob("*")):
-        if any(q == s or s in q.parents for s in skip):
+def _walk(archive: str, skip: set[tuple[int, int]], special: set[int]
+          ) -> list[tuple[str, str | None]]:
+    """(relative path, None) of every log, (relative path, why not) of every entry that is
+    refused, sorted by bytes. Never follows a link; never raises for one entry."""
+    found: list[tuple[str, str | None]] = []
+    stack = [""]
+    while stack:
+        sub = stack.pop()
+        here = os.path.join(archive, sub) if sub else archive
+        try:
+            with os.scandir(here) as it:
+                entries = list(it)
+        except OSError as err:
+            why = errno.errorcode.get(err.errno or 0, "")
+            found.append((sub, f"cannot list this folder ({err.strerror or err}"
+                               f"{', ' + why if why else ''}); its logs are not analysed"))
             continue
-        if any(part.startswith(".") for part in q.relative_to(archive).parts):
-            continue
-        in_bag = any(_is_rosbag2(parent) for parent in q.parents if archive in parent.parents)
-        if _is_rosbag2(q) or (q.is_file() and q.suffix.lower() in LOG_SUFFIXES and not in_bag):
-            found.append(q)
-    return found
-
-
-def _printable(text: str) -> str:
-    """``text`` with bytes that are not UTF-8 (undecodable file names) shown as U+FFFD."""
-    return text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+        for e in entries:
+            if e.name.startswith("."):
+                continue
+            rel = os.path.join(sub, e.name) if sub else e.name
+            try:
+                st = e.stat(follow_symlinks=False)
+            except OSError as err:
+                found.append((rel, f"cannot stat it ({err.strerror or err})"))
+                continue
+            is_log_name = os.path.splitext(e.name)[1].lower() in LOG_SUFFIXES
+            if stat.S_ISLNK(st.st_mode):
+                target_dir = os.path.isdir(e.path)  # stat of the target: never opened
+                if is_log_name or target_dir:
+                    found.append((rel, f"is a symbolic link{' to a folder' if target_dir else ''}"
+                                       "; logcal reads only regular files inside the archive "
+                                       "and never follows links"))
+                continue
+            if st.st_dev in special:
+                found.append((rel, "is on a kernel file system (/proc, /sys, /dev); not read"))
+                continue
+            if stat.S_ISDIR(st.st_mode):
+                if (st.st_dev, st.st_ino) in skip:
+                    continue
+                if _is_rosbag2(e.path):
+                    found.append((rel, None))
+                else:
+                    stack.append(rel)
+            elif is_log_name:
+                if stat.S_ISREG(st.st_mode):
+                    if not is_optiodom_metadata(e.path):  # a session's metadata, not a run
+                        found.append((rel, None))
+                else:
+                    found.append((rel, f"is {file_kind(st.st_mode)}; logcal reads regular "
+                                       "files only"))
+    return sorted(found, key=lambda item: [os.fsencode(p) for p in item[0].split(os.sep)])
 
 
 def find_logs(archive: Path, *, skip: tuple[Path, ...] = ()) -> list[LogJob]:
     """Every log below ``archive`` (``.mcap``, ``.csv``, ``.bag`` files and rosbag2 folders;
-    hidden files and folders, and anything under ``skip``, left out), sorted by path.
+    hidden files and folders, and anything under ``skip``, left out), sorted by path bytes;
+    links, special files and unreadable folders as entries with ``entry_error``.
 
     Raises:
-        LogcalInputError: ``archive`` is not a folder.
+        LogcalInputError: ``archive`` is not a folder, or is on a kernel file system.
     """
     archive = archive.resolve()
     if not archive.is_dir():
         raise LogcalInputError(f"{archive}: not a folder; expected an archive of logs "
                                f"({', '.join(LOG_SUFFIXES)} files, rosbag2 folders).")
-    skip = tuple(s.resolve() for s in skip)
+    root = special_filesystem(archive)
+    if root is not None:
+        raise LogcalInputError(f"{archive}: is on the kernel file system {root}; expected an "
+                               "archive of logs on disk.")
+    special = special_devices()
+    skip_ids = set()
+    for s in skip:
+        st = _lstat(os.fspath(s.resolve()))
+        if st is not None:
+            skip_ids.add((st.st_dev, st.st_ino))
+    base = os.fspath(archive)
     cache: dict[Path, dict[str, str]] = {}
     jobs: list[LogJob] = []
-    for p in _walk(archive, skip):
-        rel = _printable(p.relative_to(archive).as_posix())
+    seen: dict[str, str] = {}
+    for rel, refused in _walk(base, skip_ids, special):
+        path = os.path.join(base, rel)
+        ident = log_id(rel)
+        if ident in seen and seen[ident] != rel:  # a crafted collision of the short hash
+            ident = log_id(rel, digits=64)
+        seen[ident] = rel
+        name = display_name(rel)
+        if refused is not None:
+            jobs.append(LogJob(name, path, ident, "", None, entry_error=f"{name}: {refused}"))
+            continue
         settings, error = None, None
         try:
-            settings = settings_for(archive, p, cache)
+            settings = settings_for(archive, Path(path), cache)
         except SettingsError as err:
             error = str(err)
-        jobs.append(LogJob(rel, str(p), log_id(rel), content_hash(p), settings, error))
+        except (OSError, ValueError) as err:
+            error = f"{name}: its logcal.toml files cannot be read ({err})"
+        try:
+            digest = content_hash(path, special=special)
+        except EntryError as err:
+            jobs.append(LogJob(name, path, ident, "", None, entry_error=f"{name}: {err}"))
+            continue
+        except OSError as err:
+            jobs.append(LogJob(name, path, ident, "", None,
+                               entry_error=f"{name}: cannot read it ({err.strerror or err})"))
+            continue
+        jobs.append(LogJob(name, path, ident, digest, settings, error))
     return jobs
+

@@ -2,7 +2,8 @@
 
 The output folder holds::
 
-    manifest.json          every log: content hash, settings key, status, time taken
+    manifest.json          every log (by id): name, content hash, settings key, status, time
+    journal.jsonl          logs finished since the manifest was last written (append-only)
     logs/<id>.json         per log: its settings, status, error or AnalysisResult JSON
     views/<id>.rrd, .png   per log: rerun recording and static image (when its robot has them)
     fleet.parquet          the fleet table (logtools.batch.table)
@@ -12,10 +13,19 @@ The output folder holds::
 Resuming: a log is analysed again only when its manifest entry is missing, its key (content
 hash, logcal.toml settings and the files they name, analysis options, logcal version) differs,
 or one of its output files is gone; ``force`` redoes all. Every file is written to a temporary
-name and renamed over its target (``os.replace``), the manifest last, after each log: a batch
-killed at any moment leaves whole files only, and its finished logs are not redone. Leftover
-temporary files are removed at the next run. A lock file keeps two batches from writing one
-folder at once.
+name and renamed over its target (``os.replace``). After each log, one line is appended to the
+journal (its files are written before): the time per log does not grow with the number of logs
+(the manifest used to be rewritten whole after each, quadratic in the archive's size). At the
+start and the end of a run the journal is folded into ``manifest.json`` (written atomically,
+then the journal removed). A batch killed at any moment leaves whole files only, and its
+finished logs are not redone (a torn last journal line is ignored: that log is redone).
+Leftover temporary files are removed at the next run. A lock file keeps two batches from
+writing one folder at once.
+
+Nothing read back from ``DIR`` is trusted as a path: entries are keyed by log id (checked
+against :data:`~logtools.batch.archive.ID_PATTERN`), and every file name is derived from the id
+(``logs/<id>.json``, ``views/<id>.rrd``), so a crafted manifest cannot make a batch read or
+delete a file outside ``DIR``.
 """
 
 from __future__ import annotations
@@ -24,21 +34,31 @@ import contextlib
 import fcntl
 import hashlib
 import json
+import os
+import shutil
+import stat
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from logtools.batch.archive import LogJob, find_logs
+from logtools.batch.archive import ID_PATTERN, LogJob, find_logs
 from logtools.batch.engines import Engine, run_jobs
-from logtools.batch.worker import AnalysisOptions, LogOutcome
+from logtools.batch.settings import open_regular
+from logtools.batch.worker import AnalysisOptions, LogOutcome, analyse_job
 from logtools.errors import LogcalInputError
+from logtools.outputs import special_filesystem
 
-__all__ = ["BatchProgress", "BatchSummary", "read_records", "run_batch", "write_atomic"]
+__all__ = ["JOURNAL", "MANIFEST", "BatchProgress", "BatchSummary", "load_manifest",
+           "read_records", "run_batch", "write_atomic"]
 
 MANIFEST = "manifest.json"
-FORMAT = "logcal-batch/1"
+JOURNAL = "journal.jsonl"
+FORMAT = "logcal-batch/2"
+_FORMAT_1 = "logcal-batch/1"  # keyed by the log's name: read, converted to ids
+SUBDIRS = ("logs", "views", "pages", "plots")
+VIEW_SUFFIXES = (".rrd", ".png")
 
 
 @dataclass
@@ -93,13 +113,44 @@ def _version() -> str:
         return "unknown"
 
 
-def _key(job: LogJob, options: AnalysisOptions) -> str:
-    fp = job.settings.fingerprint if job.settings else f"error:{job.settings_error}"
-    text = f"{job.content_hash}|{fp}|{options.fingerprint()}|logcal {_version()}"
-    return hashlib.sha256(text.encode()).hexdigest()
+def _key(job: LogJob, options: AnalysisOptions, version: str) -> str:
+    if job.entry_error is not None:
+        fp = f"entry:{job.entry_error}"
+    else:
+        fp = job.settings.fingerprint if job.settings else f"error:{job.settings_error}"
+    text = f"{job.content_hash}|{fp}|{options.fingerprint()}|logcal {version}"
+    return hashlib.sha256(text.encode("utf-8", "surrogateescape")).hexdigest()
+
+
+def _text(value: str) -> str:
+    """``value`` encodable as UTF-8: bytes of an undecodable file name (surrogates, in an
+    error message that quotes the path) shown as ``\\xNN``, as in the log's name."""
+    try:
+        value.encode("utf-8")
+        return value
+    except UnicodeEncodeError:
+        try:
+            return value.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+        except UnicodeEncodeError:
+            return value.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
+def _clean(doc: Any) -> Any:
+    """``doc`` with every string (keys too) made UTF-8 encodable by :func:`_text`."""
+    if isinstance(doc, str):
+        return _text(doc)
+    if isinstance(doc, dict):
+        return {_clean(k): _clean(v) for k, v in doc.items()}
+    if isinstance(doc, list | tuple):
+        return [_clean(v) for v in doc]
+    return doc
 
 
 def _record(job: LogJob, outcome: LogOutcome, views: dict[str, str]) -> dict[str, Any]:
+    return _clean(_record_raw(job, outcome, views))
+
+
+def _record_raw(job: LogJob, outcome: LogOutcome, views: dict[str, str]) -> dict[str, Any]:
     s = job.settings
     return {
         "log": job.rel, "id": job.id, "content_hash": job.content_hash,
@@ -114,9 +165,18 @@ def _record(job: LogJob, outcome: LogOutcome, views: dict[str, str]) -> dict[str
     }
 
 
+def _open_nofollow(path: Path, flags: int) -> int:
+    return os.open(path, flags | os.O_NOFOLLOW | getattr(os, "O_CLOEXEC", 0), 0o644)
+
+
 @contextlib.contextmanager
 def _locked(out: Path) -> Iterator[None]:
-    with (out / ".lock").open("w") as fh:
+    try:  # never through a link planted at .lock, never truncating what is there
+        fd = _open_nofollow(out / ".lock", os.O_WRONLY | os.O_CREAT)
+    except OSError as err:
+        raise LogcalInputError(f"--out {out}: cannot create its lock file .lock "
+                               f"({err.strerror or err}).") from err
+    with os.fdopen(fd, "w") as fh:
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -127,40 +187,189 @@ def _locked(out: Path) -> Iterator[None]:
         yield
 
 
+def _prepare_subdirs(out: Path) -> None:
+    """Create ``logs``, ``views``, ``pages``, ``plots``; refuse any that is a link or a file
+    (writing through a planted link would put files outside ``out``)."""
+    for name in SUBDIRS:
+        sub = out / name
+        try:
+            sub.mkdir(exist_ok=True)
+            mode = os.lstat(sub).st_mode
+        except OSError as err:
+            raise LogcalInputError(f"--out {out}: cannot create {name}/ "
+                                   f"({err.strerror or err}).") from err
+        if not stat.S_ISDIR(mode):
+            raise LogcalInputError(f"--out {out}: {name} is not a folder (a link or a file); "
+                                   "logcal writes only into real folders of --out.")
+
+
 def _clean_partials(out: Path) -> None:
-    for p in out.rglob(".*.partial*"):
-        with contextlib.suppress(OSError):
-            p.unlink()
+    """Remove the temporaries of an interrupted run (in ``out`` and its own subfolders)."""
+    for folder in (out, *(out / s for s in SUBDIRS)):
+        try:
+            with os.scandir(folder) as it:
+                entries = [e for e in it if e.name.startswith(".") and ".partial" in e.name]
+        except OSError:
+            continue
+        for e in entries:
+            with contextlib.suppress(OSError):
+                if e.is_dir(follow_symlinks=False):
+                    shutil.rmtree(e.path)
+                else:
+                    os.unlink(e.path)
 
 
-def _load_manifest(out: Path) -> dict[str, Any]:
-    path = out / MANIFEST
-    if not path.is_file():
-        return {}
+def _read_json_file(path: Path) -> Any:
+    """JSON of a regular file of ``out`` (a link or FIFO planted there is not read); None when
+    it is absent or unreadable."""
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        fd = open_regular(path)
+    except OSError:
+        return None
+    try:
+        with os.fdopen(fd, "rb") as fh:
+            return json.loads(fh.read())
     except (OSError, ValueError):
-        return {}  # unreadable: everything is redone (it is only ever replaced whole)
-    logs = doc.get("logs") if isinstance(doc, dict) and doc.get("format") == FORMAT else None
-    return logs if isinstance(logs, dict) else {}
+        return None
 
 
-def _finished(entry: Any, key: str, out: Path) -> bool:
-    if not isinstance(entry, dict) or entry.get("key") != key:
+def _valid_entry(ident: Any, entry: Any) -> dict[str, Any] | None:
+    """The manifest entry with its file names derived from the id, or None when the id is not
+    one of ours or the entry is malformed (then it is ignored: the log is redone)."""
+    if not isinstance(ident, str) or not ID_PATTERN.fullmatch(ident):
+        return None
+    if not isinstance(entry, dict):
+        return None
+    views = entry.get("views") or {}
+    if not isinstance(views, dict) or any(s not in VIEW_SUFFIXES for s in views):
+        return None
+    clean = dict(entry)
+    clean["id"] = ident
+    clean["log"] = str(entry.get("log", ident))
+    clean["record"] = f"logs/{ident}.json"
+    clean["views"] = {s: f"views/{ident}{s}" for s in sorted(views)}
+    return clean
+
+
+def load_manifest(out: Path) -> dict[str, dict[str, Any]]:
+    """The entries of ``out``'s manifest and journal, by log id (validated: see the module
+    docstring); empty when there is none."""
+    logs: dict[str, dict[str, Any]] = {}
+    doc = _read_json_file(out / MANIFEST)
+    items: list[tuple[Any, Any]] = []
+    if isinstance(doc, dict) and isinstance(doc.get("logs"), dict):
+        if doc.get("format") == FORMAT:
+            items = list(doc["logs"].items())
+        elif doc.get("format") == _FORMAT_1:
+            items = [(e.get("id"), {**e, "log": rel}) for rel, e in doc["logs"].items()
+                     if isinstance(e, dict)]
+    for ident, entry in items:
+        valid = _valid_entry(ident, entry)
+        if valid is not None:
+            logs[valid["id"]] = valid
+    try:
+        fd = open_regular(out / JOURNAL)
+    except OSError:
+        return logs
+    with os.fdopen(fd, "rb") as fh:
+        for line in fh:
+            try:
+                item = json.loads(line)
+            except ValueError:
+                continue  # a line torn by a kill: that log is redone
+            if not isinstance(item, dict):
+                continue
+            if item.get("drop") is True and isinstance(item.get("id"), str):
+                logs.pop(item["id"], None)
+                continue
+            valid = _valid_entry(item.get("id"), item.get("entry"))
+            if valid is not None:
+                logs[valid["id"]] = valid
+    return logs
+
+
+def _files(ident: str, views: Any) -> list[str]:
+    return [f"logs/{ident}.json", *(f"views/{ident}{s}" for s in VIEW_SUFFIXES
+                                     if isinstance(views, dict) and s in views)]
+
+
+def _finished(entry: dict[str, Any] | None, key: str, out: Path) -> bool:
+    if entry is None or entry.get("key") != key:
         return False
-    files = [entry.get("record", ""), *(entry.get("views") or {}).values()]
-    return all(isinstance(f, str) and f and (out / f).is_file() for f in files)
+    return all(os.path.isfile(out / f) for f in _files(entry["id"], entry.get("views")))
 
 
 def read_records(out: Path) -> list[dict[str, Any]]:
     """The per-log records of the logs in ``out``'s manifest, in archive order."""
-    manifest = _load_manifest(out)
+    manifest = load_manifest(out)
     records = []
-    for rel in sorted(manifest):
-        path = out / str(manifest[rel].get("record", ""))
-        if path.is_file():
-            records.append(json.loads(path.read_text(encoding="utf-8")))
+    for ident in sorted(manifest, key=lambda i: (manifest[i]["log"], i)):
+        record = _read_json_file(out / "logs" / f"{ident}.json")
+        if isinstance(record, dict):
+            record["id"] = ident  # file names in the report come from the checked id only
+            record["views"] = manifest[ident]["views"]
+            record["log"] = str(record.get("log", manifest[ident]["log"]))
+            records.append(record)
     return records
+
+
+class _Journal:
+    """``journal.jsonl``: one JSON line appended per finished log (never rewritten)."""
+
+    def __init__(self, out: Path) -> None:
+        self.fd = _open_nofollow(out / JOURNAL, os.O_WRONLY | os.O_CREAT | os.O_APPEND)
+
+    def append(self, item: dict[str, Any]) -> None:
+        from calib.results import json_safe
+
+        line = json.dumps(json_safe(item), sort_keys=True, allow_nan=False) + "\n"
+        os.write(self.fd, line.encode())
+
+    def close(self) -> None:
+        os.close(self.fd)
+
+
+def _compact(out: Path, manifest: dict[str, Any], archive: Path, options: AnalysisOptions,
+             version: str) -> None:
+    """Fold the journal into ``manifest.json`` (written atomically), then remove the journal
+    (a kill in between replays it on top of the same entries: no loss)."""
+    write_atomic(out / MANIFEST, _json_bytes({
+        "format": FORMAT, "archive": os.fsencode(str(archive)).decode("utf-8", "replace"),
+        "options": options.fingerprint(), "logcal": version, "logs": manifest}))
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(out / JOURNAL)
+
+
+def _is_rosbag2_folder(path: Path) -> bool:
+    return os.path.isdir(path) and os.path.lexists(path / "metadata.yaml")
+
+
+def check_out(archive: Path, out: Path) -> Path:
+    """``out`` resolved, if a batch may write there: not on a kernel file system, not the
+    archive or a folder holding it, and never inside an input (a rosbag2 folder of the
+    archive). Checked before anything is created.
+
+    Raises:
+        LogcalInputError: why not.
+    """
+    archive_res, out_res = archive.resolve(), out.resolve()
+    root = special_filesystem(out_res)
+    if root is not None:
+        raise LogcalInputError(f"--out {out}: is on the kernel file system {root}; choose a "
+                               "folder on disk.")
+    if archive_res == out_res or out_res in archive_res.parents:
+        raise LogcalInputError(f"--out {out_res}: is the archive or holds it; choose a folder "
+                               "outside the archive.")
+    if archive_res in out_res.parents:
+        for folder in (out_res, *out_res.parents):
+            if folder == archive_res:
+                break
+            if _is_rosbag2_folder(folder):
+                raise LogcalInputError(
+                    f"--out {out_res}: is inside the rosbag2 folder {folder}, one of the "
+                    "archive's logs; logcal never writes into an input. Choose a folder "
+                    "outside it.")
+    return out_res
 
 
 def run_batch(
@@ -178,69 +387,87 @@ def run_batch(
     """Analyse every log below ``archive`` into ``out`` (see the module docstring).
 
     Raises:
-        LogcalInputError: ``archive`` is not a folder, ``out`` cannot be created or is in use
-            by another batch, or the engine cannot start.
+        LogcalInputError: ``archive`` is not a folder, ``out`` cannot be created, is on a
+            kernel file system, inside an input, or in use by another batch, or the engine
+            cannot start.
     """
     t0 = time.perf_counter()
     options = options or AnalysisOptions()
-    out = out.resolve()
+    if not archive.resolve().is_dir():
+        raise LogcalInputError(f"{archive.resolve()}: not a folder; expected an archive of "
+                               "logs (.mcap, .csv, .bag files, rosbag2 folders).")
+    out = check_out(archive, out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise LogcalInputError(f"--out {out}: cannot create the folder ({err}).") from err
-    if archive.resolve() == out or out in archive.resolve().parents:
-        raise LogcalInputError(f"--out {out}: is the archive or holds it; choose a folder "
-                               "outside the archive.")
+    version = _version()
     with _locked(out):
+        _prepare_subdirs(out)
         _clean_partials(out)
         jobs = find_logs(archive, skip=(out,))
-        manifest = _load_manifest(out)
-        current = {j.rel for j in jobs}
-        for rel in [r for r in manifest if r not in current]:  # logs gone from the archive
-            entry = manifest.pop(rel)
-            for f in [entry.get("record", ""), *(entry.get("views") or {}).values()]:
-                with contextlib.suppress(OSError, TypeError):
-                    (out / f).unlink()
-        keys = {j.rel: _key(j, options) for j in jobs}
-        todo = [j for j in jobs if force or not _finished(manifest.get(j.rel), keys[j.rel], out)]
-        skipped = [j.rel for j in jobs if j not in todo]
+        manifest = load_manifest(out)
+        current = {j.id for j in jobs}
+        for ident in [i for i in manifest if i not in current]:  # logs gone from the archive
+            entry = manifest.pop(ident)
+            for f in _files(ident, entry.get("views")):
+                with contextlib.suppress(OSError):
+                    os.unlink(out / f)
+        keys = {j.id: _key(j, options, version) for j in jobs}
+        todo = [j for j in jobs
+                if force or not _finished(manifest.get(j.id), keys[j.id], out)]
+        todo_ids = {j.id for j in todo}
+        skipped = [j.rel for j in jobs if j.id not in todo_ids]
         state = BatchProgress(total=len(todo), skipped=len(skipped))
         analysed: list[str] = []
-
-        def save_manifest() -> None:
-            write_atomic(out / MANIFEST, _json_bytes({
-                "format": FORMAT, "archive": str(archive.resolve()),
-                "options": options.fingerprint(), "logcal": _version(), "logs": manifest}))
-
-        save_manifest()
+        _compact(out, manifest, archive, options, version)
         if progress:
             progress(state)
-        for outcome in run_jobs(todo, options, engine=engine, workers=workers, address=address):
-            job = outcome.job
-            views: dict[str, str] = {}
-            for suffix, data in sorted(outcome.views.items()):
-                rel_view = f"views/{job.id}{suffix}"
-                write_atomic(out / rel_view, data)
-                views[suffix] = rel_view
-            record_rel = f"logs/{job.id}.json"
-            write_atomic(out / record_rel, _json_bytes(_record(job, outcome, views)))
-            manifest[job.rel] = {
-                "id": job.id, "key": keys[job.rel], "content_hash": job.content_hash,
-                "status": outcome.status, "record": record_rel, "views": views,
-                "seconds": round(outcome.seconds, 3), "error": outcome.error,
-            }
-            save_manifest()
-            analysed.append(job.rel)
-            state.done += 1
-            state.failed += outcome.status != "ok"
-            state.last = job.rel
-            if progress:
-                progress(state)
+        # entries refused before analysis (links, FIFOs, bad logcal.toml) fail here, at once
+        early = [j for j in todo if j.entry_error is not None or j.settings is None]
+        rest = [j for j in todo if j.entry_error is None and j.settings is not None]
+        journal = _Journal(out)
+        try:
+            outcomes = run_jobs(rest, options, engine=engine, workers=workers, address=address)
+            for outcome in _chain((analyse_job(j, options) for j in early), outcomes):
+                job = outcome.job
+                views: dict[str, str] = {}
+                for suffix, data in sorted(outcome.views.items()):
+                    if suffix not in VIEW_SUFFIXES:
+                        continue
+                    rel_view = f"views/{job.id}{suffix}"
+                    write_atomic(out / rel_view, data)
+                    views[suffix] = rel_view
+                record_rel = f"logs/{job.id}.json"
+                write_atomic(out / record_rel, _json_bytes(_record(job, outcome, views)))
+                manifest[job.id] = {
+                    "id": job.id, "log": job.rel, "key": keys[job.id],
+                    "content_hash": job.content_hash, "status": outcome.status,
+                    "record": record_rel, "views": views,
+                    "seconds": round(outcome.seconds, 3),
+                    "error": None if outcome.error is None else _text(outcome.error),
+                }
+                journal.append({"id": job.id, "entry": manifest[job.id]})
+                analysed.append(job.rel)
+                state.done += 1
+                state.failed += outcome.status != "ok"
+                state.last = job.rel
+                if progress:
+                    progress(state)
+        finally:
+            journal.close()
+        _compact(out, manifest, archive, options, version)
         if report:
             write_fleet_outputs(out)
-    failed = [(rel, str(manifest[rel].get("error"))) for rel in sorted(manifest)
-              if manifest[rel].get("status") != "ok"]
+    failed = [(str(manifest[i]["log"]), str(manifest[i].get("error")))
+              for i in sorted(manifest, key=lambda i: (manifest[i]["log"], i))
+              if manifest[i].get("status") != "ok"]
     return BatchSummary(out, len(jobs), analysed, skipped, failed, time.perf_counter() - t0)
+
+
+def _chain(*parts: Any) -> Iterator[LogOutcome]:
+    for part in parts:
+        yield from part
 
 
 def write_fleet_outputs(out: Path) -> None:

@@ -15,18 +15,28 @@ wins key by key::
 
 Every key is optional. A malformed file, or an unknown key, makes every log below it fail with
 one message naming the file and key (the rest of the batch still runs).
+
+A settings file is data, never an instruction to read elsewhere: ``channel_map`` and ``urdf``
+may name only regular files inside the archive (relative to the ``logcal.toml``; absolute
+paths, ``~`` and ``..`` leading out of the archive are refused with the reason), no text is
+globbed, and ``logcal.toml`` itself must be a regular file (not a link, at most 1 MiB).
 """
 
 from __future__ import annotations
 
+import errno
 import hashlib
+import os
+import re
+import stat
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 from logtools.errors import LogcalInputError
 
-__all__ = ["ARCHIVE_ROOT_ID", "SETTINGS_FILE", "LogSettings", "SettingsError", "settings_for"]
+__all__ = ["ARCHIVE_ROOT_ID", "SETTINGS_FILE", "SETTINGS_MAX_BYTES", "LogSettings",
+           "SettingsError", "open_regular", "read_regular", "settings_for"]
 
 SETTINGS_FILE = "logcal.toml"
 ARCHIVE_ROOT_ID = "(archive root)"
@@ -66,9 +76,81 @@ class LogSettings:
     robot_from: str | None = None
 
 
-def _read(file: Path) -> dict[str, str]:
+SETTINGS_MAX_BYTES = 1 << 20
+"""A ``logcal.toml``, channel map or URDF larger than this is refused (1 MiB)."""
+_MODEL_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,63}")
+
+
+def open_regular(path: str | Path, *, special: set[int] | None = None) -> int:
+    """A read-only file descriptor of ``path`` if it is a regular file and not a link.
+
+    Opened with ``O_NOFOLLOW | O_NONBLOCK`` (a link is refused, a FIFO does not block the
+    open), then checked with ``fstat``: a FIFO, socket or device is closed unread, and so is a
+    file on a kernel file system whose device is in ``special``.
+
+    Raises:
+        OSError: it cannot be opened, or is not a regular file (``EINVAL``, with its kind).
+    """
+    from logtools.batch.archive import file_kind
+
+    flags = os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0)
+    fd = os.open(path, flags)
     try:
-        doc = tomllib.loads(file.read_text(encoding="utf-8"))
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise OSError(errno.EINVAL, f"it is {file_kind(st.st_mode)}; logcal reads "
+                                        "regular files only")
+        if special and st.st_dev in special:
+            raise OSError(errno.EINVAL, "it is on a kernel file system (/proc, /sys, /dev)")
+        os.set_blocking(fd, True)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def read_regular(path: str | Path, limit: int = SETTINGS_MAX_BYTES) -> bytes:
+    """The bytes of the regular file ``path`` (not a link, at most ``limit`` bytes).
+
+    Raises:
+        OSError: not a regular file, a link, unreadable, or larger than ``limit``.
+    """
+    fd = open_regular(path)
+    with os.fdopen(fd, "rb") as fh:
+        data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise OSError(errno.EFBIG, f"larger than {limit} bytes")
+    return data
+
+
+def _inside(archive: Path, file: Path, key: str, value: str) -> Path:
+    """The file ``value`` names, relative to ``file``'s folder, if it is a regular file inside
+    ``archive`` (links inside the archive allowed when their target is inside it too)."""
+    if "\0" in value:
+        raise SettingsError(file, key, f"names {value!r}, which holds a NUL character.")
+    if Path(value).is_absolute() or value.startswith("~"):
+        raise SettingsError(file, key, f"names {value!r}, an absolute path; a logcal.toml may "
+                                       "name only files inside the archive, relative to itself.")
+    path = (file.parent / value).resolve()
+    if archive not in path.parents:
+        raise SettingsError(file, key, f"names {value!r}, which is outside the archive "
+                                       f"{archive}; a logcal.toml may name only files inside "
+                                       "the archive.")
+    try:
+        st = os.stat(path)
+    except OSError as err:
+        raise SettingsError(file, key, f"names {value!r}, which is not a file "
+                                       f"(looked for {path}: {err.strerror or err}).") from err
+    if not stat.S_ISREG(st.st_mode):
+        raise SettingsError(file, key, f"names {value!r}, which is not a regular file "
+                                       f"(looked for {path}).")
+    return path
+
+
+def _read(archive: Path, file: Path) -> dict[str, str]:
+    try:
+        text = read_regular(file).decode("utf-8")
+        doc = tomllib.loads(text)
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
         raise SettingsError(file, None, f"not a readable TOML file ({err}).") from err
     out: dict[str, str] = {}
@@ -79,22 +161,19 @@ def _read(file: Path) -> dict[str, str]:
         if not isinstance(value, str) or not value.strip():
             raise SettingsError(file, key, f"is {value!r}; expected a non-empty string.")
         if key in ("channel_map", "urdf") and (key == "channel_map" or _looks_like_path(value)):
-            path = (file.parent / value).resolve()
-            if not path.is_file():
-                raise SettingsError(file, key, f"names {value!r}, which is not a file "
-                                               f"(looked for {path}).")
-            value = str(path)
+            value = str(_inside(archive, file, key, value))
         out[key] = value
     return out
 
 
 def _looks_like_path(value: str) -> bool:
-    return "/" in value or value.endswith((".urdf", ".xml"))
+    """A ``urdf`` value that is not a plain model name (``panda``, ``ur5``) is a path."""
+    return _MODEL_NAME.fullmatch(value) is None
 
 
 def _file_digest(path: str) -> str:
     try:
-        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        return hashlib.sha256(read_regular(path, limit=64 * SETTINGS_MAX_BYTES)).hexdigest()
     except OSError:
         return "unreadable"
 
@@ -110,6 +189,7 @@ def settings_for(archive: Path, log: Path, cache: dict[Path, dict[str, str]] | N
         SettingsError: a ``logcal.toml`` on the way is malformed or names a missing file.
     """
     cache = {} if cache is None else cache
+    root = archive.resolve()  # files named by a logcal.toml must resolve inside it
     rel = log.relative_to(archive)
     folders = [archive]
     for part in rel.parts[:-1]:
@@ -119,9 +199,10 @@ def settings_for(archive: Path, log: Path, cache: dict[Path, dict[str, str]] | N
     robot_from = None
     for folder in folders:
         file = folder / SETTINGS_FILE
+        present = os.path.lexists(file)  # a link or FIFO named logcal.toml: refused by _read
         if folder not in cache:
-            cache[folder] = _read(file) if file.is_file() else {}
-        if file.is_file():
+            cache[folder] = _read(root, file) if present else {}
+        if present:
             sources.append(str(file))
         merged.update(cache[folder])
         if "robot" in cache[folder]:
@@ -131,7 +212,7 @@ def settings_for(archive: Path, log: Path, cache: dict[Path, dict[str, str]] | N
     for key in _KEYS:
         digest.update(f"{key}={merged.get(key, '')}\n".encode())
     for key in ("channel_map", "urdf"):
-        if key in merged and Path(merged[key]).is_file():
+        if key in merged and _looks_like_path(merged[key]):
             digest.update(_file_digest(merged[key]).encode())
     return LogSettings(
         robot=merged.get("robot"),

@@ -117,11 +117,31 @@ def _time_span(t_ns: list[int]) -> tuple[int | None, int | None]:
     return int(min(t_ns)), int(max(t_ns))
 
 
+def _no_longer_plain(path: str) -> str | None:
+    """Why ``path`` is no longer a regular file or a real folder (None: it still is)."""
+    import os
+    import stat
+
+    from logtools.batch.archive import file_kind
+
+    try:
+        mode = os.lstat(path).st_mode
+    except OSError as err:
+        return f"cannot read it ({err.strerror or err})"
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    return f"is now {file_kind(mode)}; logcal reads regular files only"
+
+
 def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
     """Analyse ``job`` with ``options``; every failure is returned, never raised."""
     t0 = time.perf_counter()
-    if job.settings is None:
-        return LogOutcome(job, "failed", error=job.settings_error, error_kind="input",
+    if job.entry_error is not None or job.settings is None:
+        return LogOutcome(job, "failed", error=job.entry_error or job.settings_error,
+                          error_kind="input", seconds=time.perf_counter() - t0)
+    changed = _no_longer_plain(job.path)
+    if changed is not None:  # replaced by a link or a FIFO since the archive was walked
+        return LogOutcome(job, "failed", error=f"{job.rel}: {changed}", error_kind="input",
                           seconds=time.perf_counter() - t0)
     try:
         from dataclasses import replace

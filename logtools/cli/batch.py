@@ -53,6 +53,7 @@ def register(app: typer.Typer) -> None:
 
         from logtools.batch.runner import BatchProgress, run_batch
         from logtools.batch.worker import AnalysisOptions
+        from logtools.safe_text import printable
 
         if address and engine is not Engine.RAY:
             raise typer.BadParameter("--address needs --engine ray", param_hint="--address")
@@ -70,7 +71,7 @@ def register(app: typer.Typer) -> None:
 
         def show(p: BatchProgress) -> None:
             bar.update(task, total=p.total, completed=p.done, failed=p.failed,
-                       last=p.last[-40:])
+                       last=printable(p.last)[-40:])
 
         t0 = time.perf_counter()
         with bar:
@@ -79,10 +80,11 @@ def register(app: typer.Typer) -> None:
         err.print(
             f"{summary.logs} logs: {len(summary.analysed)} analysed, {len(summary.skipped)} "
             f"already done, {len(summary.failed)} failed; {time.perf_counter() - t0:.1f} s. "
-            f"Report: {summary.out / 'index.html'}", markup=False, highlight=False,
+            f"Report: {printable(summary.out / 'index.html')}", markup=False, highlight=False,
         )
-        for rel, message in summary.failed:
-            err.print(f"  failed: {rel}: {message}", markup=False, highlight=False)
+        for rel, message in summary.failed:  # names and messages from the archive: escaped
+            err.print(f"  failed: {printable(rel)}: {printable(message)}", markup=False,
+                      highlight=False, soft_wrap=True)
 
     @app.command("serve")
     def serve(

@@ -153,8 +153,8 @@ def test_discovered_effects_become_table_rows(tmp_path: Path) -> None:
     import polars as pl
     from batch_archive import FAST, T0_NS
 
-    from calib.sim.presets import preset
-    from calib.sim.tractor_trailer import Effects, simulate_tractor_trailer
+    from calib.tractor_trailer.sim.presets import preset
+    from calib.tractor_trailer.sim.tractor_trailer import Effects, simulate_tractor_trailer
     from logtools.batch.runner import read_records, run_batch
     from logtools.writers.tractor_trailer import run_metadata, write_run
 

@@ -15,7 +15,7 @@ import polars as pl
 import pytest
 from batch_archive import FAST, sim_log, small_archive
 
-from logtools.batch.runner import MANIFEST, run_batch
+from logtools.batch.runner import load_manifest, run_batch
 
 pytestmark = pytest.mark.slow  # batches killed and rerun (~13 s)
 
@@ -23,10 +23,8 @@ N_LOGS = 7  # 6 simulated + 1 corrupt
 
 
 def _manifest(out: Path) -> dict[str, dict[str, object]]:
-    try:
-        return json.loads((out / MANIFEST).read_text())["logs"]
-    except (OSError, ValueError, KeyError):
-        return {}
+    """The finished logs by name: manifest.json and the journal appended after each log."""
+    return {str(e["log"]): e for e in load_manifest(out).values()}
 
 
 def _check_whole(out: Path) -> None:
