@@ -17,6 +17,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from calib.results import PM_MEANING, AnalysisResult, CalibrationResult
+from viz.raw import log_raw_signals
 from viz.style import COLORS
 
 if TYPE_CHECKING:
@@ -106,6 +107,8 @@ def log_views(
             ))
         rec.log("methods", rr.TextDocument(_table(result), media_type="text/markdown"),
                 static=True)
+        origin = int(loaded.frame["t_ns"][0]) if loaded.frame.height else None
+        log_raw_signals(rec, loaded.log.topics, timeline="time", origin_ns=origin)
     finally:
         rec.flush()
     grid = rrb.Grid(*views[:6]) if views else rrb.TextDocumentView(origin="methods")
@@ -113,7 +116,11 @@ def log_views(
         rrb.Blueprint(
             rrb.Vertical(
                 grid,
-                rrb.TextDocumentView(name="methods: parameters (mm)", origin="methods"),
+                rrb.Tabs(
+                    rrb.TextDocumentView(name="methods: parameters (mm)", origin="methods"),
+                    rrb.TimeSeriesView(name="raw signals as read (s from the log's start)",
+                                       origin="raw"),
+                ),
                 row_shares=[3, 1],
             ),
             rrb.BlueprintPanel(state="collapsed"),

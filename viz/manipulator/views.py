@@ -12,6 +12,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from calib.results import AnalysisResult
+from viz.raw import log_raw_signals
 
 if TYPE_CHECKING:
     from logtools.load import LoadedLog
@@ -25,7 +26,8 @@ def log_views(
     out: Path, loaded: LoadedLog, result: AnalysisResult,
     options: ManipulatorOptions | None = None,
 ) -> Path:
-    """Save the arm's views of ``result`` to ``out`` (.rrd); ``loaded`` and ``options`` are
+    """Save the arm's views of ``result`` to ``out`` (.rrd), with the signals as read from
+    ``loaded`` under ``raw/``; ``options`` are
     unused (the arrays drawn are in ``result.artifacts``, computed with the options)."""
     art = result.artifacts
     out = Path(out)
@@ -57,6 +59,8 @@ def log_views(
                     v = float(traj[k, p])
                     if np.isfinite(v):
                         rec.log(f"convergence/{est}/{_safe(name)}", rr.Scalars(v))
+        origin = int(loaded.frame["t_ns"][0]) if loaded.frame.height else None
+        log_raw_signals(rec, loaded.log.topics, timeline="time", origin_ns=origin)
     finally:
         rec.flush()
     torque: list[rrb.View] = [
@@ -74,7 +78,11 @@ def log_views(
                 rrb.Vertical(
                     rrb.Spatial3DView(name="arm (forward kinematics of the logged q)",
                                       origin="arm"),
-                    rrb.TextDocumentView(name="summary", origin="summary"),
+                    rrb.Tabs(
+                        rrb.TextDocumentView(name="summary", origin="summary"),
+                        rrb.TimeSeriesView(name="raw signals as read (s from the log's start)",
+                                           origin="raw"),
+                    ),
                 ),
                 rrb.Vertical(*(torque[:4] or [rrb.TextDocumentView(origin="summary")])),
                 *([rrb.Vertical(*conv[:3])] if conv else []),

@@ -109,6 +109,8 @@ def default_blueprint(
     t_range_ns: tuple[int, int] | None = None,
     y_ranges: dict[str, tuple[float, float]] | None = None,
     views: Mapping[str, np.ndarray] | None = None,
+    *,
+    raw: bool = False,
 ) -> rrb.Blueprint:
     """The overview, the close-up and the time series on top; error bars and texts below.
 
@@ -146,7 +148,12 @@ def default_blueprint(
         *series,
         row_shares=[2, 3, 3, 3],
     )
+    raw_views = [rrb.TimeSeriesView(
+        name="Raw signals as read (every topic at its own stamps)", origin="/raw",
+        time_ranges=_whole_log(), axis_x=axis,
+    )] if raw else []
     docs = rrb.Tabs(
+        *raw_views,
         rrb.TextDocumentView(name="Summary", origin="/summary"),
         rrb.TextDocumentView(name="Methods table", origin="/methods/table"),
         rrb.TextLogView(name="Segment log", origin="/segments/log"),

@@ -12,6 +12,8 @@ import rerun as rr
 from calib.results import PM_MEANING, AnalysisResult
 from calib.tractor_trailer.views_data import VIEWS
 from viz._frame import column, has, robust_limits
+from viz.raw import log_raw_signals
+from viz.style import TIMELINE
 from viz.tractor_trailer.blueprint import default_blueprint
 from viz.tractor_trailer.methods import log_methods
 from viz.tractor_trailer.signals import find_method, log_segments, log_signals
@@ -70,6 +72,7 @@ def write_recording(
     *,
     method_for_psi: str | None = None,
     application_id: str = "logcal",
+    raw: Mapping[str, pl.DataFrame] | None = None,
 ) -> Path:
     """Save the recording of ``frame`` (aligned log) and ``result`` to ``path``.
 
@@ -102,7 +105,8 @@ def write_recording(
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     rec = rr.RecordingStream(application_id)
-    blueprint = default_blueprint(result, _time_range(frame), _y_ranges(frame, drawn), drawn)
+    blueprint = default_blueprint(result, _time_range(frame), _y_ranges(frame, drawn), drawn,
+                                  raw=bool(raw))
     rec.save(out, default_blueprint=blueprint)
     try:
         rec.log(
@@ -114,6 +118,8 @@ def write_recording(
         log_signals(rec, frame, result, drawn, method_for_psi)
         log_segments(rec, frame, result)
         log_methods(rec, result)
+        if raw:
+            log_raw_signals(rec, raw, timeline=TIMELINE)
     finally:
         rec.flush()
         rec.disconnect()

@@ -30,7 +30,8 @@ def tractor_trailer_rrd(
     from viz.tractor_trailer.recording import write_recording
 
     method = options.method_for_psi if options is not None else None
-    return write_recording(out, loaded.frame, result, method_for_psi=method)
+    return write_recording(out, loaded.frame, result, method_for_psi=method,
+                           raw=loaded.log.topics)
 
 
 def tractor_trailer_png(out: Path, loaded: LoadedLog, result: AnalysisResult) -> Path:
