@@ -7,7 +7,7 @@ from typing import Any
 
 from calib.results import AnalysisResult
 
-__all__ = ["report_lines"]
+__all__ = ["pooled_summary_lines", "report_lines", "summary_lines"]
 
 
 def _ground_truth_lines(result: AnalysisResult) -> list[str]:
@@ -83,3 +83,54 @@ def report_lines(result: AnalysisResult) -> list[Any]:
             )
     lines += _adequacy_lines(result)
     return lines
+
+
+def _dead_reckoning_lines(result: AnalysisResult) -> list[str]:
+    """End-point error before (nominal) and after (calibrated) per run, each run named by its
+    file, and plainly which runs calibration made worse."""
+    dr = result.sections.get("dead_reckoning")
+    if not dr:
+        return []
+    from logtools.report import short_names
+
+    rows = dr["runs"]
+    names = short_names([str(r["run"]) for r in rows])
+    lines = [f"Dead reckoning, end-point error nominal -> calibrated "
+             f"({dr.get('calibrated_with') or result.estimate.method if result.estimate else ''}):"]
+    worse = []
+    for name, row in zip(names, rows, strict=True):
+        nom = row.get("nominal", {}).get("end_point_error_m")
+        cal = row.get("calibrated", {}).get("end_point_error_m")
+        if nom is None or cal is None:
+            lines.append(f"  {name}: -")
+            continue
+        tag = ""
+        if cal > nom:
+            worse.append(name)
+            tag = "  WORSE"
+        lines.append(f"  {name}: {nom:.4f} m -> {cal:.4f} m{tag}")
+    if worse:
+        lines.append(f"Calibration made the end-point error worse on {len(worse)} of {len(rows)} "
+                     f"run(s): {', '.join(worse)}")
+    return lines
+
+
+def _umbmark_lines(result: AnalysisResult) -> list[str]:
+    out = []
+    for m in result.methods:
+        if getattr(m, "method", "").startswith("UMBmark"):
+            out.append(f"{m.method}: " + "; ".join(
+                e.report() for e in m.parameters.values()))
+    return out
+
+
+def summary_lines(result: AnalysisResult) -> list[Any]:
+    """Beside the answer in every report: where the ground truth came from, dead reckoning
+    before and after (and which runs got worse), UMBmark where the runs are square."""
+    return [*_ground_truth_lines(result), *_dead_reckoning_lines(result),
+            *_umbmark_lines(result)]
+
+
+def pooled_summary_lines(result: AnalysisResult) -> list[Any]:
+    """The same for several runs pooled: each run's dead reckoning before and after."""
+    return summary_lines(result)
