@@ -14,7 +14,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -51,6 +51,9 @@ from calib.results import AnalysisResult, CalibrationResult
 from logtools.load import LoadedLog
 from logtools.robots.base import Progress
 from logtools.stages import Stages
+
+if TYPE_CHECKING:
+    from logtools.analyze import AnalysisConfig
 
 __all__ = ["NOMINAL_RECORD", "analyze_diff_drive", "nominal_params", "pool_diff_drive"]
 
@@ -344,7 +347,7 @@ def _calibrate_and_judge(
 def _analyze_runs(
     runs: list[DriveRun],
     nominal: DiffDriveParams | None,
-    config: Any,
+    config: AnalysisConfig,
     progress: Progress,
     gyro: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None,
     side: float | None,
@@ -352,8 +355,8 @@ def _analyze_runs(
     list[CalibrationResult], CalibrationResult | None, dict[str, Any], Any, Any,
     dict[str, Any], Adequacy, list[str],
 ]:
-    stages = Stages(getattr(config, "debug", False))
-    seed = int(getattr(config, "seed", 0))
+    stages = Stages(config.debug)
+    seed = config.seed
     methods: list[CalibrationResult] = []
     sections: dict[str, Any] = {}
     warnings: list[str] = []
@@ -361,7 +364,7 @@ def _analyze_runs(
     adequacy = not_assessed(LSQ_MODEL, "no ground-truth pose with wheel angles")
     if runs:
         lsq, _fit, adequacy, disc, sec, warnings = _calibrate_and_judge(
-            runs, nominal, stages, seed, bool(getattr(config, "discovery", True)), progress)
+            runs, nominal, stages, seed, config.discovery, progress)
         sections.update(sec)
         if lsq is not None:
             methods.append(lsq)
@@ -521,7 +524,9 @@ def _odom_imu(loaded: LoadedLog, nominal: DiffDriveParams | None, stages: Stages
     return cal, res.adequacy, res, {"odometry_imu": res.to_dict()}
 
 
-def analyze_diff_drive(loaded: LoadedLog, config: Any, progress: Progress) -> AnalysisResult:
+def analyze_diff_drive(
+    loaded: LoadedLog, config: AnalysisConfig, progress: Progress
+) -> AnalysisResult:
     """Calibrate one differential-drive log (the plugin's ``analyze``)."""
     nominal = nominal_params(loaded)
     warnings = [str(p) for p in loaded.problems]
@@ -531,7 +536,7 @@ def analyze_diff_drive(loaded: LoadedLog, config: Any, progress: Progress) -> An
             "wheel_radius_left, track_width, or metadata record logcal.nominal): drift before "
             "calibration and the effective-track test are not reported"
         )
-    stages_pre = Stages(getattr(config, "debug", False))
+    stages_pre = Stages(config.debug)
     cols = set(loaded.frame.columns)
     has_wheels = {"wheel_right", "wheel_left"} <= cols
     run = stages_pre.run("ground_truth", lambda: _drive_run(loaded)) if has_wheels else None
@@ -555,7 +560,7 @@ def analyze_diff_drive(loaded: LoadedLog, config: Any, progress: Progress) -> An
     sections.update(sec)
     warnings += more
     if not runs:
-        cal, ad, _res, sec2 = _odom_imu(loaded, nominal, stages, int(getattr(config, "seed", 0)))
+        cal, ad, _res, sec2 = _odom_imu(loaded, nominal, stages, config.seed)
         sections.update(sec2)
         if cal is not None:
             methods.insert(0, cal)
@@ -585,7 +590,8 @@ def analyze_diff_drive(loaded: LoadedLog, config: Any, progress: Progress) -> An
 
 
 def pool_diff_drive(
-    runs: Sequence[tuple[LoadedLog, AnalysisResult]], config: Any, progress: Progress
+    runs: Sequence[tuple[LoadedLog, AnalysisResult]], config: AnalysisConfig,
+    progress: Progress,
 ) -> AnalysisResult:
     """All runs together: one least-squares fit, UMBmark over the square runs, dead reckoning
     of every run with the pooled parameters, the adequacy of the pooled model."""
