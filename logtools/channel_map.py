@@ -121,6 +121,30 @@ _ZERO_MEANS_EMPTY = ("v", "omega", "psi", "steer", "wheel_left", "wheel_right", 
 
 _ENTRY_KEYS = ("topic", "field", "transform", "scale", "offset", "unit", "stamp", "frame")
 
+MAX_CHANNEL_MAP_BYTES = 2**20
+"""Largest channel-map TOML read (1 MiB)."""
+MAX_FORMULA_CHARS = 1000
+"""Longest formula (its parse and evaluation recurse once per nested term: a bound keeps them
+far from Python's recursion limit)."""
+
+
+def _parse_formula(file: str, key: str, text: str) -> Formula:
+    """``Formula.parse`` within :data:`MAX_FORMULA_CHARS`; errors name the file and key."""
+    if len(text) > MAX_FORMULA_CHARS:
+        raise ChannelMapEntryError(
+            file, key, f"is {len(text)} characters long; a formula has at most "
+            f"{MAX_FORMULA_CHARS}."
+        )
+    try:
+        return Formula.parse(text)
+    except FormulaError as err:
+        raise ChannelMapEntryError(file, key, str(err)) from err
+    except (RecursionError, MemoryError) as err:
+        raise ChannelMapEntryError(
+            file, key, "is nested too deeply to parse; write it with fewer parentheses and "
+            "unary signs."
+        ) from err
+
 
 def plugin_sources() -> dict[str, list[SignalSource]]:
     """Default sources the robot plugins declare (``SignalSpec.sources``), after ours."""
@@ -301,11 +325,21 @@ def load_channel_map(path: str | Path) -> ChannelMap:
     """
     p = Path(path)
     try:
-        doc = tomllib.loads(p.read_text(encoding="utf-8"))
+        with open(p, "rb") as fh:
+            raw = fh.read(MAX_CHANNEL_MAP_BYTES + 1)
+        if len(raw) > MAX_CHANNEL_MAP_BYTES:
+            raise ChannelMapError(
+                f"{p}: larger than {MAX_CHANNEL_MAP_BYTES} bytes; not a channel map."
+            )
+        doc = tomllib.loads(raw.decode("utf-8"))
     except FileNotFoundError as err:
         raise ChannelMapError(f"{p}: no such channel-map file.") from err
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
         raise ChannelMapError(f"{p}: not a readable TOML channel map ({err}).") from err
+    except RecursionError as err:
+        raise ChannelMapError(
+            f"{p}: not a readable TOML channel map (arrays or tables nested too deeply)."
+        ) from err
     file = str(p)
     table = doc.get("signals")
     if not (doc.get("robot") or doc.get("tf")) and (not isinstance(table, dict) or not table):
@@ -489,7 +523,7 @@ def _entry(file: str, name: str, entry: object, robot: RobotConfig) -> SignalSou
             "needs string keys topic and field (or a formula); got keys "
             f"{', '.join(sorted(entry))}.",
         )
-    if transform is not None and transform not in TRANSFORMS:
+    if transform is not None and (not isinstance(transform, str) or transform not in TRANSFORMS):
         raise ChannelMapEntryError(
             file,
             f"{key}.transform",
@@ -524,6 +558,10 @@ def _numbers_and_unit(
     if nums[0] == 0.0:
         raise ChannelMapEntryError(file, f"{key}.scale", "is 0; the signal would carry nothing.")
     unit = entry.get("unit")
+    if unit is not None and not isinstance(unit, str):
+        raise ChannelMapEntryError(
+            file, f"{key}.unit", f"is {unit!r}; expected a unit name (a string, e.g. \"deg\")."
+        )
     if unit is not None:
         si = _si_unit(name)
         fits = [u for u, (base, _) in UNIT_FACTORS.items() if base == si]
@@ -555,10 +593,7 @@ def _formula_entry(
         )
     if not isinstance(text, str) or not text.strip():
         raise ChannelMapEntryError(file, f"{key}.formula", "must be a non-empty string.")
-    try:
-        formula = Formula.parse(text)
-    except FormulaError as err:
-        raise ChannelMapEntryError(file, f"{key}.formula", str(err)) from err
+    formula = _parse_formula(file, f"{key}.formula", text)
     constants = robot.constants()
     for used in formula.names:
         if used == name:
@@ -737,12 +772,9 @@ class _Resolution:
     def evaluate_formulas(self, derived: Mapping[str, SignalSource]) -> None:
         parsed: dict[str, Formula] = {}
         for name, src in derived.items():  # maps built in code are checked here
-            try:
-                parsed[name] = Formula.parse(src.formula or "")
-            except FormulaError as err:
-                raise ChannelMapEntryError(
-                    src.origin or "", f"signals.{name}.formula", str(err)
-                ) from err
+            parsed[name] = _parse_formula(
+                src.origin or "", f"signals.{name}.formula", src.formula or ""
+            )
         pending = dict(derived)
         while pending:
             ready = [n for n in pending if not (set(parsed[n].names) & set(pending))]
@@ -755,8 +787,8 @@ class _Resolution:
                 self._evaluate(name, pending.pop(name))
 
     def _evaluate(self, name: str, src: SignalSource) -> None:
-        formula = Formula.parse(src.formula or "")
         key = f"signals.{name}.formula"
+        formula = _parse_formula(src.origin or "", key, src.formula or "")
         constants = self.robot.constants()
         inputs = [n for n in formula.names if n not in constants]
         absent = [n for n in inputs if n not in self.signals]
@@ -776,6 +808,8 @@ class _Resolution:
             out = formula.evaluate(values)
         except FormulaError as err:
             raise ChannelMapEntryError(src.origin or "", key, str(err)) from err
+        except RecursionError as err:
+            raise ChannelMapEntryError(src.origin or "", key, "is nested too deeply.") from err
         out = np.broadcast_to(out, t_ns.shape) if t_ns.size else out
         frame = pl.DataFrame(
             {TIME_COLUMN: pl.Series(t_ns, dtype=pl.Int64), "value": np.asarray(out, dtype=float)}

@@ -103,7 +103,45 @@ def read_log(
         if MAGIC.startswith(head):
             raise NotAnMcapError(name, f"only {len(head)} bytes of an MCAP header: truncated")
         raise NotAnMcapError(name, f"it starts with the bytes {head[:8]!r}")
-    return reader.read(name, ReadRequest(topics, keep, decoders, size))
+    log = reader.read(name, ReadRequest(topics, keep, decoders, size))
+    log.problems.extend(checked_numbers(name, log.metadata))
+    return log
+
+
+NUMERIC_METADATA: dict[str, tuple[str, ...]] = {
+    "logcal.nominal": (),
+    "logcal": ("nominal.", "l1", "l2", "g"),
+}
+"""Metadata records whose values (all: ``()``; else the keys named or starting so) the
+analyses take as numbers."""
+
+
+def checked_numbers(name: str, metadata: dict[str, dict[str, str]]) -> list[Problem]:
+    """Drop (and report) metadata values the analyses read as numbers that are not finite
+    numbers (``logcal.nominal`` ``track_width = "wide"``), so that none fails later."""
+    import math
+
+    out: list[Problem] = []
+    for record, keys in NUMERIC_METADATA.items():
+        rec = metadata.get(record)
+        if not isinstance(rec, dict):
+            continue
+        for key in list(rec):
+            if keys and not any(key == k or (k.endswith(".") and key.startswith(k))
+                                for k in keys):
+                continue
+            try:
+                ok = math.isfinite(float(rec[key]))
+            except (TypeError, ValueError, OverflowError):
+                ok = False
+            if not ok:
+                value = str(rec.pop(key))[:60]
+                out.append(Problem(
+                    ProblemKind.UNDECODABLE, count=1,
+                    message=f"{name}: metadata record {record!r} key {key!r} is {value!r}, not "
+                    "a finite number; ignored",
+                ))
+    return out
 
 
 def _file_kind(mode: int) -> str:

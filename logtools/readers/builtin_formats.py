@@ -107,12 +107,12 @@ def _sniff_csv(path: Path, head: bytes) -> bool:
 
 
 def _read_csv(name: str, req: ReadRequest) -> LogData:
-    from logtools.readers.csv_reader import read_csv
+    from logtools.readers.csv_reader import read_csv_file
 
-    buf = _whole(name)
-    if not buf:
+    size = req.size or Path(name).stat().st_size
+    if not size:
         raise NotAnMcapError(name, "the file is empty")
-    return kept(read_csv(name, buf), req.keep)
+    return kept(read_csv_file(name, size), req.keep)
 
 
 def _sniff_optiodom(path: Path, head: bytes) -> bool:

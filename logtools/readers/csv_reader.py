@@ -22,7 +22,14 @@ from logtools.errors import NotAnMcapError, TimestampError
 from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo
 
-__all__ = ["CSV_TOPIC", "TIME_COLUMNS", "read_csv"]
+__all__ = [
+    "CSV_TOPIC",
+    "MAX_CSV_COLUMNS",
+    "TIME_COLUMNS",
+    "check_csv_width",
+    "read_csv",
+    "read_csv_file",
+]
 
 CSV_TOPIC = "csv"
 """The one pseudo-topic of a CSV log."""
@@ -41,6 +48,79 @@ _INT64_NS_LIMIT_S = 9.2e9
 """|t| (s) beyond which t * 1e9 does not fit an int64 nanosecond count."""
 
 
+MAX_CSV_COLUMNS = 4096
+"""Most columns a CSV log may have (its header is counted before anything is parsed)."""
+MAX_HEADER_BYTES = 2**20
+"""Longest header line read (1 MiB: 4096 names of 256 characters)."""
+STREAM_MIN_BYTES = 32 * 2**20
+"""Files from this size on are parsed from the file by polars' streaming engine (memory of
+the frames, not of the file); smaller ones are read whole (the same frames)."""
+_TAIL_BYTES = 1 << 16
+
+
+def check_csv_width(path: str, head: bytes, size: int) -> int:
+    """Count the header's fields (``head``: the file's first bytes); refuse a CSV wider than
+    :data:`MAX_CSV_COLUMNS` or a header line longer than :data:`MAX_HEADER_BYTES`."""
+    import csv
+
+    line, newline, _ = head[:MAX_HEADER_BYTES].partition(b"\n")
+    if not newline and size > MAX_HEADER_BYTES:
+        if line.count(b",") >= MAX_CSV_COLUMNS:
+            raise NotAnMcapError(
+                path, f"the CSV has more than {line.count(b',')} columns; logcal reads at most "
+                f"{MAX_CSV_COLUMNS} (CSV width budget); keep the time and the signals the "
+                "analysis needs"
+            )
+        raise NotAnMcapError(
+            path, f"the CSV's header line is longer than {MAX_HEADER_BYTES} bytes (CSV width "
+            f"budget: at most {MAX_CSV_COLUMNS} columns)"
+        )
+    try:
+        fields = next(csv.reader([line.decode("utf-8", "replace")]), [])
+    except csv.Error:
+        fields = line.split(b",")  # type: ignore[assignment]
+    if len(fields) > MAX_CSV_COLUMNS:
+        raise NotAnMcapError(
+            path, f"the CSV has {len(fields)} columns; logcal reads at most {MAX_CSV_COLUMNS} "
+            "(CSV width budget); keep the time and the signals the analysis needs"
+        )
+    return len(fields)
+
+
+def read_csv_file(path: str, size: int) -> LogData:
+    """Read the CSV file ``path`` (``size`` bytes) as :func:`read_csv` reads its bytes, within
+    bounds: the header is counted first (:func:`check_csv_width`), and a file of
+    :data:`STREAM_MIN_BYTES` or more is parsed by polars' streaming engine from the file, so
+    that memory follows the frame, not the file (a 1 GiB CSV is never held as bytes).
+
+    Raises:
+        NotAnMcapError: not a CSV with a numeric time column, or too wide.
+    """
+    try:
+        with open(path, "rb", buffering=0) as fh:
+            check_csv_width(path, fh.read(MAX_HEADER_BYTES + 1), size)
+            if size < STREAM_MIN_BYTES:
+                fh.seek(0)
+                buf = fh.readall()
+                if not buf:
+                    raise NotAnMcapError(path, "the file is empty")
+                return read_csv(path, buf)
+            fh.seek(max(0, size - _TAIL_BYTES))
+            tail = fh.read(_TAIL_BYTES)
+    except OSError as err:
+        raise NotAnMcapError(path, f"cannot read it: {err.strerror or err}") from err
+    frame = None
+    for infer in (10_000, None):  # a type that changes after the first rows: infer from all
+        try:
+            frame = pl.scan_csv(path, infer_schema_length=infer).collect(engine="streaming")
+            break
+        except Exception as err:  # polars raises ComputeError/NoDataError/... for bad text
+            if infer is None:
+                raise NotAnMcapError(path, f"CSV parse failed: {err}") from err
+    assert frame is not None
+    return _csv_log(path, frame, tail)
+
+
 def read_csv(path: str, buf: bytes) -> LogData:
     """Parse CSV bytes into a :class:`LogData` with the single topic ``"csv"``.
 
@@ -50,10 +130,16 @@ def read_csv(path: str, buf: bytes) -> LogData:
     Raises:
         NotAnMcapError: the bytes are not a CSV with a numeric column ``t``.
     """
+    check_csv_width(path, buf[: MAX_HEADER_BYTES + 1], len(buf))
     try:
         frame = pl.read_csv(BytesIO(buf), infer_schema_length=None)
     except Exception as err:  # polars raises ComputeError/NoDataError/... for malformed text
         raise NotAnMcapError(path, f"CSV parse failed: {err}") from err
+    return _csv_log(path, frame, buf[-_TAIL_BYTES:])
+
+
+def _csv_log(path: str, frame: pl.DataFrame, tail: bytes) -> LogData:
+    """The log of a parsed CSV (``tail``: the file's last bytes, to tell a cut last row)."""
     found = next(((c, u) for c, u in TIME_COLUMNS if c in frame.columns), None)
     if found is None:
         cols = ", ".join(frame.columns[:12]) or "(none)"
@@ -68,7 +154,7 @@ def read_csv(path: str, buf: bytes) -> LogData:
     if frame[tcol].null_count() < t.null_count():
         raise NotAnMcapError(path, f"the CSV time column {tcol!r} holds non-numeric values")
     problems: list[Problem] = []
-    cut = _cut_last_row(buf, len(frame.columns))
+    cut = _cut_last_row(tail, len(frame.columns))
     if cut and frame.height:
         frame, t = frame.head(frame.height - 1), t.head(frame.height - 1)
         problems.append(
@@ -122,6 +208,39 @@ def read_csv(path: str, buf: bytes) -> LogData:
     return LogData(path, {CSV_TOPIC: frame}, {CSV_TOPIC: info}, {}, problems)
 
 
+MAX_PERIOD_S = 2.0
+"""A typical spacing of the time column at or above this (s) is no drive log's sample period
+(a 1 Hz export in seconds stays as it is):
+the column counts relative milliseconds (or us, ns), told by the spacing."""
+_RELATIVE = ((1e-3, "ms"), (1e-6, "us"), (1e-9, "ns"))
+
+
+def _relative_unit(
+    path: str, t: pl.Series, problems: list[Problem], column: str
+) -> tuple[pl.Series, float, str]:
+    """``t`` rescaled when its spacing says relative ms/us/ns (median step >= MAX_PERIOD_S),
+    with a ``time_unit`` problem naming it; else as is."""
+    steps = t.sort().diff().drop_nulls()
+    steps = steps.filter(steps > 0)
+    if steps.len() < 2:
+        return t, 1.0, "s"
+    step = float(steps.median())  # type: ignore[arg-type]
+    if step < MAX_PERIOD_S:
+        return t, 1.0, "s"
+    factor, name = next(((f, u) for f, u in _RELATIVE if step * f < MAX_PERIOD_S), _RELATIVE[-1])
+    problems.append(
+        Problem(
+            ProblemKind.TIME_UNIT,
+            CSV_TOPIC,
+            count=t.len(),
+            message=f"{path}: CSV column {column!r} advances by a median of {step:.4g} per row: "
+            f"relative {name}, not seconds (no drive log samples every {step:.4g} s); it was "
+            f"divided by {1 / factor:.0e}",
+        )
+    )
+    return t * factor, factor, name
+
+
 def _cut_last_row(buf: bytes, n_fields: int) -> int:
     """Fields of the last row when it is cut short (fewer than ``n_fields``, no final newline);
     0 when the last row is whole."""
@@ -158,6 +277,8 @@ def _to_seconds(
                 f"{median:.4g}), not seconds; it was divided by {1 / factor:.0e}",
             )
         )
+    elif guess:
+        t, factor, name = _relative_unit(path, t, problems, column)
     bad = (t.abs() > _INT64_NS_LIMIT_S).arg_true()
     if bad.len():
         first = float(t[int(bad[0])]) / factor

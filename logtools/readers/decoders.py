@@ -20,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from io import BytesIO
@@ -30,20 +31,25 @@ import numpy as np
 import polars as pl
 from mcap.records import Channel, Schema
 
-from logtools.readers.flatten import MAX_ARRAY_ITEMS, flatten_object
+from logtools.readers.flatten import MAX_ARRAY_ITEMS, MAX_COLUMNS, flatten_object
 from logtools.readers.mcap_scan import Payloads
 
 __all__ = [
+    "CELLS_PER_PAYLOAD_BYTE",
+    "CELL_BUDGET_BASE",
     "DEFAULT_DECODERS",
     "MAX_ARRAY_ITEMS",
+    "MAX_COLUMNS",
     "Decoded",
     "Decoders",
     "MessageDecoder",
+    "cell_budget",
     "decode_cdr",
     "decode_cdr_each",
     "decode_json",
     "decode_json_ndjson",
     "flatten_frame",
+    "flatten_frame_bounded",
     "flatten_object",
     "frame_from_rows",
     "known_encodings",
@@ -58,11 +64,16 @@ class Decoded:
         frame: one row per decoded payload, flattened fields as columns.
         kept: indices of the decoded payloads in the input order (None: all of them).
         error: the first decoding error, when some payloads were dropped.
+        dropped_columns: see below.
     """
 
     frame: pl.DataFrame
     kept: list[int] | None = None
     error: str | None = None
+    dropped_columns: int = 0
+    """Columns left out to keep the channel within :data:`MAX_COLUMNS` and its cell budget
+    (:func:`cell_budget`), or because two fields flatten to one name (``"a.b"`` beside
+    ``{"a": {"b": …}}``: the first is kept)."""
 
 
 class MessageDecoder(Protocol):
@@ -84,11 +95,52 @@ def known_encodings(decoders: Decoders | None = None) -> list[str]:
     return sorted(DEFAULT_DECODERS if decoders is None else decoders)
 
 
+# ---------------------------------------------------------------- bounds
+
+CELL_BUDGET_BASE = 2**22
+"""Cells (rows x columns) every channel may have, whatever its size (4 M)."""
+CELLS_PER_PAYLOAD_BYTE = 1
+"""Further cells per byte of the channel's payloads. A value costs at least a byte in CDR and
+two in JSON, so only missing fields (nulls) go beyond: JSON objects whose keys all differ, one
+long array among short ones. Columns beyond the budget are dropped, the first ones kept."""
+MAX_LISTED_STRUCT_FIELDS = 256
+"""Fields of objects inside JSON arrays that polars' NDJSON reader may unify (every array item
+gets every field): beyond, or beyond the cell budget, the channel is decoded message by
+message."""
+
+
+def cell_budget(payload_bytes: int) -> int:
+    """Cells a channel of ``payload_bytes`` may be decoded into."""
+    return CELL_BUDGET_BASE + CELLS_PER_PAYLOAD_BYTE * max(0, int(payload_bytes))
+
+
+def _payload_bytes(payloads: Sequence[bytes]) -> int:
+    if isinstance(payloads, Payloads):
+        return int(payloads.lengths.sum())
+    return sum(len(p) for p in payloads)
+
+
+def _column_limit(rows: int, budget: int) -> int:
+    return max(1, min(MAX_COLUMNS, budget // max(1, rows)))
+
+
 # ---------------------------------------------------------------- flattening
 
 
 def flatten_frame(frame: pl.DataFrame) -> pl.DataFrame:
-    """Flatten struct columns to ``parent.child`` and list columns to ``name.0``, ``name.1``, …"""
+    """Flatten struct columns to ``parent.child`` and list columns to ``name.0``, ``name.1``, …
+    (within :data:`MAX_COLUMNS`; a name made twice keeps its first column)."""
+    return flatten_frame_bounded(frame)[0]
+
+
+def flatten_frame_bounded(
+    frame: pl.DataFrame, budget: int | None = None
+) -> tuple[pl.DataFrame, int]:
+    """:func:`flatten_frame`, keeping at most :data:`MAX_COLUMNS` columns and ``budget`` cells
+    (None: :data:`MAX_COLUMNS` only); returns the frame and how many columns were dropped (at
+    least: a struct dropped before it is flattened counts as one)."""
+    limit = MAX_COLUMNS if budget is None else _column_limit(frame.height, budget)
+    dropped = 0
     while True:
         nested = [
             name
@@ -96,28 +148,87 @@ def flatten_frame(frame: pl.DataFrame) -> pl.DataFrame:
             if isinstance(dtype, (pl.Struct, pl.List, pl.Array))
         ]
         if not nested:
-            return frame
-        exprs: list[pl.Expr] = []
+            return frame, dropped
+        exprs: dict[str, pl.Expr] = {}
         for name, dtype in frame.schema.items():
+            if len(exprs) > limit:
+                break
             if isinstance(dtype, pl.Struct):
                 fields = pl.col(name).struct
-                exprs += [fields.field(f.name).alias(f"{name}.{f.name}") for f in dtype.fields]
+                for f in dtype.fields:
+                    exprs.setdefault(f"{name}.{f.name}", fields.field(f.name))
             elif isinstance(dtype, (pl.List, pl.Array)):
                 col = pl.col(name) if isinstance(dtype, pl.List) else pl.col(name).arr.to_list()
                 longest = frame.select(col.list.len().max()).item() or 0
-                exprs += [
-                    col.list.get(i, null_on_oob=True).alias(f"{name}.{i}")
-                    for i in range(min(longest, MAX_ARRAY_ITEMS))
-                ]
+                for i in range(min(longest, MAX_ARRAY_ITEMS, limit + 1)):
+                    exprs.setdefault(f"{name}.{i}", col.list.get(i, null_on_oob=True))
             else:
-                exprs.append(pl.col(name))
-        frame = frame.select(exprs)
+                exprs.setdefault(name, pl.col(name))
+        total = _planned_width(frame)
+        keep = list(exprs.items())[:limit]
+        dropped += max(0, total - len(keep))
+        frame = frame.select([e.alias(n) for n, e in keep])
+
+
+def _planned_width(frame: pl.DataFrame) -> int:
+    """Columns one flattening step makes (arrays: up to MAX_ARRAY_ITEMS; each name once)."""
+    n = 0
+    for name, dtype in frame.schema.items():
+        if isinstance(dtype, pl.Struct):
+            n += len(dtype.fields)
+        elif isinstance(dtype, (pl.List, pl.Array)):
+            col = pl.col(name) if isinstance(dtype, pl.List) else pl.col(name).arr.to_list()
+            n += min(frame.select(col.list.len().max()).item() or 0, MAX_ARRAY_ITEMS)
+        else:
+            n += 1
+    return n
 
 
 def frame_from_rows(rows: list[dict[str, Any]]) -> pl.DataFrame:
     """Build a frame from flattened rows; fields missing from a row become null."""
     keys = dict.fromkeys(key for row in rows for key in row)
     return pl.DataFrame([pl.Series(k, [row.get(k) for row in rows], strict=False) for k in keys])
+
+
+_MAX_COUNTED = 2**16
+"""Dropped column names counted (a report saying so; beyond, the names are not held)."""
+
+
+class _Columns:
+    """Flattened rows gathered column by column, at most ``limit`` columns (the first names
+    met); values of other names are counted and dropped, never held. Each column holds its
+    values and their row numbers (cost: the values present, not rows x columns)."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self.columns: dict[str, tuple[list[int], list[Any]]] = {}
+        self.extra: set[str] = set()
+        self.rows = 0
+
+    def add(self, row: dict[str, Any]) -> None:
+        for key, value in row.items():
+            col = self.columns.get(key)
+            if col is None:
+                if len(self.columns) >= self.limit:
+                    if len(self.extra) < _MAX_COUNTED:  # names beyond: not counted
+                        self.extra.add(key)
+                    continue
+                col = self.columns[key] = ([], [])
+            col[0].append(self.rows)
+            col[1].append(value)
+        self.rows += 1
+
+    def frame(self) -> pl.DataFrame:
+        series = []
+        for key, (at, values) in self.columns.items():
+            if len(at) == self.rows:
+                full = values
+            else:
+                full = [None] * self.rows
+                for i, v in zip(at, values, strict=True):
+                    full[i] = v
+            series.append(pl.Series(key, full, strict=False))
+        return pl.DataFrame(series)
 
 
 # ---------------------------------------------------------------- decoders
@@ -142,10 +253,17 @@ def decode_json(schema: Schema | None, channel: Channel, payloads: Sequence[byte
 def decode_json_ndjson(
     schema: Schema | None, channel: Channel, payloads: Sequence[bytes]
 ) -> Decoded:
-    """Decode JSON payloads in one go with polars' NDJSON reader; fall back per message."""
+    """Decode JSON payloads in one go with polars' NDJSON reader; fall back per message.
+
+    Bounded: the schema polars infers is looked at before any frame is built; a channel whose
+    objects would make more than :data:`MAX_COLUMNS` columns or more cells than
+    :func:`cell_budget` allows (objects whose keys all differ, unified by polars into one wide
+    struct for every array item) is decoded message by message, keeping the first columns
+    within the budget."""
     if not len(payloads):
         return Decoded(pl.DataFrame())
     data = payloads if isinstance(payloads, Payloads) else Payloads.from_bytes(payloads)
+    budget = cell_budget(_payload_bytes(data))
     joined = _ndjson_lines(data)
     # Infer the schema from the first messages (fast) when every message has as many keys as
     # they do (a field that first appears later would be dropped silently by that schema);
@@ -154,16 +272,81 @@ def decode_json_ndjson(
     first = _JSON_INFER_ROWS if _uniform_keys(joined, len(payloads)) else None
     for infer in dict.fromkeys((first, None)):
         try:
+            if not _fits(joined, len(payloads), infer, budget):
+                break
             frame = pl.read_ndjson(BytesIO(joined), infer_schema_length=infer)
         except Exception:  # polars raises ComputeError/SchemaError/...: try the next way
             continue
         if frame.height != len(payloads):
             break
-        flat = flatten_frame(frame)
+        flat, dropped = flatten_frame_bounded(frame, budget)
         if infer is not None and _null_after_head(flat):
             continue  # a field missing later (renamed?) where the first lines all had it
-        return Decoded(flat)
-    return _decode_each(payloads, _json_object)
+        return Decoded(flat, dropped_columns=dropped)
+    return _decode_each(payloads, _json_object, budget)
+
+
+MAX_JSON_DEPTH = 64
+"""Deepest nesting of arrays and objects handed to polars' NDJSON reader (drive messages nest
+under 10 deep); deeper channels are decoded message by message (``json.loads`` refuses a
+message nested beyond Python's recursion limit: it is dropped and counted)."""
+_DEPTH_STEP = np.zeros(256, dtype=np.int8)
+_DEPTH_STEP[[ord("["), ord("{")]] = 1
+_DEPTH_STEP[[ord("]"), ord("}")]] = -1
+
+
+def _depth(joined: bytes) -> int:
+    """Deepest nesting of ``[``/``{`` over the lines (brackets inside strings count too: an
+    upper bound), in blocks of 16 MiB."""
+    data = np.frombuffer(joined, dtype=np.uint8)
+    carry, deepest = 0, 0
+    for at in range(0, len(data), 1 << 24):
+        level = np.cumsum(_DEPTH_STEP[data[at : at + (1 << 24)]], dtype=np.int32) + carry
+        if len(level):
+            deepest = max(deepest, int(level.max()))
+            carry = int(level[-1])
+    return deepest
+
+
+_KEY = re.compile(rb'"((?:[^"\\]|\\.)*)"[ \t\r]*:')
+
+
+def _few_key_names(joined: bytes) -> bool:
+    """Whether the lines use at most MAX_COLUMNS distinct key names (one regex pass; stops at
+    the first name beyond)."""
+    names: set[bytes] = set()
+    for match in _KEY.finditer(joined):
+        names.add(match.group(1))
+        if len(names) > MAX_COLUMNS:
+            return False
+    return True
+
+
+def _fits(joined: bytes, n: int, infer: int | None, budget: int) -> bool:
+    """Whether polars may build the frame of these NDJSON lines: the schema it infers (no frame
+    is built) has at most MAX_COLUMNS leaves, rows x leaves within ``budget``, and the objects
+    inside arrays (each ``{`` beyond one per line, an upper bound) times the widest such object
+    within ``budget`` too."""
+    if _depth(joined) > MAX_JSON_DEPTH or not _few_key_names(joined):
+        return False  # polars' schema inference alone would take minutes
+    found = pl.scan_ndjson(BytesIO(joined), infer_schema_length=infer).collect_schema()
+    leaves, listed = 0, 0
+    stack: list[tuple[Any, bool]] = [(dtype, False) for dtype in found.values()]
+    while stack:
+        dtype, in_list = stack.pop()
+        if isinstance(dtype, pl.Struct):
+            if in_list:
+                listed = max(listed, len(dtype.fields))
+            stack += [(f.dtype, in_list) for f in dtype.fields]
+        elif isinstance(dtype, (pl.List, pl.Array)):
+            stack.append((dtype.inner, True))
+        else:
+            leaves += 1
+        if leaves > MAX_COLUMNS or listed > MAX_LISTED_STRUCT_FIELDS:
+            return False
+    if n * leaves > budget:
+        return False
+    return not listed or (joined.count(b"{") - n) * listed <= budget
 
 
 def _null_after_head(frame: pl.DataFrame) -> bool:
@@ -202,6 +385,12 @@ def _ndjson_lines(data: Payloads) -> bytes:
     widths = np.maximum.reduceat(lengths, firsts) + 1
     counts = np.diff(np.append(firsts, len(starts)))
     ends = np.cumsum(widths * counts)
+    if int(ends[-1]) > 2 * int(lengths.sum()) + len(starts) + 2**24:
+        # one long payload among short ones would pad its whole block: join them instead
+        return b"".join(
+            bytes(buffer[a : a + n]).replace(b"\n", b" ").replace(b"\r", b" ") + b"\n"
+            for a, n in zip(starts.tolist(), lengths.tolist(), strict=True)
+        )
     out = np.empty(int(ends[-1]), dtype=np.uint8)
     for first, width, end, count in zip(
         firsts.tolist(), widths.tolist(), ends.tolist(), counts.tolist(), strict=True
@@ -234,19 +423,28 @@ def _json_object(payload: bytes) -> Any:
     return value
 
 
-def _decode_each(payloads: Sequence[bytes], decode: Callable[[bytes], Any]) -> Decoded:
-    """Decode message by message, dropping (and counting) those that fail."""
-    rows: list[dict[str, Any]] = []
+def _decode_each(
+    payloads: Sequence[bytes], decode: Callable[[bytes], Any], budget: int | None = None
+) -> Decoded:
+    """Decode message by message, dropping (and counting) those that fail; at most
+    :data:`MAX_COLUMNS` columns and ``budget`` cells (default: :func:`cell_budget` of the
+    payloads), the first columns met kept."""
+    if budget is None:
+        budget = cell_budget(_payload_bytes(payloads))
+    columns = _Columns(_column_limit(len(payloads), budget))
     kept: list[int] = []
     error: str | None = None
     for i, payload in enumerate(payloads):
         try:
-            rows.append(flatten_object(decode(payload)))
+            row = flatten_object(decode(payload))
         except Exception as err:  # any decoder failure drops just this message
             error = error or f"{type(err).__name__}: {err}"
             continue
+        columns.add(row)
         kept.append(i)
-    return Decoded(frame_from_rows(rows), kept if len(kept) != len(payloads) else None, error)
+    return Decoded(
+        columns.frame(), kept if len(kept) != len(payloads) else None, error, len(columns.extra)
+    )
 
 
 class _FactoryDecoder:

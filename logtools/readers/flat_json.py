@@ -42,7 +42,7 @@ import numpy as np
 import polars as pl
 
 from calib._compiled import INT64S, UINT8S, load_library
-from logtools.readers.flatten import MAX_ARRAY_ITEMS, flatten_object
+from logtools.readers.flatten import MAX_ARRAY_ITEMS, MAX_COLUMNS, flatten_object
 from logtools.readers.mcap_scan import Payloads
 
 __all__ = ["compiled_available", "decode_uniform", "parse_number"]
@@ -205,6 +205,8 @@ def _plan(first: bytes) -> tuple[_Skeleton, list[_Leaf]]:
     if skeleton.numbers != sum(leaf.number for leaf in leaves):
         raise _UnsupportedError("numbers of the text and of the object differ")
     names = [leaf.name for leaf in leaves if leaf.name is not None]
+    if len(names) > MAX_COLUMNS:  # the general route drops the columns beyond, and says so
+        raise _UnsupportedError(f"more than {MAX_COLUMNS} columns")
     if len(set(names)) != len(names) or names != list(flatten_object(obj)):
         raise _UnsupportedError("flattened names differ from flatten_object's or repeat")
     return skeleton, leaves

@@ -6,19 +6,22 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-__all__ = ["MAX_ARRAY_ITEMS", "flatten_object"]
+__all__ = ["MAX_ARRAY_ITEMS", "MAX_COLUMNS", "flatten_object"]
 
 MAX_ARRAY_ITEMS = 256
 """Arrays longer than this keep only their first MAX_ARRAY_ITEMS entries as numbered columns."""
+MAX_COLUMNS = 4096
+"""Most columns one channel is decoded into (a TFMessage of 256 transforms has ~3,300); the
+rest are dropped and counted (``Decoded.dropped_columns``)."""
 
 
 def flatten_object(obj: Any, prefix: str = "", out: dict[str, Any] | None = None) -> dict[str, Any]:
     """Flatten a decoded message (ROS 1/2 object, protobuf message, dict, list) by field path."""
     out = {} if out is None else out
     if obj is None or isinstance(obj, (bool, int, float, str)):
-        out[prefix or "value"] = obj
+        out.setdefault(prefix or "value", obj)  # a name made twice ("a.b" and a: {b}): first
     elif isinstance(obj, (bytes, bytearray, memoryview)):
-        out[prefix or "value"] = bytes(obj)
+        out.setdefault(prefix or "value", bytes(obj))
     elif isinstance(obj, Mapping):
         for key, value in obj.items():
             flatten_object(value, _join(prefix, str(key)), out)
@@ -36,7 +39,7 @@ def flatten_object(obj: Any, prefix: str = "", out: dict[str, Any] | None = None
             for name in slots:
                 flatten_object(getattr(obj, name, None), _join(prefix, name), out)
         else:
-            out[prefix or "value"] = str(obj)
+            out.setdefault(prefix or "value", str(obj))
     return out
 
 

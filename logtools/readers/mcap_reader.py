@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import mmap
 from collections.abc import Iterable
 
@@ -19,7 +20,15 @@ from logtools.readers.base import (
     TopicInfo,
     sorted_by_time,
 )
-from logtools.readers.decoders import DEFAULT_DECODERS, Decoders, known_encodings
+from logtools.readers.decoders import (
+    CELL_BUDGET_BASE,
+    CELLS_PER_PAYLOAD_BYTE,
+    DEFAULT_DECODERS,
+    MAX_COLUMNS,
+    Decoded,
+    Decoders,
+    known_encodings,
+)
 from logtools.readers.mcap_scan import (
     MAGIC,
     ChannelMessages,
@@ -329,12 +338,37 @@ def _decode_channel(
         note = f"{where}: {lost} of {len(msgs.payloads)} messages did not decode and were dropped"
         note += f" (first error: {decoded.error})" if decoded.error else ""
         problem = Problem(ProblemKind.DROPPED_MESSAGES, ch.topic, *span, count=lost, message=note)
+    if decoded.dropped_columns:
+        problem = _merge(problem, _columns_problem(where, ch.topic, span, decoded))
     frame = decoded.frame
     if keep is not None:
         frame = frame.select([c for c in frame.columns if keep(ch.topic, c)])
     if TIME_COLUMN in frame.columns:  # a field named like our time column keeps its value
         frame = frame.rename({TIME_COLUMN: f"{TIME_COLUMN}.field"})
     return frame.insert_column(0, t_ns) if frame.width else pl.DataFrame([t_ns]), problem
+
+
+def _columns_problem(
+    where: str, topic: str, span: tuple[int | None, int | None], decoded: Decoded
+) -> Problem:
+    n = decoded.dropped_columns
+    return Problem(
+        ProblemKind.UNDECODABLE,
+        topic,
+        *span,
+        count=n,
+        message=f"{where}: {n} columns were not decoded: beyond {MAX_COLUMNS} columns or the "
+        f"channel's cell budget ({CELL_BUDGET_BASE} + {CELLS_PER_PAYLOAD_BYTE} per payload "
+        "byte), or a field name made twice (\"a.b\" beside {\"a\": {\"b\": ...}}); the first "
+        f"{decoded.frame.width} columns were kept",
+    )
+
+
+def _merge(first: Problem | None, second: Problem) -> Problem:
+    """One problem for a channel that lost messages and columns (the messages' kind)."""
+    if first is None:
+        return second
+    return dataclasses.replace(first, message=f"{first.message}; {second.message}")
 
 
 def _span(log_times: np.ndarray) -> tuple[int | None, int | None]:

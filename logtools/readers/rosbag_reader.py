@@ -19,6 +19,7 @@ import dataclasses
 import os
 import struct
 from collections.abc import Iterable
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
@@ -30,11 +31,13 @@ from logtools.problems import Problem, ProblemKind
 from logtools.readers.base import TIME_COLUMN, LogData, TopicInfo, sorted_by_time
 from logtools.readers.decoders import MAX_ARRAY_ITEMS, frame_from_rows
 from logtools.readers.mcap_scan import DECOMPRESS_BASE_BYTES, DECOMPRESS_RATIO
+from logtools.readers.rosbag_bounds import PayloadGuard, bounded_target, verify_ros1_chunks
 
 __all__ = [
     "ROS1_MAGIC",
     "SQLITE_MAGIC",
     "bag_path",
+    "check_plain_files",
     "check_ros1_records",
     "is_rosbag",
     "read_rosbag",
@@ -108,22 +111,52 @@ def read_rosbag(path: str | os.PathLike[str], topics: Iterable[str] | None = Non
     )
     if is_ros1:
         check_ros1_records(name, target)
-    try:
-        store = _default_store(target, is_ros1)
-        reader = AnyReader([target], default_typestore=store)
-        reader.open()
-    except errors as err:
-        raise NotARosbagError(name, _describe(err)) from err
-    except MemoryError as err:  # a length field the checks above do not reach
-        raise NotARosbagError(name, "a length field asks for more memory than there is") from err
-    try:
-        return _read_open(name, reader, store, is_ros1, topics)
-    except errors as err:
-        raise NotARosbagError(name, _describe(err)) from err
-    except MemoryError as err:
-        raise NotARosbagError(name, "a length field asks for more memory than there is") from err
-    finally:
-        reader.close()
+    if target.is_dir():
+        check_plain_files(name, target)
+    with ExitStack() as stack:  # a temporary clean copy of a rosbag2 folder (rosbag_bounds)
+        opened, guard = bounded_target(name, target, is_ros1, stack)
+        try:
+            store = _default_store(target, is_ros1)
+            reader = AnyReader([opened], default_typestore=store)
+            reader.open()
+        except errors as err:
+            raise NotARosbagError(name, _describe(err)) from err
+        except MemoryError as err:  # a length field the checks above do not reach
+            raise NotARosbagError(
+                name, "a length field asks for more memory than there is"
+            ) from err
+        try:
+            return _read_open(name, reader, store, is_ros1, topics, guard)
+        except errors as err:
+            raise NotARosbagError(name, _describe(err)) from err
+        except MemoryError as err:
+            raise NotARosbagError(
+                name, "a length field asks for more memory than there is"
+            ) from err
+        finally:
+            reader.close()
+
+
+def check_plain_files(name: str, folder: Path) -> None:
+    """Refuse a rosbag2 folder holding a FIFO, socket or device (named like its storage file,
+    opening it would block or read without end): regular files and folders only.
+
+    Raises:
+        NotARosbagError: names the entry and its kind.
+    """
+    import stat
+
+    for entry in sorted(os.listdir(folder)):
+        try:
+            mode = os.stat(folder / entry).st_mode
+        except OSError:
+            continue  # a dangling link: rosbags names the missing file if it needs it
+        if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+            kind = ("a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode)
+                    else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+                    else "not a regular file")
+            raise NotARosbagError(name, f"{entry!r} in the bag folder is {kind}; logcal "
+                                        "reads regular files only")
 
 
 def _describe(err: BaseException) -> str:
@@ -142,6 +175,7 @@ def check_ros1_records(name: str, path: Path) -> None:
     budget = DECOMPRESS_BASE_BYTES + DECOMPRESS_RATIO * size
     starts: set[int] = set()
     index_pos: int | None = None
+    chunks: list[tuple[int, int, int, str, int]] = []
     with path.open("rb") as fh:
         first = fh.readline(64)
         pos = len(first)
@@ -173,11 +207,14 @@ def check_ros1_records(name: str, path: Path) -> None:
                         name, f"the chunk at offset {pos} declares {unpacked} bytes uncompressed, "
                         f"beyond the decompression budget of {budget} bytes"
                     )
+                kind = fields.get("compression", b"none").decode("latin-1")
+                chunks.append((pos, pos + 4 + hlen + 4, dlen, kind, unpacked))
             pos = end
     if index_pos is not None and index_pos not in starts and index_pos != size:
         raise NotARosbagError(
             name, f"its header puts the index at offset {index_pos}, where no record starts"
         )
+    verify_ros1_chunks(name, path, chunks)  # what each chunk really holds (rosbag_bounds)
 
 
 def _ros1_header_fields(header: bytes) -> dict[str, bytes]:
@@ -224,7 +261,12 @@ def _default_store(target: Path, is_ros1: bool) -> Any:
 
 
 def _read_open(
-    name: str, reader: Any, store: Any, is_ros1: bool, topics: Iterable[str] | None
+    name: str,
+    reader: Any,
+    store: Any,
+    is_ros1: bool,
+    topics: Iterable[str] | None,
+    guard: PayloadGuard | None = None,
 ) -> LogData:
     problems: list[Problem] = []
     _complete_typestore(reader, store)
@@ -250,11 +292,16 @@ def _read_open(
             )
     raw: dict[str, tuple[list[int], list[bytes], list[str]]] = {}
     times: dict[str, list[int]] = {t: [] for t in conns_by_topic}
+    guard = guard or PayloadGuard(name, False, 0)
     for conn, t_ns, data in reader.messages(connections=decodable) if decodable else ():
+        payload = guard.payload(conn.topic, t_ns, data)  # None: dropped (rosbag_bounds)
+        if payload is None:
+            continue
         entry = raw.setdefault(conn.topic, ([], [], []))
         entry[0].append(t_ns)
-        entry[1].append(bytes(data))
+        entry[1].append(payload)
         entry[2].append(conn.msgtype)
+    problems += guard.report()
     frames: dict[str, pl.DataFrame] = {}
     for topic, (t_list, payloads, types) in sorted(raw.items()):
         times[topic] = t_list
