@@ -10,20 +10,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
 from calib.results import PM_MEANING, AnalysisResult, CalibrationResult
+from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals
 from viz.style import COLORS
-
-if TYPE_CHECKING:
-    from logtools.load import LoadedLog
-    from logtools.robots.base import Views
-    from logtools.robots.options import RobotOptions
 
 __all__ = ["log_views", "write_png"]
 
@@ -76,7 +72,7 @@ def _table(result: AnalysisResult) -> str:
 
 
 def log_views(
-    out: Path, loaded: LoadedLog, result: AnalysisResult, options: RobotOptions | None = None
+    out: Path, loaded: LoadedLike, result: AnalysisResult, options: object = None
 ) -> Path:
     """Write the .rrd to ``out`` (a view per run and the methods table) and return it; the
     differential drive has no options of its own and draws what ``result`` carries."""
@@ -133,7 +129,7 @@ def log_views(
     return out
 
 
-def write_png(out: Path, loaded: LoadedLog, result: AnalysisResult) -> Path:
+def write_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
     """Static report image: up to six runs' paths (truth, nominal, calibrated dead reckoning)
     and one error-bar panel per parameter (each method's value and 95 % interval, mm)."""
     import matplotlib
@@ -184,6 +180,3 @@ def write_png(out: Path, loaded: LoadedLog, result: AnalysisResult) -> Path:
     plt.close(fig)
     return out
 
-
-if TYPE_CHECKING:
-    _views: Views[RobotOptions] = log_views

@@ -5,26 +5,21 @@ convergence of the recursive estimators. Draws only what ``result.artifacts`` ca
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
 from calib.results import AnalysisResult
+from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals
-
-if TYPE_CHECKING:
-    from logtools.load import LoadedLog
-    from logtools.robots.base import Views
-    from logtools.robots.manipulator.options import ManipulatorOptions
 
 __all__ = ["log_views", "write_png"]
 
 
 def log_views(
-    out: Path, loaded: LoadedLog, result: AnalysisResult,
-    options: ManipulatorOptions | None = None,
+    out: Path, loaded: LoadedLike, result: AnalysisResult,
+    options: object = None,
 ) -> Path:
     """Save the arm's views of ``result`` to ``out`` (.rrd), with the signals as read from
     ``loaded`` under ``raw/``; ``options`` are
@@ -96,7 +91,7 @@ def log_views(
     return out
 
 
-def write_png(out: Path, loaded: LoadedLog, result: AnalysisResult) -> Path:
+def write_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
     """Static report image: held-out torque, measured vs predicted, per joint (up to 8)."""
     import matplotlib
 
@@ -142,6 +137,3 @@ def _summary(result: AnalysisResult) -> str:
         lines += ["```", result.estimate.report(), "```"]
     return "\n\n".join(lines)
 
-
-if TYPE_CHECKING:
-    _views: Views[ManipulatorOptions] = log_views

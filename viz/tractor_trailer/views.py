@@ -1,6 +1,6 @@
 """Entry points the robot plugins name for their views (``RobotPlugin.views``/``png``).
 
-The rerun views are a ``logtools.robots.base.Views`` function ``(out, loaded, result, options)``
+The rerun views are a ``Views`` (logtools.robots.base) function ``(out, loaded, result, options)``
 returning the file written; ``loaded`` is the read log (its aligned ``frame``), ``result`` the
 analysis, ``options`` the robot's own options; they draw what those carry. The report image is
 ``(out, loaded, result)``."""
@@ -8,21 +8,16 @@ analysis, ``options`` the robot's own options; they draw what those carry. The r
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from calib.results import AnalysisResult
-
-if TYPE_CHECKING:
-    from logtools.load import LoadedLog
-    from logtools.robots.base import Views
-    from logtools.robots.tractor_trailer.options import TractorTrailerOptions
+from viz.loaded import LoadedLike, TractorViewOptions
 
 __all__ = ["tractor_trailer_png", "tractor_trailer_rrd"]
 
 
 def tractor_trailer_rrd(
-    out: Path, loaded: LoadedLog, result: AnalysisResult,
-    options: TractorTrailerOptions | None = None,
+    out: Path, loaded: LoadedLike, result: AnalysisResult,
+    options: TractorViewOptions | None = None,
 ) -> Path:
     """The tractor-trailer's rerun recording (world, ICR construction, signals, methods);
     ``options.method_for_psi`` names the method whose lengths drew the steady-state joint angle
@@ -34,13 +29,10 @@ def tractor_trailer_rrd(
                            raw=loaded.log.topics)
 
 
-def tractor_trailer_png(out: Path, loaded: LoadedLog, result: AnalysisResult) -> Path:
+def tractor_trailer_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
     """The tractor-trailer's static report image."""
     from viz.tractor_trailer.plots import write_report_png
 
     write_report_png(out, loaded.frame, result)
     return out
 
-
-if TYPE_CHECKING:
-    _views: Views[TractorTrailerOptions] = tractor_trailer_rrd
