@@ -13,7 +13,13 @@ the recorded joint angle.
 4. The recommended estimate with the accepted effects: the nominal path fit on the corrected
    joint angle, its covariance inflated by what fitting the effects costs (the joint fit's
    marginal minus its conditional covariance of L1, L2); explanations the log cannot tell
-   apart that move L1, L2 are spanned (``calib.adequacy.span``).
+   apart that move L1, L2 are spanned (``calib.adequacy.span``), and so is the nominal fit
+   when the nominal model already explained the log (an effect accepted below the floor may
+   stand in for other physics the catalogue only approximates).
+5. The link lengths fitted on thirds of the log are tested for agreement
+   (``calib.adequacy.piece_stability``); those that disagree beyond their errors are widened
+   (``calib.adequacy.widen_unstable``) and not determined when that makes them wide, even
+   where the residual stays at the noise floor.
 
 What remains unexplained stays "does not explain", with where it sits.
 """
@@ -35,11 +41,14 @@ from calib.adequacy import (
     ModelFit,
     ParameterChange,
     PieceFit,
+    PieceStability,
     Selection,
     assess,
     parameter_change,
+    piece_stability,
     select_effects,
     span,
+    widen_unstable,
 )
 from calib.errors import CalibError
 from calib.results import CalibrationResult, Estimate, json_safe
@@ -95,9 +104,11 @@ class PathDiscovery:
     adequacy; ``adequacy``: the final model's (``before`` = nominal); ``change``: a mid-log
     change of the link lengths; ``piece_fits``: the link lengths on consecutive pieces;
     ``split``: per side of the change, (t0, t1, the path fit's estimate); ``thirds``: L1, L2,
-    L1 + L2 fitted on thirds of the log; ``estimate``: the recommended estimate with the
-    accepted effects (None: the nominal fit stands); ``status``: "ok" or "not_run";
-    ``reason``: why not run."""
+    L1 + L2 fitted on thirds of the log; ``stability``: per link length, how well its fits on
+    pieces of the log agree (``calib.adequacy.piece_stability``: unstable ones are widened in
+    the recommended estimate); ``estimate``: the recommended estimate with the accepted
+    effects (None: the nominal fit stands); ``status``: "ok" or "not_run"; ``reason``: why
+    not run."""
 
     status: str
     reason: str = ""
@@ -109,6 +120,7 @@ class PathDiscovery:
     split: list[tuple[float, float, CalibrationResult, Adequacy | None]] = field(
         default_factory=list)
     thirds: dict[str, list[float]] = field(default_factory=dict)
+    stability: dict[str, PieceStability] = field(default_factory=dict)
     estimate: CalibrationResult | None = None
     solution: JointSolution | None = None
     corrected: tuple[np.ndarray, np.ndarray] | None = None
@@ -138,6 +150,7 @@ class PathDiscovery:
         ]
         out["alternatives"] = [k for k, _ in self.alternatives]
         out["thirds"] = self.thirds
+        out["stability"] = {k: v.to_dict() for k, v in self.stability.items()}
         out["notes"] = list(self.notes)
         safe: dict[str, Any] = json_safe(out)
         return safe
@@ -166,6 +179,10 @@ class PathDiscovery:
                 lines.append(f"    {a:.1f}-{b:.1f} s: {vals}")
         if self.adequacy is not None and self.adequacy.unexplained:
             lines.append(f"  unexplained: {self.adequacy.unexplained}")
+        for st in self.stability.values():
+            if st.unstable:
+                lines.append(f"  unstable: {st.name} differs between {st.pieces} pieces of the "
+                             f"log beyond their errors (chi2 {st.chi2:.3g} on {st.dof} dof)")
         lines += [f"  note: {n}" for n in self.notes]
         return lines
 
@@ -247,16 +264,20 @@ def _path_fit(path: DrivePath, t: np.ndarray, psi: np.ndarray,
 
 def _pieces(
     path: DrivePath, t: np.ndarray, psi: np.ndarray, gaps: Sequence[tuple[float, float]],
-    n_pieces: int, *, fit_psi_offset: bool = False,
+    n_pieces: int, *, fit_psi_offset: bool = False, checks: bool = False,
 ) -> list[tuple[float, float, PathTransientFit]]:
+    """The path fit on ``n_pieces`` consecutive pieces of the log (informative ones only).
+    ``checks``: with the path's resolution and integrated rate noise in each piece's
+    covariance, as the recommended fit has them (for the pieces' agreement, which must not
+    take what those leave out for instability)."""
     edges = np.linspace(t[0], t[-1], n_pieces + 1)
     out = []
     for a, b in itertools.pairwise(edges):
         m = (t >= a) & (t <= b)
         if m.sum() < 30:
             continue
-        f = _path_fit(path, t[m], psi[m], gaps, resolution_check=False,
-                      rate_noise_check=False, fit_psi_offset=fit_psi_offset)
+        f = _path_fit(path, t[m], psi[m], gaps, resolution_check=checks,
+                      rate_noise_check=checks, fit_psi_offset=fit_psi_offset)
         if f is not None and f.sound_ and _informative(f):
             out.append((float(a), float(b), f))
     return out
@@ -272,9 +293,23 @@ def _informative(f: PathTransientFit) -> bool:
 
 def _piece_fit(a: float, b: float, f: PathTransientFit) -> PieceFit:
     c = f.cov_
-    return PieceFit(a, b, {"L1+L2": f.L1_ + f.L2_, "L2": f.L2_},
+    return PieceFit(a, b, {"L1+L2": f.L1_ + f.L2_, "L2": f.L2_, "L1": f.L1_},
                     {"L1+L2": math.sqrt(max(c[0, 0] + c[1, 1] + 2 * c[0, 1], 0.0)),
-                     "L2": math.sqrt(max(c[1, 1], 0.0))})
+                     "L2": math.sqrt(max(c[1, 1], 0.0)), "L1": math.sqrt(max(c[0, 0], 0.0))})
+
+
+STABILITY_NAMES = ("L1", "L2", "L1+L2")
+
+
+def _thirds(
+    fits: Sequence[tuple[float, float, PathTransientFit]],
+) -> tuple[dict[str, list[float]], dict[str, PieceStability]]:
+    """L1, L2, L1 + L2 on thirds of the log, and whether each agrees across them."""
+    values = {
+        "L1": [f.L1_ for *_, f in fits], "L2": [f.L2_ for *_, f in fits],
+        "L1+L2": [f.L1_ + f.L2_ for *_, f in fits],
+    }
+    return values, piece_stability([_piece_fit(a, b, f) for a, b, f in fits], STABILITY_NAMES)
 
 
 def _moves(a: ModelFit, b: ModelFit) -> bool:
@@ -386,17 +421,27 @@ def discover_along_path(
             pieces = raw if change is not None else pieces
         if change is not None:
             return _split(ctx, change, pieces, progress)
-    thirds = _pieces(path, t_c, psi_c, gaps, 3)
-    out.thirds = {
-        "L1": [f.L1_ for *_, f in thirds], "L2": [f.L2_ for *_, f in thirds],
-        "L1+L2": [f.L1_ + f.L2_ for *_, f in thirds],
-    }
+    out.thirds, out.stability = _thirds(_pieces(path, t_c, psi_c, gaps, 3, checks=True))
     scale = next((e for e in catalogue if e.id == "sensor_scale"), None)
     if scale is not None and scale not in selection.accepted:
         out.alternatives += _gain_alternatives(ctx, selection, scale, gain_tolerance, out.notes)
     for c in selection.confounds:
         if {"L1", "L2"} & set(c.parameters):
             out.alternatives.append((c.alternative, c.alternative_fit.parameters))
+    plain_ok = bool(nominal_fit.sound_ and nominal_fit.misfit_ <= EXPLAINS_RATIO)
+    if selection.accepted and (explained(base) or plain_ok):
+        # the nominal model already explained the log (by the joint fit's held-out residual,
+        # or the path fit's own misfit), yet the effects move the link lengths: physics below
+        # the noise floor that the catalogue only approximates (a slip, play narrower than the
+        # noise) can be taken for them, and so can a far-off geometry that carries less of the
+        # path's noise into the modelled angle (L1 near -L2 with a joint-angle offset of the
+        # angle's own size); the log does not say which is right, and the estimate spans both
+        plain = nominal_fit.result_.parameters if nominal_fit.sound_ else base.parameters
+        out.alternatives.append((NOMINAL, plain))
+        out.notes.append(
+            f"{selection.final.label} lowers the held-out residual and moves the link lengths, "
+            "but the nominal model already explains the log: the intervals span both "
+            f"(nominal L1 {plain['L1'].value:.3g} m, L2 {plain['L2'].value:.3g} m)")
     adequacy = assess([channel(selection.final)], model=nominal_label(selection.accepted),
                       before=nominal if selection.accepted else None)
     if not adequacy.explains:
@@ -489,7 +534,7 @@ def _with_effects(
     """The path fit on the joint angle with ``effects`` (fitted in ``sol``) undone, its
     covariance inflated by what fitting them costs."""
     inflation = _psd(sol.cov[:2, :2] - sol.cov_fixed)
-    t_c, psi_c = ctx.model.corrected(sol)
+    t_c, psi_c = ctx.model.corrected(sol, drop_holds=True)
     fit = _path_fit(ctx.path, t_c, psi_c, ctx.gaps, extra_covariance=inflation)
     if fit is None or not fit.sound_:
         notes.append("the path fit on the joint angle with the named effects undone failed; "
@@ -565,7 +610,40 @@ def recommended(estimate: CalibrationResult, disc: PathDiscovery) -> Calibration
             f"own: {sides or 'not fitted'}.",
             details={**est.details, "change": disc.change.to_dict()})
     est = _spanned(est, disc.alternatives)
-    return estimate_under_misfit(est, disc.adequacy, disc.thirds)
+    est = estimate_under_misfit(est, disc.adequacy, disc.thirds)
+    return _widened_unstable(est, disc.stability)
+
+
+def _widened_unstable(
+    est: CalibrationResult, stability: dict[str, PieceStability], rel_tol: float = 0.1,
+) -> CalibrationResult:
+    """``est`` with the link lengths that differ between pieces of the log beyond their errors
+    widened (``calib.adequacy.widen_unstable``): physics the model leaves out moves them even
+    where the residual stays near the noise floor. Not determined when the widened interval is
+    no longer narrow, the verdict saying why."""
+    if not any(st.unstable for st in stability.values()):
+        return est
+    scale = 0.5 * (abs(est.parameters["L1"].value) + abs(est.parameters["L2"].value))
+    sizes = dict.fromkeys(STABILITY_NAMES, scale)
+    named = dict(est.parameters)
+    if est.sum_L1_L2 is not None:
+        named["L1+L2"] = est.sum_L1_L2
+    wide = widen_unstable(named, stability, rel_tol=rel_tol, scale=sizes)
+    params = {k: wide[k] for k in est.parameters}
+    total = wide.get("L1+L2") if est.sum_L1_L2 is not None else None
+    lost = [k for k, e in wide.items() if not e.identifiable and named[k].identifiable]
+    moved = ", ".join(f"{k} ({stability[k].chi2:.3g} on {stability[k].dof} dof)"
+                      for k in STABILITY_NAMES if k in stability and stability[k].unstable)
+    verdict = est.verdict
+    if lost:
+        verdict = (f"Not determined: fitted on separate thirds of the log the link lengths "
+                   f"disagree beyond their errors (chi-square {moved}), so physics the model "
+                   f"leaves out moves them; the intervals are widened by that disagreement. "
+                   f"The fit says " + ", ".join(f"{k} = {e.value:.3f} m"
+                                                  for k, e in est.parameters.items()) + ".")
+    return replace(est, parameters=params, sum_L1_L2=total, verdict=verdict,
+                   details={**est.details, "piece_stability": {
+                       k: v.to_dict() for k, v in stability.items()}})
 
 
 def adopt_effects(disc: PathDiscovery, keys: Sequence[str]) -> None:
@@ -618,10 +696,5 @@ def judge_path_fit(
     if not adequacy.explains:
         adequacy = adequacy.with_(unexplained=unexplained_text(adequacy))
     out = PathDiscovery("not_run", reason, nominal=adequacy, adequacy=adequacy, solution=sol)
-    if not adequacy.explains:
-        thirds = _pieces(path, model.t, model.p, gaps, 3)
-        out.thirds = {
-            "L1": [f.L1_ for *_, f in thirds], "L2": [f.L2_ for *_, f in thirds],
-            "L1+L2": [f.L1_ + f.L2_ for *_, f in thirds],
-        }
+    out.thirds, out.stability = _thirds(_pieces(path, model.t, model.p, gaps, 3, checks=True))
     return out

@@ -15,6 +15,11 @@ on how the true angle becomes the recorded one, in this order:
     gain    a scale s (y -> s y);
     offset  a constant b (y -> y + b).
 
+The clock and the backlash move or hold only the modelled angle's smooth part; the noise the
+measured path carries into it stays at its own sample, as in the nominal model (a shift or a
+hold of the noisy angle would average that noise and be rewarded for smoothing, not for
+timing or play: a spurious clock offset of a fraction of a sample on clean logs).
+
 Samples can be held out (weight 0): the simulation still runs through them, so their residual
 is a prediction from the path and the trajectory before them (the block cross-validation of
 :mod:`calib.tractor_trailer.path_discovery`).
@@ -218,6 +223,24 @@ class JointPathModel:
                 o[a:b] = np.interp(tau[a:b], tp, c[a:b])
         return out
 
+    def _shifted_smooth(self, tau: FloatArray, cols: list[FloatArray]) -> list[FloatArray]:
+        """Each column moved to the times ``tau`` through its smooth part only, and the smooth
+        rate of the first column at ``tau`` (last in the list).
+
+        A column is the modelled angle (or its derivative), which carries the noise of the
+        measured path sample by sample. Interpolating it between samples would average that
+        noise (a shift of half a sample halves its variance) and so reward a clock offset for
+        smoothing the model rather than for timing: on a clean log with a noisy pose, a
+        spurious offset of a fraction of a sample. So the column's smooth part (averaged over
+        ``PLAY_SMOOTH_S``) is shifted and the rest stays at its own sample:
+        c + (smooth(c)(tau) - smooth(c)(t)), unit gain on the path's noise as in the nominal
+        model."""
+        smooth = [self._smooth(c) for c in cols]
+        rate = self._rate(smooth[0])
+        moved = self._shifted(tau, [*smooth, rate])
+        out = [c + (m - sm) for c, m, sm in zip(cols, moved[:-1], smooth, strict=True)]
+        return [*out, moved[-1]]
+
     def _smooth(self, u: FloatArray) -> FloatArray:
         """``u`` averaged over ``PLAY_SMOOTH_S`` within each piece."""
         out = u.copy()
@@ -260,8 +283,7 @@ class JointPathModel:
             c = float(vals.get("clock_offset", 0.0))
             d = float(vals.get("clock_drift", 0.0))
             tau = self.t - c - d * (self.t - self.t_ref)
-            rate = self._rate(u)
-            u, d0, d1, d2, rate = self._shifted(tau, [u, d0, d1, d2, rate])
+            u, d0, d1, d2, rate = self._shifted_smooth(tau, [u, d0, d1, d2])
             true_u = u
             if "clock_offset" in vals:
                 cols["clock_offset"] = -rate
@@ -277,11 +299,15 @@ class JointPathModel:
             us, d0s, d1s, d2s = (self._smooth(c) for c in (u, d0, d1, d2))
             idx, sgn = _play(us, w, self.piece)
             hold = idx != np.arange(u.size)
-            y = np.where(hold, us[idx], u) - sgn * 0.5 * w
-            d0 = np.where(hold, d0s[idx], d0)
-            d1 = np.where(hold, d1s[idx], d1)
-            d2 = np.where(hold, d2s[idx], d2)
-            cols = {k: np.where(hold, self._smooth(v)[idx], v) for k, v in cols.items()}
+
+            def held(c: FloatArray, cs: FloatArray) -> FloatArray:
+                # the hold acts on the smooth part; the path's noise stays at its own sample
+                # (holding it would smooth the model and reward play that is not there)
+                return c + np.where(hold, cs[idx] - cs, 0.0)
+
+            y = held(u, us) - sgn * 0.5 * w
+            d0, d1, d2 = held(d0, d0s), held(d1, d1s), held(d2, d2s)
+            cols = {k: held(v, self._smooth(v)) for k, v in cols.items()}
             cols["backlash"] = -0.5 * sgn
         if "sensor_nonlinearity" in vals:
             k3 = float(vals["sensor_nonlinearity"])
@@ -380,9 +406,16 @@ class JointPathModel:
         return JointSolution(tuple(effects), x, cov, cov_fixed, r, fitted, y, true_u, sgn,
                              bool(sol.success))
 
-    def corrected(self, sol: JointSolution) -> tuple[FloatArray, FloatArray]:
+    def corrected(
+        self, sol: JointSolution, *, drop_holds: bool = False
+    ) -> tuple[FloatArray, FloatArray]:
         """The joint-angle samples with the fitted effects undone: (stamps on the path's
-        clock, the true angle the readings imply), for a fit of the nominal model."""
+        clock, the true angle the readings imply), for a fit of the nominal model.
+
+        ``drop_holds``: with backlash, leave out the samples where the reading holds inside
+        the dead band (while at least half the samples remain): the reading there says only
+        that the angle is somewhere within the band, and adding half the width to it biases
+        the link lengths (the path still drives the model through the samples left out)."""
         vals = {e.id: float(sol.x[2 + i]) for i, e in enumerate(sol.effects)}
         t = self.t - vals.get("clock_offset", 0.0) - vals.get("clock_drift", 0.0) * (
             self.t - self.t_ref)
@@ -395,4 +428,10 @@ class JointPathModel:
             z = y
         if "backlash" in vals:
             z = z + 0.5 * vals["backlash"] * sol.play_sign
+            if not drop_holds:
+                return t, z
+            idx, _ = _play(self._smooth(sol.true_psi), vals["backlash"], self.piece)
+            follows = idx == np.arange(z.size)
+            if follows.sum() >= 0.5 * z.size:
+                return t[follows], z[follows]
         return t, z
