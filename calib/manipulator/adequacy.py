@@ -7,7 +7,9 @@ Channels: one per joint torque (``tau1``..), at the logged stamps: the in-sample
 whole-log fit and the held-out residual of the fit on the first 60 % (the identification's own
 split), its noise floor from the torque's own high-frequency content
 (:func:`calib.manipulator.discovery.noise_timescale`) and quantisation, located along time and
-each joint's ``q`` and ``qd``.
+each joint's ``q`` and ``qd``. What the model's inputs carry into the prediction (the encoder's
+noise through the derivatives, the Coulomb term's shape at reversals:
+:meth:`~calib.manipulator.discovery.ArmFitter.input_noise`) is added to the floor.
 """
 
 from __future__ import annotations
@@ -28,9 +30,13 @@ from calib.adequacy import (
     ResidualChannel,
     assess,
     parameter_change,
+    piece_stability,
     span,
     under_misfit,
+    widen_unstable,
 )
+from calib.adequacy.intervals import Z95
+from calib.manipulator.design import ALTERNATIVES, Term
 from calib.manipulator.discovery import ArmFit, ArmFitter, noise_timescale
 from calib.results import Estimate
 
@@ -39,10 +45,16 @@ __all__ = [
     "Split",
     "arm_channels",
     "assess_arm",
+    "effect_spread",
     "find_change",
     "piece_fits",
+    "pooled_dispersion",
+    "scaled_by_pieces",
     "spanned",
+    "stabilised",
+    "unit_scales",
     "widened",
+    "with_shifts",
 ]
 
 Array = NDArray[np.float64]
@@ -58,6 +70,14 @@ MIN_RELATIVE_CHANGE = 0.05
 """A change is reported only when some parameter moves by at least this fraction of its
 value: piece-wise fits of a model that holds still differ by a fraction of a percent (the
 filter's bias follows the motion) by more than their model-conditional standard errors."""
+
+
+STABLE_REL_TOL = 0.25
+"""A parameter that differs between pieces stays determined while its widened 95 % half-width
+is within this fraction of max(|value|, its unit's scale)."""
+UNIT_SCALE = 0.05
+"""A parameter's scale (for values near zero): this fraction of the largest |value| among the
+parameters of its unit (a first moment near 0 is judged against the arm's first moments)."""
 
 
 @dataclass(frozen=True)
@@ -97,11 +117,13 @@ def arm_channels(fitter: ArmFitter, whole: ArmFit, train: ArmFit) -> list[Residu
         cov[f"qd{j + 1} ({name}, rad/s)"] = np.interp(t, sig.t_s, sig.qd[:, j])
     out = []
     ts = noise_timescale(sig.cutoff_hz)
+    carried = fitter.input_noise(whole)
     for j in range(fitter.n):
         held = np.where(train.train, np.nan, train.residual[:, j])
         out.append(ResidualChannel(
             f"tau{j + 1}", "N·m", t, whole.residual[:, j], heldout=held,
-            measured=fitter.tau_st[:, j], timescale_s=ts, covariates=cov,
+            measured=fitter.tau_st[:, j], input_std=float(carried[j]), timescale_s=ts,
+            covariates=cov,
         ))
     return out
 
@@ -214,3 +236,109 @@ def spanned(
             continue
         out[name] = span([e, *(o for _, o in others)], [label, *(lab for lab, _ in others)])
     return out
+
+
+def with_shifts(estimates: Mapping[str, Estimate], shifts: Mapping[str, float]
+                ) -> dict[str, Estimate]:
+    """Each estimate with its processing shift (:meth:`ArmFitter.processing_shifts`,
+    :func:`calib.manipulator.identify.cutoff_shifts`) added to its standard error in
+    quadrature: the interval includes what the log cannot settle about the friction's shape at
+    reversals, the noise in the regressor and the filter's cut-off."""
+    out = dict(estimates)
+    for name, e in estimates.items():
+        d = shifts.get(name, 0.0)
+        if not (d > 0 and math.isfinite(d) and math.isfinite(e.std)):
+            continue
+        std = math.hypot(e.std, d)
+        half = Z95 * std
+        note = (f"interval includes {d:.2g} {e.unit} the estimate moves by under the friction's "
+                "shape at reversals and the encoder's noise")
+        out[name] = Estimate(e.name, e.value, std, (e.value - half, e.value + half),
+                             e.identifiable, e.unit, (e.note + "; " if e.note else "") + note)
+    return out
+
+
+def effect_spread(fitter: ArmFitter, accepted: Sequence[EffectSpec],
+                  catalogue: Sequence[EffectSpec]) -> dict[str, float]:
+    """Per parameter, what the log cannot exclude about the catalogue's other effects: the
+    final model (baseline + ``accepted``) refitted on the whole log with each further effect of
+    ``catalogue`` in turn (extensions only: not an alternative to a term the model holds, not
+    a payload), and the largest of sqrt(the variance that effect's fit adds + the shift of the
+    estimate squared). A correct model moves by about its error (the effect fits near
+    zero); a small delay or an elastic joint the residual cannot show moves the rigid body by
+    more, and the interval then includes it."""
+    base = fitter.fit_arm(tuple(accepted))
+    if base is None:
+        return {}
+    ref = base.estimates()
+    taken = {e.key for e in accepted}
+    # an alternative to a term the model holds is a different model, not an extension: the
+    # log chooses between the two (discovery), it does not leave both open
+    replacing = {str(ALTERNATIVES[t]) for t in fitter.baseline if t in ALTERNATIVES}
+    out: dict[str, float] = {}
+    for e in catalogue:
+        if e.key in taken or e.id in replacing or e.id == str(Term.PAYLOAD):
+            continue
+        f = fitter.fit_arm((*accepted, e))
+        if f is None:
+            continue
+        for name, est in f.estimates().items():
+            r = ref.get(name)
+            if r is None or not (r.identifiable and est.identifiable):
+                continue
+            extra = math.sqrt(max(0.0, est.std**2 - r.std**2) + (est.value - r.value) ** 2)
+            if math.isfinite(extra):
+                out[name] = max(out.get(name, 0.0), extra)
+    return out
+
+
+def unit_scales(estimates: Mapping[str, Estimate]) -> dict[str, float]:
+    """Per parameter, ``UNIT_SCALE`` of the largest |value| among the parameters that share its
+    unit: the size below which a relative rule would be unfair to a value near zero."""
+    top: dict[str, float] = {}
+    for e in estimates.values():
+        if math.isfinite(e.value):
+            top[e.unit] = max(top.get(e.unit, 0.0), abs(e.value))
+    return {n: UNIT_SCALE * top.get(e.unit, 0.0) for n, e in estimates.items()}
+
+
+def pooled_dispersion(pieces: Sequence[PieceFit], names: Sequence[str]) -> tuple[float, int]:
+    """The pieces' scatter about their weighted means in units of their own standard errors,
+    pooled over ``names``: (sqrt(sum chi^2 / sum dof), sum dof); (1, 0) with fewer than two
+    pieces. Above one, the model-conditional errors are too small by about that factor for
+    every parameter alike (a Birge ratio over all parameters of the log)."""
+    stab = piece_stability(pieces, list(names)) if len(pieces) >= 2 else {}
+    chi2 = sum(st.chi2 for st in stab.values())
+    dof = sum(st.dof for st in stab.values())
+    return (math.sqrt(chi2 / dof) if dof else 1.0), dof
+
+
+def scaled_by_pieces(estimates: Mapping[str, Estimate], pieces: Sequence[PieceFit]
+                     ) -> dict[str, Estimate]:
+    """Every determined estimate's standard error scaled by :func:`pooled_dispersion` when it
+    is above one (unchanged otherwise): the errors the log's own pieces show."""
+    names = [n for n, e in estimates.items() if e.identifiable]
+    k, dof = pooled_dispersion(pieces, names)
+    if k <= 1.0:
+        return dict(estimates)
+    out = dict(estimates)
+    for n in names:
+        e = estimates[n]
+        std = e.std * k
+        half = Z95 * std
+        out[n] = Estimate(e.name, e.value, std, (e.value - half, e.value + half), True, e.unit,
+                          (e.note + "; " if e.note else "") + f"standard error x{k:.2g}: the "
+                          f"scatter of the estimates over pieces of the log ({dof} dof)")
+    return out
+
+
+def stabilised(estimates: Mapping[str, Estimate], pieces: Sequence[PieceFit]
+               ) -> dict[str, Estimate]:
+    """The specification test by pieces (:func:`calib.adequacy.piece_stability`): each
+    parameter whose piece estimates scatter beyond their errors gets its interval widened by the
+    overdispersion and the spread, and stays determined only while that interval is narrow
+    (``STABLE_REL_TOL`` of max(|value|, :func:`unit_scales`))."""
+    if len(pieces) < 2:
+        return dict(estimates)
+    stab = piece_stability(pieces, [n for n in estimates if estimates[n].identifiable])
+    return widen_unstable(estimates, stab, rel_tol=STABLE_REL_TOL, scale=unit_scales(estimates))

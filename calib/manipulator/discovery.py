@@ -61,6 +61,7 @@ from calib.manipulator.design import (
     ALTERNATIVES,
     Design,
     Term,
+    coulomb,
     make_design,
     term_column,
     term_name,
@@ -98,6 +99,9 @@ DELAY_BOUNDS = (-0.05, 0.1)
 """Search range of the actuation delay (s): a negative delay is a torque logged late."""
 LAG_BOUNDS = (0.0, 0.1)
 """Search range of the first-order lag's time constant (s)."""
+SHARP_COULOMB_SCALE = 1e-3
+"""Velocity scale (rad/s) of the sharpened Coulomb term :meth:`ArmFitter.processing_shifts`
+refits with (a tenth of the model's: a sign at every resolvable velocity)."""
 COMPLIANCE_STEP_RAD = 1e-3
 """Largest position change of the central difference along the torque (rad)."""
 COMPLIANCE_ITERATIONS = 6
@@ -583,6 +587,119 @@ class ArmFitter:
         return ArmFit(tuple(asm.names), tuple(asm.units), theta[:P], std[:P], ident[:P],
                       effect_pars, self.t_st, resid, train, cond)
 
+    # ------------------------------------------------------------------ input noise
+    def input_noise(self, fit: ArmFit | None = None) -> Array:
+        """Per joint, the RMS torque (N·m) the model's prediction inherits from its inputs, at
+        ``fit``'s parameters (default: the baseline on the whole log): the encoder's noise
+        carried through the derivatives (one seeded draw, :mod:`calib.manipulator.signals`),
+        and where the joint reverses, the Coulomb term's unresolved shape below its velocity
+        scale (:meth:`coulomb_shape_misfit`). It is what a correct model leaves above the
+        torque sensor's own noise."""
+        default = fit is None
+        if fit is None:
+            if "input_noise" in self._cache:
+                cached: Array = self._cache["input_noise"]
+                return cached
+            fit = self.fit_arm(())
+            if fit is None:
+                return np.zeros(self.n)
+        s = self.sig
+        by_name = dict(zip(fit.names, np.nan_to_num(fit.theta).tolist(), strict=True))
+        theta = np.array([by_name.get(n, 0.0) for n in self.design.names])
+        sq = self.coulomb_shape_misfit() ** 2
+        if s.noise is not None and theta.size:
+            dq, dqd, dqdd = s.noise
+            Xc, kc = self.design.classic(s.q + dq, s.qd + dqd, s.qdd + dqdd)
+            d = (Xc - self.reg.Xc) @ theta + (kc - self.reg.kc)
+            sq = sq + np.mean(d**2, axis=0)
+        out: Array = np.sqrt(sq)
+        if default:
+            self._cache["input_noise"] = out
+        return out
+
+    def _sharp(self) -> Regressors | None:
+        """The regressors with each Coulomb column sharpened to ``tanh(qd / 0.001)`` (None: the
+        model holds no Coulomb term)."""
+        names = self.design.names
+        sharp = [(j, names.index(term_name(Term.COULOMB, jn)))
+                 for j, jn in enumerate(self.model.joint_names)
+                 if term_name(Term.COULOMB, jn) in names]
+        if not sharp:
+            return None
+        if "sharp" not in self._cache:
+            s, r = self.sig, self.reg
+            Xc, Xr = r.Xc.copy(), r.Xr.copy()
+            for j, k in sharp:
+                col = coulomb(s.qd[:, j], SHARP_COULOMB_SCALE)
+                Xc[:, j, k] = col
+                Xr[:, j, k] = col
+            self._cache["sharp"] = Regressors(s, Xc, r.kc, r.Xp, Xr, r.kp, r.kr)
+        out: Regressors = self._cache["sharp"]
+        return out
+
+    def coulomb_shape_misfit(self) -> Array:
+        """Per joint, the RMS difference (N·m) between the whole-log predictions of the model
+        fitted with its Coulomb term and with that term sharpened to a sign: what either
+        friction shape leaves in the residual if the other one is true, once the fit has
+        absorbed what it can (0 without a Coulomb term or when a fit fails). The shape below
+        0.01 rad/s is a modelling choice no log resolves at reversals."""
+        if "shape" in self._cache:
+            cached: Array = self._cache["shape"]
+            return cached
+        out = np.zeros(self.n)
+        sharp = self._sharp()
+        if sharp is not None:
+            try:
+                w = self.cfg.window_s
+                X, u, _ = self.reg.momentum_windows(0, self.N, w)
+                Xs, us, _ = sharp.momentum_windows(0, self.N, w)
+                th = np.nan_to_num(batch_wls(X, u).theta)
+                ths = np.nan_to_num(batch_wls(Xs, us).theta)
+                d = sharp.Xc @ ths - self.reg.Xc @ th
+                out = np.sqrt(np.mean(d**2, axis=0))
+            except (CalibError, np.linalg.LinAlgError, ValueError):
+                pass
+        self._cache["shape"] = out
+        return out
+
+    def processing_shifts(self) -> dict[str, float]:
+        """Per base parameter, how far the whole-log baseline estimate moves under what the
+        log cannot settle about its own processing: the Coulomb term sharpened to a sign (its
+        shape below 0.01 rad/s is a choice, not a measurement) and the encoder's noise drawn
+        once more into the inputs (noise in the regressor biases least squares; adding the
+        same noise again moves the estimate by about that bias). Each shift is a systematic
+        uncertainty the model-conditional interval leaves out; 0 where a refit fails."""
+        if "shifts" in self._cache:
+            cached: dict[str, float] = self._cache["shifts"]
+            return cached
+        names = self.design.names
+        out = dict.fromkeys(names, 0.0)
+        if not names:
+            return out
+        s, w = self.sig, self.cfg.window_s
+        try:
+            X, u, _ = self.reg.momentum_windows(0, self.N, w)
+            ref = batch_wls(X, u).theta
+            variants: list[Regressors] = []
+            sharp = self._sharp()
+            if sharp is not None:
+                variants.append(sharp)
+            if s.noise is not None:
+                dq, dqd, dqdd = s.noise
+                variants.append(compute_regressors(
+                    self.design, replace(s, q=s.q + dq, qd=s.qd + dqd, qdd=s.qdd + dqdd)))
+            sq = np.zeros(len(names))
+            for reg in variants:
+                Xv, uv, _ = reg.momentum_windows(0, self.N, w)
+                th = batch_wls(Xv, uv).theta
+                d = np.where(np.isfinite(th) & np.isfinite(ref), th - ref, 0.0)
+                sq += d**2
+            out = dict(zip(names, np.sqrt(sq).tolist(), strict=True))
+        except (CalibError, np.linalg.LinAlgError, ValueError):
+            pass
+        self._cache["shifts"] = out
+        return out
+
     # ------------------------------------------------------------------ the engine's fitter
     def _implied_rigid(self, fit: ArmFit) -> dict[str, Estimate]:
         """Against a nominal rigid body: the base parameters it implies (nominal plus the
@@ -619,9 +736,10 @@ class ArmFitter:
         return None if fit is None else self.model_fit(fit, effects)
 
     def explained(self, mf: ModelFit) -> bool:
-        """Every joint's held-out residual within ``EXPLAINS_RATIO`` of its noise floor."""
+        """Every joint's held-out residual within ``EXPLAINS_RATIO`` of its noise floor (the
+        torque sensor's, with what the model's inputs carry, :meth:`input_noise`)."""
         fit: ArmFit = mf.payload
-        ratio = fit.heldout_rms() / self.floors
+        ratio = fit.heldout_rms() / np.hypot(self.floors, self.input_noise())
         return bool(np.all(np.isfinite(ratio) & (ratio <= EXPLAINS_RATIO)))
 
 

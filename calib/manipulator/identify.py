@@ -32,6 +32,7 @@ __all__ = [
     "Holdout",
     "IdentifyConfig",
     "at_stamps",
+    "cutoff_shifts",
     "fit_holdout",
     "identify_arm",
 ]
@@ -158,6 +159,42 @@ def at_stamps(sig: JointSignals, pred: Array, start: int) -> tuple[Array, Array,
     t = sig.raw_t_s[inside]
     at = np.stack([np.interp(t, grid, pred[:, j]) for j in range(pred.shape[1])], axis=1)
     return t, sig.raw_tau[inside], at
+
+
+CUTOFF_FACTORS = (0.5, 2.0)
+"""The cut-offs :func:`cutoff_shifts` refits at, as factors of the chosen one."""
+
+
+def cutoff_shifts(
+    design: Design,
+    t_s: Array,
+    q: Array,
+    tau: Array,
+    config: IdentifyConfig,
+    reference: Array,
+    *,
+    qd: Array | None = None,
+) -> Array:
+    """Per base parameter, how far the momentum-WLS estimate moves from ``reference`` when the
+    signals are filtered at half and twice the cut-off (root sum of squares; 0 where a refit
+    fails). The filter is applied to torque and motion alike, which keeps linear terms
+    consistent but not the nonlinear ones (a Coulomb step filtered is not the Coulomb term of
+    the filtered velocity), so the estimate depends on the cut-off by more than its
+    model-conditional interval: that dependence is a systematic uncertainty of the estimate."""
+    sq = np.zeros(len(design.names))
+    for factor in CUTOFF_FACTORS:
+        try:
+            sig = prepare_signals(t_s, q, tau, cutoff_hz=factor * config.cutoff_hz,
+                                  max_rate_hz=config.max_rate_hz, qd=qd)
+            X, u, _ = compute_regressors(design, sig).momentum_windows(0, len(sig),
+                                                                       config.window_s)
+            th = batch_wls(X, u).theta
+        except (InsufficientDataError, np.linalg.LinAlgError, ValueError):
+            continue
+        d = np.where(np.isfinite(th) & np.isfinite(reference), th - reference, 0.0)
+        sq += d**2
+    out: Array = np.sqrt(sq)
+    return out
 
 
 def identify_arm(

@@ -9,6 +9,12 @@ is filtered with the same filter ("consistent filtering"), the held-out predicti
 with the torque as logged, at the log's own time stamps (``raw_t_s``, ``raw_tau``): the smooth
 prediction is interpolated onto the stamps, never the noisy torque onto the grid (interpolating
 between jittered samples averages their noise and flatters the comparison).
+
+The positions' own noise (their quantisation step, or their high-frequency content where larger)
+is estimated from the log, and one seeded draw of it is passed through the same differentiation
+and filtering chain (``noise``): what the model's inputs q, qd, qdd carry of the encoder's noise,
+for the torque noise the model's prediction inherits (the acceleration of a quantised position
+is noisy even after the filter).
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import butter, sosfiltfilt
 
+from calib.adequacy import noise_floor
 from calib.errors import InsufficientDataError
 
 __all__ = ["JointSignals", "prepare_signals", "zero_phase_lowpass"]
@@ -55,6 +62,8 @@ class JointSignals:
     cutoff_hz: float
     raw_t_s: Array | None = None
     raw_tau: Array | None = None
+    q_noise: Array | None = None
+    noise: tuple[Array, Array, Array] | None = None
 
     def slice(self, start: int, stop: int) -> JointSignals:
         return JointSignals(
@@ -68,6 +77,9 @@ class JointSignals:
             self.cutoff_hz,
             self.raw_t_s,
             self.raw_tau,
+            self.q_noise,
+            None if self.noise is None else tuple(  # type: ignore[arg-type]
+                x[start:stop] for x in self.noise),
         )
 
     def every(self, step: int) -> JointSignals:
@@ -83,6 +95,9 @@ class JointSignals:
             self.cutoff_hz,
             self.raw_t_s,
             self.raw_tau,
+            self.q_noise,
+            None if self.noise is None else tuple(  # type: ignore[arg-type]
+                x[::step] for x in self.noise),
         )
 
     def __len__(self) -> int:
@@ -135,6 +150,11 @@ def prepare_signals(
         qdf = zero_phase_lowpass(on_grid(qd), rate, cutoff_hz)
     qddf = zero_phase_lowpass(np.gradient(qdf, dt, axis=0), rate, cutoff_hz)
     tauf = zero_phase_lowpass(taug, rate, cutoff_hz)
+    q_noise = position_noise(grid, qg, qf, q)
+    draw = np.random.default_rng(0).normal(0.0, 1.0, qg.shape) * q_noise[None, :]
+    nq = zero_phase_lowpass(draw, rate, cutoff_hz)
+    nqd = zero_phase_lowpass(np.gradient(draw, dt, axis=0), rate, cutoff_hz)
+    nqdd = zero_phase_lowpass(np.gradient(nqd, dt, axis=0), rate, cutoff_hz)
     edge = min(int(np.ceil(rate / cutoff_hz)), len(grid) // 10)  # filter start-up at both ends
     cut = slice(edge, len(grid) - edge)
     t0 = grid[edge]
@@ -149,6 +169,19 @@ def prepare_signals(
         cutoff_hz,
         t - t0,
         tau,
+        q_noise,
+        (nq[cut], nqd[cut], nqdd[cut]),
     )
     step = max(1, int(np.floor(rate / max_rate_hz)))
     return out.every(step) if step > 1 else out
+
+
+def position_noise(grid: Array, qg: Array, qf: Array, q_raw: Array) -> Array:
+    """Per joint, the std of the positions' noise (rad or m): the high-frequency content of what
+    the low-pass removes from the positions on the grid, never below the recorded positions'
+    quantisation step / sqrt(12)."""
+    out = []
+    for j in range(qg.shape[1]):
+        nf = noise_floor(grid, qg[:, j] - qf[:, j], measured=q_raw[:, j], timescale_s=0.0)
+        out.append(nf.std)
+    return np.asarray(out, dtype=float)

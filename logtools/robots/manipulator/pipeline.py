@@ -15,10 +15,25 @@ import numpy as np
 
 from calib.adequacy import NOT_EXPLAINED, Adequacy
 from calib.errors import CalibError
-from calib.manipulator.adequacy import assess_arm, find_change, piece_fits, spanned, widened
+from calib.manipulator.adequacy import (
+    assess_arm,
+    effect_spread,
+    find_change,
+    piece_fits,
+    scaled_by_pieces,
+    spanned,
+    stabilised,
+    widened,
+    with_shifts,
+)
 from calib.manipulator.design import Term
-from calib.manipulator.discovery import ArmDiscovery, ArmFitter, run_discovery
-from calib.manipulator.identify import ArmIdentification, IdentifyConfig, identify_arm
+from calib.manipulator.discovery import ArmDiscovery, ArmFitter, arm_catalogue, run_discovery
+from calib.manipulator.identify import (
+    ArmIdentification,
+    IdentifyConfig,
+    cutoff_shifts,
+    identify_arm,
+)
 from calib.manipulator.model import ArmModel
 from calib.manipulator.planar import Planar2Link, Planar2Params
 from calib.results import AnalysisResult, CalibrationResult, Estimate
@@ -44,11 +59,41 @@ def _joints(loaded: LoadedLog) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]
             f"{loaded.path}: /joint_states field 'effort' (tau1..tau{max(n, 1)}) is missing "
             f"({', '.join(missing) or 'no q1'}); expected joint positions and torques per joint"
         )
+    raw = _logged_samples(loaded, n)
+    if raw is not None:
+        return (*raw, n)
     t = (frame["t_ns"].to_numpy() - frame["t_ns"][0]) / 1e9
     q = np.column_stack([frame[f"q{j + 1}"].to_numpy() for j in range(n)]).astype(float)
     tau = np.column_stack([frame[f"tau{j + 1}"].to_numpy() for j in range(n)]).astype(float)
     ok = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(tau), axis=1)
     return t[ok], q[ok], tau[ok], n
+
+
+def _logged_samples(loaded: LoadedLog, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The joints' samples at their own stamps (the resolved signals before alignment), when
+    every ``q``/``tau`` signal was logged with the others (one message per sample, as
+    ``/joint_states``): the aligned frame interpolates onto a uniform grid, which averages
+    neighbouring torque samples, halves their high-frequency content and so the noise floor the
+    residual is judged against. None when the signals do not share their stamps."""
+    signals = getattr(getattr(loaded, "signals", None), "signals", None)
+    names = [f"{c}{j + 1}" for c in ("q", "tau") for j in range(n)]
+    if not isinstance(signals, dict) or not all(k in signals for k in names):
+        return None
+    stamps = [np.asarray(signals[k]["t_ns"].to_numpy()) for k in names]
+    common = stamps[0]
+    for s in stamps[1:]:
+        common = np.intersect1d(common, s, assume_unique=True)
+    if common.size < 50 or common.size < 0.9 * max(s.size for s in stamps):
+        return None
+    cols = []
+    for k, s in zip(names, stamps, strict=True):
+        v = np.asarray(signals[k]["value"].to_numpy(), dtype=float)
+        cols.append(v[np.searchsorted(s, common)])
+    q = np.column_stack(cols[:n])
+    tau = np.column_stack(cols[n:])
+    t = (common - common[0]) / 1e9
+    ok = np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(tau), axis=1)
+    return t[ok], q[ok], tau[ok]
 
 
 def _joint_names(loaded: LoadedLog, meta: dict[str, str], n: int) -> tuple[str, ...] | None:
@@ -147,7 +192,8 @@ def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> A
         judged = stages.run(
             "model adequacy",
             lambda: _judge(model, ident, meta, declared, cfg, stages,
-                           bool(getattr(config, "discovery", True)), progress),
+                           bool(getattr(config, "discovery", True)), progress,
+                           (t, q, tau)),
         )
     else:
         stages.skip("model adequacy", "identification did not run")
@@ -238,6 +284,7 @@ def _judge(
     stages: Stages,
     discovery: bool,
     progress: Progress,
+    raw: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> _Judged:
     """Adequacy of the identified model, discovery through the shared engine, a parameter
     change over time pieces, and the recommended estimate under the verdict."""
@@ -296,6 +343,22 @@ def _judge(
         params = final.whole.estimates() | {
             e.name: e for pars in final.whole.effect_parameters.values() for e in pars.values()}
         method = "momentum-WLS + " + " + ".join(e.key for e in accepted)
+    # what the processing cannot settle (friction shape at reversals, noise in the regressor),
+    # then the parameters' stability over time pieces, then a misfit
+    shifts = fitter.processing_shifts()
+    if raw is not None:
+        by_cut = cutoff_shifts(ident.design, *raw, cfg, ident.wls.theta)
+        shifts = {n: float(np.hypot(shifts.get(n, 0.0), d))
+                  for n, d in zip(ident.design.names, by_cut.tolist(), strict=True)}
+    if adequacy.explains and discovery:
+        # the catalogue's effects the log cannot exclude, each fitted in turn
+        cat = arm_catalogue(model.joint_names, cfg.terms, nominal=False)
+        spread = effect_spread(fitter, accepted, cat)
+        shifts = {n: float(np.hypot(shifts.get(n, 0.0), spread.get(n, 0.0)))
+                  for n in set(shifts) | set(spread)}
+    params = with_shifts(scaled_by_pieces(params, pieces), shifts)
+    if adequacy.explains:
+        params = stabilised(params, pieces)
     params = widened(params, adequacy, pieces)
     sections: dict[str, Any] = {}
     if confounds:
