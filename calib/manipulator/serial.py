@@ -19,7 +19,11 @@ a path loads the model of that name from the ``example-robot-data`` package (its
 
 from __future__ import annotations
 
+import os
 import re
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from functools import cached_property
 from importlib import metadata
 from pathlib import Path
@@ -67,7 +71,11 @@ def example_robot_urdf(name: str) -> Path:
             f"URDF {name!r}: not a file, and the example-robot-data package is not installed "
             "(pip install example-robot-data) to look it up by name."
         )
-    found = sorted(root.glob(f"*/**/{name}.urdf"))
+    if not _MODEL_NAME.fullmatch(name):  # a name, never a pattern: no globbing of user text
+        raise ArmModelError(
+            f"URDF {name!r}: not a file, and not a model name (letters, digits, '_', '-', '.')"
+        )
+    found = sorted(p for p in root.glob("*/**/*.urdf") if p.stem == name)
     if not found:
         known = sorted({p.stem for p in root.glob("*/**/*.urdf")})
         raise ArmModelError(
@@ -77,10 +85,87 @@ def example_robot_urdf(name: str) -> Path:
     return found[0]
 
 
+MAX_URDF_BYTES = 16 * 2**20
+MAX_URDF_LINKS = 1024
+MAX_CHAIN_DEPTH = 256
+"""Budgets of a URDF read: its size, its links, and the longest parent-to-child chain (the
+parser recurses along it: a 4,000-link chain crashed the process)."""
+_MODEL_NAME = re.compile(r"[A-Za-z0-9_.-]{1,100}")
+
+
+def _chain_depth(text: str) -> int:
+    """The longest parent-to-child chain of the URDF's joints."""
+    parent: dict[str, str] = {}
+    for m in re.finditer(r"<joint\b.*?</joint>", text, flags=re.S):
+        block = m.group(0)
+        p = re.search(r"<parent\s+link\s*=\s*\"([^\"]+)\"", block)
+        c = re.search(r"<child\s+link\s*=\s*\"([^\"]+)\"", block)
+        if p and c:
+            parent[c.group(1)] = p.group(1)
+    depth: dict[str, int] = {}
+    best = 0
+    for start in parent:
+        chain: list[str] = []
+        node = start
+        while node in parent and node not in depth and len(chain) <= len(parent):
+            chain.append(node)
+            node = parent[node]
+        d = depth.get(node, 0)
+        for n in reversed(chain):
+            d += 1
+            depth[n] = d
+        best = max(best, d)
+    return best
+
+
+def _check_budget(path: Path, text: str) -> None:
+    links = len(re.findall(r"<link\b", text))
+    if links > MAX_URDF_LINKS:
+        raise ArmModelError(f"{path}: {links} links; a URDF logcal reads has at most "
+                            f"{MAX_URDF_LINKS}")
+    depth = _chain_depth(text)
+    if depth > MAX_CHAIN_DEPTH:
+        raise ArmModelError(f"{path}: a chain of {depth} joints; a URDF logcal reads has chains "
+                            f"of at most {MAX_CHAIN_DEPTH}")
+
+
+@contextmanager
+def _quiet_stderr() -> Iterator[list[str]]:
+    """Capture what the C++ URDF parser writes to the process's stderr (it echoes attribute
+    values of the file raw); the caller reports it escaped."""
+    captured: list[str] = []
+    try:
+        saved = os.dup(2)
+    except OSError:
+        yield captured
+        return
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield captured
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            captured.append(tmp.read(4096).decode("utf-8", "replace"))
+
+
+def _escaped(text: str) -> str:
+    return "".join(c if c.isprintable() else f"\\x{ord(c):02x}" for c in text.strip())
+
+
 def _build(path: Path) -> tuple[Any, list[str]]:
     import pinocchio as pin
 
+    try:
+        size = path.stat().st_size
+    except OSError as err:
+        raise ArmModelError(f"{path}: cannot read this URDF ({err.strerror or err})") from err
+    if size > MAX_URDF_BYTES:
+        raise ArmModelError(f"{path}: {size} bytes; a URDF logcal reads is at most "
+                            f"{MAX_URDF_BYTES} bytes")
     text = path.read_text(encoding="utf-8", errors="replace")
+    _check_budget(path, text)
     notes: list[str] = []
     declared = set(re.findall(r"<link\s+name\s*=\s*\"([^\"]+)\"", text))
     used = set(re.findall(r"<(?:parent|child)\s+link\s*=\s*\"([^\"]+)\"", text))
@@ -93,10 +178,20 @@ def _build(path: Path) -> tuple[Any, list[str]]:
             count=1,
         )
         notes.append(f"{path.name}: declared the missing link(s) {', '.join(missing)} to load it")
-    try:
-        return pin.buildModelFromXML(text), notes
-    except (RuntimeError, ValueError) as err:
-        raise ArmModelError(f"{path}: pinocchio cannot read this URDF ({err})") from err
+    with _quiet_stderr() as said:
+        try:
+            model = pin.buildModelFromXML(text)
+        except (RuntimeError, ValueError) as err:
+            failure: Exception | None = err
+        else:
+            failure = None
+    echoed = _escaped(said[0]) if said and said[0].strip() else ""
+    if failure is not None:
+        raise ArmModelError(f"{path}: pinocchio cannot read this URDF ({_escaped(str(failure))})"
+                            + (f"; the parser said: {echoed[:300]}" if echoed else ""))
+    if echoed:
+        notes.append(f"{path.name}: the URDF parser said: {echoed[:300]}")
+    return model, notes
 
 
 def movable_joints(urdf: str) -> tuple[str, ...]:

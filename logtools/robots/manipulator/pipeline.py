@@ -9,7 +9,7 @@ never needs.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -40,7 +40,12 @@ from calib.results import AnalysisResult, CalibrationResult, Estimate
 from logtools.errors import LogcalInputError
 from logtools.load import LoadedLog
 from logtools.robots.base import Progress
+from logtools.robots.manipulator.options import ManipulatorOptions
+from logtools.safe_text import printable
 from logtools.stages import Stages
+
+if TYPE_CHECKING:
+    from logtools.analyze import AnalysisConfig
 
 __all__ = ["analyze_manipulator"]
 
@@ -116,10 +121,15 @@ def _meta_float(meta: dict[str, str], key: str, default: float) -> float:
         return default
 
 
-def _model(loaded: LoadedLog, config: Any, meta: dict[str, str], n: int) -> tuple[ArmModel, str]:
-    extra = getattr(config, "extra", None) or {}
+def _model(
+    loaded: LoadedLog, config: AnalysisConfig, meta: dict[str, str], n: int
+) -> tuple[ArmModel, str]:
+    """The arm's model: the URDF the user gave (``--urdf``, settings, or the channel map's
+    ``[robot] urdf``), else the planar model a simulated log declares. A log is data, never
+    instructions: a URDF the log's own metadata names is never opened (it is only quoted in the
+    message asking for ``--urdf``)."""
     robot_cfg = loaded.robot_config if hasattr(loaded, "robot_config") else None
-    urdf = extra.get("urdf") or getattr(robot_cfg, "urdf", None) or meta.get("urdf")
+    urdf = config.options(ManipulatorOptions).urdf or getattr(robot_cfg, "urdf", None)
     names = _joint_names(loaded, meta, n)
     if urdf:
         from calib.manipulator.serial import load_serial_arm
@@ -140,10 +150,13 @@ def _model(loaded: LoadedLog, config: Any, meta: dict[str, str], n: int) -> tupl
             payload=nominal.get("payload", 0.0),
         )
         return Planar2Link(p, names or ("joint1", "joint2")), "planar 2-link arm (metadata)"
+    named = meta.get("urdf")
+    hint = (f" (the log's metadata names {printable(named)!r}; logcal never opens a file a log "
+            "names: give it yourself if it is the right model)") if named else ""
     raise LogcalInputError(
         f"{loaded.path}: an arm log with {n} joints needs its model: give --urdf PATH_OR_NAME "
-        "(a URDF file or an example-robot-data name such as panda), the channel map's "
-        "[robot] urdf, or a 'logcal' metadata entry 'urdf'"
+        "(a URDF file or an example-robot-data name such as panda), a settings file's urdf, "
+        f"or the channel map's [robot] urdf{hint}"
     )
 
 
@@ -173,16 +186,17 @@ def _truth_base(ident: ArmIdentification, truth: dict[str, float]) -> dict[str, 
     return {}
 
 
-def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> AnalysisResult:
+def analyze_manipulator(
+    loaded: LoadedLog, config: AnalysisConfig, progress: Progress
+) -> AnalysisResult:
     """Analyse one arm log (the plugin's ``analyze``)."""
     meta = dict(loaded.log.metadata.get("logcal", {}))
     t, q, tau, n = _joints(loaded)
     model, model_source = _model(loaded, config, meta, n)
-    stages = Stages(bool(getattr(config, "debug", False)))
+    stages = Stages(config.debug)
     declared = _declared(meta)
     terms = _DEFAULT_TERMS
-    extra = getattr(config, "extra", None) or {}
-    cutoff = _cutoff(extra.get("cutoff_hz"))
+    cutoff = _cutoff(config.options(ManipulatorOptions).cutoff_hz)
     cfg = IdentifyConfig(terms=terms, cutoff_hz=cutoff)
     ident = stages.run(
         "identification", lambda: identify_arm(model, t, q, tau, cfg, progress=progress)
@@ -192,7 +206,7 @@ def analyze_manipulator(loaded: LoadedLog, config: Any, progress: Progress) -> A
         judged = stages.run(
             "model adequacy",
             lambda: _judge(model, ident, meta, declared, cfg, stages,
-                           bool(getattr(config, "discovery", True)), progress,
+                           config.discovery, progress,
                            (t, q, tau)),
         )
     else:

@@ -30,6 +30,7 @@ from calib.tractor_trailer.estimators.steering import SteeringGeometry
 from calib.tractor_trailer.path_discovery import PathDiscovery
 from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.load import LoadedLog
+from logtools.robots.tractor_trailer.options import TractorTrailerOptions
 from logtools.robots.tractor_trailer.path_inputs import (
     PathInputs,
     RobotDidNotMoveError,
@@ -362,7 +363,7 @@ _PATH_DISCOVERY_STAGE = "discovery along the path"
 
 def _path_discovery(
     inp: PathInputs, fit: PathTransientFit, frame: pl.DataFrame, segments: list[Segment],
-    cfg: Any, stages: Stages, progress: Progress,
+    cfg: AnalysisConfig, stages: Stages, progress: Progress,
 ) -> PathDiscovery | None:
     """Discovery along the measured path (joint-angle effects, a mid-log change), or, when it
     is switched off or the log is short, only the nominal path fit's adequacy."""
@@ -443,7 +444,9 @@ def _noslip_fit(loaded: LoadedLog) -> NoSlipRegression:
     return NoSlipRegression().fit(t, x2, y2, yaw2, psi)
 
 
-def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) -> AnalysisResult:
+def analyze_tractor_trailer(
+    loaded: LoadedLog, config: AnalysisConfig, progress: Progress
+) -> AnalysisResult:
     """Analyse one tractor-trailer log (the plugin's ``analyze``); ``config`` is an
     ``AnalysisConfig``. The transient fit's path inputs are kept in
     ``artifacts[PATH_INPUTS]`` so that pooling reuses them."""
@@ -543,14 +546,15 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
         from calib.tractor_trailer.discovery.windows import DEFAULT_MAX_SPAN_S
 
         progress("model-mismatch discovery")
-        span = cfg.extra.get("discovery_span_s", DEFAULT_MAX_SPAN_S)
+        given = cfg.options(TractorTrailerOptions).discovery_span_s
+        span = DEFAULT_MAX_SPAN_S if given is None else given
         L1 = estimate.parameters["L1"].value
         L2 = estimate.parameters["L2"].value
         discovery = stages.run(
             "discovery",
             lambda: discover(
-                frame, L1, L2, baseline=cfg.baseline, segments=segments, rng=rng,
-                signals=loaded.signals.signals, max_span_s=span,
+                frame, L1, L2, baseline="steady" if cfg.baseline == "steady" else "transient",
+                segments=segments, rng=rng, signals=loaded.signals.signals, max_span_s=span,
             ),
         )
         status = getattr(discovery, "status", "ok")
@@ -648,7 +652,7 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
         c: loaded.frame[c].cast(pl.Float64).fill_null(np.nan).to_numpy()
         for c in ("x", "y", "yaw", "psi", "kappa", "omega", "v") if c in loaded.frame.columns
     }
-    method = cfg.extra.get("method_for_psi")
+    method = cfg.options(TractorTrailerOptions).method_for_psi
     try:
         transient = None  # the recommended transient fit's own prediction, when it is one
         if path_out and shown_fit is not None and estimate is not None and (
@@ -669,7 +673,8 @@ def analyze_tractor_trailer(loaded: LoadedLog, config: Any, progress: Progress) 
 
 
 def pool_tractor_trailer(
-    runs: Sequence[tuple[LoadedLog, AnalysisResult]], config: Any, progress: Progress
+    runs: Sequence[tuple[LoadedLog, AnalysisResult]], config: AnalysisConfig,
+    progress: Progress,
 ) -> AnalysisResult:
     """One transient fit along all the runs' paths (``estimate``); each run's own analysis is
     kept in ``runs`` (the plugin's ``pool``)."""
