@@ -38,6 +38,7 @@ from calib.adequacy import (
 from calib.adequacy.intervals import Z95
 from calib.manipulator.design import ALTERNATIVES, Term
 from calib.manipulator.discovery import ArmFit, ArmFitter, noise_timescale
+from calib.manipulator.units import effort_unit
 from calib.results import Estimate
 
 __all__ = [
@@ -118,10 +119,12 @@ def arm_channels(fitter: ArmFitter, whole: ArmFit, train: ArmFit) -> list[Residu
     out = []
     ts = noise_timescale(sig.cutoff_hz)
     carried = fitter.input_noise(whole)
+    kinds = getattr(fitter.model, "joint_kinds", None)
+    units = [effort_unit(k) for k in kinds()] if callable(kinds) else ["N·m"] * fitter.n
     for j in range(fitter.n):
         held = np.where(train.train, np.nan, train.residual[:, j])
         out.append(ResidualChannel(
-            f"tau{j + 1}", "N·m", t, whole.residual[:, j], heldout=held,
+            f"tau{j + 1}", units[j], t, whole.residual[:, j], heldout=held,
             measured=fitter.tau_st[:, j], input_std=float(carried[j]), timescale_s=ts,
             covariates=cov,
         ))

@@ -36,6 +36,7 @@ from calib.manipulator.identify import (
 )
 from calib.manipulator.model import ArmModel
 from calib.manipulator.planar import Planar2Link, Planar2Params
+from calib.manipulator.units import EffortScale, effort_scale, effort_unit
 from calib.results import AnalysisResult, CalibrationResult, Estimate
 from logtools.errors import LogcalInputError
 from logtools.load import LoadedLog
@@ -177,6 +178,13 @@ def _declared(meta: dict[str, str]) -> tuple[Term, ...] | None:
     return tuple(out)
 
 
+def _effort_units(model: ArmModel, ident: ArmIdentification) -> EffortScale | None:
+    """The logged effort against what the model's nominal masses need (``calib.manipulator.
+    units``), on the filtered signals the identification used."""
+    sig = ident.sig
+    return effort_scale(model, sig.q, sig.qd, sig.qdd, sig.tau_f)
+
+
 def _truth_base(ident: ArmIdentification, truth: dict[str, float]) -> dict[str, float]:
     d = ident.design
     full = d.names_full
@@ -212,11 +220,16 @@ def analyze_manipulator(
     else:
         stages.skip("model adequacy", "identification did not run")
         stages.skip("discovery", "identification did not run")
+    kinds = getattr(model, "joint_kinds", None)
     sections: dict[str, Any] = {
         "joints": list(model.joint_names),
+        "joint_units": dict(zip(model.joint_names,
+                                [effort_unit(k) for k in kinds()] if callable(kinds)
+                                else ["N·m"] * n, strict=True)),
         "model": {"source": model_source},
     }
     artifacts: dict[str, Any] = {}
+    unit_notes: list[str] = []
     methods: list[Any] = []
     estimate = None
     truth_base: dict[str, float] = {}
@@ -247,6 +260,11 @@ def analyze_manipulator(
         }
         if judged is not None:
             sections |= judged.sections
+        units = stages.run("effort units", lambda: _effort_units(model, ident))
+        if units is not None:
+            sections["effort_scale"] = units.to_dict()
+            if units.note:
+                unit_notes.append(units.note)
         truth_base = _truth_base(ident, loaded.truth)
         if truth_base:
             sections["truth_base"] = truth_base
@@ -271,7 +289,7 @@ def analyze_manipulator(
         adequacy=None if judged is None else judged.adequacy,
         truth=dict(loaded.truth),
         source={"path": loaded.path},
-        warnings=[str(p) for p in loaded.problems],
+        warnings=[str(p) for p in loaded.problems] + unit_notes,
         stages=stages.status,
         sections=sections,
         artifacts=artifacts,

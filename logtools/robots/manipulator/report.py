@@ -40,9 +40,11 @@ def report_text(result: AnalysisResult) -> list[str]:
             "Held-out torque (identified on the first 60 %, predicted on the last 40 %): "
             f"error {100 * s['torque_rms_holdout_ratio']:.1f} % of the torque RMS"
         )
+        units = s.get("joint_units") or {}
         for j, v in hold.items():
+            unit = units.get(j, "N·m")  # N for a prismatic joint's force
             lines.append(
-                f"  {j}: error RMS {v:.4g} N·m of torque RMS {trms.get(j, float('nan')):.4g}"
+                f"  {j}: error RMS {v:.4g} {unit} of effort RMS {trms.get(j, float('nan')):.4g}"
             )
     feas = s.get("feasibility")
     if feas:
