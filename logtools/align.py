@@ -8,7 +8,7 @@ Method (documented choice):
   The typical period (:func:`median_rate_hz`) is the median of the sample intervals longer than
   a tenth of the mean interval: a duplicate of every message 1 us (or 1 ns) after the original
   halves the mean but does not make the period 1 us, so the grid stays at the log's own rate
-  (issue #13: such a log asked for 446 GiB). The grid never has more than
+  (such a log once asked for 446 GiB). The grid never has more than
   :data:`MAX_GRID_FACTOR` times the rows of the most-sampled signal (or
   :data:`MAX_GRID_FLOOR` rows); a ``rate_hz`` that asks for more is refused.
 * Continuous signals are **linearly interpolated** (``AlignMethod.INTERPOLATE``) or take the

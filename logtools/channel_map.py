@@ -270,7 +270,7 @@ PLAUSIBLE_LIMITS: dict[str, float] = {
 """Largest |value| a logical signal can physically hold, per SI unit (a speed of 1 km/s, a
 position 1e8 m from the origin, 1e9 rad of accumulated yaw or wheel angle): beyond it (after
 outliers are excluded) the values are not in the unit the channel map says, and every
-integration step count downstream would grow with them (issue #13)."""
+integration step count downstream would grow with them)."""
 
 
 @dataclass(frozen=True, eq=False)

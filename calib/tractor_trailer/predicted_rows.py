@@ -5,16 +5,15 @@ Every CLS method (patent Table 3) fits an exact model on data whose κm half has
 row's multiplicity in a bootstrap resample, else 1). The line (a, b) is new for each PM fit of
 each resample, so these rows cannot be reduced once ahead; they are the cost of the bootstrap
 method tables of ``logcal analyze`` (10 resamples x 6 PM fits x every sample of the log and of
-each command type). In numpy the sin and cos alone take ~15 ns a row (numpy's float64 sin and
-cos call the scalar libm on x86), building the rows and their QR ~7 ns more.
+each command type). In numpy the sin and cos dominate (numpy's float64 sin and cos call the
+scalar libm on x86), then building the rows and their QR.
 
 The compiled loop (``_predicted_rows.c``, built by ``pip install`` as an extension module and
 called through ctypes) builds the rows a block of 256 at a time, with a branch-free sin/cos
 the compiler vectorises (Cody-Waite reduction and Taylor polynomials, accurate to a few units in
-the last place), and reduces each block by a Householder QR while it is in cache: ~2.5 ns a
-row with AVX-512, ~3 ns with AVX2, ~6 ns with SSE2 only (one build per instruction set, chosen
-at load time). On the 1-hour 100 Hz log the six bootstrap tables take 0.42 s CPU with it,
-1.11 s with the numpy rows. We write it ourselves because no library we may depend on offers
+the last place), and reduces each block by a Householder QR while it is in cache (one build per
+instruction set, chosen at load time); ``bench/bench_methods.py`` measures it against the numpy
+rows in the same run. We write it ourselves because no library we may depend on offers
 a vectorised float64 sin/cos (glibc's vector functions are only called from code compiled with
 -ffast-math), and fusing the rows with their QR avoids writing them to memory; numba would do
 it but costs ~115 MB of RSS and a JIT compile per process (see

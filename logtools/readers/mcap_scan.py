@@ -17,7 +17,7 @@ tiling the chunk without overlap; the bytes between messages, such as schema and
 records, are read record by record). Whenever the index does not agree with the bytes, or there
 is no index, the chunk is walked record by record, which is also the path for unchunked files.
 
-Bounds (issue #13): a chunk is decompressed by streaming, never beyond its declared
+Bounds: a chunk is decompressed by streaming, never beyond its declared
 uncompressed size (zstd frames may declare their own size, which is not trusted) nor beyond
 what is left of a budget for the whole file, :data:`DECOMPRESS_BASE_BYTES` +
 :data:`DECOMPRESS_RATIO` times the file size; a chunk beyond either is lost with a

@@ -9,7 +9,7 @@ dC1 . e_perp(theta1) = 0, which is linear in the link lengths:
     -dC2 . e_perp(theta1) = L1 d theta1 + L2 cos(psi) d theta2
 
 No speed, no curvature and no tractor pose are needed: a trailer tracked by motion capture plus
-the hitch encoder is enough (issue #9: "a trailer pose plus the hitch angle is as good as a
+the hitch encoder is enough ("a trailer pose plus the hitch angle is as good as a
 tractor pose"). Increments are summed over windows of about one second, so that the noise of
 the poses, which telescopes in these sums, stays small next to the signal, which grows with the
 window; windows never span a gap. Least squares over the windows with a Newey-West covariance.

@@ -6,7 +6,7 @@ own time, and
 (L1, L2, an optional joint-angle sensor offset, one initial angle per piece) minimise the squared
 difference to the measured joint angle.
 
-Why this form (issue #8): a time-domain fit driven by sampled speed and curvature must guess the
+Why this form: a time-domain fit driven by sampled speed and curvature must guess the
 inputs between samples and divides by the speed; this one integrates the recorded motion itself,
 so it is the same at any sampling rate, with jitter and with asynchronous sensors, it needs no
 speed (a pose is enough), stops and reversing are ordinary, and actuator effects (delay, lag,

@@ -11,7 +11,7 @@ optimisers that integrate a whole log hundreds of times this loop is the cost of
 RK4 in Python floats runs at about 2 us per step, so a 1-hour 100 Hz log took ~0.7 s per
 simulation. The loop is sequential (each step needs the last), so numpy cannot vectorise it
 along time; it is written in C (``_hitch_rk4.c``, built by ``pip install`` as an extension
-module and called through ctypes; ~80 ns per step). We write it ourselves because no library
+module and called through ctypes). We write it ourselves because no library
 integrates a scalar ODE on sampled inputs given exactly where RK4 evaluates them, with resets
 and chained chunks, at this speed; numba would do it too but costs ~115 MB of RSS and
 a JIT compile per process (measured, issue 14), more than the whole memory budget leaves.
@@ -19,9 +19,8 @@ a JIT compile per process (measured, issue 14), more than the whole memory budge
 Several parameter sets on the same inputs (a start-point grid of 100-200 sets, the four columns
 of a finite-difference Jacobian) are stepped together, the loop over the sets vectorised with a
 branch-free sin/cos (``calib/tractor_trailer/_sincos.h``, a few units in the last place from
-libm's): 4-6 ns
-per step and set for grids of 64-225 sets on this machine (AVX-512), ~45 ns for four sets,
-against ~75 ns for one set on libm (``bench/rk4_kernel.py``). A series whose angle leaves that
+libm's); ``bench/rk4_kernel.py`` measures the batched sets against one set on libm, numpy,
+Python and ``solve_ivp`` in the same run. A series whose angle leaves that
 sin/cos's accurate range (|y| > 1e5 rad) or turns NaN is redone with libm. One parameter set
 runs on libm's sin and cos, bit for bit the numpy reference's arithmetic.
 
