@@ -61,10 +61,13 @@ def row(name: str, paths: list[Path], extra: dict[str, Any]) -> dict[str, Any]:
     worst = max(channels, key=lambda c: c.get("judged_ratio") or 0.0, default=None)
     located = [loc["label"] for loc in adequacy.get("located") or []][:3]
     disc = d.get("discovery") or {}
-    named = [e.get("label") or e.get("key") or e.get("id")
-             for e in (disc.get("effects") or []) if isinstance(e, dict)]
+    if isinstance(disc.get("named"), list):
+        named = [str(x if not isinstance(x, dict) else x.get("name", x)) for x in disc["named"]]
+    else:
+        named = [str(e.get("label") or e.get("name") or e.get("key") or e.get("id") or e)
+                 if isinstance(e, dict) else str(e) for e in (disc.get("effects") or [])]
     if not named and isinstance(disc.get("accepted"), list):
-        named = disc["accepted"]
+        named = [str(x) for x in disc["accepted"]]
     est = d.get("estimate") or {}
     determined = [k for k, v in est.items()
                   if isinstance(v, dict) and "identifiable" in v and v["identifiable"]]
