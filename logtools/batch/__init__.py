@@ -2,9 +2,11 @@
 parallel and resumably, fleet results in one Parquet table, pooled estimates and drift per
 robot, and an HTML report. See docs/batch.md.
 
-Modules: :mod:`~logtools.batch.settings` (``logcal.toml``), :mod:`~logtools.batch.archive`
-(walk, content hash), :mod:`~logtools.batch.worker` (one log), :mod:`~logtools.batch.engines`
-(process pool, Ray), :mod:`~logtools.batch.runner` (resume, atomic writes),
+Modules: :mod:`~logtools.batch.files` (regular files only), :mod:`~logtools.batch.settings`
+(``logcal.toml``, keys from the robot plugins' options), :mod:`~logtools.batch.archive`
+(walk over the registered log formats, content hash), :mod:`~logtools.batch.worker` (one
+log), :mod:`~logtools.batch.engines` (process pool, Ray), :mod:`~logtools.batch.runner`
+(resume, atomic writes),
 :mod:`~logtools.batch.table` (fleet table), :mod:`~logtools.batch.pooling` and
 :mod:`~logtools.batch.drift` (statistics), :mod:`~logtools.batch.fleet`,
 :mod:`~logtools.batch.plots`, :mod:`~logtools.batch.report_html`, :mod:`~logtools.batch.serve`.

@@ -28,17 +28,17 @@ import stat
 from dataclasses import dataclass
 from pathlib import Path
 
+from logtools.batch.files import file_kind, open_regular
 from logtools.batch.settings import (
     SETTINGS_FILE,
     LogSettings,
+    SettingsCache,
     SettingsError,
-    open_regular,
     settings_for,
 )
 from logtools.errors import LogcalInputError
 from logtools.outputs import special_devices, special_filesystem
-from logtools.readers.optiodom import is_optiodom_metadata
-from logtools.runs import LOG_SUFFIXES
+from logtools.readers.formats import log_suffixes, skipped
 
 __all__ = ["ID_PATTERN", "SETTINGS_FILE", "EntryError", "LogJob", "content_hash", "display_name",
            "file_kind", "find_logs", "log_id"]
@@ -77,17 +77,6 @@ class LogJob:
 
 class EntryError(LogcalInputError):
     """An archive entry logcal does not read (link, special file, unreadable folder)."""
-
-
-def file_kind(mode: int) -> str:
-    """What a file of ``mode`` is, in words (``a FIFO``, ``a symbolic link``...)."""
-    kinds = (
-        (stat.S_ISREG, "a regular file"), (stat.S_ISDIR, "a folder"),
-        (stat.S_ISLNK, "a symbolic link"), (stat.S_ISFIFO, "a FIFO"),
-        (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-        (stat.S_ISSOCK, "a socket"),
-    )
-    return next((text for test, text in kinds if test(mode)), "a special file")
 
 
 def _lstat(path: str) -> os.stat_result | None:
@@ -186,7 +175,13 @@ def log_id(rel: str | bytes, digits: int = 10) -> str:
 def _walk(archive: str, skip: set[tuple[int, int]], special: set[int]
           ) -> list[tuple[str, str | None]]:
     """(relative path, None) of every log, (relative path, why not) of every entry that is
-    refused, sorted by bytes. Never follows a link; never raises for one entry."""
+    refused, sorted by bytes. Never follows a link; never raises for one entry.
+
+    A file is a log when its suffix is one of the registered formats'
+    (:func:`~logtools.readers.formats.log_suffixes`, format plugins included) and no format
+    says it is not a log (:func:`~logtools.readers.formats.skipped`: an OptiOdom session's
+    metadata)."""
+    suffixes = frozenset(log_suffixes())
     found: list[tuple[str, str | None]] = []
     stack = [""]
     while stack:
@@ -209,7 +204,7 @@ def _walk(archive: str, skip: set[tuple[int, int]], special: set[int]
             except OSError as err:
                 found.append((rel, f"cannot stat it ({err.strerror or err})"))
                 continue
-            is_log_name = os.path.splitext(e.name)[1].lower() in LOG_SUFFIXES
+            is_log_name = os.path.splitext(e.name)[1].lower() in suffixes
             if stat.S_ISLNK(st.st_mode):
                 target_dir = os.path.isdir(e.path)  # stat of the target: never opened
                 if is_log_name or target_dir:
@@ -229,7 +224,7 @@ def _walk(archive: str, skip: set[tuple[int, int]], special: set[int]
                     stack.append(rel)
             elif is_log_name:
                 if stat.S_ISREG(st.st_mode):
-                    if not is_optiodom_metadata(e.path):  # a session's metadata, not a run
+                    if not skipped(Path(e.path)):  # e.g. a session's metadata, not a run
                         found.append((rel, None))
                 else:
                     found.append((rel, f"is {file_kind(st.st_mode)}; logcal reads regular "
@@ -238,9 +233,10 @@ def _walk(archive: str, skip: set[tuple[int, int]], special: set[int]
 
 
 def find_logs(archive: Path, *, skip: tuple[Path, ...] = ()) -> list[LogJob]:
-    """Every log below ``archive`` (``.mcap``, ``.csv``, ``.bag`` files and rosbag2 folders;
-    hidden files and folders, and anything under ``skip``, left out), sorted by path bytes;
-    links, special files and unreadable folders as entries with ``entry_error``.
+    """Every log below ``archive`` (files with a registered format's suffix, ``.mcap``,
+    ``.csv``, ``.bag``..., and rosbag2 folders; hidden files and folders, and anything under
+    ``skip``, left out), sorted by path bytes; links, special files and unreadable folders as
+    entries with ``entry_error``.
 
     Raises:
         LogcalInputError: ``archive`` is not a folder, or is on a kernel file system.
@@ -248,7 +244,7 @@ def find_logs(archive: Path, *, skip: tuple[Path, ...] = ()) -> list[LogJob]:
     archive = archive.resolve()
     if not archive.is_dir():
         raise LogcalInputError(f"{archive}: not a folder; expected an archive of logs "
-                               f"({', '.join(LOG_SUFFIXES)} files, rosbag2 folders).")
+                               f"({', '.join(log_suffixes())} files, rosbag2 folders).")
     root = special_filesystem(archive)
     if root is not None:
         raise LogcalInputError(f"{archive}: is on the kernel file system {root}; expected an "
@@ -260,7 +256,7 @@ def find_logs(archive: Path, *, skip: tuple[Path, ...] = ()) -> list[LogJob]:
         if st is not None:
             skip_ids.add((st.st_dev, st.st_ino))
     base = os.fspath(archive)
-    cache: dict[Path, dict[str, str]] = {}
+    cache = SettingsCache()
     jobs: list[LogJob] = []
     seen: dict[str, str] = {}
     for rel, refused in _walk(base, skip_ids, special):

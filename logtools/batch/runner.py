@@ -45,7 +45,7 @@ from typing import Any
 
 from logtools.batch.archive import ID_PATTERN, LogJob, find_logs
 from logtools.batch.engines import Engine, run_jobs
-from logtools.batch.settings import open_regular
+from logtools.batch.files import open_regular
 from logtools.batch.worker import AnalysisOptions, LogOutcome, analyse_job
 from logtools.errors import LogcalInputError
 from logtools.outputs import special_filesystem
@@ -156,7 +156,7 @@ def _record_raw(job: LogJob, outcome: LogOutcome, views: dict[str, str]) -> dict
         "log": job.rel, "id": job.id, "content_hash": job.content_hash,
         "robot_id": s.robot_id if s else None,
         "settings": None if s is None else {
-            "robot": s.robot, "channel_map": s.channel_map, "urdf": s.urdf,
+            "robot": s.robot, "channel_map": s.channel_map, "options": dict(s.options),
             "sources": list(s.sources)},
         "status": outcome.status, "error": outcome.error, "error_kind": outcome.error_kind,
         "detail": outcome.detail, "robot": outcome.robot, "start_ns": outcome.start_ns,
@@ -394,8 +394,10 @@ def run_batch(
     t0 = time.perf_counter()
     options = options or AnalysisOptions()
     if not archive.resolve().is_dir():
+        from logtools.readers.formats import log_suffixes
+
         raise LogcalInputError(f"{archive.resolve()}: not a folder; expected an archive of "
-                               "logs (.mcap, .csv, .bag files, rosbag2 folders).")
+                               f"logs ({', '.join(log_suffixes())} files, rosbag2 folders).")
     out = check_out(archive, out)
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -1,4 +1,5 @@
-"""``logcal.toml``: per-folder settings of a log archive (robot type, channel map, robot id).
+"""``logcal.toml``: per-folder settings of a log archive (robot type, channel map, robot id, and
+every registered robot's own options).
 
 A ``logcal.toml`` may sit in the archive's root or in any folder below it; it applies to the logs
 of its folder and of every folder below. Where several apply, the nearest one (deepest folder)
@@ -11,44 +12,61 @@ wins key by key::
     robot_id = "truck-07"       # the physical robot that recorded these logs: logs are pooled
                                 # and followed over time per robot_id; default: the log's
                                 # top-level folder ("(archive root)" for logs at the root)
-    urdf = "arm.urdf"           # an arm's URDF (relative to this file) or example-robot-data name
+    urdf = "arm.urdf"           # a robot option (here the manipulator's): any key a registered
+    cutoff_hz = 8.0             # plugin declares (logtools.robots.options.option_specs)
 
-Every key is optional. A malformed file, or an unknown key, makes every log below it fail with
-one message naming the file and key (the rest of the batch still runs).
+The accepted keys are :data:`BASE_KEYS` plus the option keys of every registered robot plugin,
+read from the plugins' declarations (nothing robot-specific is written here). Each option value
+is checked by :func:`~logtools.robots.options.build_options` with ``source="settings"`` and the
+``logcal.toml`` path as ``where``; a key several robots declare is checked against each.
 
-A settings file is data, never an instruction to read elsewhere: ``channel_map`` and ``urdf``
-may name only regular files inside the archive (relative to the ``logcal.toml``; absolute
-paths, ``~`` and ``..`` leading out of the archive are refused with the reason), no text is
-globbed, and ``logcal.toml`` itself must be a regular file (not a link, at most 1 MiB).
+Every key is optional. A malformed file, an unknown key or a bad value makes every log below it
+fail with one message naming the file and key (the rest of the batch still runs).
+
+A settings file is data, never an instruction to read elsewhere: ``channel_map`` and any option
+that names a file (an option of type ``Path``, or whose metavar says ``PATH``: the
+manipulator's ``urdf``, ``PATH_OR_NAME``, is a path unless it is a plain model name) may name
+only regular files inside the archive (relative to the ``logcal.toml``; absolute paths, ``~``
+and ``..`` leading out of the archive are refused with the reason), no text is globbed, and
+``logcal.toml`` itself must be a regular file (not a link, at most 1 MiB).
 """
 
 from __future__ import annotations
 
-import errno
 import hashlib
 import os
 import re
 import stat
 import tomllib
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
+from logtools.batch.files import SETTINGS_MAX_BYTES, open_regular, read_regular
 from logtools.errors import LogcalInputError
 
-__all__ = ["ARCHIVE_ROOT_ID", "SETTINGS_FILE", "SETTINGS_MAX_BYTES", "LogSettings",
-           "SettingsError", "open_regular", "read_regular", "settings_for"]
+if TYPE_CHECKING:
+    from logtools.robots.options import OptionSpec, RobotOptions
+
+__all__ = ["ARCHIVE_ROOT_ID", "BASE_KEYS", "SETTINGS_FILE", "SETTINGS_MAX_BYTES", "LogSettings",
+           "SettingsCache", "SettingsError", "accepted_keys", "open_regular", "read_regular",
+           "settings_for"]
 
 SETTINGS_FILE = "logcal.toml"
 ARCHIVE_ROOT_ID = "(archive root)"
-_KEYS = ("robot", "channel_map", "robot_id", "urdf")
+BASE_KEYS = ("robot", "channel_map", "robot_id")
+"""The keys of the batch itself; every other accepted key is a registered robot's option."""
 
 
 class SettingsError(LogcalInputError):
     """A ``logcal.toml`` that cannot be used: the message names the file and the key."""
 
-    def __init__(self, file: Path, key: str | None, detail: str) -> None:
+    def __init__(self, file: Path, key: str | None, detail: str, *,
+                 message: str | None = None) -> None:
         where = f"{file}: [{key}] " if key else f"{file}: "
-        super().__init__(where + detail)
+        super().__init__(message if message is not None else where + detail)
         self.file, self.key, self.detail = file, key, detail
 
 
@@ -60,67 +78,84 @@ class LogSettings:
         robot: robot type named by a ``logcal.toml`` (None: from the log).
         channel_map: absolute path of the channel-map file (None: defaults).
         robot_id: the physical robot the log belongs to.
-        urdf: an arm's URDF path (absolute) or model name (None: none).
         sources: the ``logcal.toml`` files that applied, root first.
+        fingerprint: sha256 of the settings (options included) and of the content of the files
+            they name, so that a changed channel map or URDF redoes the logs it applies to.
         robot_from: the file that set ``robot`` (None: none did).
-        fingerprint: sha256 of the settings and of the content of the files they name, so that
-            a changed channel map redoes the logs it applies to.
+        options: the robots' options set by the files, by settings key, as checked plain values
+            (numbers, text, true/false; a file an option names as its absolute path): what a
+            worker turns into typed options with
+            :func:`~logtools.analyze.options_from_settings`.
+        robot_options: the same, typed: by plugin name, that plugin's options instance (robots
+            given no key left out), as ``AnalysisConfig(robot_options=...)`` takes them.
     """
 
     robot: str | None
     channel_map: str | None
     robot_id: str
-    urdf: str | None
     sources: tuple[str, ...]
     fingerprint: str
     robot_from: str | None = None
+    options: Mapping[str, Any] = field(default_factory=dict)
+    robot_options: Mapping[str, RobotOptions] = field(default_factory=dict)
 
 
-SETTINGS_MAX_BYTES = 1 << 20
-"""A ``logcal.toml``, channel map or URDF larger than this is refused (1 MiB)."""
 _MODEL_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,63}")
 
 
-def open_regular(path: str | Path, *, special: set[int] | None = None) -> int:
-    """A read-only file descriptor of ``path`` if it is a regular file and not a link.
+@dataclass(frozen=True)
+class _Declared:
+    """One robot's declaration of an option: the spec and the robot's options class."""
 
-    Opened with ``O_NOFOLLOW | O_NONBLOCK`` (a link is refused, a FIFO does not block the
-    open), then checked with ``fstat``: a FIFO, socket or device is closed unread, and so is a
-    file on a kernel file system whose device is in ``special``.
-
-    Raises:
-        OSError: it cannot be opened, or is not a regular file (``EINVAL``, with its kind).
-    """
-    from logtools.batch.archive import file_kind
-
-    flags = os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0)
-    fd = os.open(path, flags)
-    try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            raise OSError(errno.EINVAL, f"it is {file_kind(st.st_mode)}; logcal reads "
-                                        "regular files only")
-        if special and st.st_dev in special:
-            raise OSError(errno.EINVAL, "it is on a kernel file system (/proc, /sys, /dev)")
-        os.set_blocking(fd, True)
-    except BaseException:
-        os.close(fd)
-        raise
-    return fd
+    spec: OptionSpec
+    cls: type[RobotOptions]
 
 
-def read_regular(path: str | Path, limit: int = SETTINGS_MAX_BYTES) -> bytes:
-    """The bytes of the regular file ``path`` (not a link, at most ``limit`` bytes).
+def _option_specs() -> dict[str, list[_Declared]]:
+    """Settings key -> the option of every registered robot that declares it (registry
+    order)."""
+    from logtools.robots import plugins
+    from logtools.robots.options import option_specs
 
-    Raises:
-        OSError: not a regular file, a link, unreadable, or larger than ``limit``.
-    """
-    fd = open_regular(path)
-    with os.fdopen(fd, "rb") as fh:
-        data = fh.read(limit + 1)
-    if len(data) > limit:
-        raise OSError(errno.EFBIG, f"larger than {limit} bytes")
-    return data
+    out: dict[str, list[_Declared]] = {}
+    for plugin in plugins():
+        for spec in option_specs(plugin):
+            out.setdefault(spec.key, []).append(_Declared(spec, plugin.options))
+    return out
+
+
+def accepted_keys() -> tuple[str, ...]:
+    """Every key a ``logcal.toml`` may hold: :data:`BASE_KEYS`, then each registered robot's
+    option keys (in registry and field order)."""
+    return (*BASE_KEYS, *(k for k in _option_specs() if k not in BASE_KEYS))
+
+
+def _names_file(spec: OptionSpec, value: str) -> bool:
+    """Whether ``value`` of the option ``spec`` names a file: always for an option of type
+    ``Path``; for a text option whose metavar says ``PATH`` (``PATH``, ``PATH_OR_NAME``), unless
+    the metavar also allows a ``NAME`` and ``value`` is a plain name (``panda``)."""
+    if spec.type is Path:
+        return True
+    if spec.type is str and "PATH" in spec.metavar.upper():
+        return "NAME" not in spec.metavar.upper() or _MODEL_NAME.fullmatch(value) is None
+    return False
+
+
+class SettingsCache:
+    """What :func:`settings_for` has read during one walk: each folder's parsed ``logcal.toml``
+    and settings, and the registered robots' option declarations (read once)."""
+
+    def __init__(self) -> None:
+        self.files: dict[Path, dict[str, Any]] = {}
+        self.folders: dict[Path, LogSettings] = {}
+        self._specs: dict[str, list[_Declared]] | None = None
+
+    @property
+    def specs(self) -> dict[str, list[_Declared]]:
+        """Settings key -> every registered robot's declaration of it."""
+        if self._specs is None:
+            self._specs = _option_specs()
+        return self._specs
 
 
 def _inside(archive: Path, file: Path, key: str, value: str) -> Path:
@@ -147,28 +182,73 @@ def _inside(archive: Path, file: Path, key: str, value: str) -> Path:
     return path
 
 
-def _read(archive: Path, file: Path) -> dict[str, str]:
+def _plain(value: Any) -> Any:
+    """A checked option value as plain data (an Enum as its value, a path as text)."""
+    if isinstance(value, Enum):
+        return value.value
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def _option_value(archive: Path, file: Path, key: str, value: Any,
+                  declared: list[_Declared]) -> Any:
+    """``value`` of the robot option ``key`` checked against every robot declaring it
+    (``build_options``), a file it names resolved inside the archive; as plain data."""
+    from logtools.robots.options import build_options
+
+    checked: Any = None
+    for d in declared:
+        try:
+            built = build_options(d.cls, {key: value}, source="settings", where=str(file))
+        except LogcalInputError as err:
+            raise SettingsError(file, key, str(err), message=str(err)) from err
+        if checked is None:
+            checked = _plain(getattr(built, key))
+    if isinstance(checked, str) and _names_a_file(declared, checked):
+        checked = str(_inside(archive, file, key, checked))
+    return checked
+
+
+def _names_a_file(declared: list[_Declared], value: str) -> bool:
+    return any(_names_file(d.spec, value) for d in declared)
+
+
+def _typed(options: Mapping[str, Any], specs: Mapping[str, list[_Declared]], where: str
+           ) -> dict[str, RobotOptions]:
+    """By robot, its options instance from the checked ``options`` (each key to every robot
+    declaring it, as :func:`~logtools.analyze.options_from_settings` does)."""
+    from logtools.robots.options import build_options
+
+    values: dict[type[RobotOptions], dict[str, Any]] = {}
+    names: dict[type[RobotOptions], str] = {}
+    for key, value in options.items():
+        for d in specs.get(key, []):
+            values.setdefault(d.cls, {})[key] = value
+            names[d.cls] = d.spec.robot
+    return {names[cls]: build_options(cls, v, source="settings", where=where)
+            for cls, v in values.items()}
+
+
+def _read(archive: Path, file: Path, specs: Mapping[str, list[_Declared]]) -> dict[str, Any]:
     try:
         text = read_regular(file).decode("utf-8")
         doc = tomllib.loads(text)
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
         raise SettingsError(file, None, f"not a readable TOML file ({err}).") from err
-    out: dict[str, str] = {}
+    out: dict[str, Any] = {}
     for key, value in doc.items():
-        if key not in _KEYS:
+        if key in BASE_KEYS:
+            if not isinstance(value, str) or not value.strip():
+                raise SettingsError(file, key, f"is {value!r}; expected a non-empty string.")
+            out[key] = str(_inside(archive, file, key, value)) if key == "channel_map" else value
+        elif key in specs:
+            out[key] = _option_value(archive, file, key, value, specs[key])
+        else:
+            known = (*BASE_KEYS, *(k for k in specs if k not in BASE_KEYS))
             raise SettingsError(file, key, f"is not a logcal.toml key; expected one of "
-                                           f"{', '.join(_KEYS)}.")
-        if not isinstance(value, str) or not value.strip():
-            raise SettingsError(file, key, f"is {value!r}; expected a non-empty string.")
-        if key in ("channel_map", "urdf") and (key == "channel_map" or _looks_like_path(value)):
-            value = str(_inside(archive, file, key, value))
-        out[key] = value
+                                           f"{', '.join(known)}.")
     return out
-
-
-def _looks_like_path(value: str) -> bool:
-    """A ``urdf`` value that is not a plain model name (``panda``, ``ur5``) is a path."""
-    return _MODEL_NAME.fullmatch(value) is None
 
 
 def _file_digest(path: str) -> str:
@@ -178,48 +258,60 @@ def _file_digest(path: str) -> str:
         return "unreadable"
 
 
-def settings_for(archive: Path, log: Path, cache: dict[Path, dict[str, str]] | None = None
-                 ) -> LogSettings:
+def settings_for(archive: Path, log: Path, cache: SettingsCache | None = None) -> LogSettings:
     """The settings of ``log`` (a path inside ``archive``) from the ``logcal.toml`` files on the
     way from ``archive`` down to the log's folder.
 
-    ``cache`` (folder -> parsed file) avoids reading a file once per log.
+    ``cache`` (one per walk) avoids reading a file, or working out a folder's settings, once
+    per log.
 
     Raises:
-        SettingsError: a ``logcal.toml`` on the way is malformed or names a missing file.
+        SettingsError: a ``logcal.toml`` on the way is malformed, has an unknown key or a bad
+            value, or names a missing file.
     """
-    cache = {} if cache is None else cache
+    cache = SettingsCache() if cache is None else cache
     root = archive.resolve()  # files named by a logcal.toml must resolve inside it
     rel = log.relative_to(archive)
     folders = [archive]
     for part in rel.parts[:-1]:
         folders.append(folders[-1] / part)
-    merged: dict[str, str] = {}
+    if folders[-1] in cache.folders:  # the logs of one folder share its settings
+        return cache.folders[folders[-1]]
+    merged: dict[str, Any] = {}
     sources: list[str] = []
     robot_from = None
     for folder in folders:
         file = folder / SETTINGS_FILE
         present = os.path.lexists(file)  # a link or FIFO named logcal.toml: refused by _read
-        if folder not in cache:
-            cache[folder] = _read(root, file) if present else {}
+        if folder not in cache.files:
+            cache.files[folder] = _read(root, file, cache.specs) if present else {}
         if present:
             sources.append(str(file))
-        merged.update(cache[folder])
-        if "robot" in cache[folder]:
+        merged.update(cache.files[folder])
+        if "robot" in cache.files[folder]:
             robot_from = str(file)
     default_id = rel.parts[0] if len(rel.parts) > 1 else ARCHIVE_ROOT_ID
+    options = {k: v for k, v in sorted(merged.items()) if k not in BASE_KEYS}
     digest = hashlib.sha256()
-    for key in _KEYS:
+    for key in BASE_KEYS:
         digest.update(f"{key}={merged.get(key, '')}\n".encode())
-    for key in ("channel_map", "urdf"):
-        if key in merged and _looks_like_path(merged[key]):
-            digest.update(_file_digest(merged[key]).encode())
-    return LogSettings(
+    for key, value in options.items():
+        digest.update(f"{key}={type(value).__name__}:{value}\n".encode())
+    named = [merged["channel_map"]] if "channel_map" in merged else []
+    named += [v for k, v in options.items()
+              if isinstance(v, str) and _names_a_file(cache.specs.get(k, []), v)]
+    for path in named:
+        digest.update(_file_digest(path).encode())
+    typed = _typed(options, cache.specs, sources[-1] if sources else SETTINGS_FILE)
+    settings = LogSettings(
         robot=merged.get("robot"),
         channel_map=merged.get("channel_map"),
         robot_id=merged.get("robot_id", default_id),
-        urdf=merged.get("urdf"),
         sources=tuple(sources),
         fingerprint=digest.hexdigest(),
         robot_from=robot_from,
+        options=options,
+        robot_options=typed,
     )
+    cache.folders[folders[-1]] = settings
+    return settings

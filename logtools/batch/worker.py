@@ -4,6 +4,11 @@ The function runs in another process (a local pool) or on another machine (Ray),
 and returns plain picklable values, writes nothing into the output folder (the driver writes,
 atomically) and returns the view files' bytes. Any failure, ours or the log's, becomes the
 outcome's ``error``: one bad log never stops a batch.
+
+The robot's own options come from the log's ``logcal.toml`` settings (plain values by key,
+``LogSettings.options``), turned into typed options by
+:func:`~logtools.analyze.options_from_settings` for ``AnalysisConfig(robot_options=...)``; the
+views are drawn by :func:`logtools.views.write_views`, as ``logcal analyze --rrd`` does.
 """
 
 from __future__ import annotations
@@ -13,9 +18,14 @@ import time
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from logtools.batch.archive import LogJob
+
+if TYPE_CHECKING:
+    from calib.results import AnalysisResult
+    from logtools.analyze import AnalysisConfig
+    from logtools.load import LoadedLog
 
 __all__ = ["AnalysisOptions", "LogOutcome", "analyse_job"]
 
@@ -86,24 +96,23 @@ def _known_errors() -> tuple[type[Exception], ...]:
     return (LogcalError, CalibError)
 
 
-def _draw_views(loaded: Any, result: Any, plugin: Any) -> tuple[dict[str, bytes], list[str]]:
-    from logtools.robots.base import load_view
+def _draw_views(loaded: LoadedLog, result: AnalysisResult, config: AnalysisConfig
+                ) -> tuple[dict[str, bytes], list[str]]:
+    """The robot's views (``.rrd``, ``.png``) as bytes, drawn by the one
+    :func:`logtools.views.write_views` into a temporary folder (a view that fails, or a robot
+    without views, is a note: the analysis stands)."""
+    from logtools.views import write_views
 
-    views: dict[str, bytes] = {}
-    notes: list[str] = []
-    for suffix, target, what in ((".rrd", plugin.views, "rerun recording"),
-                                 (".png", plugin.png, "report image")):
-        if target is None:
-            notes.append(f"the {plugin.title} has no {what} yet")
-            continue
-        with tempfile.TemporaryDirectory(prefix="logcal-batch-") as tmp:
-            out = Path(tmp) / f"view{suffix}"
-            try:
-                written = load_view(target)(out, loaded, result)
-                views[suffix] = Path(written or out).read_bytes()
-            except Exception as err:  # a view that fails leaves the analysis standing
-                notes.append(f"{what} not drawn: {type(err).__name__}: {err}")
-    return views, notes
+    with tempfile.TemporaryDirectory(prefix="logcal-batch-") as tmp:
+        rrd, png = Path(tmp) / "view.rrd", Path(tmp) / "view.png"
+        try:
+            written = write_views([loaded], result, rrd=rrd, png=png, inputs=[Path(loaded.path)],
+                                  config=config, on_error="note")
+        except Exception as err:  # e.g. an output check: the analysis still stands
+            return {}, [f"views not drawn: {type(err).__name__}: {err}"]
+        views = {path.suffix: path.read_bytes()
+                 for path in (written.rrd, written.png) if path is not None}
+        return views, written.notes
 
 
 EPOCH_FLOOR_NS = 946_684_800 * 10**9
@@ -122,7 +131,7 @@ def _no_longer_plain(path: str) -> str | None:
     import os
     import stat
 
-    from logtools.batch.archive import file_kind
+    from logtools.batch.files import file_kind
 
     try:
         mode = os.lstat(path).st_mode
@@ -147,7 +156,7 @@ def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
         from dataclasses import replace
 
         from calib.results import Baseline
-        from logtools.analyze import AnalysisConfig, analyze_log
+        from logtools.analyze import AnalysisConfig, analyze_log, options_from_settings
         from logtools.channel_map import ChannelMap, load_channel_map
         from logtools.robots import plugin_for
 
@@ -160,14 +169,15 @@ def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
         config = AnalysisConfig(
             repeats=options.repeats, seed=options.seed, discovery=options.discovery,
             baseline=Baseline(options.baseline),
-            extra={"urdf": s.urdf} if s.urdf else {},
+            robot_options=options_from_settings(
+                s.options, where=s.sources[-1] if s.sources else "logcal.toml"),
         )
         loaded, result = analyze_log(job.path, channel_map=cmap, config=config)
         start_ns, end_ns = _time_span(loaded.frame["t_ns"].to_list())
         views: dict[str, bytes] = {}
         notes: list[str] = []
         if options.views:
-            views, notes = _draw_views(loaded, result, plugin_for(result.robot))
+            views, notes = _draw_views(loaded, result, config)
         return LogOutcome(
             job, "ok", result=result.to_dict(), robot=result.robot, start_ns=start_ns,
             end_ns=end_ns, views=views, notes=notes, seconds=time.perf_counter() - t0,

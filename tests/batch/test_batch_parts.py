@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import urllib.error
 import urllib.request
 from pathlib import Path
@@ -33,6 +34,40 @@ def test_settings_nearest_wins_and_bad_keys_are_named(tmp_path: Path) -> None:
         settings_for(tmp_path, log)
 
 
+def test_settings_take_every_robots_options_from_the_plugins(tmp_path: Path) -> None:
+    from logtools.robots.manipulator.options import ManipulatorOptions
+    from logtools.robots.tractor_trailer.options import TractorTrailerOptions
+
+    (tmp_path / "arm").mkdir()
+    (tmp_path / "arm" / "arm.urdf").write_text("<robot/>")
+    (tmp_path / "logcal.toml").write_text("discovery_span_s = 60\ncutoff_hz = 8\n")
+    (tmp_path / "arm" / "logcal.toml").write_text('urdf = "arm.urdf"\ncutoff_hz = 5.5\n')
+    log = tmp_path / "arm" / "x.csv"
+    s = settings_for(tmp_path, log)
+    urdf = str((tmp_path / "arm" / "arm.urdf").resolve())
+    assert s.options == {"cutoff_hz": 5.5, "discovery_span_s": 60.0, "urdf": urdf}
+    assert s.robot_options == {
+        "manipulator": ManipulatorOptions(urdf=urdf, cutoff_hz=5.5),
+        "tractor_trailer": TractorTrailerOptions(discovery_span_s=60.0)}
+    before = s.fingerprint
+    (tmp_path / "arm" / "arm.urdf").write_text("<robot name='b'/>")  # the file's content counts
+    assert settings_for(tmp_path, log).fingerprint != before
+    toml = tmp_path / "arm" / "logcal.toml"
+    toml.write_text("cutoff_hz = -1\n")  # checked by the option's declaration
+    with pytest.raises(SettingsError, match=re.escape(f"{toml}: cutoff_hz = -1: expected a "
+                                                      "number > 0")):
+        settings_for(tmp_path, log)
+    toml.write_text('urdf = "missing.urdf"\n')  # names a file: it must be one, inside
+    with pytest.raises(SettingsError, match=r"\[urdf\] names 'missing\.urdf', which is not a"):
+        settings_for(tmp_path, log)
+    toml.write_text('urdf = "panda"\n')  # a model name: no file
+    assert settings_for(tmp_path, log).options["urdf"] == "panda"
+    toml.write_text('wheel_base = 2\n')
+    with pytest.raises(SettingsError, match=r"expected one of robot, channel_map, robot_id, "
+                       r".*cutoff_hz"):
+        settings_for(tmp_path, log)
+
+
 def test_default_robot_id_is_the_top_folder(tmp_path: Path) -> None:
     assert settings_for(tmp_path, tmp_path / "t1" / "d" / "x.mcap").robot_id == "t1"
     assert settings_for(tmp_path, tmp_path / "x.mcap").robot_id == "(archive root)"
@@ -54,6 +89,25 @@ def test_archive_walk_skips_hidden_and_output_folders(tmp_path: Path) -> None:
     jobs = find_logs(tmp_path, skip=(tmp_path / "out",))
     assert [j.rel for j in jobs] == ["a.mcap", "b.csv", "bag"]
     assert jobs[0].content_hash != jobs[2].content_hash
+
+
+def test_archive_walk_takes_the_registered_formats(tmp_path: Path) -> None:
+    from logtools.readers import formats
+    from logtools.readers.format_reader import FormatReader
+
+    (tmp_path / "a.xyz").write_bytes(b"x")
+    (tmp_path / "b.tum").write_bytes(b"0 0 0 0 0 0 0 1\n")
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "s1_metadata.csv").write_text("type,x\n")  # a session's metadata
+    (tmp_path / "s" / "s1_run-1.csv").write_text("1,2\n")
+    assert [j.rel for j in find_logs(tmp_path)] == ["b.tum", "s/s1_run-1.csv"]
+    saved = list(formats.formats())
+    try:  # a format plugin's files are walked too
+        formats.register_format(FormatReader("xyz", "XYZ log", (".xyz",), lambda p, h: True,
+                                             lambda name, req: None))  # type: ignore[arg-type,return-value]
+        assert [j.rel for j in find_logs(tmp_path)] == ["a.xyz", "b.tum", "s/s1_run-1.csv"]
+    finally:
+        formats._REGISTRY[:] = saved
 
 
 def test_inverse_variance_pool_by_hand() -> None:

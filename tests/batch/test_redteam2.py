@@ -182,7 +182,7 @@ def test_settings_name_only_files_inside_the_archive(tmp_path: Path, value: str,
     with pytest.raises(SettingsError, match="absolute path"):
         settings_for(arch, log)
     (arch / "r" / "logcal.toml").write_text('urdf = "panda"\n')  # a model name: no path
-    assert settings_for(arch, log).urdf == "panda"
+    assert settings_for(arch, log).options == {"urdf": "panda"}
 
 
 def test_a_linked_or_special_logcal_toml_is_refused(tmp_path: Path) -> None:

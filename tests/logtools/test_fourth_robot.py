@@ -263,15 +263,37 @@ def test_options_are_typed_in_the_configuration(bicycle: None) -> None:
         options_from_settings({"wheel_base": 2.5})
 
 
-@pytest.mark.xfail(strict=False, reason="batch settings not yet built from plugins")
 def test_batch_settings_take_the_robots_options(log: Path, tmp_path: Path) -> None:
-    from logtools.batch.settings import settings_for
+    import re
+
+    from logtools.batch.archive import find_logs
+    from logtools.batch.settings import SettingsError, settings_for
+    from logtools.batch.worker import AnalysisOptions, analyse_job
 
     archive = tmp_path / "archive"
     (archive / "car").mkdir(parents=True)
     run = archive / "car" / "drive.csv"
     run.write_bytes(log.read_bytes())
     (archive / "logcal.toml").write_text('robot = "bicycle"\nwheelbase_guess = 2.5\n')
-    settings = settings_for(archive, run)  # today: an unknown key
+    settings = settings_for(archive, run)  # the bicycle's key, from its declaration
     carried = [v for v in vars(settings).values() if isinstance(v, Mapping)]
     assert any(BicycleOptions(wheelbase_guess=2.5) in m.values() for m in carried)
+    # the worker builds the typed options from the settings: the analysis and views get them
+    [job] = find_logs(archive)
+    outcome = analyse_job(job, AnalysisOptions(repeats=1, discovery=False, views=True))
+    assert outcome.status == "ok", outcome.error
+    assert outcome.result is not None
+    assert outcome.result["wheelbase_guess"] == 2.5
+    assert seen_options == [BicycleOptions(wheelbase_guess=2.5)]
+    assert outcome.views[".rrd"]
+    assert any("no report image" in n for n in outcome.notes)
+    again = settings_for(archive, run)
+    (archive / "car" / "logcal.toml").write_text("wheelbase_guess = 2.6\n")  # nearest wins
+    assert settings_for(archive, run).robot_options == {
+        "bicycle": BicycleOptions(wheelbase_guess=2.6)}
+    assert settings_for(archive, run).fingerprint != again.fingerprint  # a changed option
+    (archive / "car" / "logcal.toml").write_text('wheelbase_guess = "long"\n')
+    toml = archive / "car" / "logcal.toml"
+    with pytest.raises(SettingsError, match=re.escape(
+            f"{toml}: wheelbase_guess = 'long': expected a number > 0")):
+        settings_for(archive, run)
