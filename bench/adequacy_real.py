@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from logtools.analyze import AnalysisConfig, analyze_logs
+from logtools.analyze import AnalysisConfig, analyze_logs, options_from_settings
 from logtools.errors import LogcalInputError
 from logtools.runs import expand_runs
 
@@ -51,7 +51,8 @@ def row(name: str, paths: list[Path], extra: dict[str, Any]) -> dict[str, Any]:
     t0 = time.process_time()
     try:
         runs = expand_runs(paths)  # a session folder: its runs, as the CLI reads it
-        _, res = analyze_logs(runs, config=AnalysisConfig(extra=extra))
+        config = AnalysisConfig(robot_options=options_from_settings(extra))
+        _, res = analyze_logs(runs, config=config)
     except LogcalInputError as err:
         return {"recording": name, "robot": "-", "verdict": "not analysed",
                 "why": str(err).splitlines()[0][:160]}

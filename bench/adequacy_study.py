@@ -7,7 +7,7 @@ catalogue-escaping kind (``indgen.kinds.KINDS``) at a log-uniform magnitude from
 detectable to large. Log i of seed s draws everything from ``numpy.random.default_rng([s, i])``:
 robot, kind, magnitude, format (JSON MCAP, or CSV 20 %) and the generator seed. Each log is
 written to a temporary directory and analysed with ``logtools.analyze.analyze_log`` (discovery
-on; the arm with its URDF via ``AnalysisConfig(extra={"urdf": ...})``).
+on; the arm with its URDF via ``AnalysisConfig(robot_options=...)``).
 
 Per log: the adequacy verdict (a missing ``adequacy`` key counts as "not assessed"), whether it
 located the mismatch (``located`` or ``changes`` non-empty), the named effects of discovery,
@@ -183,7 +183,7 @@ def _param_checks(doc: dict[str, Any], truth: dict[str, Any]) -> list[dict[str, 
 
 def run_one(spec: dict[str, Any], repeats: int = 10) -> dict[str, Any]:
     """Generate, write, analyse one log; the record (never raises: errors are recorded)."""
-    from logtools.analyze import AnalysisConfig, analyze_log
+    from logtools.analyze import AnalysisConfig, analyze_log, options_from_settings
 
     t0 = time.perf_counter()
     rec: dict[str, Any] = dict(spec)
@@ -201,7 +201,8 @@ def run_one(spec: dict[str, Any], repeats: int = 10) -> dict[str, Any]:
             paths = write_log(d, log, fmt=spec["fmt"])
             extra = {"urdf": str(paths["arm.urdf"])} if "arm.urdf" in paths else {}
             _, res = analyze_log(paths["log"],
-                                 config=AnalysisConfig(repeats=repeats, extra=extra))
+                                 config=AnalysisConfig(repeats=repeats,
+                                                     robot_options=options_from_settings(extra)))
             doc = res.to_dict()
         ad = doc.get("adequacy") or {"verdict": "not assessed"}
         rec["verdict"] = ad.get("verdict", "not assessed")

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from typing import Any, TypeVar
 
 from threadpoolctl import threadpool_limits
@@ -39,7 +39,7 @@ Progress = Callable[[str], None]
 T = TypeVar("T", bound=RobotOptions)
 
 
-@dataclass(frozen=True, init=False)
+@dataclass(frozen=True)
 class AnalysisConfig:
     """Settings of one analysis.
 
@@ -56,9 +56,6 @@ class AnalysisConfig:
         robot_options: each robot's own options by plugin name (an instance of that plugin's
             ``options`` class); a robot not named gets its options' defaults. Read them with
             :meth:`options`.
-        extra: (transition only, keyword) the former untyped settings by key (``urdf``,
-            ``cutoff_hz``, ``discovery_span_s``, ``method_for_psi``): each key goes to the
-            options of every robot declaring it; a key no robot declares is an error.
     """
 
     repeats: int = 10
@@ -69,29 +66,11 @@ class AnalysisConfig:
     debug: bool = False
     robot_options: Mapping[str, RobotOptions] = field(default_factory=dict)
 
-    def __init__(
-        self,
-        repeats: int = 10,
-        baseline: Baseline = Baseline.TRANSIENT,
-        seed: int = 0,
-        discovery: bool = True,
-        per_segment: bool = True,
-        debug: bool = False,
-        robot_options: Mapping[str, RobotOptions] | None = None,
-        *,
-        extra: Mapping[str, Any] | None = None,
-    ) -> None:
-        given = dict(robot_options or {})
-        for name, opts in given.items():
+    def __post_init__(self) -> None:
+        for name, opts in self.robot_options.items():
             if not isinstance(opts, RobotOptions):
                 raise TypeError(f"robot_options[{name!r}]: expected a RobotOptions instance, "
                                 f"got {type(opts).__name__}")
-        if extra:
-            given = {**options_from_settings(extra, where="AnalysisConfig extra"), **given}
-        for name, value in (("repeats", repeats), ("baseline", baseline), ("seed", seed),
-                            ("discovery", discovery), ("per_segment", per_segment),
-                            ("debug", debug), ("robot_options", given)):
-            object.__setattr__(self, name, value)
 
     def options(self, cls: type[T]) -> T:
         """The options of class ``cls`` given for this analysis, else ``cls()`` (defaults)."""
@@ -99,19 +78,6 @@ class AnalysisConfig:
             if type(opts) is cls:
                 return opts
         return cls()
-
-    @property
-    def extra(self) -> dict[str, Any]:
-        """Transition only: every given robot option that is set (not None), by settings key.
-
-        Read-only; use :meth:`options` (``config.options(ManipulatorOptions).urdf``)."""
-        out: dict[str, Any] = {}
-        for opts in self.robot_options.values():
-            for f in fields(opts):
-                value = getattr(opts, f.name)
-                if value is not None:
-                    out.setdefault(f.name, value)
-        return out
 
 
 def options_from_settings(

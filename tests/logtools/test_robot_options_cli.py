@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from logtools.analyze import AnalysisConfig
+from logtools.analyze import AnalysisConfig, options_from_settings
 from logtools.cli.main import main
 from logtools.errors import LogcalInputError
 from logtools.robots import plugin_for, plugins
@@ -62,17 +62,15 @@ def test_analysis_config_carries_each_robots_options_typed() -> None:
     assert cfg.options(ManipulatorOptions).cutoff_hz == 5.0
     assert cfg.options(TractorTrailerOptions).discovery_span_s is None
     assert AnalysisConfig().options(ManipulatorOptions) == ManipulatorOptions()
-    # the transition view the pipelines still read: set fields only, read-only
-    assert cfg.extra == {"urdf": "panda", "cutoff_hz": 5.0, "method_for_psi": "PMLS/PM1"}
-    with pytest.raises(AttributeError):
-        cfg.extra = {}  # type: ignore[misc]
-    # the former keyword still builds the typed options
-    old = AnalysisConfig(repeats=3, extra={"urdf": "panda", "discovery_span_s": 100})
+    assert not hasattr(cfg, "extra")  # no untyped mapping beside the typed options
+    # settings keys (a logcal.toml) become typed options, each checked
+    given = options_from_settings({"urdf": "panda", "discovery_span_s": 100})
+    old = AnalysisConfig(repeats=3, robot_options=given)
     assert old.options(ManipulatorOptions) == ManipulatorOptions(urdf="panda")
     assert old.options(TractorTrailerOptions).discovery_span_s == 100.0
     assert dataclasses.replace(old, seed=4).robot_options == old.robot_options
     with pytest.raises(LogcalInputError, match=r"cutoff_hz = 'fast': expected a number > 0"):
-        AnalysisConfig(extra={"cutoff_hz": "fast"})
+        options_from_settings({"cutoff_hz": "fast"})
     with pytest.raises(TypeError):
         AnalysisConfig(robot_options={"manipulator": {"urdf": "panda"}})  # type: ignore[dict-item]
     assert isinstance(RobotOptions(), RobotOptions)

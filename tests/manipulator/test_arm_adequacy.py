@@ -24,6 +24,7 @@ from calib.manipulator.simulate import Friction, Sensors, simulate_planar
 from logtools.analyze import AnalysisConfig
 from logtools.load import load_log
 from logtools.robots.manipulator import PLUGIN
+from logtools.robots.manipulator.options import ManipulatorOptions
 
 DFKI = Path(__file__).resolve().parents[3] / "shared/realworld_arm/dfki_double_pendulum"
 ARM = Planar2Params()
@@ -149,7 +150,8 @@ def test_pipeline_reports_delay_adequacy(tmp_path: Path) -> None:
                         nominal=nominal)
     write_arm_run(tmp_path / "delay.mcap", run, metadata=meta)
     loaded = load_log(tmp_path / "delay.mcap")
-    res = PLUGIN.analyze(loaded, AnalysisConfig(extra={"cutoff_hz": 20.0}), lambda _m: None)
+    cfg = AnalysisConfig(robot_options={"manipulator": ManipulatorOptions(cutoff_hz=20.0)})
+    res = PLUGIN.analyze(loaded, cfg, lambda _m: None)
     doc = json.loads(json.dumps(res.to_dict()))
     adq = doc["adequacy"]
     assert adq["before"]["verdict"] == "does not explain"
@@ -164,7 +166,8 @@ def test_pipeline_reports_delay_adequacy(tmp_path: Path) -> None:
 def test_dfki_run_gets_a_verdict() -> None:
     loaded = load_log(DFKI / "dp_C0_20220914_trajectory_00.mcap")
     cfg = AnalysisConfig(discovery=False,  # the verdict alone; discovery is the slow part
-                         extra={"urdf": str(DFKI / "design_C.0_model_3.1_acrobot.urdf")})
+                         robot_options={"manipulator": ManipulatorOptions(
+                             urdf=str(DFKI / "design_C.0_model_3.1_acrobot.urdf"))})
     res = PLUGIN.analyze(loaded, cfg, lambda _m: None)
     adq = res.adequacy
     assert adq is not None

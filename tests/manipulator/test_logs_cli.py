@@ -13,6 +13,7 @@ from logtools.analyze import AnalysisConfig
 from logtools.cli.main import main
 from logtools.load import load_log
 from logtools.robots.manipulator import PLUGIN
+from logtools.robots.manipulator.options import ManipulatorOptions
 
 DFKI = Path(__file__).resolve().parents[3] / "shared/realworld_arm/dfki_double_pendulum"
 
@@ -53,7 +54,8 @@ def test_simulated_log_round_trip(tmp_path: Path, suffix: str) -> None:
 def test_dfki_real_log() -> None:
     loaded = load_log(DFKI / "dp_C0_20220914_trajectory_00.mcap")
     assert loaded.robot == "manipulator"
-    cfg = AnalysisConfig(extra={"urdf": str(DFKI / "design_C.0_model_3.1_acrobot.urdf")})
+    cfg = AnalysisConfig(robot_options={"manipulator": ManipulatorOptions(
+        urdf=str(DFKI / "design_C.0_model_3.1_acrobot.urdf"))})
     res = PLUGIN.analyze(loaded, cfg, lambda _m: None)
     s = res.sections
     assert s["joints"] == ["Joint1", "Joint2"]
