@@ -16,8 +16,8 @@ an import path, so that ``logtools`` never imports rerun); the plugin module in
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from logtools.robots.options import RobotOptions
@@ -176,7 +176,6 @@ class RobotPlugin:
     uses_settings: tuple[str, ...] = ()
     simulate: str | None = None
     reproduce: str | None = None
-    extra: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def required(self) -> tuple[str, ...]:
