@@ -40,23 +40,30 @@ def hf_noise_std(x: np.ndarray) -> float:
     return _MAD_TO_STD * mad / math.sqrt(6.0)
 
 
-def hf_noise_std_t(t: np.ndarray, x: np.ndarray) -> float:
-    """``hf_noise_std`` for samples at uneven times ``t``: each sample against the line
-    through its neighbours, e_i = x_i - (a x_(i-1) + b x_(i+1)), whose variance is
-    sigma^2 (1 + a^2 + b^2) for white noise (robust MAD estimate)."""
+def local_line_errors(t: np.ndarray, x: np.ndarray) -> FloatArray:
+    """Each sample of ``x`` (at uneven times ``t``) against the line through its neighbours,
+    e_i = (x_i - (a x_(i-1) + b x_(i+1))) / sqrt(1 + a^2 + b^2): for white noise of std sigma,
+    e has std sigma (NaN samples and repeated stamps left out)."""
     t = np.asarray(t, dtype=float)
     x = np.asarray(x, dtype=float)
     ok = np.isfinite(t) & np.isfinite(x)
     t, x = t[ok], x[ok]
     if x.size < 5:
-        return 0.0
+        return np.zeros(0)
     h0, h1 = t[1:-1] - t[:-2], t[2:] - t[1:-1]
     span = h0 + h1
     good = span > 0
     a = np.where(good, h1 / np.where(good, span, 1.0), 0.5)
     b = 1.0 - a
     e = (x[1:-1] - a * x[:-2] - b * x[2:]) / np.sqrt(1.0 + a * a + b * b)
-    e = e[good]
+    out: FloatArray = e[good]
+    return out
+
+
+def hf_noise_std_t(t: np.ndarray, x: np.ndarray) -> float:
+    """``hf_noise_std`` for samples at uneven times ``t``: the robust (MAD) std of
+    :func:`local_line_errors`."""
+    e = local_line_errors(t, x)
     if e.size < 3:
         return 0.0
     return _MAD_TO_STD * float(np.median(np.abs(e - np.median(e))))

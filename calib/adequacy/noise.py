@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from calib.results import JsonRecord
-from calib.stats import detect_quantum
+from calib.stats import detect_quantum, local_line_errors
 
 __all__ = ["NoiseFloor", "noise_floor"]
 
@@ -54,23 +54,15 @@ collapses and the RMS of the errors is used instead."""
 
 
 def hf_noise_std_t(t: FloatArray, x: FloatArray) -> float:
-    """White-noise std of ``x`` at times ``t``: each sample against the line through its
-    neighbours, e_i = x_i - (a x_(i-1) + b x_(i+1)), of variance sigma^2 (1 + a^2 + b^2) for
-    white noise; a robust (MAD) estimate, or the RMS where the errors are mostly exact ties."""
-    ok = np.isfinite(t) & np.isfinite(x)
-    t, x = t[ok], x[ok]
-    if x.size < 5:
-        return 0.0
-    h0, h1 = t[1:-1] - t[:-2], t[2:] - t[1:-1]
-    span = h0 + h1
-    good = span > 0
-    a = np.where(good, h1 / np.where(good, span, 1.0), 0.5)
-    b = 1.0 - a
-    e = ((x[1:-1] - a * x[:-2] - b * x[2:]) / np.sqrt(1.0 + a * a + b * b))[good]
+    """White-noise std of ``x`` at times ``t`` from :func:`calib.stats.local_line_errors`: a
+    robust (MAD) estimate, or the RMS where the errors are mostly exact ties."""
+    e = local_line_errors(t, x)
     if e.size < 3:
         return 0.0
-    scale = float(np.max(np.abs(x))) or 1.0
-    if np.mean(np.abs(e) <= 1e-12 * scale) > TIED_SHARE:
+    finite = np.asarray(x, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    scale = float(np.max(np.abs(finite))) if finite.size else 1.0
+    if np.mean(np.abs(e) <= 1e-12 * (scale or 1.0)) > TIED_SHARE:
         return math.sqrt(float(np.mean(e * e)))
     return _MAD_TO_STD * float(np.median(np.abs(e - np.median(e))))
 
