@@ -296,15 +296,23 @@ _DEPTH_STEP[[ord("]"), ord("}")]] = -1
 
 
 def _depth(joined: bytes) -> int:
-    """Deepest nesting of ``[``/``{`` over the lines (brackets inside strings count too: an
-    upper bound), in blocks of 16 MiB."""
+    """Deepest nesting of ``[``/``{`` within any one line (brackets inside strings count too:
+    an upper bound; the level restarts at each line, so a string holding "[" on every line does
+    not pile up), in blocks of 16 MiB."""
     data = np.frombuffer(joined, dtype=np.uint8)
     carry, deepest = 0, 0
     for at in range(0, len(data), 1 << 24):
-        level = np.cumsum(_DEPTH_STEP[data[at : at + (1 << 24)]], dtype=np.int32) + carry
-        if len(level):
-            deepest = max(deepest, int(level.max()))
-            carry = int(level[-1])
+        block = data[at : at + (1 << 24)]
+        level = np.cumsum(_DEPTH_STEP[block], dtype=np.int64) + carry
+        if not len(level):
+            continue
+        newline = block == 10
+        pos = np.where(newline, np.arange(len(block)), -1)
+        last = np.maximum.accumulate(pos)
+        base = np.where(last >= 0, level[np.maximum(last, 0)], 0)
+        inline = level - base
+        deepest = max(deepest, int(inline.max()))
+        carry = int(inline[-1])
     return deepest
 
 

@@ -223,7 +223,7 @@ def _random_speed(rng: np.random.Generator, T: float, kind: str, reverse: bool, 
     stops: tuple[tuple[float, float], ...] = ()
     ramp = 0.0
     if kind == "ramp":
-        ramp = float(rng.uniform(1.0, 0.3 * T))
+        ramp = float(rng.uniform(1.0, max(1.0, 0.3 * T)))  # a short log: a 1 s ramp
     elif kind == "stops":
         ramp = 2.0
         n = int(rng.integers(1, 4))

@@ -255,7 +255,6 @@ def test_options_are_typed_in_the_configuration(bicycle: None) -> None:
     cfg = AnalysisConfig(robot_options=options_from_settings({"wheelbase_guess": 2.5}))
     assert cfg.options(BicycleOptions) == BicycleOptions(wheelbase_guess=2.5)
     assert AnalysisConfig().options(BicycleOptions) == BicycleOptions()
-    assert cfg.extra == {"wheelbase_guess": 2.5}  # the transition view of the same
     with pytest.raises(LogcalInputError, match=r"logcal.toml: wheelbase_guess = 'long': "
                        r"expected a number > 0"):
         build_options(BicycleOptions, {"wheelbase_guess": "long"}, where="logcal.toml")
