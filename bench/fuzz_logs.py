@@ -386,23 +386,9 @@ def run_parallel(args: argparse.Namespace) -> int:
                "--save", str(args.save / f"w{j}"), "--json", str(out / f"w{j}.json")]
         cmd += ["--values"] if args.values else ["--analyze"] if args.analyze else []
         procs.append(subprocess.Popen(cmd))
-    codes = [p.wait() for p in procs]
-    total: Counter[str] = Counter()
-    per: Counter[str] = Counter()
-    slowest = 0.0
-    for j in range(args.workers):
-        rec = json.loads((out / f"w{j}.json").read_text())
-        total.update(rec["counts"])
-        per.update(rec["per_kind"])
-        slowest = max(slowest, rec["slowest_s"])
-    print(f"\nALL {args.workers} workers: inputs {sum(total.values())}, outcomes {dict(total)}, "
-          f"slowest input {slowest:.2f} s")
-    for key in sorted(per):
-        print(f"  {key:28s} {per[key]}")
-    if args.json is not None:
-        args.json.write_text(json.dumps({"counts": dict(total), "per_kind": dict(per),
-                                         "slowest_s": slowest}))
-    return max(codes)
+    from fuzz_workers import merge_workers
+
+    return merge_workers(procs, out, args.json)
 
 
 if __name__ == "__main__":

@@ -524,23 +524,9 @@ def run_parallel(args: argparse.Namespace) -> int:
                "--kinds", args.kinds, "--save", str(args.save / f"w{j}"),
                "--json", str(out / f"w{j}.json")]
         procs.append(subprocess.Popen(cmd))
-    codes = [p.wait() for p in procs]
-    total: Counter[str] = Counter()
-    per: Counter[str] = Counter()
-    slowest = 0.0
-    for j in range(args.workers):
-        rec = json.loads((out / f"w{j}.json").read_text())
-        total.update(rec["counts"])
-        per.update(rec["per_kind"])
-        slowest = max(slowest, rec["slowest_s"])
-    print(f"\nALL {args.workers} workers: inputs {sum(total.values())}, outcomes "
-          f"{dict(total)}, slowest {slowest:.2f} s")
-    for key in sorted(per):
-        print(f"  {key:28s} {per[key]}")
-    if args.json is not None:
-        args.json.write_text(json.dumps({"counts": dict(total), "per_kind": dict(per),
-                                         "slowest_s": slowest}))
-    return max(codes)
+    from fuzz_workers import merge_workers
+
+    return merge_workers(procs, out, args.json)
 
 
 if __name__ == "__main__":

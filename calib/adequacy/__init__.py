@@ -27,6 +27,7 @@ from calib.adequacy.verdict import (
     ChannelAdequacy,
     ParameterChange,
     assess,
+    effective_samples,
     not_assessed,
 )
 
@@ -52,6 +53,7 @@ __all__ = [
     "Tried",
     "assess",
     "combine_runs",
+    "effective_samples",
     "locate",
     "noise_floor",
     "not_assessed",

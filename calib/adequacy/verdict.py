@@ -37,6 +37,7 @@ __all__ = [
     "ParameterChange",
     "assess",
     "describe_misfit",
+    "effective_samples",
     "not_assessed",
 ]
 

@@ -12,7 +12,6 @@ stamp, empty cells where a stream has no sample at that stamp.
 
 from __future__ import annotations
 
-import csv
 import json
 from pathlib import Path
 from typing import Any
@@ -21,6 +20,7 @@ import numpy as np
 from mcap.writer import CompressionType, Writer
 
 from .robotlog import RobotLog, Stream
+from .writers import write_csv_rows
 
 __all__ = ["write_csv", "write_log", "write_mcap_json"]
 
@@ -93,17 +93,7 @@ def write_csv(path: str | Path, log: RobotLog) -> None:
         rows = np.searchsorted(stamps, s.stamps_ns)
         cols[col] = np.full(stamps.size, np.nan)
         cols[col][rows] = a[:, j] if j >= 0 else a
-    order = list(cols)
-    t = (stamps - log.start_ns) / 1e9
-    with open(path, "w", newline="") as fh:
-        wr = csv.writer(fh)
-        wr.writerow(["t", *order])
-        for k in range(stamps.size):
-            row = [f"{t[k]:.9f}"]
-            for c in order:
-                x = cols[c][k]
-                row.append("" if np.isnan(x) else repr(float(x)))
-            wr.writerow(row)
+    write_csv_rows(path, (stamps - log.start_ns) / 1e9, cols, list(cols))
 
 
 def write_log(directory: str | Path, log: RobotLog, name: str = "log",

@@ -242,11 +242,17 @@ def write_csv(path: str | Path, gen: Generated) -> None:
             col = cols.setdefault(name, np.full(stamps.size, np.nan))
             col[rows] = a
     order = [c for c in CSV_COLUMNS.values() if c in cols]
-    t = (stamps - gen.scenario.start_ns) / 1e9
+    write_csv_rows(path, (stamps - gen.scenario.start_ns) / 1e9, cols, order)
+
+
+def write_csv_rows(
+    path: str | Path, t: np.ndarray, cols: dict[str, np.ndarray], order: list[str]
+) -> None:
+    """A CSV with the time column ``t`` (s) and ``cols`` in ``order``; NaN cells left empty."""
     with open(path, "w", newline="") as fh:
         wr = csv.writer(fh)
         wr.writerow(["t", *order])
-        for k in range(stamps.size):
+        for k in range(t.size):
             row = [f"{t[k]:.9f}"]
             for c in order:
                 x = cols[c][k]

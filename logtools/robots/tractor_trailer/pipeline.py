@@ -175,19 +175,6 @@ angle's clock and offset directly, so the command-driven confound is resolved th
 report says so."""
 
 
-def _effective_samples(r: np.ndarray) -> float:
-    """n / (1 + 2 sum of the residual's autocorrelation up to its first zero crossing)."""
-    from calib.stats import autocorrelation
-
-    n = r.size
-    if n < 8:
-        return float(n)
-    rho = autocorrelation(r, min(n // 4, 200))[1:]
-    cut = np.nonzero(rho <= 0)[0]
-    rho = rho[: cut[0]] if cut.size else rho
-    return float(n / max(1.0, 1.0 + 2.0 * float(rho.sum())))
-
-
 def _span_confounds(
     loaded: LoadedLog, estimate: CalibrationResult, path_fit: PathTransientFit,
     spans: tuple[Any, ...], notes: list[str], stages: Stages,
@@ -196,7 +183,7 @@ def _span_confounds(
     actuator dead time vs the same clock offset on the command topics): the path fit refitted
     with each explanation's joint-angle corrections; those the measured path does not reject
     (``REJECT_RMS_RATIO``) are spanned (the union of the intervals)."""
-    from calib.adequacy import span
+    from calib.adequacy import effective_samples, span
 
     fits: list[tuple[str, PathTransientFit]] = []
     for choice in spans:
@@ -212,7 +199,7 @@ def _span_confounds(
     if not fits:
         return estimate
     best = min([path_fit.residual_rms_, *(f.residual_rms_ for _, f in fits)])
-    n_eff = _effective_samples(np.asarray(path_fit.residual_, dtype=float))
+    n_eff = effective_samples(np.asarray(path_fit.residual_, dtype=float))
 
     def rejected_by_path(f: PathTransientFit) -> bool:
         return bool(n_eff * ((f.residual_rms_ / best) ** 2 - 1.0) > REJECT_CHI2)
