@@ -4,17 +4,22 @@ An effect is physics a nominal model leaves out, declared once: its id and targe
 or topic it acts on), its kind (a sensor's reading, an actuator's response, the dynamics, a
 clock), its parameters with the value at which it does nothing, the explanations it is known to
 be confounded with, the simulator switch that produces it and the truth key a study reads.
-How it changes the model is the robot's fitter's business (:class:`calib.adequacy.selection`
-asks the robot for a fit *with* a set of effects); the selection, the confound check and the
-reports are shared.
+It also carries how it changes the model: ``model``, an object of the protocol its robot's
+fitter defines (the fitter calls it and never branches on an effect's id), so an effect is added
+to a robot by declaring one entry, hook included, in that robot's catalogue. The selection
+(:func:`calib.adequacy.select_effects`, which asks the robot for a fit *with* a set of
+effects), the confound check and the reports are shared.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Generic, TypeVar
 
 __all__ = ["EffectKind", "EffectParam", "EffectSpec"]
+
+H = TypeVar("H")
 
 
 class EffectKind(StrEnum):
@@ -45,13 +50,14 @@ class EffectParam:
 
 
 @dataclass(frozen=True)
-class EffectSpec:
+class EffectSpec(Generic[H]):
     """One catalogue entry (see the module docstring).
 
     ``physics``: what it means, in words, for reports; ``confounded_with``: keys of effects
     (or robot parameters, prefixed "param:") this one can be mistaken for; ``sim_switch``: the
     name of the simulator option that produces it; ``truth_key``: its key in a simulated log's
-    truth."""
+    truth; ``model``: how it changes the model, an object of the protocol ``H`` the robot's
+    fitter defines (None for an entry whose robot has no such hook yet)."""
 
     id: str
     target: str
@@ -61,6 +67,7 @@ class EffectSpec:
     confounded_with: tuple[str, ...] = ()
     sim_switch: str = ""
     truth_key: str = ""
+    model: H | None = field(default=None, compare=False, repr=False)
 
     @property
     def key(self) -> str:
