@@ -1,4 +1,4 @@
-"""How `analyze` scales with log length (issue 14): CPU seconds per stage and peak RSS.
+"""How `analyze` scales with log length: CPU seconds per stage and peak RSS.
 
 Writes (once, cached in --workdir) 100 Hz tractor-trailer logs with ``logcal simulate`` of the
 given lengths, then runs ``analyze_log`` in a fresh subprocess per (log, discovery on/off, run),

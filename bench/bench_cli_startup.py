@@ -1,4 +1,4 @@
-"""CLI start-up time (issue 14: ``logcal --help`` and ``logcal info`` under 1 s).
+"""CLI start-up time (``logcal --help`` and ``logcal info`` under 1 s).
 
 Runs each command --repeat times in a fresh process and prints wall and CPU seconds (the child's
 user + system time), min and median, next to the reference measured in the same run: a bare

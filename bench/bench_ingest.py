@@ -1,4 +1,4 @@
-"""Ingest throughput (issue 14): logcal's MCAP reader against rerun's Rust reader, same run.
+"""Ingest throughput: logcal's MCAP reader against rerun's Rust reader, same run.
 
 Writes (once, cached in --workdir) tractor-trailer drive logs with ``logcal simulate`` in JSON and
 ROS 2 (CDR) encoding, then times each reader in a fresh subprocess (so that peak RSS belongs to

@@ -3,7 +3,7 @@
 Simulates N runs (default 40) that hold nothing beyond the baseline's physics (random
 geometry, command mix, speed and noise; half analysed with the steady-state baseline and
 simulated with the steady hitch, half with the transient baseline and transient hitch) and
-counts the runs where discovery reports no effect. Issue 4 asks for >= 38 of 40.
+counts the runs where discovery reports no effect. The target is >= 38 of 40.
 
     python bench/discovery_null_study.py [--n 40] [--seed 2024]
 """
@@ -31,7 +31,7 @@ def main() -> None:
         print(f"log {i:2d} baseline={base:9s} reported={rep or 'nothing'}")
     print(
         f"no effect reported in {res.n_quiet} of {res.n_logs} null logs "
-        f"(issue 4 asks >= {round(0.95 * res.n_logs)}); {elapsed / res.n_logs:.1f} s per log"
+        f"(target >= {round(0.95 * res.n_logs)}); {elapsed / res.n_logs:.1f} s per log"
     )
 
 

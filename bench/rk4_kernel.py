@@ -9,7 +9,7 @@ Integrates the hitch dynamics d psi/dt = v (kappa (1 + L1/L2 cos psi) - sin(psi)
 - ``rk4_hitch(..., reference=True)``: the numpy reference of the same arithmetic, 64 sets side
   by side, per set (the fallback when the extension is not built);
 - the same RK4 as a Python loop over floats with the right-hand side written out (what the
-  project ran before the compiled loop, issue 14);
+  project ran before the compiled loop);
 - ``scipy.integrate.solve_ivp`` (RK45 forced to the same step: first_step = max_step = dt,
   loose tolerances so it never shrinks the step), inputs interpolated linearly.
 

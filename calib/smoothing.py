@@ -4,9 +4,9 @@ The same filter as ``scipy.signal.savgol_filter`` with its default ``mode="inter
 each point is the value (or derivative) at the window's centre of the least-squares polynomial
 through the window, a fixed correlation; within half a window of either end, the polynomial
 fitted to the first (last) full window is evaluated at those points. Written here because
-importing ``scipy.signal`` (which pulls in ``scipy.stats``) costs ~0.3 s of CPU and ~28 MB of
-memory per process, which was 6 % of ``logcal analyze``'s whole budget for a 1-hour log (issue
-14), for a filter of a few lines; the tests hold it to scipy's on random signals.
+importing ``scipy.signal`` (which pulls in ``scipy.stats``) costs a noticeable share of
+``logcal analyze``'s start-up CPU and memory per process (``bench/bench_cli_startup.py``), for a
+filter of a few lines; the tests hold it to scipy's on random signals.
 """
 
 from __future__ import annotations

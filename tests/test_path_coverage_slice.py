@@ -1,6 +1,6 @@
 """A small random slice of bench/path_coverage_study.py runs in CI: two logs drawn afresh each
 run. It checks that the study's machinery works end to end (generate, write, analyse, score),
-not a statistical claim: coverage is shown by the full study (closing note of issue #8)."""
+not a statistical claim: coverage is shown by the full study (bench/path_coverage_study.py)."""
 
 from __future__ import annotations
 

@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[2]
 LOG_DIR = ROOT / "sample_logs"
 TRUTH_PATH = ROOT / "tests" / "fixtures" / "concealed_truth.json"
 
-# The tractor-trailer effects issue 4 asks for by name (the independent list the tests check).
+# The tractor-trailer effects the discovery must name (the independent list the tests check).
 ISSUE_CATALOGUE = frozenset(
     {
         "hitch_transient",

@@ -49,7 +49,7 @@ IDS = [f"{n.removesuffix('.mcap')}-{e['id']}" for n, e in SINGLE]
 
 
 def test_every_catalogue_effect_has_a_concealed_log() -> None:
-    """Source: issue 4 asks for one concealed log per catalogue effect of the tractor-trailer."""
+    """One concealed log per catalogue effect of the tractor-trailer."""
     ids = {e["id"] for _, e in SINGLE}
     assert ids >= ISSUE_CATALOGUE
 

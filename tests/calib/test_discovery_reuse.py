@@ -1,4 +1,4 @@
-"""Discovery's model remembers intermediate results (issue 14): the remembered path must give
+"""Discovery's model remembers intermediate results: the remembered path must give
 exactly what a fresh computation gives, and the compiled half-grid integration exactly what
 the numpy steps give."""
 

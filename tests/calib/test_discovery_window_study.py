@@ -1,6 +1,6 @@
 """bench/discovery_window_study.py: a one-log random slice runs both modes and tabulates.
 Deterministic facts only (which span each mode used, the table's rows); the study's numbers are
-in its own output and the closing note of issue 14."""
+in its own output."""
 
 from __future__ import annotations
 

@@ -71,7 +71,7 @@ def test_preset_lookup() -> None:
 @pytest.mark.parametrize("name", list(PresetName))
 @pytest.mark.parametrize(("L1", "L2"), [(1.25, 2.48), (-0.02, 0.6), (0.0, 3.0)])
 def test_presets_stay_bounded_at_any_duration(name: PresetName, L1: float, L2: float) -> None:
-    """Issue #10: 1800 s past the preset's length, the linear command ran to 2.7 1/m and psi
+    """1800 s past the preset's length, the linear command ran to 2.7 1/m and psi
     to 449 rad; now the command stays within the steady-turn limit and |psi| < 0.785 rad."""
     run = simulate_tractor_trailer(
         preset(name, L1=L1, L2=L2, duration_s=1800.0, rate_hz=4.0, noise_scale=0.0)

@@ -1,6 +1,6 @@
 """Small ROS bags for tests, written with ``rosbags`` (an independent producer).
 
-The drive is the user's tractor-trailer of issue #9: ``/cmd_vel`` (Twist, 7 Hz, linear.x = speed,
+The drive is a user's small tractor-trailer: ``/cmd_vel`` (Twist, 7 Hz, linear.x = speed,
 angular.z = STEERING ANGLE), ``/encoder/angle`` (Float32, 54 Hz, hitch angle), ``/odom``
 (Odometry, 29 Hz, the TRAILER pose, twist all zeros), ``/truck_trailer/truck_pose``
 (PoseStamped, 29 Hz, tractor pose), ``/kelo_angle`` (Float32, 20 Hz, measured steering angle)

@@ -1,4 +1,4 @@
-"""Each stage of ``analyze`` states what it lacks; the others still report (issue #9).
+"""Each stage of ``analyze`` states what it lacks; the others still report.
 
 Logs come from the independent generator (tests/indgen), written as CSV; a stage is starved by
 removing what it needs from the loaded log.
@@ -136,7 +136,7 @@ def test_random_physical_logs_never_fail_a_stage(
 def test_simulate_at_10_hz_then_analyze(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str]
 ) -> None:
-    """Issue #8: a 10 Hz (jittered) log used to end in a traceback in the transient fit."""
+    """A 10 Hz (jittered) log used to end in a traceback in the transient fit."""
     import json
 
     from logtools.cli.main import main

@@ -1,4 +1,4 @@
-"""Channel maps grown for issue #9: [robot], scale/offset/unit, formulas (safe), header stamps,
+"""Channel maps: [robot], scale/offset/unit, formulas (safe), header stamps,
 off = true, and one clear error naming the TOML file and key for every bad map; gaps."""
 
 from __future__ import annotations

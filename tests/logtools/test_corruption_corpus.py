@@ -1,4 +1,4 @@
-"""A corruption corpus built from a sample log (issue #13), each case with its defined outcome:
+"""A corruption corpus built from a sample log, each case with its defined outcome:
 data with a named problem, or one clean LogcalInputError. Deterministic and fast (the scan is
 exercised; only one topic is decoded), plus a small hypothesis slice for the readers."""
 

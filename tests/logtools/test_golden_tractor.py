@@ -1,11 +1,11 @@
 """The tractor-trailer's ``analyze --json`` is unchanged by the robot-plugin refactoring: the
 golden files in tests/fixtures/golden were written by the pipeline before it became a plugin
 (``logcal analyze LOG --json --repeats 2 --no-discovery`` at commit ba10c83). Discovery is left
-out because its catalogue is still being extended (issue #8); everything else must match. One
+out because its catalogue is still being extended; everything else must match. One
 deliberate change was applied to the golden files by a script, not by rerunning: method rows'
 yes/no facts moved from ``extra`` (as 1.0/0.0) to ``flags`` (booleans), and
 ``extra.std_is_standard_error`` became ``std_kind`` ("repeats" or "standard_error"). A second
-(2026-11-24, issue 14): the path fit's Jacobian became exact (forward sensitivities instead of
+(2026-11-24): the path fit's Jacobian became exact (forward sensitivities instead of
 finite differences), which moved the quantities computed from it (``covariance``,
 ``details.input_noise_bias_correction`` and ``details.discretisation_error``) by about 1e-6
 relative; those fields were rewritten from the new output, nothing else."""

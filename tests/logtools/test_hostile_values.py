@@ -1,4 +1,4 @@
-"""Hostile values in structurally valid logs (issue #13): near-duplicate stamps, single wild
+"""Hostile values in structurally valid logs: near-duplicate stamps, single wild
 samples, impossible magnitudes. Each has a bounded cost and a named outcome."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Outputs never clobber an input and are checked before any work; text from a log never
-reaches the terminal as control codes or markup (issue #13, items 3, 5 and 7)."""
+reaches the terminal as control codes or markup."""
 
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 
 Resolving any log's robot loads all plugins (``logtools.robots.plugins()``), so a plugin's
 declaration module must keep scipy.stats, pinocchio and its ``calib`` estimators out of its
-imports (issue #14: they cost ~0.7 s CPU per run of ``logcal``). Checked in a fresh interpreter,
+imports (they cost ~0.7 s CPU per run of ``logcal``). Checked in a fresh interpreter,
 since this test session has imported them already.
 """
 

@@ -1,4 +1,4 @@
-"""Issue #9 end to end on the user's tractor-trailer bag: the empty Odometry twist is detected and
+"""End to end on the user's tractor-trailer bag: the empty Odometry twist is detected and
 not used, the steering command becomes kappa_cmd with the wheelbase, the trailer pose maps to
 x2/y2/yaw2, header stamps and /tf frames are read, and the recorder stall is one gap."""
 

@@ -1,5 +1,5 @@
 """`logcal simulate tractor-trailer`: parameters without physical sense exit 2 with one message
-naming the option (issues #8, #10); coarse rates, jitter and a negative L1 work."""
+naming the option; coarse rates, jitter and a negative L1 work."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue #9's acceptance run: a small ROS 2 tractor-trailer (steering-angle /cmd_vel, hitch 2 cm
+"""Acceptance run: a small ROS 2 tractor-trailer (steering-angle /cmd_vel, hitch 2 cm
 ahead of the axle, trailer mocap on /odom with a zero twist, recorder stalls), written as real
 rosbag2 .db3 folders by the independent generator and read with the README's channel map.
 

@@ -50,7 +50,7 @@ def _profiled_jacobian(
     Each projected angle ph minimises w_k (k - g(ph))^2 + w_p (p - ph)^2, so it moves with
     (L1, L2) as the implicit function theorem says: d ph / d L = -F_L / F_ph, F = w_k (k - g)
     g_ph + w_p (p - ph) the stationarity condition. Analytic rather than finite differences:
-    it halves the fit's cost on a 1-hour log (issue 14) and moves the estimate by ~1e-7 of
+    it halves the fit's cost on a 1-hour log and moves the estimate by ~1e-7 of
     itself. A point held at the clip bound does not move.
     """
     wk, wp = 1.0 / sk**2, 1.0 / sp**2
@@ -262,8 +262,8 @@ class SteadyStateEIV:
         # [J r]: three residuals R[:, 2] with Jacobian R[:, :2] have the same sum of squares,
         # the same J^T J and the same J^T r at every point, so every step, acceptance test and
         # stopping rule of least_squares is the one it takes on the 2n residuals (up to
-        # rounding), without the six copies of the 2n x 2 Jacobian it makes inside (issue 14:
-        # 120 MB on a 1-hour log, the analysis's peak).
+        # rounding), without the six copies of the 2n x 2 Jacobian it makes inside
+        # (on a 1-hour log, the analysis's peak).
         def resid(theta: np.ndarray) -> np.ndarray:
             return reduced(theta)[:, 2].copy()
 

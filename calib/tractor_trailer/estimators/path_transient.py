@@ -443,7 +443,7 @@ class PathTransientFit:
             """R of [J r] at ``x`` (dense case): (q + P + 1) residuals with the same sum of
             squares, J^T J and J^T r as the n residuals (so least_squares takes the same
             steps and stops at the same point), without its copies of the n-row Jacobian
-            (issue 14: the fit's memory on a 1-hour log)."""
+            (the fit's memory on a 1-hour log)."""
             key = x.tobytes()
             if key not in folded:
                 r, J = cleaned(x)

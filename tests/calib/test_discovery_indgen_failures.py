@@ -1,4 +1,4 @@
-"""Discovery on logs of the independent generator (tests/indgen), the failures issue 8 lists,
+"""Discovery on logs of the independent generator (tests/indgen), the failures found on them,
 equivalent explanations, the acceptance rule, the joint fit and robustness on odd data.
 
 The indgen logs are aligned here with numpy (command held, outputs interpolated onto a uniform
@@ -126,7 +126,7 @@ def test_L1_may_be_negative_or_zero() -> None:
 
 @pytest.mark.slow
 def test_hitch_clock_late_at_high_speed_is_named() -> None:
-    """Issue 8: a joint-angle topic stamped 0.4 s late at 5-8 m/s was not named."""
+    """A joint-angle topic stamped 0.4 s late at 5-8 m/s was not named."""
     scn = scenario(indgen.Effects(clock_offset_s={"hitch": 0.4}), random_speed(5.0, 8.0), M=0.05)
     frame, raw = indgen_log(scn, seed=1)
     res = discover(frame, 1.3, 2.4, signals=raw)
@@ -135,7 +135,7 @@ def test_hitch_clock_late_at_high_speed_is_named() -> None:
 
 
 def test_understeer_with_varying_speed_is_named() -> None:
-    """Issue 8: understeer K = 0.05 s^2/m^2 at 1-5 m/s was not named."""
+    """Understeer K = 0.05 s^2/m^2 at 1-5 m/s was not named."""
     scn = scenario(indgen.Effects(understeer_K=0.05), random_speed(1.0, 5.0))
     frame, raw = indgen_log(scn, seed=2)
     res = discover(frame, 1.3, 2.4, signals=raw)
@@ -146,7 +146,7 @@ def test_understeer_with_varying_speed_is_named() -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("baseline", ["transient", "steady"])
 def test_dead_time_is_one_cause_with_clock_offsets_as_alternative(baseline: str) -> None:
-    """Issue 8: a 0.6 s actuator dead time was reported as two clock offsets. At constant
+    """A 0.6 s actuator dead time was reported as two clock offsets. At constant
     speed the two explanations are equivalent: one cause is reported, the other listed."""
     scn = scenario(indgen.Effects(actuator_delay_s=0.6), indgen.Speed(base=1.5))
     frame, raw = indgen_log(scn, seed=3)
@@ -223,7 +223,7 @@ def test_clean_indgen_log_reports_nothing() -> None:
 def test_noise_free_sample_log_reports_only_effects_that_exclude_their_null(
     baseline: str,
 ) -> None:
-    """Issue 8: tt_harmonic_clean.mcap reported two clock offsets and a gain of 1.0000 whose
+    """The sample tt_harmonic_clean.mcap reported two clock offsets and a gain of 1.0000 whose
     intervals contained the null value. Now nothing against the transient baseline, and
     against the steady one only the hitch transient the log really has."""
     frame = read_aligned(LOG_DIR / "tt_harmonic_clean.mcap")
