@@ -9,9 +9,10 @@ with inputs ``U`` and ``V`` known at the start, middle and end of each step and 
 ``p0, p1, p2`` (for instance U = yaw rate, V = speed, p0 = 1, p1 = L1/L2, p2 = 1/L2). Inside
 optimisers that integrate a whole log hundreds of times this loop is the cost of ``analyze``:
 RK4 in Python floats costs microseconds per step, a noticeable fraction of a second per
-simulation of a 1-hour 100 Hz log (``bench/rk4_kernel.py`` measures it). The loop is sequential (each step needs the last), so numpy cannot vectorise it
-along time; it is written in C (``_hitch_rk4.c``, built by ``pip install`` as an extension
-module and called through ctypes). We write it ourselves because no library
+simulation of a 1-hour 100 Hz log (``bench/rk4_kernel.py`` measures it). The loop is
+sequential (each step needs the last), so numpy cannot vectorise it along time; it is
+written in C (``_hitch_rk4.c``, built by ``pip install`` as an extension module and called
+through ctypes). We write it ourselves because no library
 integrates a scalar ODE on sampled inputs given exactly where RK4 evaluates them, with resets
 and chained chunks, at this speed; numba would do it too but costs about a hundred MB of RSS and
 a JIT compile per process, more than the whole memory budget leaves.
