@@ -4,9 +4,11 @@ the recorded joint angle.
 1. The nominal model (transient kinematics, L1, L2) is fitted jointly (``path_effects``) and
    judged (``calib.adequacy.assess`` of the joint-angle residual, held out by block
    cross-validation).
-2. Effects of :data:`calib.tractor_trailer.path_effects.CATALOGUE` (joint-angle offset, gain,
-   backlash, clock offset and drift, a cubic nonlinearity) are selected forward by
-   ``calib.adequacy.select_effects`` (held-out gain, BIC, intervals excluding the null).
+2. Effects of :func:`calib.tractor_trailer.path_effects.catalogue` (joint-angle offset, gain,
+   backlash, clock offset and drift, a cubic nonlinearity, and any registered with
+   ``path_effects.register_effect``) are selected forward by ``calib.adequacy.select_effects``
+   (held-out gain, BIC, intervals excluding the null). Each effect's hook says how it changes
+   the model; nothing here branches on an effect's id.
 3. The link lengths are fitted on consecutive pieces of the log (with the accepted effects
    undone) and tested for a change mid-log (``calib.adequacy.parameter_change``); a change
    splits the log and each side is estimated.
@@ -64,10 +66,16 @@ from calib.tractor_trailer.path_adequacy import (
     unexplained_text,
 )
 from calib.tractor_trailer.path_effects import (
-    CATALOGUE,
+    GAIN_TOLERANCE,
     JointPathModel,
     JointSolution,
+    PathEffectModel,
+    Tolerance,
+    Undone,
     effect_by_key,
+)
+from calib.tractor_trailer.path_effects import (
+    catalogue as path_catalogue,
 )
 
 __all__ = [
@@ -84,9 +92,6 @@ __all__ = [
 
 MIN_DURATION_S = 20.0
 """Shorter logs are not searched (too few relaxation lengths to tell effects apart)."""
-GAIN_TOLERANCE = 0.05
-"""A joint-angle gain the log cannot bound within this (95 %) is a confound of the link lengths
-(a hitch angle reading 5 % high moves L1 by tens of percent on a log of small angles)."""
 Z95 = 1.959963984540054
 NOMINAL = "transient path"
 
@@ -336,16 +341,19 @@ def discover_along_path(
     nominal_fit: PathTransientFit,
     *,
     segments: Sequence[tuple[str, float, float]] = (),
-    catalogue: Sequence[EffectSpec] = CATALOGUE,
+    catalogue: Sequence[EffectSpec[PathEffectModel]] | None = None,
     max_effects: int = 2,
-    gain_tolerance: float = GAIN_TOLERANCE,
+    gain_tolerance: float | None = None,
     check_change: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> PathDiscovery:
     """Discovery along ``path`` for the joint angle ``psi`` at ``t_psi`` (see the module
     docstring); ``nominal_fit`` is the recommended path fit (its start point, noise and
-    quantum are reused). ``gain_tolerance``: when the log cannot bound the joint angle's gain
-    within this (95 %), the gain is a confound of the link lengths and they span it."""
+    quantum are reused). ``catalogue``: the effects tried (default: the built-in and the
+    registered ones). An effect whose hook is ``tolerated`` (the joint angle's gain) and that
+    the log cannot bound within its tolerance (95 %) is a confound of the link lengths, which
+    span it; ``gain_tolerance`` replaces those tolerances."""
+    effects = tuple(path_catalogue() if catalogue is None else catalogue)
     say = progress or (lambda _s: None)
     t = np.asarray(t_psi, dtype=float)
     dur = float(np.nanmax(t) - np.nanmin(t)) if t.size else 0.0
@@ -385,7 +393,7 @@ def discover_along_path(
         return bool(f.effects) and explained(f)
 
 
-    selection = select_effects(fitter, catalogue, max_effects=max_effects, explained=stop,
+    selection = select_effects(fitter, effects, max_effects=max_effects, explained=stop,
                                progress=lambda s: say(f"path discovery: {s}"))
     if selection is None:  # pragma: no cover - the base fit succeeded above
         return PathDiscovery("not_run", "the nominal joint fit failed")
@@ -422,9 +430,11 @@ def discover_along_path(
         if change is not None:
             return _split(ctx, change, pieces, progress)
     out.thirds, out.stability = _thirds(_pieces(path, t_c, psi_c, gaps, 3, checks=True))
-    scale = next((e for e in catalogue if e.id == "sensor_scale"), None)
-    if scale is not None and scale not in selection.accepted:
-        out.alternatives += _gain_alternatives(ctx, selection, scale, gain_tolerance, out.notes)
+    for e in effects:
+        if e.model is not None and e.model.tolerated is not None and e not in selection.accepted:
+            tol = e.model.tolerated if gain_tolerance is None else replace(
+                e.model.tolerated, within=gain_tolerance)
+            out.alternatives += _tolerated_alternatives(ctx, selection, e, tol, out.notes)
     for c in selection.confounds:
         if {"L1", "L2"} & set(c.parameters):
             out.alternatives.append((c.alternative, c.alternative_fit.parameters))
@@ -490,37 +500,42 @@ def _split(
     return out
 
 
-def _gain_alternatives(
-    ctx: _Context, selection: Selection, scale: EffectSpec, tolerance: float, notes: list[str],
+def _tolerated_alternatives(
+    ctx: _Context, selection: Selection, spec: EffectSpec[PathEffectModel], tol: Tolerance,
+    notes: list[str],
 ) -> list[tuple[str, Any]]:
-    """The link lengths under the joint-angle gains within ``tolerance`` of 1 that the log cannot
-    exclude (refits with the readings rescaled to each end of that range); none when the log
-    itself bounds the gain within the tolerance (the nominal gain of 1 is then checked by the
-    log, and the link lengths' intervals stand)."""
-    alt = ctx.fitter((*selection.accepted, scale))
-    if alt is None:
+    """The link lengths under the values of ``spec`` (e.g. the joint-angle gain) within
+    ``tol.within`` of its null that the log cannot exclude (refits with the effect at each end
+    of that range undone from the readings, by its hook); none when the log itself bounds the
+    effect within the tolerance (its null is then checked by the log, and the link lengths'
+    intervals stand)."""
+    alt = ctx.fitter((*selection.accepted, spec))
+    if alt is None or spec.model is None:
         return []
-    g = alt.effect_parameters[scale.key]["scale"]
+    par = spec.params[0]
+    g = alt.effect_parameters[spec.key][par.name]
     half = Z95 * g.std if math.isfinite(g.std) else math.inf
-    if 1.0 - tolerance <= g.value - half and g.value + half <= 1.0 + tolerance:
-        return []  # the log itself bounds the gain within the tolerance
-    lo, hi = max(1.0 - tolerance, g.value - half), min(1.0 + tolerance, g.value + half)
-    if not lo < 1.0 < hi:
+    tolerance, null = tol.within, par.null
+    if null - tolerance <= g.value - half and g.value + half <= null + tolerance:
+        return []  # the log itself bounds the effect within the tolerance
+    lo, hi = max(null - tolerance, g.value - half), min(null + tolerance, g.value + half)
+    if not lo < null < hi:
         return []
     sol, _ = selection.final.payload
     out = []
     for s in (lo, hi):
+        data = spec.model.undo(Undone(ctx.model, sol, ctx.model.t, ctx.model.p, None, False), s).z
         try:
-            f = ctx.model.fit(sol.effects, sol.x, data=ctx.model.p / s)
+            f = ctx.model.fit(sol.effects, sol.x, data=data)
         except (CalibError, ValueError, FloatingPointError, np.linalg.LinAlgError):
             continue
-        out.append((f"{scale.key} = {s:.3g}", {
+        out.append((f"{spec.key} = {s:.3g}", {
             "L1": _est("L1", f.x[0], f.cov[0, 0], "m"), "L2": _est("L2", f.x[1], f.cov[1, 1], "m"),
         }))
     if out:
         notes.append(
-            f"the log bounds the joint angle's gain only to [{g.value - half:.3g}, "
-            f"{g.value + half:.3g}] (95 %): a gain error within {tolerance:.0%} cannot be told "
+            f"the log bounds {tol.quantity} only to [{g.value - half:.3g}, "
+            f"{g.value + half:.3g}] (95 %): {tol.error} within {tolerance:.0%} cannot be told "
             "from the link lengths ("
             + "; ".join(f"{k}: L1 {a['L1'].value:.3g} m, L2 {a['L2'].value:.3g} m"
                         for k, a in out)

@@ -5,7 +5,11 @@ The kinematics are integrated along link 1's measured path
 (``calib.tractor_trailer.models.hitch_path`` through
 the layout of :class:`calib.tractor_trailer.estimators.path_transient.PathTransientFit`); the
 effects act only
-on how the true angle becomes the recorded one, in this order:
+on how the true angle becomes the recorded one. Each effect owns how it does so: its catalogue
+entry's ``model`` is a :class:`PathEffectModel` (a stamp shift, a change of the reading with its
+Jacobian column, and its undoing), which :meth:`JointPathModel.evaluate` applies in the hooks'
+``order`` without knowing which effect it is; a new effect is one entry passed to
+:func:`register_effect`. The built-in ones, in their order:
 
     clock   the joint angle is stamped at tau = t - c - d (t - t_first): an offset c (s, the
             topic stamped late) and a drift d (s/s);
@@ -28,8 +32,9 @@ is a prediction from the path and the trajectory before them (the block cross-va
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, replace
+from typing import Any, Protocol
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -41,21 +46,230 @@ from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 
 __all__ = [
     "CATALOGUE",
+    "GAIN_TOLERANCE",
     "JointPathModel",
     "JointSolution",
+    "PathEffectModel",
+    "PathState",
+    "Tolerance",
+    "Undone",
+    "catalogue",
     "effect_by_key",
+    "register_effect",
+    "unregister_effect",
 ]
 
 FloatArray = np.ndarray
 PLAY_SMOOTH_S = 0.2
 """Time over which the modelled angle is smoothed to decide the backlash's holds (s)."""
 
-CATALOGUE: tuple[EffectSpec, ...] = (
+@dataclass(frozen=True)
+class PathState:
+    """The modelled joint-angle reading part-way through the effects' chain.
+
+    ``y``: the reading so far; ``d0``, ``d1``, ``d2``: its derivatives to the piece's initial
+    angle, L1 and L2; ``cols``: by effect key, the derivative of ``y`` to each effect applied
+    so far (a hook that changes ``y`` carries these through its change, as it does ``d0`` to
+    ``d2``); ``true_u``: the modelled true angle (after any stamp shift); ``sgn``: the
+    backlash direction (zeros without backlash); ``model``: the :class:`JointPathModel`, for
+    its per-piece helpers (``_smooth``, ``_rate``, ``piece``, ``t``)."""
+
+    model: JointPathModel
+    y: FloatArray
+    d0: FloatArray
+    d1: FloatArray
+    d2: FloatArray
+    cols: dict[str, FloatArray]
+    true_u: FloatArray
+    sgn: FloatArray
+
+    def scaled(self, g: FloatArray | float, **changes: Any) -> PathState:
+        """Every derivative (``d0`` to ``d2`` and the effects' columns) multiplied by the
+        local slope ``g`` of a pointwise change of the reading, with ``changes`` applied."""
+        return replace(self, d0=self.d0 * g, d1=self.d1 * g, d2=self.d2 * g,
+                       cols={k: v * g for k, v in self.cols.items()}, **changes)
+
+
+@dataclass(frozen=True)
+class Undone:
+    """The joint-angle samples part-way through undoing the effects (last effect first).
+
+    ``t``: stamps on the path's clock; ``z``: the reading with the later effects undone;
+    ``keep``: the samples kept (None: all); ``drop_holds``: whether a hook may leave out
+    samples whose reading says little of the true angle; ``model``, ``sol``: the model and
+    the joint fit being undone (its backlash direction and modelled true angle)."""
+
+    model: JointPathModel
+    sol: JointSolution
+    t: FloatArray
+    z: FloatArray
+    keep: np.ndarray | None
+    drop_holds: bool
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """An effect the nominal model assumes at its null without the log checking it: within
+    ``within`` of the null, the log may not tell it from the link lengths, and the discovery
+    spans them over the values it cannot exclude. ``quantity`` names what it changes and
+    ``error`` the error, for the report ("the joint angle's gain", "a gain error")."""
+
+    within: float
+    quantity: str
+    error: str
+
+
+class PathEffectModel(Protocol):
+    """How one effect changes the modelled joint-angle reading along the path (the ``model``
+    hook of a path :class:`~calib.adequacy.EffectSpec`; one parameter per effect).
+
+    An effect shifts the joint angle's stamps (``stamp_shift``: all shifts are summed into one
+    move of the modelled angle, before any reading change) or changes the reading (``apply``,
+    in ``order``); ``undo`` takes its reading change out of recorded samples. The defaults
+    (for subclasses) shift nothing and undo nothing."""
+
+    order: int
+    """Position in the chain: reading changes apply in increasing order (undone in
+    decreasing); stamp shifts are summed in increasing order."""
+    tolerated: Tolerance | None = None
+    """Set for an effect the nominal model leaves unchecked near its null (a gain)."""
+
+    def stamp_shift(
+        self, t_rel: FloatArray, value: float
+    ) -> tuple[FloatArray, FloatArray] | None:
+        """How late the joint angle is stamped at ``t_rel`` (s since its first sample) and the
+        derivative of that to ``value``; None: the effect does not touch the stamps."""
+        return None
+
+    def apply(self, state: PathState, value: float) -> tuple[PathState, FloatArray]:
+        """The state after this effect's change of the reading (the earlier effects' columns
+        carried through it) and its own column: the derivative of the new reading to
+        ``value``. Not called for an effect that shifts the stamps."""
+        raise NotImplementedError
+
+    def undo(self, state: Undone, value: float) -> Undone:
+        """``state`` with this effect's change of the reading taken out."""
+        return state
+
+
+@dataclass(frozen=True)
+class StampOffset(PathEffectModel):
+    """The joint angle stamped late by a constant ``c`` (s)."""
+
+    order: int = 0
+
+    def stamp_shift(self, t_rel: FloatArray, value: float) -> tuple[FloatArray, FloatArray]:
+        return np.full_like(t_rel, value), np.ones_like(t_rel)
+
+
+@dataclass(frozen=True)
+class StampDrift(PathEffectModel):
+    """The joint angle's stamps drifting by ``d`` (s/s) from its first sample."""
+
+    order: int = 1
+
+    def stamp_shift(self, t_rel: FloatArray, value: float) -> tuple[FloatArray, FloatArray]:
+        return value * t_rel, t_rel
+
+
+@dataclass(frozen=True)
+class Backlash(PathEffectModel):
+    """A dead band of width ``w`` (rad) between the true angle and the reading."""
+
+    order: int = 10
+
+    def apply(self, state: PathState, value: float) -> tuple[PathState, FloatArray]:
+        # the dead band acts on the true angle, which is smooth; the modelled one carries
+        # the path's noise, which a dead band on it would filter (and so be mistaken for
+        # play): holds are decided on the angle smoothed over PLAY_SMOOTH_S
+        m, w, u = state.model, value, state.y
+        us, d0s, d1s, d2s = (m._smooth(c) for c in (u, state.d0, state.d1, state.d2))
+        idx, sgn = _play(us, w, m.piece)
+        hold = idx != np.arange(u.size)
+
+        def held(c: FloatArray, cs: FloatArray) -> FloatArray:
+            # the hold acts on the smooth part; the path's noise stays at its own sample
+            # (holding it would smooth the model and reward play that is not there)
+            return c + np.where(hold, cs[idx] - cs, 0.0)
+
+        out = replace(state, y=held(u, us) - sgn * 0.5 * w, d0=held(state.d0, d0s),
+                      d1=held(state.d1, d1s), d2=held(state.d2, d2s),
+                      cols={k: held(v, m._smooth(v)) for k, v in state.cols.items()}, sgn=sgn)
+        return out, -0.5 * sgn
+
+    def undo(self, state: Undone, value: float) -> Undone:
+        # a held reading says only that the angle is somewhere within the band: adding half
+        # the width to it biases the link lengths, so with ``drop_holds`` those samples are
+        # left out (while at least half the samples remain; the path still drives the model
+        # through them)
+        z = state.z + 0.5 * value * state.sol.play_sign
+        if not state.drop_holds:
+            return replace(state, z=z)
+        m = state.model
+        idx, _ = _play(m._smooth(state.sol.true_psi), value, m.piece)
+        follows = idx == np.arange(z.size)
+        keep = follows if follows.sum() >= 0.5 * z.size else state.keep
+        return replace(state, z=z, keep=keep)
+
+
+@dataclass(frozen=True)
+class Cubic(PathEffectModel):
+    """A reading y + k y^3 (unit gain at 0)."""
+
+    order: int = 20
+
+    def apply(self, state: PathState, value: float) -> tuple[PathState, FloatArray]:
+        y = state.y
+        g = 1.0 + 3.0 * value * y * y
+        return state.scaled(g, y=y + value * y**3), y**3
+
+    def undo(self, state: Undone, value: float) -> Undone:
+        if not value:
+            return state
+        z = state.z
+        y = z.copy()
+        for _ in range(4):  # Newton on y + k y^3 = z
+            y -= (y + value * y**3 - z) / (1.0 + 3.0 * value * y * y)
+        return replace(state, z=y)
+
+
+@dataclass(frozen=True)
+class Gain(PathEffectModel):
+    """A reading s y."""
+
+    order: int = 30
+    tolerated: Tolerance | None = None
+
+    def apply(self, state: PathState, value: float) -> tuple[PathState, FloatArray]:
+        return state.scaled(value, y=value * state.y), state.y.copy()
+
+    def undo(self, state: Undone, value: float) -> Undone:
+        return replace(state, z=state.z / value)
+
+
+@dataclass(frozen=True)
+class Offset(PathEffectModel):
+    """A reading y + b."""
+
+    order: int = 40
+
+    def apply(self, state: PathState, value: float) -> tuple[PathState, FloatArray]:
+        return replace(state, y=state.y + value), np.ones_like(state.y)
+
+    def undo(self, state: Undone, value: float) -> Undone:
+        return replace(state, z=state.z - value)
+
+
+GAIN_TOLERANCE = 0.05
+"""A joint-angle gain the log cannot bound within this (95 %) is a confound of the link lengths
+(a hitch angle reading 5 % high moves L1 by tens of percent on a log of small angles)."""
+
+CATALOGUE: tuple[EffectSpec[PathEffectModel], ...] = (
     EffectSpec(
         "sensor_offset", "psi", EffectKind.SENSOR,
         (EffectParam("offset", "rad", 0.0, -0.5, 0.5, 0.0),),
         "the joint-angle encoder reads a constant amount off (mounting, zeroing)",
-        sim_switch="sensor_offset", truth_key="sensor_offset(psi)",
+        sim_switch="sensor_offset", truth_key="sensor_offset(psi)", model=Offset(),
     ),
     EffectSpec(
         "sensor_scale", "psi", EffectKind.SENSOR,
@@ -65,6 +279,7 @@ CATALOGUE: tuple[EffectSpec, ...] = (
         "transients tell the two apart",
         confounded_with=("param:L1", "param:L2"), sim_switch="sensor_scale",
         truth_key="sensor_scale(psi)",
+        model=Gain(tolerated=Tolerance(GAIN_TOLERANCE, "the joint angle's gain", "a gain error")),
     ),
     EffectSpec(
         "backlash", "psi", EffectKind.SENSOR,
@@ -72,38 +287,84 @@ CATALOGUE: tuple[EffectSpec, ...] = (
         "play in the hitch or its encoder: the reading follows the angle only once it leaves "
         "a dead band of this width (it lags by half the width after a reversal)",
         confounded_with=("clock_offset(hitch)",), truth_key="hitch_dead_band_rad",
+        model=Backlash(),
     ),
     EffectSpec(
         "clock_offset", "hitch", EffectKind.CLOCK,
         (EffectParam("offset", "s", 0.0, -1.0, 1.0, 0.0),),
         "the joint angle's stamps are late by a constant (transport delay, filtering, clock "
         "offset of the encoder's computer)",
-        confounded_with=("backlash(psi)",), sim_switch="clock_offset",
-        truth_key="clock_offset(hitch)",
+        confounded_with=("backlash(psi)",), sim_switch="clock_offset_s",
+        truth_key="clock_offset(hitch)", model=StampOffset(),
     ),
     EffectSpec(
         "clock_drift", "hitch", EffectKind.CLOCK,
         (EffectParam("drift", "s/s", 0.0, -0.05, 0.05, 0.0),),
         "the joint angle's clock runs at another rate: its stamps drift linearly against the "
         "path's",
-        truth_key="clock_drift",
+        truth_key="clock_drift", model=StampDrift(),
     ),
     EffectSpec(
         "sensor_nonlinearity", "psi", EffectKind.SENSOR,
         (EffectParam("cubic", "1/rad^2", 0.0, -3.0, 3.0, 0.0),),
         "the encoder's reading bends away from the true angle at large angles (y + k y^3)",
-        confounded_with=("param:L1",),
+        confounded_with=("param:L1",), model=Cubic(),
     ),
 )
-"""Every effect the path discovery tries, in the order it tries them."""
+"""The built-in effects the path discovery tries, in the order it tries them (registered ones,
+:func:`register_effect`, follow)."""
+
+_REGISTERED: list[EffectSpec[PathEffectModel]] = []
 
 
-def effect_by_key(key: str) -> EffectSpec:
-    """The catalogue entry ``id(target)``."""
-    for e in CATALOGUE:
+def register_effect(spec: EffectSpec[PathEffectModel]) -> EffectSpec[PathEffectModel]:
+    """Add ``spec`` (its ``model`` a :class:`PathEffectModel`, one parameter) to the effects the
+    path discovery tries, after the built-in ones; returns it. Raises ValueError for a spec
+    without a hook, with other than one parameter, or whose key is taken."""
+    if spec.model is None or len(spec.params) != 1:
+        raise ValueError(f"path effect {spec.key}: needs a model hook and one parameter")
+    if any(e.key == spec.key for e in catalogue()):
+        raise ValueError(f"path effect {spec.key}: already in the catalogue")
+    _REGISTERED.append(spec)
+    return spec
+
+
+def unregister_effect(key: str) -> None:
+    """Remove the registered effect ``key`` (the built-in ones stay)."""
+    _REGISTERED[:] = [e for e in _REGISTERED if e.key != key]
+
+
+def catalogue() -> tuple[EffectSpec[PathEffectModel], ...]:
+    """Every effect the path discovery tries: the built-in ones, then the registered ones."""
+    return (*CATALOGUE, *_REGISTERED)
+
+
+def effect_by_key(key: str) -> EffectSpec[PathEffectModel]:
+    """The catalogue entry ``id(target)`` (built-in or registered)."""
+    for e in catalogue():
         if e.key == key:
             return e
     raise KeyError(key)
+
+
+def _chain(
+    effects: Sequence[EffectSpec[PathEffectModel]],
+) -> list[tuple[int, EffectSpec[PathEffectModel], PathEffectModel]]:
+    """(index in ``effects``, spec, hook) in the hooks' order (ties: as given)."""
+    out = []
+    for i, e in enumerate(effects):
+        if e.model is None:
+            raise ValueError(f"path effect {e.key}: no model hook")
+        out.append((i, e, e.model))
+    return sorted(out, key=lambda c: c[2].order)
+
+
+def _valued(
+    chain: Sequence[tuple[int, EffectSpec[PathEffectModel], PathEffectModel]], x: FloatArray,
+) -> Iterator[tuple[EffectSpec[PathEffectModel], PathEffectModel, float]]:
+    """(spec, hook, its value in the parameter vector ``x``) along ``chain``."""
+    for i, e, m in chain:
+        yield e, m, float(x[2 + i])
 
 
 def _play(u: FloatArray, w: float, piece: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -272,65 +533,38 @@ class JointPathModel:
     ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
         """Modelled reading, Jacobian of the reading to the structural parameters (L1, L2,
         effects: columns), the derivative to each sample's piece's initial angle, the true
-        modelled angle and the backlash direction."""
+        modelled angle and the backlash direction.
+
+        The effects' hooks (:class:`PathEffectModel`) act in their ``order``: first every
+        stamp shift (summed into one shift of the modelled angle), then each reading change
+        on the shifted angle."""
         n_e = sum(len(e.params) for e in effects)
         q = 2 + n_e
         u, d0, d1, d2 = self._base._simulate_jacobian(float(x[0]), float(x[1]), x[q:])
-        vals = {e.id: x[2 + i] for i, e in enumerate(effects)}  # one parameter each
+        chain = _chain(effects)
+        t_rel = self.t - self.t_ref
+        stamps = [(e.key, v, m.stamp_shift(t_rel, v)) for e, m, v in _valued(chain, x)]
+        shifts = [(k, s) for k, _, s in stamps if s is not None]
         cols: dict[str, FloatArray] = {}
-        true_u = u
-        if "clock_offset" in vals or "clock_drift" in vals:
-            c = float(vals.get("clock_offset", 0.0))
-            d = float(vals.get("clock_drift", 0.0))
-            tau = self.t - c - d * (self.t - self.t_ref)
+        if shifts:
+            tau = self.t
+            for _, (delta, _) in shifts:
+                tau = tau - delta
             u, d0, d1, d2, rate = self._shifted_smooth(tau, [u, d0, d1, d2])
-            true_u = u
-            if "clock_offset" in vals:
-                cols["clock_offset"] = -rate
-            if "clock_drift" in vals:
-                cols["clock_drift"] = -rate * (self.t - self.t_ref)
-        sgn = np.zeros_like(u)
-        y = u
-        if "backlash" in vals:
-            # the dead band acts on the true angle, which is smooth; the modelled one carries
-            # the path's noise, which a dead band on it would filter (and so be mistaken for
-            # play): holds are decided on the angle smoothed over PLAY_SMOOTH_S
-            w = float(vals["backlash"])
-            us, d0s, d1s, d2s = (self._smooth(c) for c in (u, d0, d1, d2))
-            idx, sgn = _play(us, w, self.piece)
-            hold = idx != np.arange(u.size)
-
-            def held(c: FloatArray, cs: FloatArray) -> FloatArray:
-                # the hold acts on the smooth part; the path's noise stays at its own sample
-                # (holding it would smooth the model and reward play that is not there)
-                return c + np.where(hold, cs[idx] - cs, 0.0)
-
-            y = held(u, us) - sgn * 0.5 * w
-            d0, d1, d2 = held(d0, d0s), held(d1, d1s), held(d2, d2s)
-            cols = {k: held(v, self._smooth(v)) for k, v in cols.items()}
-            cols["backlash"] = -0.5 * sgn
-        if "sensor_nonlinearity" in vals:
-            k3 = float(vals["sensor_nonlinearity"])
-            g = 1.0 + 3.0 * k3 * y * y
-            d0, d1, d2 = d0 * g, d1 * g, d2 * g
-            cols = {k: v * g for k, v in cols.items()}
-            cols["sensor_nonlinearity"] = y**3
-            y = y + k3 * y**3
-        if "sensor_scale" in vals:
-            s = float(vals["sensor_scale"])
-            d0, d1, d2 = d0 * s, d1 * s, d2 * s
-            cols = {k: v * s for k, v in cols.items()}
-            cols["sensor_scale"] = y.copy()
-            y = s * y
-        if "sensor_offset" in vals:
-            cols["sensor_offset"] = np.ones_like(y)
-            y = y + float(vals["sensor_offset"])
-        J = np.empty((y.size, q))
-        J[:, 0] = d1
-        J[:, 1] = d2
+            for key, (_, ddelta) in shifts:
+                cols[key] = -rate * ddelta
+        state = PathState(self, u, d0, d1, d2, cols, u, np.zeros_like(u))
+        shifted = {k for k, _ in shifts}
+        for e, m, v in _valued(chain, x):
+            if e.key not in shifted:
+                state, col = m.apply(state, v)
+                state.cols[e.key] = col
+        J = np.empty((state.y.size, q))
+        J[:, 0] = state.d1
+        J[:, 1] = state.d2
         for i, e in enumerate(effects):
-            J[:, 2 + i] = cols[e.id]
-        return y, J, d0, true_u, sgn
+            J[:, 2 + i] = state.cols[e.key]
+        return state.y, J, state.d0, state.true_u, state.sgn
 
     # ------------------------------------------------------------------ fit
     def _projected(self, J: FloatArray, d0: FloatArray, w: FloatArray) -> FloatArray:
@@ -412,26 +646,20 @@ class JointPathModel:
         """The joint-angle samples with the fitted effects undone: (stamps on the path's
         clock, the true angle the readings imply), for a fit of the nominal model.
 
-        ``drop_holds``: with backlash, leave out the samples where the reading holds inside
-        the dead band (while at least half the samples remain): the reading there says only
-        that the angle is somewhere within the band, and adding half the width to it biases
-        the link lengths (the path still drives the model through the samples left out)."""
-        vals = {e.id: float(sol.x[2 + i]) for i, e in enumerate(sol.effects)}
-        t = self.t - vals.get("clock_offset", 0.0) - vals.get("clock_drift", 0.0) * (
-            self.t - self.t_ref)
-        z = (self.p - vals.get("sensor_offset", 0.0)) / vals.get("sensor_scale", 1.0)
-        k3 = vals.get("sensor_nonlinearity", 0.0)
-        if k3:
-            y = z.copy()
-            for _ in range(4):  # Newton on y + k y^3 = z
-                y -= (y + k3 * y**3 - z) / (1.0 + 3.0 * k3 * y * y)
-            z = y
-        if "backlash" in vals:
-            z = z + 0.5 * vals["backlash"] * sol.play_sign
-            if not drop_holds:
-                return t, z
-            idx, _ = _play(self._smooth(sol.true_psi), vals["backlash"], self.piece)
-            follows = idx == np.arange(z.size)
-            if follows.sum() >= 0.5 * z.size:
-                return t[follows], z[follows]
-        return t, z
+        Each effect's hook undoes its reading change, last effect first
+        (:meth:`PathEffectModel.undo`); the stamps are moved back by the shifts in their
+        order. ``drop_holds``: the hooks may leave out samples whose reading says little of the
+        true angle (the backlash's holds inside its dead band)."""
+        chain = _chain(sol.effects)
+        t_rel = self.t - self.t_ref
+        t = self.t
+        for _, m, v in _valued(chain, sol.x):
+            s = m.stamp_shift(t_rel, v)
+            if s is not None:
+                t = t - s[0]
+        state = Undone(self, sol, t.copy(), self.p, None, drop_holds)
+        for _, m, v in reversed(list(_valued(chain, sol.x))):
+            state = m.undo(state, v)
+        if state.keep is not None:
+            return state.t[state.keep], state.z[state.keep]
+        return state.t, state.z

@@ -1,0 +1,142 @@
+"""A tractor-trailer effect added the way every built-in one is: its catalogue entry and its
+hook (how it changes the modelled joint-angle reading) are defined here, in the test, and one
+line (``register_effect``) makes the discovery along the path try it. Nothing in calib knows
+its id.
+
+The effect: a joint-angle encoder that reads y + k y^2 (an asymmetric bend, unlike the built-in
+cubic). A clean log from the independent generator has its joint angle bent by this test's
+own code; discovery names the new effect with k inside its interval and lowers the held-out
+residual; on the clean log it is tried and not accepted.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pytest
+from indgen.tractor_kinds import tractor_log
+
+from calib.adequacy import EffectKind, EffectParam, EffectSpec
+from calib.tractor_trailer.estimators.drive_path import DrivePath
+from calib.tractor_trailer.estimators.path_transient import PathTransientFit
+from calib.tractor_trailer.path_discovery import PathDiscovery, discover_along_path
+from calib.tractor_trailer.path_effects import (
+    PathEffectModel,
+    PathState,
+    Undone,
+    catalogue,
+    effect_by_key,
+    register_effect,
+    unregister_effect,
+)
+
+K_TRUE = 0.6  # 1/rad
+SEED = 2
+
+
+@dataclass(frozen=True)
+class Quadratic(PathEffectModel):
+    """Reading y + k y^2, after the backlash and the cubic, before the gain and the offset."""
+
+    order: int = 25
+
+    def apply(self, state: PathState, value: float) -> tuple[PathState, np.ndarray]:
+        y = state.y
+        return state.scaled(1.0 + 2.0 * value * y, y=y + value * y * y), y * y
+
+    def undo(self, state: Undone, value: float) -> Undone:
+        z = state.z
+        if not value:
+            return state
+        # the root of k y^2 + y - z = 0 nearer y = z (stable form)
+        return replace(state, z=2.0 * z / (1.0 + np.sqrt(np.maximum(1.0 + 4.0 * value * z,
+                                                                     0.0))))
+
+
+QUADRATIC: EffectSpec[PathEffectModel] = EffectSpec(
+    "sensor_quadratic", "psi", EffectKind.SENSOR,
+    (EffectParam("quadratic", "1/rad", 0.0, -3.0, 3.0, 0.0),),
+    "the joint-angle encoder reads more on one side than the other (y + k y^2)",
+    model=Quadratic(),
+)
+
+
+@pytest.fixture
+def registered() -> Iterator[None]:
+    register_effect(QUADRATIC)  # the one line that adds the effect
+    try:
+        yield
+    finally:
+        unregister_effect(QUADRATIC.key)
+
+
+def _discover(k: float) -> tuple[PathDiscovery, dict]:  # type: ignore[type-arg]
+    log = tractor_log(SEED)
+    hitch = log.streams["/hitch/angle"]
+    t0 = min(s.stamps_ns[0] for s in log.streams.values())
+    pose = log.streams["/pose"]
+    path = DrivePath.from_pose((pose.stamps_ns - t0) / 1e9, pose.fields["x"], pose.fields["y"],
+                               np.unwrap(pose.fields["yaw"]), smooth_samples=3)
+    t = (hitch.stamps_ns - t0) / 1e9
+    psi = np.asarray(hitch.fields["angle"], dtype=float)
+    psi = psi + k * psi * psi  # this test's own distortion of the recorded angle
+    fit = PathTransientFit().fit(path, t, psi)
+    return discover_along_path(path, t, psi, [], fit), log.truth
+
+
+def test_hook_jacobian_matches_finite_differences() -> None:
+    rng = np.random.default_rng(0)
+    y = rng.uniform(-0.6, 0.6, 50)
+    state = PathState(None, y, y * 0, y * 0, y * 0, {}, y, y * 0)  # type: ignore[arg-type]
+    hook = Quadratic()
+    _, col = hook.apply(state, 0.3)
+    h = 1e-6
+    fd = (hook.apply(state, 0.3 + h)[0].y - hook.apply(state, 0.3 - h)[0].y) / (2 * h)
+    assert np.allclose(col, fd, rtol=1e-6, atol=1e-9)
+    back = hook.undo(Undone(None, None, y, hook.apply(state, 0.3)[0].y, None,  # type: ignore
+                            False), 0.3)
+    assert np.allclose(back.z, y, atol=1e-12)
+
+
+def test_registration_adds_and_removes_the_effect() -> None:
+    n = len(catalogue())
+    register_effect(QUADRATIC)
+    try:
+        assert catalogue()[-1] is QUADRATIC
+        assert effect_by_key("sensor_quadratic(psi)") is QUADRATIC
+        with pytest.raises(ValueError, match="already"):
+            register_effect(QUADRATIC)
+    finally:
+        unregister_effect(QUADRATIC.key)
+    assert len(catalogue()) == n
+    with pytest.raises(KeyError):
+        effect_by_key("sensor_quadratic(psi)")
+
+
+@pytest.mark.slow
+def test_new_effect_is_named_and_improves_the_heldout_fit(registered: None) -> None:
+    disc, truth = _discover(K_TRUE)
+    assert disc.selection is not None
+    keys = [e.key for e in disc.accepted]
+    assert "sensor_quadratic(psi)" in keys, disc.report()
+    k = disc.selection.final.effect_parameters["sensor_quadratic(psi)"]["quadratic"]
+    assert k.ci95[0] <= K_TRUE <= k.ci95[1], k
+    base, final = disc.selection.base, disc.selection.final
+    assert final.heldout_sse < 0.5 * base.heldout_sse, (base.heldout_sse, final.heldout_sse)
+    assert disc.adequacy is not None
+    assert disc.adequacy.explains, disc.report()
+    assert disc.estimate is not None
+    assert disc.estimate.method.endswith("sensor_quadratic(psi)")
+    for name in ("L1", "L2"):
+        e = disc.estimate.parameters[name]
+        assert (not e.identifiable) or e.ci95[0] <= truth[name] <= e.ci95[1], (name, e)
+
+
+@pytest.mark.slow
+def test_new_effect_is_tried_and_not_accepted_on_the_clean_log(registered: None) -> None:
+    disc, _ = _discover(0.0)
+    assert disc.selection is not None
+    assert "sensor_quadratic(psi)" in {t.key for t in disc.selection.tried}
+    assert "sensor_quadratic(psi)" not in [e.key for e in disc.accepted]
