@@ -15,15 +15,24 @@ Each joint also gets a rotor (armature) inertia ``Ia`` on its own diagonal of M.
 a path loads the model of that name from the ``example-robot-data`` package (its URDFs sit under
 ``cmeel.prefix/share/example-robot-data/robots``). A URDF that welds to a link it never declares
 (e.g. ``world``) is repaired by declaring it, and the repair is noted.
+
+The URDF's ``<transmission>`` elements (ROS: what drives each joint and through which
+mechanical reduction) are read by :func:`read_transmissions` with the standard library's expat
+parser inside the same size budget, a depth budget, and no document type: a URDF that declares
+a DOCTYPE or an entity is refused before either parser sees it (entities are never resolved).
+urdfdom (pinocchio's parser) ignores transmissions, so they are read here; expat is used
+directly rather than a tree builder so that the depth is counted as it is read.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from functools import cached_property
 from importlib import metadata
 from pathlib import Path
@@ -33,8 +42,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from calib.manipulator.model import ArmModelError, ParameterInfo
+from calib.results import JsonRecord
 
-__all__ = ["SerialArm", "example_robot_urdf", "load_serial_arm", "movable_joints"]
+__all__ = ["SerialArm", "Transmission", "example_robot_urdf", "load_serial_arm",
+           "movable_joints", "read_transmissions", "urdf_path"]
 
 Array = NDArray[np.float64]
 
@@ -88,8 +99,11 @@ def example_robot_urdf(name: str) -> Path:
 MAX_URDF_BYTES = 16 * 2**20
 MAX_URDF_LINKS = 1024
 MAX_CHAIN_DEPTH = 256
-"""Budgets of a URDF read: its size, its links, and the longest parent-to-child chain (the
-parser recurses along it: a 4,000-link chain crashed the process)."""
+MAX_XML_DEPTH = 64
+"""Budgets of a URDF read: its size, its links, the longest parent-to-child chain (the
+parser recurses along it: a 4,000-link chain crashed the process) and the nesting of its
+elements (a URDF nests a handful deep)."""
+_DOCTYPE = re.compile(r"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)
 _MODEL_NAME = re.compile(r"[A-Za-z0-9_.-]{1,100}")
 
 
@@ -119,6 +133,10 @@ def _chain_depth(text: str) -> int:
 
 
 def _check_budget(path: Path, text: str) -> None:
+    declared = _DOCTYPE.search(text)
+    if declared:
+        raise ArmModelError(f"{path}: declares a {declared.group(1).upper()}; a URDF logcal "
+                            "reads has no document type or entities (they are never resolved)")
     links = len(re.findall(r"<link\b", text))
     if links > MAX_URDF_LINKS:
         raise ArmModelError(f"{path}: {links} links; a URDF logcal reads has at most "
@@ -154,9 +172,8 @@ def _escaped(text: str) -> str:
     return "".join(c if c.isprintable() else f"\\x{ord(c):02x}" for c in text.strip())
 
 
-def _build(path: Path) -> tuple[Any, list[str]]:
-    import pinocchio as pin
-
+def _read_urdf(path: Path) -> str:
+    """The URDF's text, within the size budget, with no document type (see the budgets)."""
     try:
         size = path.stat().st_size
     except OSError as err:
@@ -164,8 +181,18 @@ def _build(path: Path) -> tuple[Any, list[str]]:
     if size > MAX_URDF_BYTES:
         raise ArmModelError(f"{path}: {size} bytes; a URDF logcal reads is at most "
                             f"{MAX_URDF_BYTES} bytes")
-    text = path.read_text(encoding="utf-8", errors="replace")
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as err:
+        raise ArmModelError(f"{path}: cannot read this URDF ({err.strerror or err})") from err
     _check_budget(path, text)
+    return text
+
+
+def _build(path: Path) -> tuple[Any, list[str]]:
+    import pinocchio as pin
+
+    text = _read_urdf(path)
     notes: list[str] = []
     declared = set(re.findall(r"<link\s+name\s*=\s*\"([^\"]+)\"", text))
     used = set(re.findall(r"<(?:parent|child)\s+link\s*=\s*\"([^\"]+)\"", text))
@@ -201,6 +228,160 @@ def movable_joints(urdf: str) -> tuple[str, ...]:
     return tuple(full.names[i] for i in range(1, full.njoints) if full.joints[i].nv > 0)
 
 
+def urdf_path(urdf: str) -> Path:
+    """The file of ``urdf``: a path, else an example-robot-data model NAME.
+
+    Raises:
+        ArmModelError: no such file, and not a model name.
+    """
+    path = Path(urdf).expanduser()
+    if not path.is_file():
+        if any(sep in urdf for sep in ("/", "\\")) or urdf.endswith(".urdf"):
+            raise ArmModelError(f"URDF {urdf}: no such file")
+        path = example_robot_urdf(urdf)
+    return path
+
+
+@dataclass(frozen=True)
+class Transmission(JsonRecord):
+    """One ``<transmission>`` of a URDF.
+
+    Attributes:
+        name: its ``name``.
+        kind: the last part of its type (``SimpleTransmission``, ``DifferentialTransmission``,
+            ...): the ``<type>`` (or ROS 2's ``<plugin>``) element, or the older ``type``
+            attribute.
+        joints: the joints it drives.
+        actuators: the actuators driving them.
+        reduction: a simple transmission's mechanical reduction (joint effort = reduction x
+            actuator effort): the actuator's ``<mechanicalReduction>``, else the one directly
+            under ``<transmission>`` (the older form), else the joint's (ROS 2's
+            ``mechanical_reduction`` alike); None when none is given or the transmission is not
+            simple.
+    """
+
+    name: str
+    kind: str
+    joints: tuple[str, ...]
+    actuators: tuple[str, ...]
+    reduction: float | None
+
+    @property
+    def simple(self) -> bool:
+        """One actuator drives one joint through one reduction."""
+        return (self.kind == "SimpleTransmission" and len(self.joints) == 1
+                and len(self.actuators) <= 1)
+
+    def describe(self) -> str:
+        """One line for people: name, type, joint(s), actuator(s), reduction."""
+        red = f", mechanical reduction {self.reduction:g}" if self.reduction is not None else ""
+        return (f"{self.name} ({self.kind or 'no type'}): joint {', '.join(self.joints) or '-'}"
+                f" <- actuator {', '.join(self.actuators) or '-'}{red}")
+
+
+_REDUCTION_TAGS = ("mechanicalReduction", "mechanical_reduction")
+
+
+class _TransmissionReader:
+    """expat handlers collecting ``<transmission>`` elements within the depth budget; any
+    document type or entity declaration is refused as it is met."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.stack: list[str] = []
+        self.text: list[str] = []
+        self.found: list[Transmission] = []
+        self.current: dict[str, Any] | None = None
+        self.at = 0  # depth of the open <transmission>
+
+    def refuse(self, *_: Any) -> None:
+        raise ArmModelError(f"{self.path}: declares a DOCTYPE or an entity; a URDF logcal reads "
+                            "has no document type or entities (they are never resolved)")
+
+    def start(self, tag: str, attrs: dict[str, str]) -> None:
+        self.stack.append(tag)
+        if len(self.stack) > MAX_XML_DEPTH:
+            raise ArmModelError(f"{self.path}: elements nested more than {MAX_XML_DEPTH} deep; "
+                                f"a URDF logcal reads nests at most {MAX_XML_DEPTH}")
+        self.text = []
+        depth = len(self.stack)
+        if tag == "transmission" and self.current is None:
+            self.current = {"name": attrs.get("name", ""), "type": attrs.get("type", ""),
+                            "joints": [], "actuators": [], "red": {}}
+            self.at = depth
+        elif self.current is not None and depth == self.at + 1 and tag in ("joint", "actuator"):
+            self.current[tag + "s"].append(attrs.get("name", ""))
+
+    def chars(self, data: str) -> None:
+        self.text.append(data)
+
+    def end(self, tag: str) -> None:
+        depth = len(self.stack)
+        self.stack.pop()
+        cur = self.current
+        if cur is None:
+            return
+        text = "".join(self.text).strip()
+        self.text = []
+        if depth == self.at:
+            self.found.append(self._finish(cur))
+            self.current = None
+        elif depth == self.at + 1 and tag in ("type", "plugin"):
+            cur["type"] = text
+        elif tag in _REDUCTION_TAGS and depth in (self.at + 1, self.at + 2):
+            where = "transmission" if depth == self.at + 1 else self.stack[-1]
+            cur["red"].setdefault(where, self._number(cur["name"], text))
+
+    def _number(self, name: str, text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value) or value == 0:
+            raise ArmModelError(f"{self.path}: transmission {name!r}: mechanicalReduction "
+                                f"{text[:40]!r} is not a nonzero finite number")
+        return value
+
+    @staticmethod
+    def _finish(cur: dict[str, Any]) -> Transmission:
+        kind = re.split(r"[/:]+", cur["type"])[-1] if cur["type"] else ""
+        red = cur["red"]
+        reduction = red.get("actuator", red.get("transmission", red.get("joint")))
+        simple = kind == "SimpleTransmission"
+        return Transmission(cur["name"], kind, tuple(cur["joints"]), tuple(cur["actuators"]),
+                            reduction if simple else None)
+
+
+def read_transmissions(urdf: str | Path) -> tuple[Transmission, ...]:
+    """The ``<transmission>`` elements of ``urdf`` (a path or an example-robot-data NAME), in
+    the file's order (none: an empty tuple).
+
+    Raises:
+        ArmModelError: the URDF cannot be found or read, is beyond a budget, declares a
+            document type or an entity, is not well-formed XML, or gives a reduction that is
+            not a nonzero number.
+    """
+    from xml.parsers import expat
+
+    path = urdf if isinstance(urdf, Path) else urdf_path(urdf)
+    text = _read_urdf(path)
+    reader = _TransmissionReader(path)
+    parser = expat.ParserCreate()
+    parser.SetParamEntityParsing(expat.XML_PARAM_ENTITY_PARSING_NEVER)
+    parser.StartDoctypeDeclHandler = reader.refuse
+    parser.EntityDeclHandler = reader.refuse
+    parser.UnparsedEntityDeclHandler = reader.refuse
+    parser.ExternalEntityRefHandler = reader.refuse
+    parser.StartElementHandler = reader.start
+    parser.EndElementHandler = reader.end
+    parser.CharacterDataHandler = reader.chars
+    try:
+        parser.Parse(text, True)
+    except expat.ExpatError as err:
+        raise ArmModelError(f"{path}: not well-formed XML ({_escaped(str(err))})") from err
+    return tuple(reader.found)
+
+
 def load_serial_arm(urdf: str, joint_names: tuple[str, ...] | None, n_joints: int) -> SerialArm:
     """The arm of ``urdf`` (a path, or an example-robot-data NAME) reduced to the logged joints.
 
@@ -213,11 +394,7 @@ def load_serial_arm(urdf: str, joint_names: tuple[str, ...] | None, n_joints: in
     Raises:
         ArmModelError: the URDF cannot be found or read, or the joints are not in it.
     """
-    path = Path(urdf).expanduser()
-    if not path.is_file():
-        if any(sep in urdf for sep in ("/", "\\")) or urdf.endswith(".urdf"):
-            raise ArmModelError(f"URDF {urdf}: no such file")
-        path = example_robot_urdf(urdf)
+    path = urdf_path(urdf)
     full, notes = _build(path)
     return SerialArm(full, joint_names, n_joints, source=str(path), notes=tuple(notes))
 
@@ -292,6 +469,12 @@ class SerialArm:
         dyn = [self.model.inertias[j].toDynamicParameters() for j in range(1, self.model.njoints)]
         arm = np.asarray(self.model.armature, dtype=float)[self._order]
         return np.concatenate([*dyn, arm])
+
+    @cached_property
+    def transmissions(self) -> tuple[Transmission, ...]:
+        """The URDF's transmissions (:func:`read_transmissions`; none without a file)."""
+        path = Path(self.source)
+        return read_transmissions(path) if self.source and path.is_file() else ()
 
     def joint_kinds(self) -> tuple[str, ...]:
         """``revolute`` or ``prismatic`` per logged joint."""

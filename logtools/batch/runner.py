@@ -4,14 +4,15 @@ The output folder holds::
 
     manifest.json          every log (by id): name, content hash, settings key, status, time
     journal.jsonl          logs finished since the manifest was last written (append-only)
-    logs/<id>.json         per log: its settings, status, error or AnalysisResult JSON
+    logs/<id>.json         per log: its settings, span, status, error or AnalysisResult JSON
     views/<id>.rrd, .png   per log: rerun recording and static image (when its robot has them)
     fleet.parquet          the fleet table (logtools.batch.table)
     fleet.json             pooled estimates and drift per robot and parameter
     index.html, pages/     the HTML report (logtools.batch.report_html)
 
 Resuming: a log is analysed again only when its manifest entry is missing, its key (content
-hash, logcal.toml settings and the files they name, analysis options, logcal version) differs,
+hash, logcal.toml settings and the files they name, analysis options with the --start/--end
+bounds, logcal version) differs,
 or one of its output files is gone; ``force`` redoes all. Every file is written to a temporary
 name and renamed over its target (``os.replace``). After each log, one line is appended to the
 journal (its files are written before): the time per log does not grow with the number of logs
@@ -46,7 +47,7 @@ from typing import Any
 from logtools.batch.archive import ID_PATTERN, LogJob, find_logs
 from logtools.batch.engines import Engine, run_jobs
 from logtools.batch.files import open_regular
-from logtools.batch.worker import AnalysisOptions, LogOutcome, analyse_job
+from logtools.batch.worker import AnalysisOptions, LogOutcome, analyse_job, log_span
 from logtools.errors import LogcalInputError
 from logtools.outputs import special_filesystem
 
@@ -146,8 +147,15 @@ def _clean(doc: Any) -> Any:
     return doc
 
 
-def _record(job: LogJob, outcome: LogOutcome, views: dict[str, str]) -> dict[str, Any]:
-    return _clean(_record_raw(job, outcome, views))
+def _span(job: LogJob, options: AnalysisOptions) -> dict[str, float | None]:
+    """The span the log was analysed over (seconds from its first sample; None: unbounded)."""
+    start, end = log_span(job.settings, options)
+    return {"start_s": start, "end_s": end}
+
+
+def _record(job: LogJob, outcome: LogOutcome, views: dict[str, str],
+            options: AnalysisOptions) -> dict[str, Any]:
+    return _clean({**_record_raw(job, outcome, views), "span": _span(job, options)})
 
 
 def _record_raw(job: LogJob, outcome: LogOutcome, views: dict[str, str]) -> dict[str, Any]:
@@ -441,11 +449,12 @@ def run_batch(
                     write_atomic(out / rel_view, data)
                     views[suffix] = rel_view
                 record_rel = f"logs/{job.id}.json"
-                write_atomic(out / record_rel, _json_bytes(_record(job, outcome, views)))
+                write_atomic(out / record_rel,
+                             _json_bytes(_record(job, outcome, views, options)))
                 manifest[job.id] = {
                     "id": job.id, "log": job.rel, "key": keys[job.id],
                     "content_hash": job.content_hash, "status": outcome.status,
-                    "record": record_rel, "views": views,
+                    "record": record_rel, "views": views, "span": _span(job, options),
                     "seconds": round(outcome.seconds, 3),
                     "error": None if outcome.error is None else _text(outcome.error),
                 }

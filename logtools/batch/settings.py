@@ -14,9 +14,12 @@ wins key by key::
                                 # top-level folder ("(archive root)" for logs at the root)
     urdf = "arm.urdf"           # a robot option (here the manipulator's): any key a registered
     cutoff_hz = 8.0             # plugin declares (logtools.robots.options.option_specs)
+    start = 5.0                 # analyse each log from 5 s to 60 s after its first sample
+    end = 60.0                  # (as `logcal analyze --start/--end`; `batch --start/--end` wins)
 
-The accepted keys are :data:`BASE_KEYS` plus the option keys of every registered robot plugin,
-read from the plugins' declarations (nothing robot-specific is written here). Each option value
+The accepted keys are :data:`BASE_KEYS`, :data:`SPAN_KEYS` plus the option keys of every
+registered robot plugin, read from the plugins' declarations (nothing robot-specific is written
+here). Each option value
 is checked by :func:`~logtools.robots.options.build_options` with ``source="settings"`` and the
 ``logcal.toml`` path as ``where``; a key several robots declare is checked against each.
 
@@ -34,6 +37,7 @@ and ``..`` leading out of the archive are refused with the reason), no text is g
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import re
 import stat
@@ -50,14 +54,17 @@ from logtools.errors import LogcalInputError
 if TYPE_CHECKING:
     from logtools.robots.options import OptionSpec, RobotOptions
 
-__all__ = ["ARCHIVE_ROOT_ID", "BASE_KEYS", "SETTINGS_FILE", "SETTINGS_MAX_BYTES", "LogSettings",
-           "SettingsCache", "SettingsError", "accepted_keys", "open_regular", "read_regular",
-           "settings_for"]
+__all__ = ["ARCHIVE_ROOT_ID", "BASE_KEYS", "SETTINGS_FILE", "SETTINGS_MAX_BYTES", "SPAN_KEYS",
+           "LogSettings", "SettingsCache", "SettingsError", "accepted_keys", "open_regular",
+           "read_regular", "settings_for"]
 
 SETTINGS_FILE = "logcal.toml"
 ARCHIVE_ROOT_ID = "(archive root)"
 BASE_KEYS = ("robot", "channel_map", "robot_id")
-"""The keys of the batch itself; every other accepted key is a registered robot's option."""
+"""The keys of the batch itself; every other accepted key (but :data:`SPAN_KEYS`) is a registered
+robot's option."""
+SPAN_KEYS = ("start", "end")
+"""Seconds from each log's first sample to crop it to (``logcal analyze --start/--end``)."""
 
 
 class SettingsError(LogcalInputError):
@@ -88,6 +95,8 @@ class LogSettings:
             :func:`~logtools.analyze.options_from_settings`.
         robot_options: the same, typed: by plugin name, that plugin's options instance (robots
             given no key left out), as ``AnalysisConfig(robot_options=...)`` takes them.
+        start_s, end_s: the ``start``/``end`` keys: the span of each log to analyse, in seconds
+            from its first sample (None: from the first, to the last sample).
     """
 
     robot: str | None
@@ -98,6 +107,8 @@ class LogSettings:
     robot_from: str | None = None
     options: Mapping[str, Any] = field(default_factory=dict)
     robot_options: Mapping[str, RobotOptions] = field(default_factory=dict)
+    start_s: float | None = None
+    end_s: float | None = None
 
 
 _MODEL_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,63}")
@@ -127,7 +138,8 @@ def _option_specs() -> dict[str, list[_Declared]]:
 def accepted_keys() -> tuple[str, ...]:
     """Every key a ``logcal.toml`` may hold: :data:`BASE_KEYS`, then each registered robot's
     option keys (in registry and field order)."""
-    return (*BASE_KEYS, *(k for k in _option_specs() if k not in BASE_KEYS))
+    return (*BASE_KEYS, *SPAN_KEYS,
+            *(k for k in _option_specs() if k not in BASE_KEYS + SPAN_KEYS))
 
 
 def _names_file(spec: OptionSpec, value: str) -> bool:
@@ -242,10 +254,17 @@ def _read(archive: Path, file: Path, specs: Mapping[str, list[_Declared]]) -> di
             if not isinstance(value, str) or not value.strip():
                 raise SettingsError(file, key, f"is {value!r}; expected a non-empty string.")
             out[key] = str(_inside(archive, file, key, value)) if key == "channel_map" else value
+        elif key in SPAN_KEYS:
+            if (isinstance(value, bool) or not isinstance(value, int | float)
+                    or not math.isfinite(value) or value < 0):
+                raise SettingsError(file, key, f"is {value!r}; expected seconds >= 0 from each "
+                                               "log's first sample.")
+            out[key] = float(value)
         elif key in specs:
             out[key] = _option_value(archive, file, key, value, specs[key])
         else:
-            known = (*BASE_KEYS, *(k for k in specs if k not in BASE_KEYS))
+            known = (*BASE_KEYS, *SPAN_KEYS,
+                     *(k for k in specs if k not in BASE_KEYS + SPAN_KEYS))
             raise SettingsError(file, key, f"is not a logcal.toml key; expected one of "
                                            f"{', '.join(known)}.")
     return out
@@ -291,10 +310,18 @@ def settings_for(archive: Path, log: Path, cache: SettingsCache | None = None) -
         if "robot" in cache.files[folder]:
             robot_from = str(file)
     default_id = rel.parts[0] if len(rel.parts) > 1 else ARCHIVE_ROOT_ID
-    options = {k: v for k, v in sorted(merged.items()) if k not in BASE_KEYS}
+    options = {k: v for k, v in sorted(merged.items()) if k not in BASE_KEYS + SPAN_KEYS}
+    start, end = merged.get("start"), merged.get("end")
+    if start is not None and end is not None and end <= start:
+        raise SettingsError(Path(sources[-1]), "end", f"is {end:g} s, not after start = "
+                                                      f"{start:g} s (the logcal.toml files "
+                                                      f"{', '.join(sources)}).")
     digest = hashlib.sha256()
     for key in BASE_KEYS:
         digest.update(f"{key}={merged.get(key, '')}\n".encode())
+    for key in SPAN_KEYS:  # only when set: a settings file without them keeps its key
+        if key in merged:
+            digest.update(f"{key}={merged[key]!r}\n".encode())
     for key, value in options.items():
         digest.update(f"{key}={type(value).__name__}:{value}\n".encode())
     named = [merged["channel_map"]] if "channel_map" in merged else []
@@ -312,6 +339,8 @@ def settings_for(archive: Path, log: Path, cache: SettingsCache | None = None) -
         robot_from=robot_from,
         options=options,
         robot_options=typed,
+        start_s=start,
+        end_s=end,
     )
     cache.folders[folders[-1]] = settings
     return settings

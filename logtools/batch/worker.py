@@ -5,6 +5,10 @@ and returns plain picklable values, writes nothing into the output folder (the d
 atomically) and returns the view files' bytes. Any failure, ours or the log's, becomes the
 outcome's ``error``: one bad log never stops a batch.
 
+Each log is cropped to its span (``AnalysisOptions.start_s``/``end_s``, the command line's
+``--start``/``--end``, else the ``logcal.toml`` keys ``start``/``end``) through the same
+:class:`~logtools.load.LoadRequest` that ``logcal analyze --start/--end`` builds.
+
 The robot's own options come from the log's ``logcal.toml`` settings (plain values by key,
 ``LogSettings.options``), turned into typed options by
 :func:`~logtools.analyze.options_from_settings` for ``AnalysisConfig(robot_options=...)``; the
@@ -21,13 +25,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from logtools.batch.archive import LogJob
+from logtools.errors import LogcalInputError
 
 if TYPE_CHECKING:
     from calib.results import AnalysisResult
     from logtools.analyze import AnalysisConfig
+    from logtools.batch.settings import LogSettings
     from logtools.load import LoadedLog
 
-__all__ = ["AnalysisOptions", "LogOutcome", "analyse_job"]
+__all__ = ["AnalysisOptions", "LogOutcome", "analyse_job", "check_span", "log_span"]
 
 
 @dataclass(frozen=True)
@@ -41,6 +47,9 @@ class AnalysisOptions:
         baseline: discovery baseline (``transient`` | ``steady``; tractor-trailer only).
         views: also draw each log's rerun recording (``.rrd``) and static image (``.png``) when
             its robot plugin has them.
+        start_s, end_s: analyse each log from / up to this many seconds after its first sample
+            (``--start``/``--end``; None: the ``logcal.toml`` keys ``start``/``end``, else the
+            whole log).
     """
 
     repeats: int = 10
@@ -48,11 +57,44 @@ class AnalysisOptions:
     discovery: bool = True
     baseline: str = "transient"
     views: bool = True
+    start_s: float | None = None
+    end_s: float | None = None
+
+    def __post_init__(self) -> None:
+        check_span(self.start_s, self.end_s)
 
     def fingerprint(self) -> str:
-        """The settings that change a result, as text (part of each log's manifest key)."""
+        """The settings that change a result, as text (part of each log's manifest key; the
+        bounds only when given, so that a batch without them keeps its keys)."""
+        span = "".join(f";{k}={v!r}" for k, v in (("start", self.start_s), ("end", self.end_s))
+                       if v is not None)
         return (f"repeats={self.repeats};seed={self.seed};discovery={self.discovery};"
-                f"baseline={self.baseline};views={self.views}")
+                f"baseline={self.baseline};views={self.views}{span}")
+
+
+def check_span(start_s: float | None, end_s: float | None) -> None:
+    """Bounds as ``--start``/``--end`` take them: finite seconds >= 0, the end after the start.
+
+    Raises:
+        LogcalInputError: which bound is wrong, and why.
+    """
+    import math
+
+    for flag, v in (("--start", start_s), ("--end", end_s)):
+        if v is not None and (not math.isfinite(v) or v < 0):
+            raise LogcalInputError(f"{flag} {v:g}: expected seconds >= 0 from each log's first "
+                                   "sample")
+    if start_s is not None and end_s is not None and end_s <= start_s:
+        raise LogcalInputError(f"--end {end_s:g} s is not after --start {start_s:g} s")
+
+
+def log_span(settings: LogSettings | None, options: AnalysisOptions
+             ) -> tuple[float | None, float | None]:
+    """The span a log is analysed over: each bound from ``options`` (the command line), else
+    from its ``logcal.toml`` settings; None: not bounded."""
+    start = options.start_s if options.start_s is not None else getattr(settings, "start_s", None)
+    end = options.end_s if options.end_s is not None else getattr(settings, "end_s", None)
+    return start, end
 
 
 @dataclass(frozen=True)
@@ -158,6 +200,7 @@ def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
         from calib.results import Baseline
         from logtools.analyze import AnalysisConfig, analyze_log, options_from_settings
         from logtools.channel_map import ChannelMap, load_channel_map
+        from logtools.load import LoadRequest
         from logtools.robots import plugin_for
 
         s = job.settings
@@ -166,6 +209,9 @@ def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
             plugin = plugin_for(s.robot, where=f"{s.robot_from}: [robot]")
             base = cmap if cmap is not None else ChannelMap()
             cmap = replace(base, robot=replace(base.robot, type=plugin.name))
+        start_s, end_s = log_span(s, options)
+        check_span(start_s, end_s)  # one bound from the command line, one from logcal.toml
+        cmap = LoadRequest.of(cmap, start_s=start_s, end_s=end_s)  # as analyze --start/--end
         config = AnalysisConfig(
             repeats=options.repeats, seed=options.seed, discovery=options.discovery,
             baseline=Baseline(options.baseline),

@@ -11,6 +11,7 @@ import typer
 
 from calib.results import Baseline
 from logtools.batch.choices import Engine
+from logtools.cli._inputs import end_option, start_option
 
 __all__ = ["register"]
 
@@ -38,6 +39,8 @@ def register(app: typer.Typer) -> None:
                                           help="Discovery baseline (tractor-trailer)."),
         seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap draws."),
         force: bool = typer.Option(False, "--force", help="Redo every log."),
+        start: float | None = start_option(),
+        end: float | None = end_option(),
     ) -> None:
         """Analyse every log of ARCHIVE in parallel (resumable) and write fleet results and
         an HTML report to --out."""
@@ -58,7 +61,8 @@ def register(app: typer.Typer) -> None:
         if address and engine is not Engine.RAY:
             raise typer.BadParameter("--address needs --engine ray", param_hint="--address")
         options = AnalysisOptions(repeats=repeats, seed=seed, discovery=not no_discovery,
-                                  baseline=str(baseline), views=not no_views)
+                                  baseline=str(baseline), views=not no_views, start_s=start,
+                                  end_s=end)  # --start/--end: crop each log as analyze does
         err = Console(stderr=True)
         bar = Progress(
             TextColumn("[bold]analysing"), BarColumn(), MofNCompleteColumn(),

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -38,6 +39,10 @@ def register(app: typer.Typer) -> None:
         ground_truth: Path | None = _GROUND_TRUTH,
         start: float | None = start_option(),
         end: float | None = end_option(),
+        urdf: str | None = typer.Option(
+            None, "--urdf", metavar="PATH_OR_NAME",
+            help="An arm's URDF file or example-robot-data name: also list its transmissions "
+            "(what --effort actuator uses)."),
     ) -> None:
         """Show what a log holds: topics, types, counts, rates, signals found, robot, problems."""
         from logtools.cli._inputs import read_inputs, say
@@ -47,6 +52,7 @@ def register(app: typer.Typer) -> None:
         inputs = read_inputs(logs, channel_map=channel_map, signals=signal,
                              ground_truth=ground_truth, start=start, end=end, dedupe=False)
         summaries = [summarize_log(run, inputs.channel_map) for run in inputs.runs]
+        trans = _transmissions(urdf) if urdf else None
         same = distinct_recordings(inputs.runs, inputs.channel_map)[1] if len(
             inputs.runs) > 1 else []
         if as_json:
@@ -59,8 +65,29 @@ def register(app: typer.Typer) -> None:
                     ],
                 }
             )
+            if trans is not None:
+                doc["urdf"] = trans
             typer.echo(json.dumps(doc, indent=2))
             return
         typer.echo("\n\n".join(s.report() for s in summaries))
+        if trans is not None:
+            shown = [t["line"] for t in trans["transmissions"]] or ["none"]
+            say(f"Transmissions in {trans['source']}:\n  " + "\n  ".join(shown), stderr=False)
         for group in same:
             say(f"note: {group.sentence('analyse it once')}", stderr=False)
+
+
+def _transmissions(urdf: str) -> dict[str, Any]:
+    """The URDF's transmissions (``calib.manipulator.serial.read_transmissions``) as JSON, each
+    with its line for people."""
+    from calib.errors import CalibError
+    from calib.manipulator.serial import read_transmissions, urdf_path
+    from logtools.errors import LogcalInputError
+
+    try:
+        path = urdf_path(urdf)
+        found = read_transmissions(path)
+    except CalibError as err:
+        raise LogcalInputError(f"--urdf {urdf}: {err}") from err
+    return {"source": str(path), "transmissions": [
+        {**t.to_dict(), "simple": t.simple, "line": t.describe()} for t in found]}

@@ -41,6 +41,7 @@ from calib.results import AnalysisResult, CalibrationResult, Estimate
 from logtools.errors import LogcalInputError
 from logtools.load import LoadedLog
 from logtools.robots.base import Progress
+from logtools.robots.manipulator.effort import effort_choice
 from logtools.robots.manipulator.options import ManipulatorOptions
 from logtools.safe_text import printable
 from logtools.stages import Stages
@@ -178,11 +179,13 @@ def _declared(meta: dict[str, str]) -> tuple[Term, ...] | None:
     return tuple(out)
 
 
-def _effort_units(model: ArmModel, ident: ArmIdentification) -> EffortScale | None:
+def _effort_units(model: ArmModel, ident: ArmIdentification,
+                  would: dict[str, float] | None = None) -> EffortScale | None:
     """The logged effort against what the model's nominal masses need (``calib.manipulator.
-    units``), on the filtered signals the identification used."""
+    units``), on the filtered signals the identification used; ``would``: the factors of the
+    URDF's transmissions, for the note when the effort was taken as logged."""
     sig = ident.sig
-    return effort_scale(model, sig.q, sig.qd, sig.qdd, sig.tau_f)
+    return effort_scale(model, sig.q, sig.qd, sig.qdd, sig.tau_f, would)
 
 
 def _truth_base(ident: ArmIdentification, truth: dict[str, float]) -> dict[str, float]:
@@ -201,6 +204,8 @@ def analyze_manipulator(
     meta = dict(loaded.log.metadata.get("logcal", {}))
     t, q, tau, n = _joints(loaded)
     model, model_source = _model(loaded, config, meta, n)
+    effort = effort_choice(loaded, config, model)  # --effort: joint side, or actuator side
+    tau = tau * effort.scaling.factors(model.joint_names)[None, :]
     stages = Stages(config.debug)
     declared = _declared(meta)
     terms = _DEFAULT_TERMS
@@ -227,9 +232,10 @@ def analyze_manipulator(
                                 [effort_unit(k) for k in kinds()] if callable(kinds)
                                 else ["N·m"] * n, strict=True)),
         "model": {"source": model_source},
+        "effort_scaling": effort.scaling.to_dict(),
     }
     artifacts: dict[str, Any] = {}
-    unit_notes: list[str] = []
+    unit_notes: list[str] = list(effort.notes)
     methods: list[Any] = []
     estimate = None
     truth_base: dict[str, float] = {}
@@ -260,7 +266,7 @@ def analyze_manipulator(
         }
         if judged is not None:
             sections |= judged.sections
-        units = stages.run("effort units", lambda: _effort_units(model, ident))
+        units = stages.run("effort units", lambda: _effort_units(model, ident, effort.would))
         if units is not None:
             sections["effort_scale"] = units.to_dict()
             if units.note:

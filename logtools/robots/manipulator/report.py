@@ -5,6 +5,8 @@ confounds the estimate spans. The adequacy verdict and discovery are printed by
 
 from __future__ import annotations
 
+from typing import Any
+
 from rich.console import RenderableType
 from rich.text import Text
 
@@ -26,6 +28,7 @@ def report_text(result: AnalysisResult) -> list[str]:
         f"Arm: {len(s.get('joints', []))} joints ({', '.join(s.get('joints', []))}); "
         f"model: {s.get('model', {}).get('source', '?')}"
     ]
+    lines += _scaling_lines(s.get("effort_scaling") or {})
     exc = s.get("excitation")
     if exc:
         lines.append(
@@ -79,4 +82,18 @@ def _adequacy_lines(result: AnalysisResult) -> list[str]:
             lines.append(f"  t {piece['t0_s']:.1f}-{piece['t1_s']:.1f} s: {vals}")
     for c in result.sections.get("confounds", []):
         lines.append(f"Confound: {c['note']}; the recommended estimate spans both")
+    return lines
+
+
+def _scaling_lines(scaling: dict[str, Any]) -> list[str]:
+    """How the logged effort was scaled per joint (only when it was: ``--effort actuator``)."""
+    if scaling.get("side") != "actuator":
+        return []
+    lines = [f"Effort logged actuator-side (--effort actuator), to the joint side through the "
+             f"transmissions of {scaling.get('urdf')}:"]
+    for name, j in (scaling.get("joints") or {}).items():
+        kt = j.get("torque_constant")
+        lines.append(f"  {name}: x{j.get('factor', 1.0):g} = mechanical reduction "
+                     f"{j.get('reduction')} ({j.get('transmission')})"
+                     + (f" x torque constant {kt:g}" if kt is not None else ""))
     return lines
