@@ -1,6 +1,6 @@
 """The batch's HTML report: ``index.html`` (fleet summary, pooled estimates and drift, plots,
-effects found, failures, every log) and ``pages/<id>.html`` per log (estimate, stages,
-discovery, methods, its image and links to its ``.rrd``).
+effects found, failures, every log) and ``pages/<id>.html`` per log (what it was analysed
+with, estimate, stages, discovery, methods, its image and links to its ``.rrd``).
 
 Hand-written HTML (no template engine): the pages are a few tables, and writing them with one
 escaping helper keeps the one rule visible: every text that comes from a log, a file name, a
@@ -23,6 +23,7 @@ from urllib.parse import quote
 import polars as pl
 
 from logtools.batch.fleet import ParameterSeries
+from logtools.safe_text import printable_lines
 
 __all__ = ["write_report"]
 
@@ -38,8 +39,10 @@ pre{white-space:pre-wrap;background:#f7f7f7;padding:.5em;font-size:.85em}
 
 
 def _e(x: Any) -> str:
-    """Escaped text of anything (None -> "")."""
-    return "" if x is None else html.escape(str(x), quote=True)
+    """Escaped text of anything (None -> ""): HTML markup escaped, and control and bidi
+    characters (ESC, BEL, U+202E, ... from a file name or a log) shown as visible escapes
+    (``\\x1b``), line breaks kept."""
+    return "" if x is None else html.escape(printable_lines(str(x)), quote=True)
 
 
 def _num(x: Any, digits: int = 4) -> str:
@@ -188,7 +191,46 @@ def _index(records: list[dict[str, Any]], table: pl.DataFrame, series: list[Para
     return _page("logcal batch report", "\n".join(body))
 
 
-def _log_page(r: Mapping[str, Any]) -> bytes:
+def _analysed_with(r: Mapping[str, Any], batch_options: str | None) -> list[list[str]]:
+    """Rows (setting, value, where it came from) of what ``r``'s log was analysed with: its
+    ``logcal.toml`` settings (robot type, channel map, robot id, every robot option), the span,
+    and the batch's analysis options; every text escaped."""
+    s = r.get("settings")
+    s = s if isinstance(s, Mapping) else {}
+    sources = [str(x) for x in s.get("sources") or [] if isinstance(x, str)]
+    toml = _e(sources[-1]) if sources else ""
+    rows = [["robot type", _e(s.get("robot")) if s.get("robot") else "from the log",
+             toml if s.get("robot") else "the log"],
+            ["channel map", _e(s.get("channel_map")) if s.get("channel_map")
+             else "none (default topic names)", toml if s.get("channel_map") else ""],
+            ["robot id", _e(r.get("robot_id")), ""]]
+    options = s.get("options")
+    for key, value in (options.items() if isinstance(options, Mapping) else ()):
+        shown = str(value).lower() if isinstance(value, bool) else value
+        rows.append([f"option <code>{_e(key)}</code>", _e(shown), toml])
+    span = r.get("span")
+    if isinstance(span, Mapping) and (span.get("start_s") is not None
+                                      or span.get("end_s") is not None):
+        rows.append(["span", f"{_num(span.get('start_s'))} s to {_num(span.get('end_s'))} s "
+                             "of the log", ""])
+    if batch_options:
+        rows.append(["analysis", f"<code>{_e(batch_options)}</code>", "logcal batch"])
+    return rows
+
+
+def _batch_options(out: Path) -> str | None:
+    """The batch's analysis options as the manifest records them (None: not readable)."""
+    import json
+
+    try:
+        doc = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    value = doc.get("options") if isinstance(doc, dict) else None
+    return value if isinstance(value, str) else None
+
+
+def _log_page(r: Mapping[str, Any], batch_options: str | None = None) -> bytes:
     res: Mapping[str, Any] = r.get("result") or {}
     body = ['<p><a href="../index.html">← fleet report</a></p>',
             f"<h1>{_e(r['log'])}</h1>",
@@ -201,6 +243,8 @@ def _log_page(r: Mapping[str, Any]) -> bytes:
                 ["logcal.toml", _e(", ".join((r.get("settings") or {}).get("sources") or [])
                                    or "none")],
             ])]
+    body.append("<h2>Analysed with</h2>")
+    body.append(_table(["setting", "value", "from"], _analysed_with(r, batch_options)))
     if r.get("status") != "ok":
         body.append(f"<h2>Error</h2><pre>{_e(r.get('error'))}</pre>")
         if r.get("detail"):
@@ -305,10 +349,12 @@ def write_report(out: Path, records: list[dict[str, Any]], table: pl.DataFrame,
             stale.unlink()
     (out / "pages").mkdir(exist_ok=True)
     keep = set()
+    batch_options = _batch_options(out)
     for r in records:
         name = f"{r['id']}.html"
         keep.add(name)
-        write_atomically(out / "pages" / name, functools.partial(_write, _log_page(r)))
+        write_atomically(out / "pages" / name,
+                         functools.partial(_write, _log_page(r, batch_options)))
     for stale in (out / "pages").glob("*.html"):
         if stale.name not in keep:
             stale.unlink()

@@ -27,8 +27,8 @@ Every key is optional. A malformed file, an unknown key or a bad value makes eve
 fail with one message naming the file and key (the rest of the batch still runs).
 
 A settings file is data, never an instruction to read elsewhere: ``channel_map`` and any option
-that names a file (an option of type ``Path``, or whose metavar says ``PATH``: the
-manipulator's ``urdf``, ``PATH_OR_NAME``, is a path unless it is a plain model name) may name
+declared to name a file (``option(..., file=True)`` or of type ``Path``; the manipulator's
+``urdf``, also declared ``or_name=True``, is a file unless it is a plain model name) may name
 only regular files inside the archive (relative to the ``logcal.toml``; absolute paths, ``~``
 and ``..`` leading out of the archive are refused with the reason), no text is globbed, and
 ``logcal.toml`` itself must be a regular file (not a link, at most 1 MiB).
@@ -143,14 +143,12 @@ def accepted_keys() -> tuple[str, ...]:
 
 
 def _names_file(spec: OptionSpec, value: str) -> bool:
-    """Whether ``value`` of the option ``spec`` names a file: always for an option of type
-    ``Path``; for a text option whose metavar says ``PATH`` (``PATH``, ``PATH_OR_NAME``), unless
-    the metavar also allows a ``NAME`` and ``value`` is a plain name (``panda``)."""
-    if spec.type is Path:
-        return True
-    if spec.type is str and "PATH" in spec.metavar.upper():
-        return "NAME" not in spec.metavar.upper() or _MODEL_NAME.fullmatch(value) is None
-    return False
+    """Whether ``value`` of the option ``spec`` names a file, by the option's declaration
+    (``file=True`` or type ``Path``; never by how its flag or metavar is spelled): always,
+    unless it is declared ``or_name=True`` and ``value`` is a plain name (``panda``)."""
+    if not spec.file:
+        return False
+    return not spec.or_name or _MODEL_NAME.fullmatch(value) is None
 
 
 class SettingsCache:

@@ -55,6 +55,9 @@ def _cli_options(command: Literal["analyze", "view"]) -> list[_CliOption]:
         if len(kinds) > 1:
             raise TypeError(f"robot option {flag}: robots {', '.join(s.robot for s in specs)} "
                             f"declare it with different types ({', '.join(map(str, kinds))})")
+        if len({(s.file, s.or_name) for s in specs}) > 1:
+            raise TypeError(f"robot option {flag}: robots {', '.join(s.robot for s in specs)} "
+                            "disagree on whether its value names a file (file=, or_name=)")
         name = "ro_" + flag.lstrip("-").replace("-", "_")
         out.append(_CliOption(name, tuple(specs)))
     return out

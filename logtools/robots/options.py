@@ -10,7 +10,12 @@ the flag or key and what was expected. An analysis reads its robot's options wit
 
     @dataclass(frozen=True)
     class ArmOptions(RobotOptions):
-        urdf: str | None = option(flag="--urdf", help="The arm's URDF.", metavar="PATH", view=True)
+        urdf: str | None = option(flag="--urdf", help="The arm's URDF.", file=True, view=True)
+
+An option whose value names a file says so (``file=True``; a ``Path`` option always does):
+a settings file may then name only a file inside its archive (``logtools.batch.settings``),
+whatever the option's flag or metavar is spelled like. ``or_name=True`` adds that a plain
+name (``panda``: letters, digits, ``_`` and ``-``) is a name, not a file.
 """
 
 from __future__ import annotations
@@ -58,6 +63,8 @@ class _Declared:
     view: bool
     above: float | None
     at_least: float | None
+    file: bool = False
+    or_name: bool = False
 
 
 def option(
@@ -69,6 +76,8 @@ def option(
     default: Any = None,
     above: float | None = None,
     at_least: float | None = None,
+    file: bool = False,
+    or_name: bool = False,
 ) -> Any:
     """A field of a :class:`RobotOptions` subclass that is also a CLI option and settings key.
 
@@ -80,10 +89,15 @@ def option(
         default: the value when not given (None: "not given", the analysis' own default).
         above: a number must be greater than this.
         at_least: a number must be at least this.
+        file: the value names a file (a text or ``Path`` option; ``Path`` ones always do): a
+            settings file may name only a file inside its archive.
+        or_name: with ``file``: a plain name (letters, digits, ``_``, ``-``) is not a file.
     """
     if not flag.startswith("--"):
         raise ValueError(f"option flag {flag!r}: expected a long option such as --name")
-    declared = _Declared(flag, help, metavar, view, above, at_least)
+    if or_name and not file:
+        raise ValueError(f"option {flag}: or_name=True needs file=True")
+    declared = _Declared(flag, help, metavar, view, above, at_least, file, or_name)
     return dataclasses.field(default=default, metadata={_META: declared})
 
 
@@ -101,6 +115,8 @@ class OptionSpec:
         above: a number must be greater than this (None: no bound).
         at_least: a number must be at least this (None: no bound).
         robot: the plugin declaring it (its ``name``; "" when asked of a bare class).
+        file: the value names a file (declared ``file=True``, or of type ``Path``).
+        or_name: a plain name (``panda``) is a name, not a file.
     """
 
     key: str
@@ -112,6 +128,8 @@ class OptionSpec:
     above: float | None = None
     at_least: float | None = None
     robot: str = ""
+    file: bool = False
+    or_name: bool = False
 
     def expected(self) -> str:
         """What a value must be, in words ("a number > 0")."""
@@ -159,11 +177,17 @@ def options_fields(cls: type[RobotOptions], robot: str = "") -> tuple[OptionSpec
         if declared is None:
             raise TypeError(f"{cls.__name__}.{f.name}: declare robot options with option(...)")
         kind = _value_type(hints[f.name], f"{cls.__name__}.{f.name}")
+        if declared.file and kind not in (str, Path):
+            raise TypeError(f"{cls.__name__}.{f.name}: file=True needs a str or Path option")
+        names_file = declared.file or kind is Path
+        metavar = declared.metavar
+        if metavar is None:
+            metavar = (("PATH_OR_NAME" if declared.or_name else "PATH") if names_file
+                       else _default_metavar(kind))
         out.append(OptionSpec(
-            key=f.name, flag=declared.flag, help=declared.help,
-            metavar=declared.metavar if declared.metavar is not None else _default_metavar(kind),
+            key=f.name, flag=declared.flag, help=declared.help, metavar=metavar,
             view=declared.view, type=kind, above=declared.above, at_least=declared.at_least,
-            robot=robot,
+            robot=robot, file=names_file, or_name=declared.or_name,
         ))
     return tuple(out)
 
