@@ -219,11 +219,16 @@ def _analysed_with(r: Mapping[str, Any], batch_options: str | None) -> list[list
 
 
 def _batch_options(out: Path) -> str | None:
-    """The batch's analysis options as the manifest records them (None: not readable)."""
+    """The batch's analysis options as the manifest records them (None: not readable; a link
+    or FIFO planted at the manifest is not read)."""
     import json
+    import os
+
+    from logtools.batch.files import open_regular
 
     try:
-        doc = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
+        with os.fdopen(open_regular(out / "manifest.json"), "rb") as fh:
+            doc = json.loads(fh.read())
     except (OSError, ValueError):
         return None
     value = doc.get("options") if isinstance(doc, dict) else None

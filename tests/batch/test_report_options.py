@@ -67,3 +67,19 @@ def test_batch_pages_show_the_logcal_toml_options(tmp_path: Path) -> None:
     assert "repeats=2" in section
     for written in [page, out / "index.html"]:
         assert RAW.search(written.read_text()) is None, written
+
+
+def test_batch_options_never_read_through_a_planted_manifest(tmp_path: Path) -> None:
+    import os
+
+    from logtools.batch.report_html import _batch_options
+
+    (tmp_path / "real.json").write_text('{"options": "repeats=9"}')
+    (tmp_path / "manifest.json").symlink_to(tmp_path / "real.json")
+    assert _batch_options(tmp_path) is None
+    (tmp_path / "manifest.json").unlink()
+    os.mkfifo(tmp_path / "manifest.json")  # would block an ordinary open
+    assert _batch_options(tmp_path) is None
+    (tmp_path / "manifest.json").unlink()
+    (tmp_path / "manifest.json").write_text('{"options": "repeats=9"}')
+    assert _batch_options(tmp_path) == "repeats=9"
