@@ -20,6 +20,11 @@ chance of any false alarm stays below 5 % whatever the dependence between the te
 intervals are value ± t * bootstrap std with t on the bootstrap's degrees of freedom (see
 :mod:`calib.diff_drive.odometry_lsq`). The held-out check is a further filter, never a
 substitute: it only removes findings.
+
+Each of the three is a closed-form test on the least-squares heading design with its own
+bootstrap, not a hook: this module is the linear check beside the LSQ calibration. Effects are
+added to the differential drive in :mod:`calib.diff_drive.effects` (a catalogue entry with its
+hook, tried by the shared selection engine); the names here are that catalogue's ids.
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from calib.diff_drive.data import DriveRun
+from calib.diff_drive.effects import ASYMMETRY, EFFECTIVE_TRACK, WHEEL_SLIP
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.odometry_lsq import LsqFit, segment_design, solve_rows
 from calib.diff_drive.segments import SegmentIndex
@@ -205,7 +211,7 @@ def _slip_finding(runs: list[DriveRun], fit: LsqFit, q_test: float, level: float
         rows = (starts[:, None] + np.arange(blk)[None, :]).ravel()[:n]
         boot.append(_slip_solve(d.dphi[rows], Q[rows], d.dyaw[rows])[4])
     est = _relative(
-        "wheel_slip", np.array(boot), k, "k: fraction of wheel travel lost per m/s", fit, "s/m"
+        WHEEL_SLIP.id, np.array(boot), k, "k: fraction of wheel travel lost per m/s", fit, "s/m"
     )
     sse0 = sse1 = 0.0
     for train, test in (_folds(n), _folds(n)[::-1]):
@@ -218,11 +224,11 @@ def _slip_finding(runs: list[DriveRun], fit: LsqFit, q_test: float, level: float
     excl, lo, hi = _excludes_null(est, q_test)
     named = bool(excl and gain > 0)
     return Finding(
-        "wheel_slip",
+        WHEEL_SLIP.id,
         est,
         float(gain),
         named,
-        f"wheel_slip: k = {k * 100:+.2f} % of wheel travel per m/s [{level:.1%}: "
+        f"{WHEEL_SLIP.id}: k = {k * 100:+.2f} % of wheel travel per m/s [{level:.1%}: "
         f"{lo * 100:+.2f}, {hi * 100:+.2f}] %, held-out heading error "
         f"{'reduced' if gain > 0 else 'not reduced'} by {abs(gain) * 100:.1f} %"
         f" -> {'NAMED' if named else 'not named'}",
@@ -247,17 +253,17 @@ def discover(
     p = fit.params
     findings = []
     asym = _relative(
-        "wheel_radius_asymmetry", fit.ratio_boot - 1, p.r_R / p.r_L - 1, "r_R / r_L - 1", fit
+        ASYMMETRY.id, fit.ratio_boot - 1, p.r_R / p.r_L - 1, "r_R / r_L - 1", fit
     )
     excl, lo, hi = _excludes_null(asym, q_test)
     named = bool(excl and gain_asym > 0)
     findings.append(
         Finding(
-            "wheel_radius_asymmetry",
+            ASYMMETRY.id,
             asym,
             gain_asym,
             named,
-            f"wheel_radius_asymmetry: r_R/r_L - 1 = {asym.value * 100:+.3f} % "
+            f"{ASYMMETRY.id}: r_R/r_L - 1 = {asym.value * 100:+.3f} % "
             f"[{level:.1%}: {lo * 100:+.3f}, {hi * 100:+.3f}] %, held-out heading error "
             f"{'reduced' if gain_asym > 0 else 'not reduced'} by {abs(gain_asym) * 100:.1f} %"
             f" -> {'NAMED' if named else 'not named'}",
@@ -267,17 +273,17 @@ def discover(
         notes.append("no nominal track in the log: the effective track cannot be tested")
     else:
         rel = fit.boot[:, 2] / nominal.b - 1
-        trk = _relative("effective_track", rel, p.b / nominal.b - 1, "b / b_nominal - 1", fit)
+        trk = _relative(EFFECTIVE_TRACK.id, rel, p.b / nominal.b - 1, "b / b_nominal - 1", fit)
         excl, lo, hi = _excludes_null(trk, q_test)
         named_b = bool(excl and gain_b > 0)
         skid = " (a skid-steer effective track)" if named_b and trk.value > 0.1 else ""
         findings.append(
             Finding(
-                "effective_track",
+                EFFECTIVE_TRACK.id,
                 trk,
                 gain_b,
                 named_b,
-                f"effective_track: b/b_nominal - 1 = {trk.value * 100:+.2f} % "
+                f"{EFFECTIVE_TRACK.id}: b/b_nominal - 1 = {trk.value * 100:+.2f} % "
                 f"[{level:.1%}: {lo * 100:+.2f}, {hi * 100:+.2f}] % (b = {p.b * 1e3:.1f} mm vs "
                 f"nominal {nominal.b * 1e3:.1f} mm), held-out heading error "
                 f"{'reduced' if gain_b > 0 else 'not reduced'} by {abs(gain_b) * 100:.1f} %"
@@ -287,7 +293,7 @@ def discover(
     slip = _slip_finding(runs, fit, q_test, level)
     if slip is None:
         notes.append(
-            "wheel_slip not tested: too few segments, or wheel speeds too uniform to tell "
+            f"{WHEEL_SLIP.id} not tested: too few segments, or wheel speeds too uniform to tell "
             "speed-proportional slip from the radii"
         )
     else:

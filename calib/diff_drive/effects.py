@@ -16,6 +16,14 @@ the displacement (x, y) minus the wheels' arcs, in units of their noise floors. 
   wheel turn the reading missed (rad, null 0). The span's turn is a nuisance parameter, fitted
   on whichever fold holds it.
 
+Each effect carries how it changes the model (its ``model``, a :class:`DriveEffectModel`):
+parameter-level effects move the radii or the track, wheel-level effects turn the logged wheel
+increments into the ground travel the model rolls, in the chain's order (a sensor's reading
+corrected first, then the dynamics). The fitter applies the hooks and never branches on an
+effect's id; an effect whose parameters are local (a span's nuisance turn) says which segments
+it touches, and is refitted on the held-out fold. A new effect is one :class:`EffectSpec` with
+its hook, added by :func:`register_effect` (or passed to :func:`discover_effects` as ``extra``).
+
 Standard errors: Newey-West (Bartlett) over consecutive segments, which share slip and
 ground-truth errors. Held out: two folds of alternating blocks of ``CV_BLOCK`` segments.
 """
@@ -23,9 +31,9 @@ ground-truth errors. Held out: two folds of alternating blocks of ``CV_BLOCK`` s
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,38 +58,162 @@ __all__ = [
     "EFFECTIVE_TRACK",
     "WHEEL_SLIP",
     "DiffDriveSelection",
+    "DriveEffect",
+    "DriveEffectModel",
     "catalogue",
     "discover_effects",
+    "register_effect",
+    "registered_effects",
     "stuck_spec",
+    "unregister_effect",
 ]
 
 Array = NDArray[np.float64]
 Z95 = 1.959963984540054
 CV_BLOCK = 5
 
-ASYMMETRY = EffectSpec(
+class DriveEffectModel(Protocol):
+    """How one effect changes the differential drive's model: the hook of its
+    :class:`~calib.adequacy.EffectSpec`. ``values`` holds the effect's own parameters by
+    name (:class:`~calib.adequacy.EffectParam` names)."""
+
+    def params(self, p: DiffDriveParams, values: Mapping[str, float]) -> DiffDriveParams:
+        """The radii and track with the effect, from those without it."""
+        ...
+
+    def increments(self, run: int, data: DriveRun, dr: Array, dl: Array,
+                   values: Mapping[str, float], p: DiffDriveParams) -> tuple[Array, Array]:
+        """Run ``run``'s wheel increments (rad; right, left) as the model rolls them, from the
+        logged ones (or from what earlier effects made of them); ``p``: the radii and track
+        with every parameter-level effect. Never modifies ``dr`` or ``dl`` in place."""
+        ...
+
+    def local_segments(self, segments: Sequence[SegmentIndex]) -> set[int] | None:
+        """The segments a local effect (its parameters a nuisance of a few samples) acts on;
+        None for a global effect."""
+        ...
+
+
+class DriveEffect:
+    """A :class:`DriveEffectModel` that changes nothing: subclass it and override the hooks
+    an effect needs."""
+
+    def params(self, p: DiffDriveParams, values: Mapping[str, float]) -> DiffDriveParams:
+        return p
+
+    def increments(self, run: int, data: DriveRun, dr: Array, dl: Array,
+                   values: Mapping[str, float], p: DiffDriveParams) -> tuple[Array, Array]:
+        return dr, dl
+
+    def local_segments(self, segments: Sequence[SegmentIndex]) -> set[int] | None:
+        return None
+
+
+class _Asymmetry(DriveEffect):
+    """r_R / r_L = 1 + a about the same mean radius."""
+
+    def params(self, p: DiffDriveParams, values: Mapping[str, float]) -> DiffDriveParams:
+        a = values["ratio_minus_1"]
+        r_L = 2 * (0.5 * (p.r_R + p.r_L)) / (2 + a)
+        return DiffDriveParams(r_L * (1 + a), r_L, p.b)
+
+
+class _EffectiveTrack(DriveEffect):
+    """b = b_nominal (1 + t)."""
+
+    def params(self, p: DiffDriveParams, values: Mapping[str, float]) -> DiffDriveParams:
+        return DiffDriveParams(p.r_R, p.r_L, p.b * (1 + values["track_ratio_minus_1"]))
+
+
+class _WheelSlip(DriveEffect):
+    """Each wheel's travel scaled by (1 - k |wheel ground speed|)."""
+
+    def increments(self, run: int, data: DriveRun, dr: Array, dl: Array,
+                   values: Mapping[str, float], p: DiffDriveParams) -> tuple[Array, Array]:
+        k = values["k"]
+        if not k:
+            return dr, dl
+        dt = np.maximum(np.diff(data.t), 1e-9)
+        return dr * (1 - k * p.r_R * np.abs(dr) / dt), dl * (1 - k * p.r_L * np.abs(dl) / dt)
+
+
+@dataclass(frozen=True)
+class _Stuck(DriveEffect):
+    """Over the span, the wheel turned ``missed_turn`` in all, evenly, where the reading
+    stood still."""
+
+    span: StuckSpan
+
+    def increments(self, run: int, data: DriveRun, dr: Array, dl: Array,
+                   values: Mapping[str, float], p: DiffDriveParams) -> tuple[Array, Array]:
+        sp = self.span
+        if sp.run != run:
+            return dr, dl
+        n = max(1, sp.i1 - sp.i0)
+        if sp.wheel == "wheel_right":
+            dr = dr.copy()
+            dr[sp.i0:sp.i1] = values["missed_turn"] / n
+        else:
+            dl = dl.copy()
+            dl[sp.i0:sp.i1] = values["missed_turn"] / n
+        return dr, dl
+
+    def local_segments(self, segments: Sequence[SegmentIndex]) -> set[int] | None:
+        sp = self.span
+        return {i for i, s in enumerate(segments)
+                if s.run == sp.run and s.start < sp.i1 and s.stop > sp.i0}
+
+
+ASYMMETRY: EffectSpec[DriveEffectModel] = EffectSpec(
     "wheel_radius_asymmetry", "wheels", EffectKind.DYNAMICS,
     (EffectParam("ratio_minus_1", "1", 0.0, -0.3, 0.3, 0.0),),
     "the right and left wheels roll on different radii: the robot curves when both turn alike",
-    sim_switch="asymmetry", truth_key="wheel_radius_right",
+    sim_switch="asymmetry", truth_key="wheel_radius_right", model=_Asymmetry(),
 )
-EFFECTIVE_TRACK = EffectSpec(
+EFFECTIVE_TRACK: EffectSpec[DriveEffectModel] = EffectSpec(
     "effective_track", "track", EffectKind.DYNAMICS,
     (EffectParam("track_ratio_minus_1", "1", 0.0, -0.5, 3.0, 0.0),),
     "the robot turns as if its track were other than nominal (a skid steer's wheels slide "
     "sideways: effective track wider than the geometric one)",
     confounded_with=("wheel_slip(wheels)",), sim_switch="skid", truth_key="track_width",
+    model=_EffectiveTrack(),
 )
-WHEEL_SLIP = EffectSpec(
+WHEEL_SLIP: EffectSpec[DriveEffectModel] = EffectSpec(
     "wheel_slip", "wheels", EffectKind.DYNAMICS,
     (EffectParam("k", "s/m", 0.0, -2.0, 2.0, 0.0),),
     "longitudinal slip growing with speed: each wheel covers (1 - k |speed|) of its rolling "
     "travel",
-    confounded_with=("effective_track(track)",), sim_switch="slip_per_speed",
+    confounded_with=("effective_track(track)",), sim_switch="slip_per_speed", model=_WheelSlip(),
 )
 
+_REGISTERED: list[EffectSpec[DriveEffectModel]] = []
 
-def stuck_spec(span: StuckSpan) -> EffectSpec:
+_CHAIN_ORDER = {EffectKind.SENSOR: 0, EffectKind.CLOCK: 0, EffectKind.ACTUATOR: 1,
+                EffectKind.DYNAMICS: 2}
+"""The order in which wheel-level hooks apply: what the reading got wrong is undone first, then
+what the wheels did on the ground."""
+
+
+def register_effect(spec: EffectSpec[DriveEffectModel]) -> EffectSpec[DriveEffectModel]:
+    """Add ``spec`` (with its hook) to every catalogue built from now on; returns it."""
+    if spec.model is None:
+        raise ValueError(f"effect {spec.key}: no model hook (a DriveEffectModel)")
+    if all(e.key != spec.key for e in _REGISTERED):
+        _REGISTERED.append(spec)
+    return spec
+
+
+def unregister_effect(spec: EffectSpec[DriveEffectModel]) -> None:
+    """Take a registered effect out again (no error when it is not registered)."""
+    _REGISTERED[:] = [e for e in _REGISTERED if e.key != spec.key]
+
+
+def registered_effects() -> tuple[EffectSpec[DriveEffectModel], ...]:
+    """The effects added by :func:`register_effect`, in order."""
+    return tuple(_REGISTERED)
+
+
+def stuck_spec(span: StuckSpan) -> EffectSpec[DriveEffectModel]:
     """The catalogue entry of one stuck-encoder span."""
     return EffectSpec(
         "encoder_stuck", span.label, EffectKind.SENSOR,
@@ -89,17 +221,28 @@ def stuck_spec(span: StuckSpan) -> EffectSpec:
         f"the {span.wheel.replace('_', ' ')} encoder's reading stood still from "
         f"{span.t0_s:.1f} to {span.t1_s:.1f} s while the other wheel and the ground truth "
         "moved (a stuck or dropped encoder): those samples are left out of the calibration",
+        model=_Stuck(span),
     )
 
 
-def catalogue(has_nominal_track: bool, spans: Sequence[StuckSpan] = ()) -> list[EffectSpec]:
-    """The effects tested on one log."""
+def catalogue(has_nominal_track: bool, spans: Sequence[StuckSpan] = (),
+              extra: Sequence[EffectSpec[DriveEffectModel]] = ()
+              ) -> list[EffectSpec[DriveEffectModel]]:
+    """The effects tested on one log: the built-in ones, the registered ones
+    (:func:`register_effect`), then ``extra``."""
     out = [ASYMMETRY]
     if has_nominal_track:
         out.append(EFFECTIVE_TRACK)
     out.append(WHEEL_SLIP)
     out += [stuck_spec(s) for s in spans]
+    out += [*_REGISTERED, *extra]
     return out
+
+
+def _hook(e: EffectSpec[DriveEffectModel]) -> DriveEffectModel:
+    if e.model is None:
+        raise ValueError(f"effect {e.key}: no model hook (a DriveEffectModel)")
+    return e.model
 
 
 @dataclass
@@ -109,15 +252,8 @@ class _Problem:
     b_nominal: float | None
     r0: float
     offset: bool
-    spans: dict[str, StuckSpan]
     sigma_h: float
     sigma_p: float
-
-    def span_rows(self, key: str) -> set[int]:
-        """Segments a stuck span's samples fall in."""
-        sp = self.spans[key]
-        return {i for i, s in enumerate(self.segments)
-                if s.run == sp.run and s.start < sp.i1 and s.stop > sp.i0}
 
     def names(self, effects: Sequence[EffectSpec]) -> list[str]:
         out = ["r"] + ([] if self.b_nominal is not None else ["b"])
@@ -129,16 +265,26 @@ class _Problem:
     def unpack(self, theta: Array, names: Sequence[str]) -> dict[str, float]:
         return dict(zip(names, map(float, theta), strict=True))
 
-    def params_of(self, v: dict[str, float]) -> tuple[DiffDriveParams, float]:
-        a = v.get("wheel_radius_asymmetry(wheels):ratio_minus_1", 0.0)
-        r_L = 2 * v["r"] / (2 + a)
-        b = v["b"] if "b" in v else float(self.b_nominal or 1.0) * (
-            1 + v.get("effective_track(track):track_ratio_minus_1", 0.0))
-        return DiffDriveParams(r_L * (1 + a), r_L, b), v.get("wheel_slip(wheels):k", 0.0)
+    @staticmethod
+    def own(e: EffectSpec, v: Mapping[str, float]) -> dict[str, float]:
+        """An effect's own parameters, by their names, from the full vector's values."""
+        return {p.name: v[f"{e.key}:{p.name}"] for p in e.params}
 
-    def residuals(self, theta: Array, names: Sequence[str], rows: NDArray[np.intp]) -> Array:
+    def params_of(self, v: Mapping[str, float], effects: Sequence[EffectSpec]
+                  ) -> DiffDriveParams:
+        """The radii and track: one radius ``r``, the nominal (or fitted) track, then each
+        effect's parameter-level hook."""
+        b = v["b"] if "b" in v else float(self.b_nominal or 1.0)
+        p = DiffDriveParams(v["r"], v["r"], b)
+        for e in effects:
+            p = _hook(e).params(p, self.own(e, v))
+        return p
+
+    def residuals(self, theta: Array, names: Sequence[str], rows: NDArray[np.intp],
+                  effects: Sequence[EffectSpec]) -> Array:
         v = self.unpack(theta, names)
-        p, k = self.params_of(v)
+        p = self.params_of(v, effects)
+        chain = sorted(effects, key=lambda e: _CHAIN_ORDER.get(e.kind, 2))
         off = complex(v.get("lx", 0.0), v.get("ly", 0.0))
         out = np.empty((len(self.segments), 3))
         by_run: dict[int, list[int]] = {}
@@ -147,20 +293,8 @@ class _Problem:
         for r, idx in by_run.items():
             run = self.runs[r]
             dr, dl = np.diff(run.wheel_right), np.diff(run.wheel_left)
-            for key, span in self.spans.items():
-                name = f"{key}:missed_turn"
-                if span.run == r and name in v:
-                    n = max(1, span.i1 - span.i0)
-                    if span.wheel == "wheel_right":
-                        dr = dr.copy()
-                        dr[span.i0:span.i1] = v[name] / n
-                    else:
-                        dl = dl.copy()
-                        dl[span.i0:span.i1] = v[name] / n
-            if k:
-                dt = np.maximum(np.diff(run.t), 1e-9)
-                dr = dr * (1 - k * p.r_R * np.abs(dr) / dt)
-                dl = dl * (1 - k * p.r_L * np.abs(dl) / dt)
+            for e in chain:
+                dr, dl = _hook(e).increments(r, run, dr, dl, self.own(e, v), p)
             dth = (p.r_R * dr - p.r_L * dl) / p.b
             h = np.concatenate([[0.0], np.cumsum(dth)])
             step = 0.5 * (p.r_R * dr + p.r_L * dl) * np.sinc(dth / (2 * np.pi)) * np.exp(
@@ -237,7 +371,7 @@ class _Fitter:
         def f(z: Array) -> Array:
             th = x0.copy()
             th[fr] = z
-            return self.prob.residuals(th, names, rows)
+            return self.prob.residuals(th, names, rows, effects)
 
         return least_squares(f, np.clip(x0[fr], lo[fr] + 1e-12, hi[fr] - 1e-12),
                              bounds=(lo[fr], hi[fr]), x_scale="jac", method="trf")
@@ -258,8 +392,8 @@ class _Fitter:
         std = np.sqrt(np.maximum(np.diag(cov), 0.0))
         held = self._heldout(names, effects, theta) if self.heldout else math.nan
         v = prob.unpack(theta, names)
-        params, _ = prob.params_of(v)
-        pars = self._robot_estimates(names, theta, cov, params)
+        params = prob.params_of(v, effects)
+        pars = self._robot_estimates(names, effects, theta, cov, params)
         eff: dict[str, dict[str, Estimate]] = {}
         for e in effects:
             for p in e.params:
@@ -271,11 +405,11 @@ class _Fitter:
         return ModelFit(effects, pars, eff, float(res @ res), held, res.size, len(names),
                         payload={"params": params, "values": v})
 
-    def _robot_estimates(self, names: Sequence[str], theta: Array, cov: Array,
-                         p: DiffDriveParams) -> dict[str, Estimate]:
+    def _robot_estimates(self, names: Sequence[str], effects: Sequence[EffectSpec],
+                         theta: Array, cov: Array, p: DiffDriveParams) -> dict[str, Estimate]:
         """r_R, r_L, b with delta-method standard errors (numerical gradient)."""
         def f(th: Array) -> Array:
-            q, _ = self.prob.params_of(self.prob.unpack(th, names))
+            q = self.prob.params_of(self.prob.unpack(th, names), effects)
             return np.array([q.r_R, q.r_L, q.b])
 
         base = f(theta)
@@ -294,17 +428,20 @@ class _Fitter:
         return out
 
     def _heldout(self, names: list[str], effects: Sequence[EffectSpec], theta: Array) -> float:
-        """Held-out sum of squares over the two folds; span parameters (nuisance, local) are
-        refitted on the held-out fold with the global ones fixed."""
-        local = np.array([n.startswith("encoder_stuck(") for n in names])
+        """Held-out sum of squares over the two folds; a local effect's parameters (a nuisance
+        of the few segments it touches) are refitted on the held-out fold with the global ones
+        fixed."""
+        touched: dict[str, set[int] | None] = {
+            f"{e.key}:{p.name}": _hook(e).local_segments(self.prob.segments)
+            for e in effects for p in e.params}
+        local = np.array([touched.get(n) is not None for n in names])
         total = 0.0
         for train, test in (self.folds, self.folds[::-1]):
             if train.size < 6 or test.size == 0:
                 return math.nan
             in_train = set(train.tolist())
-            free = ~local | np.array([
-                n.startswith("encoder_stuck(") and bool(
-                    self.prob.span_rows(n.split(":")[0]) & in_train) for n in names])
+            free = ~local | np.array([bool((touched.get(n) or set()) & in_train)
+                                      for n in names])
             try:
                 sol = self._solve(names, effects, train, theta.copy(), free=free)
                 th = theta.copy()
@@ -312,7 +449,7 @@ class _Fitter:
                 if local.any():
                     sol2 = self._solve(names, effects, test, th, free=local)
                     th[local] = sol2.x
-                r = self.prob.residuals(th, names, test)
+                r = self.prob.residuals(th, names, test, effects)
             except (ValueError, np.linalg.LinAlgError):
                 return math.nan
             total += float(r @ r)
@@ -401,14 +538,13 @@ def _raw_residuals(prob: _Problem, p: DiffDriveParams, marker: complex) -> Array
     """Per-segment residuals (unscaled) of the free radii and track ``p``."""
     effects = (ASYMMETRY,) + ((EFFECTIVE_TRACK,) if prob.b_nominal is not None else ())
     names = prob.names(effects)
-    v = {"r": 0.5 * (p.r_R + p.r_L), "b": p.b, "lx": marker.real, "ly": marker.imag,
-         "wheel_radius_asymmetry(wheels):ratio_minus_1": p.r_R / p.r_L - 1}
+    asym, track = (f"{e.key}:{e.params[0].name}" for e in (ASYMMETRY, EFFECTIVE_TRACK))
+    a = p.r_R / p.r_L - 1
+    v = {"r": p.r_L * (2 + a) / 2, "b": p.b, "lx": marker.real, "ly": marker.imag, asym: a}
     if prob.b_nominal is not None:
-        v["effective_track(track):track_ratio_minus_1"] = p.b / prob.b_nominal - 1
-    a = v["wheel_radius_asymmetry(wheels):ratio_minus_1"]
-    v["r"] = p.r_L * (2 + a) / 2
+        v[track] = p.b / prob.b_nominal - 1
     theta = np.array([v[n] for n in names])
-    return prob.residuals(theta, names, np.arange(len(prob.segments), dtype=np.intp))
+    return prob.residuals(theta, names, np.arange(len(prob.segments), dtype=np.intp), effects)
 
 
 def noise_scales(prob: _Problem, calibrated: DiffDriveParams, marker: complex
@@ -430,24 +566,25 @@ def discover_effects(
     marker: complex | None = None,
     spans: Sequence[StuckSpan] = (),
     segment_s: float | None = None,
+    extra: Sequence[EffectSpec[DriveEffectModel]] = (),
 ) -> DiffDriveSelection:
     """Select effects from :func:`catalogue` on ``runs``. ``calibrated`` (r_R, r_L, b free,
     with the ground-truth ``marker`` offset) sets the noise scale per segment: the robust
     (MAD) spread of what it leaves in heading and in position, so that a model as good as the
     calibrated one leaves about one unit per residual. ``segment_s``: None picks a length
-    that gives a short log enough segments for the two-fold check (:func:`segment_length`)."""
+    that gives a short log enough segments for the two-fold check (:func:`segment_length`).
+    ``extra``: effects tried besides the catalogue's (each with its hook)."""
     if segment_s is None:
         segment_s = segment_length(runs, 6 * CV_BLOCK)
     segments = cut_segments(runs, segment_s)
-    cat = catalogue(nominal is not None, spans)
+    cat = catalogue(nominal is not None, spans, extra)
     if len(segments) < 4 * CV_BLOCK:
         return DiffDriveSelection(None, tuple(cat), [
             f"only {len(segments)} moving segments of {segment_s:g} s: discovery needs "
             f"{4 * CV_BLOCK}"])
     turned = sum(abs(runs[s.run].yaw[s.stop] - runs[s.run].yaw[s.start]) for s in segments)
     prob = _Problem(runs, segments, None if nominal is None else nominal.b,
-                    0.5 * (calibrated.r_R + calibrated.r_L), turned >= math.pi / 2,
-                    {stuck_spec(s).key: s for s in spans}, 1.0, 1.0)
+                    0.5 * (calibrated.r_R + calibrated.r_L), turned >= math.pi / 2, 1.0, 1.0)
     prob.sigma_h, prob.sigma_p = noise_scales(prob, calibrated, marker or 0j)
     sel = select_effects(_Fitter(prob), cat, max_effects=2 + len(spans))
     notes = [] if nominal is not None else [

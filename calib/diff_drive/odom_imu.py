@@ -14,16 +14,18 @@ a Jackal, most mobile robots): no encoder angles, no ground-truth pose.
 * **Adequacy**: the gyro's yaw-change residual of the constant-gain model (held out: two folds
   of alternating time blocks), located by turn rate and speed; **discovery** through
   :func:`calib.adequacy.select_effects` with ``turn_slip`` (G grows with |turn rate|: the wheels
-  slide more the faster the robot turns) and ``speed_slip`` (G grows with speed).
+  slide more the faster the robot turns) and ``speed_slip`` (G grows with speed). Each
+  effect's hook (a :class:`GainEffectModel`) says what it adds to the gain
+  G = (1 + sum of constant parts) (1 + sum of growth parts); the fitter never reads an id.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,7 +49,7 @@ from calib.adequacy.intervals import Z95
 from calib.errors import InsufficientDataError
 from calib.results import Estimate, json_safe
 
-__all__ = ["SPEED_SLIP", "TURN_SLIP", "OdomImuResult", "analyze_odom_imu"]
+__all__ = ["SPEED_SLIP", "TURN_SLIP", "GainEffectModel", "OdomImuResult", "analyze_odom_imu"]
 
 Array = NDArray[np.float64]
 
@@ -59,24 +61,57 @@ MIN_TURN_RAD_S = 0.05
 """Windows whose odometry yaw rate stays below this (rad/s) carry nothing about the gain."""
 N_BOOT = 500
 
-TURN_SLIP = EffectSpec(
+
+
+class GainEffectModel(Protocol):
+    """How one effect changes the yaw-rate gain: the hook of its
+    :class:`~calib.adequacy.EffectSpec` (``values``: its own parameters by name)."""
+
+    def gain(self, values: Mapping[str, float], w: _Windows, rows: NDArray[np.intp]
+             ) -> tuple[float | Array, float | Array]:
+        """What it adds to G's constant part and to its growth part on windows ``rows``."""
+        ...
+
+
+@dataclass(frozen=True)
+class _Constant:
+    param: str
+
+    def gain(self, values: Mapping[str, float], w: _Windows, rows: NDArray[np.intp]
+             ) -> tuple[float | Array, float | Array]:
+        return values[self.param], 0.0
+
+
+@dataclass(frozen=True)
+class _Growth:
+    param: str
+    covariate: str
+    """The :class:`_Windows` field the gain grows with."""
+
+    def gain(self, values: Mapping[str, float], w: _Windows, rows: NDArray[np.intp]
+             ) -> tuple[float | Array, float | Array]:
+        x: Array = getattr(w, self.covariate)[rows]
+        return 0.0, values[self.param] * x
+
+
+TURN_SLIP: EffectSpec[GainEffectModel] = EffectSpec(
     "turn_slip", "track", EffectKind.DYNAMICS,
     (EffectParam("per_rad_s", "s/rad", 0.0, -0.9, 20.0, 0.0),),
     "the wheels slide more the faster the robot turns: the yaw-rate gain grows with |turn "
     "rate| (G = G0 (1 + s |omega|))",
-    confounded_with=("speed_slip(track)",),
+    confounded_with=("speed_slip(track)",), model=_Growth("per_rad_s", "rate"),
 )
-SPEED_SLIP = EffectSpec(
+SPEED_SLIP: EffectSpec[GainEffectModel] = EffectSpec(
     "speed_slip", "track", EffectKind.DYNAMICS,
     (EffectParam("per_m_s", "s/m", 0.0, -0.9, 20.0, 0.0),),
     "the yaw-rate gain grows with speed (G = G0 (1 + s |v|))",
-    confounded_with=("turn_slip(track)",),
+    confounded_with=("turn_slip(track)",), model=_Growth("per_m_s", "speed"),
 )
-GAIN = EffectSpec(
+GAIN: EffectSpec[GainEffectModel] = EffectSpec(
     "effective_track", "track", EffectKind.DYNAMICS,
     (EffectParam("gain_minus_1", "1", 0.0, -0.9, 20.0, 0.0),),
     "the robot turns slower than its wheel odometry says (skid steer: effective track = "
-    "geometric track x gain)",
+    "geometric track x gain)", model=_Constant("gain_minus_1"),
 )
 
 
@@ -281,17 +316,27 @@ class _GainFitter:
     """Nominal: the odometry's yaw rate is the true one (G = 1) up to a gyro bias; effects:
     a constant gain, its growth with |turn rate| and with speed."""
 
-    def __init__(self, w: _Windows, use: NDArray[np.intp], sigma: float) -> None:
+    def __init__(self, w: _Windows, use: NDArray[np.intp], sigma: float,
+                 catalogue: Sequence[EffectSpec[GainEffectModel]] = ()) -> None:
         self.w, self.use, self.sigma = w, use, sigma
         blocks = ((w.t[use] - w.t[0]) // FOLD_S).astype(int) % 2
         self.folds = (use[blocks == 0], use[blocks == 1])
+        self.order = {e.key: i for i, e in enumerate(catalogue)}
+        """The catalogue's order, in which the parts of the gain are summed (whatever order
+        the selection added the effects in)."""
 
-    def _res(self, th: Array, names: Sequence[str], rows: NDArray[np.intp]) -> Array:
+    def _res(self, th: Array, names: Sequence[str], rows: NDArray[np.intp],
+             effects: Sequence[EffectSpec[GainEffectModel]]) -> Array:
         v = dict(zip(names, th, strict=True))
         w = self.w
-        g = (1 + v.get("effective_track(track):gain_minus_1", 0.0)) * (
-            1 + v.get("turn_slip(track):per_rad_s", 0.0) * w.rate[rows]
-            + v.get("speed_slip(track):per_m_s", 0.0) * w.speed[rows])
+        const: float | Array = 0.0
+        grow: float | Array = 1.0
+        for e in sorted(effects, key=lambda e: self.order.get(e.key, len(self.order))):
+            if e.model is None:
+                raise ValueError(f"effect {e.key}: no model hook (a GainEffectModel)")
+            c, d = e.model.gain({p.name: v[f"{e.key}:{p.name}"] for p in e.params}, w, rows)
+            const, grow = const + c, grow + d
+        g = (1 + const) * grow
         pred = w.odo[rows] / np.maximum(g, 1e-3) + v["bias"] * w.dt[rows]
         return np.asarray((w.gyro[rows] - pred) / self.sigma, dtype=float)
 
@@ -301,7 +346,8 @@ class _GainFitter:
         lo = np.array([spec[n].lower if n in spec else -np.inf for n in names])
         hi = np.array([spec[n].upper if n in spec else np.inf for n in names])
         x0 = np.zeros(len(names))
-        return least_squares(lambda th: self._res(th, names, rows), x0, bounds=(lo, hi))
+        return least_squares(lambda th: self._res(th, names, rows, effects), x0,
+                             bounds=(lo, hi))
 
     def __call__(self, effects: tuple[EffectSpec, ...]) -> ModelFit | None:
         names = ["bias"] + [f"{e.key}:{p.name}" for e in effects for p in e.params]
@@ -325,7 +371,7 @@ class _GainFitter:
             except ValueError:
                 held = math.nan
                 break
-            rr = self._res(np.asarray(s2.x), names, test)
+            rr = self._res(np.asarray(s2.x), names, test, effects)
             held += float(rr @ rr)
         eff: dict[str, dict[str, Estimate]] = {}
         for e in effects:
@@ -464,9 +510,9 @@ def analyze_odom_imu(
     notes: list[str] = []
     selection = None
     try:
-        selection = select_effects(_GainFitter(w, use, max(sigma, 1e-9)),
-                                   [GAIN, TURN_SLIP, SPEED_SLIP] if odom_v is not None
-                                   else [GAIN, TURN_SLIP], max_effects=3)
+        cat = [GAIN, TURN_SLIP, SPEED_SLIP] if odom_v is not None else [GAIN, TURN_SLIP]
+        selection = select_effects(_GainFitter(w, use, max(sigma, 1e-9), cat), cat,
+                                   max_effects=3)
     except (ValueError, np.linalg.LinAlgError) as err:
         notes.append(f"discovery did not run: {err}")
     if lag:

@@ -105,7 +105,7 @@ def fit_slip(
         return None
     turned = sum(abs(runs[s.run].yaw[s.stop] - runs[s.run].yaw[s.start]) for s in segments)
     prob = _Problem(runs, segments, None, 0.5 * (calibrated.r_R + calibrated.r_L),
-                    turned >= math.pi / 2, {}, 1.0, 1.0)
+                    turned >= math.pi / 2, 1.0, 1.0)
     prob.sigma_h, prob.sigma_p = noise_scales(prob, calibrated, marker or 0j)
     fitter = _Fitter(prob, heldout=False)
     without = fitter((ASYMMETRY,))

@@ -36,7 +36,6 @@ from calib.adequacy import (
     widen_unstable,
 )
 from calib.adequacy.intervals import Z95
-from calib.manipulator.design import ALTERNATIVES, Term
 from calib.manipulator.discovery import ArmFit, ArmFitter, noise_timescale
 from calib.manipulator.units import effort_unit
 from calib.results import Estimate
@@ -277,10 +276,9 @@ def effect_spread(fitter: ArmFitter, accepted: Sequence[EffectSpec],
     taken = {e.key for e in accepted}
     # an alternative to a term the model holds is a different model, not an extension: the
     # log chooses between the two (discovery), it does not leave both open
-    replacing = {str(ALTERNATIVES[t]) for t in fitter.baseline if t in ALTERNATIVES}
     out: dict[str, float] = {}
-    for e in catalogue:
-        if e.key in taken or e.id in replacing or e.id == str(Term.PAYLOAD):
+    for e in fitter.extensions(catalogue):
+        if e.key in taken:
             continue
         f = fitter.fit_arm((*accepted, e))
         if f is None:

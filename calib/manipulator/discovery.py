@@ -23,6 +23,19 @@ effect is a joint's):
   the torque), which the batch WLS fits with everything else. A compliant joint and a payload
   both change the gravity torque with the load, so they are declared confounded.
 
+Each entry carries how it changes the model (its ``model``, an :data:`ArmEffectModel`), through
+one of three mechanisms the fitter knows, never through its id:
+
+* :class:`ColumnEffect`: columns added to the regressor (friction terms, an offset, a payload;
+  a column may be fitted in place of a baseline column, or be exclusive with another);
+* :class:`InputEffect`: the torque the model sees is a transform of the logged torque with one
+  parameter, profiled over its bounds (a delay, a lag);
+* :class:`StateEffect`: the model's inputs (q, qd, qdd) move linearly with one parameter,
+  fitted by Gauss-Newton with exact regressors at each step (an elastic joint).
+
+A new effect is one :class:`~calib.adequacy.EffectSpec` with such a hook, added by
+:func:`register_effect` (or passed to :func:`arm_catalogue` as ``extra``).
+
 The fitter (:class:`ArmFitter`) fits the baseline model (the terms the log declares, the rigid
 body fitted or nominal) plus a set of effects on the first 60 % of the log (momentum windows,
 WLS with Newey-West intervals; a delay or lag by a bounded 1-D search with the linear parameters
@@ -36,9 +49,9 @@ confounds (explanations within the BIC margin that imply different parameters).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Hashable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
@@ -80,12 +93,22 @@ __all__ = [
     "LAG",
     "MAX_COMPLIANCE_JOINTS",
     "ArmDiscovery",
+    "ArmEffect",
+    "ArmEffectModel",
     "ArmFit",
     "ArmFitter",
+    "Column",
+    "ColumnEffect",
     "EffectFinding",
+    "InputEffect",
+    "StateEffect",
     "arm_catalogue",
     "discover_arm",
+    "hook",
     "noise_timescale",
+    "register_effect",
+    "registered_effects",
+    "unregister_effect",
 ]
 
 Array = NDArray[np.float64]
@@ -127,12 +150,219 @@ def noise_timescale(cutoff_hz: float) -> float:
     return 0.1 / cutoff_hz
 
 
+class ArmEffect:
+    """What every arm effect's hook answers, whatever its mechanism (defaults: an effect any
+    model can take, which no baseline holds)."""
+
+    def applies(self, fitter: ArmFitter) -> bool:
+        """Whether the effect can enter ``fitter``'s model at all."""
+        return True
+
+    def absorbed(self, fitter: ArmFitter) -> bool:
+        """Whether ``fitter``'s baseline model already holds it."""
+        return False
+
+    def replaces(self, baseline: Sequence[Term]) -> str | None:
+        """The key of the baseline term it is fitted in place of (None: an extension)."""
+        return None
+
+
+@dataclass(frozen=True)
+class Column:
+    """Regressor columns of one :class:`ColumnEffect`, one per parameter, each (S, n, k):
+    in the momentum form (``momentum``, ``rest``) and the classic one (``classic``);
+    ``drop``: a baseline column name fitted in their place (left out when present);
+    ``exclusive``: a token no two effects of one model may share."""
+
+    momentum: Array
+    rest: Array
+    classic: Array
+    drop: str | None = None
+    exclusive: Hashable | None = None
+
+
+class ColumnEffect(ArmEffect):
+    """An effect linear in its parameters: columns added to the regressor."""
+
+    def column(self, fitter: ArmFitter) -> Column | None:
+        """Its columns on ``fitter``'s signals; None when it cannot enter this model."""
+        raise NotImplementedError
+
+    def body_change(self, fitter: ArmFitter) -> Array | None:
+        """Against a nominal rigid body: the full rigid-body parameters' change per unit of
+        the effect's parameter (None: it leaves the body as it is)."""
+        return None
+
+
+class InputEffect(ArmEffect):
+    """The torque the model sees is a transform of the logged torque with one parameter ``p``
+    (the null at 0), profiled over the parameter's bounds; one per model."""
+
+    def acting(self, fitter: ArmFitter, p: float) -> Array:
+        """The acting torque on the grid (S, n) from the filtered logged torque."""
+        raise NotImplementedError
+
+    def logged(self, fitter: ArmFitter, p: float, pred: Array) -> Array:
+        """The logged torque the model predicts from the acting torque ``pred`` (grid)."""
+        raise NotImplementedError
+
+
+class StateEffect(ArmEffect):
+    """The model's inputs move linearly with one parameter ``c`` (the null at 0): fitted by
+    Gauss-Newton, its column a central difference of the regressor along the move."""
+
+    def shift(self, fitter: ArmFitter, c: float, dq: Array, dqd: Array, dqdd: Array) -> None:
+        """Add to ``dq``, ``dqd``, ``dqdd`` (S, n; in place) how the inputs move at ``c``."""
+        raise NotImplementedError
+
+    def step(self, fitter: ArmFitter) -> float:
+        """The central difference's step in ``c``."""
+        raise NotImplementedError
+
+
+ArmEffectModel: TypeAlias = ColumnEffect | InputEffect | StateEffect
+"""The hook of an arm effect's :class:`~calib.adequacy.EffectSpec`: one of the three mechanisms
+the fitter applies."""
+
+
+@dataclass(frozen=True)
+class _TermColumn(ColumnEffect):
+    """A model term's column on one joint."""
+
+    term: Term
+    joint: str
+
+    def absorbed(self, fitter: ArmFitter) -> bool:
+        return term_name(self.term, self.joint) in fitter.design.names
+
+    def replaces(self, baseline: Sequence[Term]) -> str | None:
+        alt = ALTERNATIVES.get(self.term)
+        return f"{alt}({self.joint})" if alt is not None and alt in baseline else None
+
+    def column(self, fitter: ArmFitter) -> Column | None:
+        j = fitter.model.joint_names.index(self.joint)
+        col = np.zeros((fitter.N, fitter.n, 1))
+        col[:, j, 0] = np.broadcast_to(term_column(self.term, fitter.sig.qd[:, j]), (fitter.N,))
+        alt = ALTERNATIVES.get(self.term)
+        return Column(np.zeros_like(col), col, col,
+                      None if alt is None else term_name(alt, self.joint),
+                      None if alt is None else (frozenset((self.term, alt)), self.joint))
+
+
+class _Payload(ColumnEffect):
+    """A point mass at the tool point: only against a nominal rigid body."""
+
+    def applies(self, fitter: ArmFitter) -> bool:
+        return fitter.nominal is not None
+
+    def column(self, fitter: ArmFitter) -> Column | None:
+        if fitter.nominal is None:
+            return None
+
+        def cols() -> tuple[Array, Array, Array]:
+            inc = fitter.model.payload_increment()
+            s = fitter.sig
+            return ((fitter.model.momentum(s.q, s.qd) @ inc)[:, :, None],
+                    (fitter.model.rest(s.q, s.qd) @ inc)[:, :, None],
+                    (fitter.model.regressor(s.q, s.qd, s.qdd) @ inc)[:, :, None])
+
+        cp, cr, cc = fitter.cached("payload", cols)
+        return Column(cp, cr, cc)
+
+    def body_change(self, fitter: ArmFitter) -> Array | None:
+        return np.asarray(fitter.model.payload_increment(), dtype=float)
+
+
+class _Delay(InputEffect):
+    """The torque acting at t was logged at t - d."""
+
+    def acting(self, fitter: ArmFitter, p: float) -> Array:
+        s = fitter.sig
+        return np.stack([np.interp(s.t_s - p, s.t_s, s.tau_f[:, j]) for j in range(fitter.n)],
+                        axis=1)
+
+    def logged(self, fitter: ArmFitter, p: float, pred: Array) -> Array:
+        t = fitter.sig.t_s
+        return np.stack([np.interp(t + p, t, pred[:, j]) for j in range(fitter.n)], axis=1)
+
+
+class _Lag(InputEffect):
+    """The torque acts through a first-order lag of time constant T."""
+
+    def acting(self, fitter: ArmFitter, p: float) -> Array:
+        s = fitter.sig
+        a = math.exp(-(1.0 / s.rate_hz) / p) if p > 0 else 0.0
+        zi = a * s.tau_f[0]
+        out, _ = lfilter([1.0 - a], [1.0, -a], s.tau_f, axis=0, zi=zi[None, :])
+        return np.asarray(out, dtype=float)
+
+    def logged(self, fitter: ArmFitter, p: float, pred: Array) -> Array:
+        out: Array = pred + p * np.gradient(pred, fitter.sig.t_s, axis=0)
+        return out
+
+
+@dataclass(frozen=True)
+class _Compliance(StateEffect):
+    """The link is at q_J - c tau_J (encoder on the motor side)."""
+
+    joint: str
+
+    def shift(self, fitter: ArmFitter, c: float, dq: Array, dqd: Array, dqdd: Array) -> None:
+        s = fitter.sig
+        j = fitter.model.joint_names.index(self.joint)
+        a = -c
+        tf = s.tau_f[:, j]
+        td = np.gradient(tf, s.t_s)
+        dq[:, j] += a * tf
+        dqd[:, j] += a * td
+        dqdd[:, j] += a * np.gradient(td, s.t_s)
+
+    def step(self, fitter: ArmFitter) -> float:
+        tf = fitter.sig.tau_f[:, fitter.model.joint_names.index(self.joint)]
+        return COMPLIANCE_STEP_RAD / max(float(np.max(np.abs(tf))), 1e-9)
+
+
+_REGISTERED: list[EffectSpec[ArmEffectModel]] = []
+
+_State: TypeAlias = tuple[tuple[EffectSpec, float], ...]
+"""State effects with the values their inputs are moved by."""
+
+
+def register_effect(spec: EffectSpec[ArmEffectModel]) -> EffectSpec[ArmEffectModel]:
+    """Add ``spec`` (with its hook) to every arm catalogue built from now on; returns it."""
+    if not isinstance(spec.model, ColumnEffect | InputEffect | StateEffect):
+        raise ValueError(f"effect {spec.key}: no model hook (a ColumnEffect, InputEffect or "
+                         "StateEffect)")
+    if all(e.key != spec.key for e in _REGISTERED):
+        _REGISTERED.append(spec)
+    return spec
+
+
+def unregister_effect(spec: EffectSpec[ArmEffectModel]) -> None:
+    """Take a registered effect out again (no error when it is not registered)."""
+    _REGISTERED[:] = [e for e in _REGISTERED if e.key != spec.key]
+
+
+def registered_effects() -> tuple[EffectSpec[ArmEffectModel], ...]:
+    """The effects added by :func:`register_effect`, in order."""
+    return tuple(_REGISTERED)
+
+
+def hook(e: EffectSpec[ArmEffectModel]) -> ArmEffectModel:
+    """``e``'s hook (ValueError when it has none)."""
+    if not isinstance(e.model, ColumnEffect | InputEffect | StateEffect):
+        raise ValueError(f"effect {e.key}: no model hook")
+    return e.model
+
+
 def arm_catalogue(
-    joints: Sequence[str], baseline: Sequence[Term] = (), *, nominal: bool = False
-) -> tuple[EffectSpec, ...]:
+    joints: Sequence[str], baseline: Sequence[Term] = (), *, nominal: bool = False,
+    extra: Sequence[EffectSpec[ArmEffectModel]] = (),
+) -> tuple[EffectSpec[ArmEffectModel], ...]:
     """The arm's catalogue for these joints, leaving out the terms the baseline already has
-    (their alternatives stay: they are fitted in their place)."""
-    out: list[EffectSpec] = []
+    (their alternatives stay: they are fitted in their place); then the registered effects
+    (:func:`register_effect`) and ``extra``."""
+    out: list[EffectSpec[ArmEffectModel]] = []
     base = set(baseline)
     for term in (Term.COULOMB, Term.COULOMB_SMOOTH, Term.VISCOUS, Term.OFFSET):
         if term in base:
@@ -144,7 +374,7 @@ def arm_catalogue(
                 str(term), j, EffectKind.SENSOR if term is Term.OFFSET else EffectKind.DYNAMICS,
                 (EffectParam(name, term_unit(term), 0.0, -math.inf, math.inf, 0.0),),
                 _TERM_PHYSICS[term], tuple(f"{c}({j})" for c in conf),
-                sim_switch="friction", truth_key=name,
+                sim_switch="friction", truth_key=name, model=_TermColumn(term, j),
             ))
     if nominal:
         out.append(EffectSpec(
@@ -152,19 +382,19 @@ def arm_catalogue(
             (EffectParam("payload", "kg", 0.0, -math.inf, math.inf, 0.0),),
             "a point mass held at the tool point",
             tuple(f"{COMPLIANCE}({j})" for j in joints), sim_switch="payload",
-            truth_key="payload",
+            truth_key="payload", model=_Payload(),
         ))
     out.append(EffectSpec(
         DELAY, TORQUE_TARGET, EffectKind.ACTUATOR,
         (EffectParam("d", "s", 0.0, *DELAY_BOUNDS, 0.0),),
         "the torque acts d seconds after it is logged", (f"{LAG}({TORQUE_TARGET})",),
-        sim_switch="delay_s", truth_key="delay_s",
+        sim_switch="delay_s", truth_key="delay_s", model=_Delay(),
     ))
     out.append(EffectSpec(
         LAG, TORQUE_TARGET, EffectKind.ACTUATOR,
         (EffectParam("T", "s", 0.0, *LAG_BOUNDS, 0.0),),
         "the torque acts through a first-order lag of time constant T",
-        (f"{DELAY}({TORQUE_TARGET})",), sim_switch="lag_s", truth_key="lag_s",
+        (f"{DELAY}({TORQUE_TARGET})",), sim_switch="lag_s", truth_key="lag_s", model=_Lag(),
     ))
     if len(joints) <= MAX_COMPLIANCE_JOINTS:
         for j in joints:
@@ -173,8 +403,9 @@ def arm_catalogue(
                 (EffectParam(f"c[{j}]", "rad/(N*m)", 0.0, -math.inf, math.inf, 0.0),),
                 "an elastic joint: the encoder reads the motor side, the link is at q - c tau",
                 (f"{Term.PAYLOAD}({TOOL_TARGET})",), sim_switch="compliance",
-                truth_key=f"c[{j}]",
+                truth_key=f"c[{j}]", model=_Compliance(j),
             ))
+    out += [*_REGISTERED, *extra]
     return tuple(out)
 
 
@@ -275,18 +506,13 @@ class ArmFitter:
             self.floors = joint_floors(first, self.cfg.cutoff_hz)
 
     # ------------------------------------------------------------------ assembly
-    def _payload_cols(self) -> tuple[Array, Array, Array]:
-        key = "payload"
-        if key not in self._cache:
-            inc = self.model.payload_increment()
-            s = self.sig
-            self._cache[key] = (
-                (self.model.momentum(s.q, s.qd) @ inc)[:, :, None],
-                (self.model.rest(s.q, s.qd) @ inc)[:, :, None],
-                (self.model.regressor(s.q, s.qd, s.qdd) @ inc)[:, :, None],
-            )
-        out: tuple[Array, Array, Array] = self._cache[key]
-        return out
+    def cached(self, key: Hashable, make: Callable[[], Any]) -> Any:
+        """``make()`` computed once per fitter under ``key`` (for hooks: what they derive from
+        the whole log's signals)."""
+        ck = ("hook", key)
+        if ck not in self._cache:
+            self._cache[ck] = make()
+        return self._cache[ck]
 
     def _assemble(self, effects: Sequence[EffectSpec], r0: Regressors) -> _Assembled | None:
         names = list(self.design.names)
@@ -298,41 +524,33 @@ class ArmFitter:
         extra_names: list[str] = []
         extra_units: list[str] = []
         at: dict[str, int] = {}
-        joints = self.model.joint_names
-        added: set[tuple[Term, str]] = set()
+        taken: set[Hashable] = set()
         for e in effects:
-            if e.id == str(Term.PAYLOAD):
-                if self.nominal is None:
-                    return None
-                cp, cr, cc = self._payload_cols()
-                nm = "payload"
-            elif e.id in {str(t) for t in Term}:
-                term = Term(e.id)
-                j = joints.index(e.target)
-                alt = ALTERNATIVES.get(term)
-                if alt is not None and (alt, e.target) in added:
-                    return None  # a model holds at most one of a pair
-                added.add((term, e.target))
-                if alt is not None and term_name(alt, e.target) in names:
-                    drop = names.index(term_name(alt, e.target))
-                    if drop in keep:
-                        keep.remove(drop)
-                col = np.zeros((self.N, self.n, 1))
-                col[:, j, 0] = np.broadcast_to(term_column(term, self.sig.qd[:, j]), (self.N,))
-                cp, cr, cc = np.zeros_like(col), col, col
-                nm = term_name(term, e.target)
-            else:
+            h = hook(e)
+            if not isinstance(h, ColumnEffect):
                 continue
-            at[e.key] = len(extra_p)
-            extra_p.append(cp)
-            extra_r.append(cr)
-            extra_c.append(cc)
-            extra_names.append(nm)
-            extra_units.append(term_unit(Term(e.id)))
+            col = h.column(self)
+            if col is None:
+                return None
+            if col.exclusive is not None:
+                if col.exclusive in taken:
+                    return None  # a model holds at most one of a pair
+                taken.add(col.exclusive)
+            if col.drop is not None and col.drop in names:
+                drop = names.index(col.drop)
+                if drop in keep:
+                    keep.remove(drop)
+            at[e.key] = len(extra_names)
+            extra_p.append(col.momentum)
+            extra_r.append(col.rest)
+            extra_c.append(col.classic)
+            extra_names += [p.name for p in e.params]
+            extra_units += [p.unit for p in e.params]
         k = np.asarray(keep, dtype=np.intp)
         sel_names = [names[i] for i in keep] + extra_names
         sel_units = [units[i] for i in keep] + extra_units
-        slices = {key: [len(keep) + v] for key, v in at.items()}
+        slices = {e.key: [len(keep) + at[e.key] + i for i in range(len(e.params))]
+                  for e in effects if e.key in at}
         reg = Regressors(
             self.sig,
             np.concatenate([r0.Xc[:, :, k], *extra_c], axis=2),
@@ -344,28 +562,6 @@ class ArmFitter:
         )
         return _Assembled(reg, sel_names, sel_units, k, slices)
 
-    # ------------------------------------------------------------------ torque transforms
-    def _tau_f(self, kind: str | None, p: float) -> Array:
-        s = self.sig
-        if kind is None or p == 0.0:
-            return s.tau_f
-        if kind == DELAY:  # the torque acting at t was logged at t - d
-            return np.stack([np.interp(s.t_s - p, s.t_s, s.tau_f[:, j])
-                             for j in range(self.n)], axis=1)
-        a = math.exp(-(1.0 / s.rate_hz) / p) if p > 0 else 0.0
-        zi = a * s.tau_f[0]
-        out, _ = lfilter([1.0 - a], [1.0, -a], s.tau_f, axis=0, zi=zi[None, :])
-        return np.asarray(out, dtype=float)
-
-    def _logged(self, kind: str | None, p: float, pred: Array) -> Array:
-        """The logged torque the model predicts from the acting torque ``pred`` (grid)."""
-        if kind is None or p == 0.0:
-            return pred
-        t = self.sig.t_s
-        if kind == DELAY:
-            return np.stack([np.interp(t + p, t, pred[:, j]) for j in range(self.n)], axis=1)
-        return pred + p * np.gradient(pred, t, axis=0)
-
     def _windows_tau(self, tau_f: Array, start: int, stop: int) -> Array:
         s = self.sig
         step = max(1, round(self.cfg.window_s * s.rate_hz))
@@ -374,29 +570,30 @@ class ArmFitter:
         out: Array = ct[b[1:]] - ct[b[:-1]]
         return out
 
-    # ------------------------------------------------------------------ compliance
-    def _shifted(self, state: tuple[tuple[int, float], ...], extra: tuple[int, float] = (0, 0.0)
+    # ------------------------------------------------------------------ state effects
+    def _shifted(self, state: _State, extra: tuple[EffectSpec, float] | None = None
                  ) -> JointSignals:
-        """The signals with q_j moved by ``-c tau_j`` (and its derivatives) for each (j, c) of
-        ``state``, then by ``+h tau_j`` for ``extra`` = (j, h)."""
+        """The signals moved by each state effect of ``state`` at its value, then by
+        ``extra`` (an effect, a value) on top."""
         s = self.sig
         dq = np.zeros_like(s.q)
         dqd = np.zeros_like(s.q)
         dqdd = np.zeros_like(s.q)
-        for j, c in (*((j, -c) for j, c in state), extra):
-            if c == 0.0:
+        for e, c in (*state, *((extra,) if extra is not None else ())):
+            h = hook(e)
+            if c == 0.0 or not isinstance(h, StateEffect):
                 continue
-            tf = s.tau_f[:, j]
-            td = np.gradient(tf, s.t_s)
-            dq[:, j] += c * tf
-            dqd[:, j] += c * td
-            dqdd[:, j] += c * np.gradient(td, s.t_s)
+            h.shift(self, c, dq, dqd, dqdd)
         return replace(s, q=s.q + dq, qd=s.qd + dqd, qdd=s.qdd + dqdd)
 
-    def _state_reg(self, state: tuple[tuple[int, float], ...]) -> Regressors:
+    @staticmethod
+    def _state_key(state: _State) -> tuple[tuple[str, float], ...]:
+        return tuple((e.key, c) for e, c in state)
+
+    def _state_reg(self, state: _State) -> Regressors:
         if not state:
             return self.reg
-        key = ("state", state)
+        key = ("state", self._state_key(state))
         if key not in self._cache:
             self._trim()
             self._cache[key] = compute_regressors(self.design, self._shifted(state))
@@ -404,25 +601,27 @@ class ArmFitter:
         return out
 
     def _trim(self) -> None:
-        """Keep the compliance caches small (each holds regressors along the whole log)."""
+        """Keep the state effects' caches small (each holds regressors along the whole log)."""
         keys = [k for k in self._cache if isinstance(k, tuple) and k[0] in ("state", "compsig",
                                                                              "comp")]
         for k in keys[: max(0, len(keys) - 24)]:
             del self._cache[k]
 
-    def _compliance(self, j: int, start: int, stop: int, state: tuple[tuple[int, float], ...]
-                    ) -> tuple[Array, Array, Array, Array]:
-        """d/dh of (window X, window known) and (classic X, classic known) along
-        q_j += h tau_j about the state ``state``, for the baseline columns."""
-        key = ("comp", j, start, stop, state)
+    def _state_column(self, e: EffectSpec, start: int, stop: int, state: _State
+                      ) -> tuple[Array, Array, Array, Array]:
+        """d/dh of (window X, window known) and (classic X, classic known) as ``e``'s
+        parameter moves by -h about the state ``state``, for the baseline columns."""
+        sk = self._state_key(state)
+        key = ("comp", e.key, start, stop, sk)
         if key in self._cache:
             out: tuple[Array, Array, Array, Array] = self._cache[key]
             return out
-        skey = ("compsig", j, state)
+        skey = ("compsig", e.key, sk)
         if skey not in self._cache:
-            tf = self.sig.tau_f[:, j]
-            h = COMPLIANCE_STEP_RAD / max(float(np.max(np.abs(tf))), 1e-9)
-            regs = [compute_regressors(self.design, self._shifted(state, (j, sgn * h)))
+            h_ = hook(e)
+            assert isinstance(h_, StateEffect)
+            h = h_.step(self)
+            regs = [compute_regressors(self.design, self._shifted(state, (e, -(sgn * h))))
                     for sgn in (1.0, -1.0)]
             self._trim()
             self._cache[skey] = (regs, h)
@@ -457,50 +656,49 @@ class ArmFitter:
             return None
 
     def _fit(self, effects: tuple[EffectSpec, ...], start: int, stop: int) -> ArmFit | None:
-        """Compliance is linearised about the current estimate and refitted there until it
-        settles (Gauss-Newton with exact regressors at each step); other effects are linear or
-        profiled."""
-        cj = [self.model.joint_names.index(e.target) for e in effects if e.id == COMPLIANCE]
-        state: tuple[tuple[int, float], ...] = tuple((j, 0.0) for j in cj)
+        """State effects (an elastic joint) are linearised about the current estimate and
+        refitted there until they settle (Gauss-Newton with exact regressors at each step);
+        column effects are linear, an input effect is profiled."""
+        states = [e for e in effects if isinstance(hook(e), StateEffect)]
+        state: _State = tuple((e, 0.0) for e in states)
         fit = None
-        for _ in range(COMPLIANCE_ITERATIONS if cj else 1):
+        for _ in range(COMPLIANCE_ITERATIONS if states else 1):
             fit = self._fit_at(effects, start, stop, state)
-            if fit is None or not cj:
+            if fit is None or not states:
                 return fit
-            new = tuple(
-                (j, float(fit.effect_parameters[e.key][e.params[0].name].value))
-                for j, e in zip(cj, (e for e in effects if e.id == COMPLIANCE), strict=True)
-            )
+            new = tuple((e, float(fit.effect_parameters[e.key][e.params[0].name].value))
+                        for e in states)
             if not all(math.isfinite(c) for _, c in new):
                 return None
             moved = max(abs(c - c0) for (_, c), (_, c0) in zip(new, state, strict=True))
-            state = tuple((j, round(c, 12)) for j, c in new)
+            state = tuple((e, round(c, 12)) for e, c in new)
             size = max(abs(c) for _, c in new)
             if moved <= 1e-3 * size + 1e-12:
                 break
         return fit
 
     def _fit_at(self, effects: tuple[EffectSpec, ...], start: int, stop: int,
-                state: tuple[tuple[int, float], ...]) -> ArmFit | None:
-        asm = self._assemble(effects, self._state_reg(tuple(x for x in state if x[1] != 0.0)))
+                state: _State) -> ArmFit | None:
+        st = tuple(x for x in state if x[1] != 0.0)
+        asm = self._assemble(effects, self._state_reg(st))
         if asm is None:
             return None
-        st = tuple(x for x in state if x[1] != 0.0)
-        c_at = dict(state)
-        transforms = [e for e in effects if e.id in (DELAY, LAG)]
+        c_at = {e.key: c for e, c in state}
+        transforms = [e for e in effects if isinstance(hook(e), InputEffect)]
         if len(transforms) > 1:
             return None
-        kind = transforms[0].id if transforms else None
-        comps = [e for e in effects if e.id == COMPLIANCE]
-        cj = [self.model.joint_names.index(e.target) for e in comps]
+        spec_in = transforms[0] if transforms else None
+        inp = hook(spec_in) if spec_in is not None else None
+        assert inp is None or isinstance(inp, InputEffect)
+        comps = [e for e, _ in state]
         X0, u0, _ = asm.reg.momentum_windows(start, stop, self.cfg.window_s)
         w0 = self._windows_tau(self.sig.tau_f, start, stop)
         P0 = len(self.design.names)
 
         def u_of(p: float) -> Array:
-            if kind is None or p == 0.0:
+            if inp is None or p == 0.0:
                 return u0
-            out: Array = u0 + self._windows_tau(self._tau_f(kind, p), start, stop) - w0
+            out: Array = u0 + self._windows_tau(inp.acting(self, p), start, stop) - w0
             return out
 
         def theta0_full(th: Array) -> Array:
@@ -510,8 +708,8 @@ class ArmFitter:
 
         def comp_cols(th: Array) -> Array:
             cols = []
-            for j in cj:
-                dxw, dkw, _, _ = self._compliance(j, start, stop, st)
+            for e in comps:
+                dxw, dkw, _, _ = self._state_column(e, start, stop, st)
                 cols.append(-(dxw @ theta0_full(th) + dkw))
             return np.stack(cols, axis=2)
 
@@ -519,24 +717,24 @@ class ArmFitter:
             u = u_of(p)
             th, sse = self._lstsq(X0, u)
             C = None
-            for _ in range(2 if cj else 0):
+            for _ in range(2 if comps else 0):
                 C = comp_cols(th)
                 th_c, sse = self._lstsq(np.concatenate([X0, C], axis=2), u)
                 th = th_c[: X0.shape[2]]
             return th, sse, C
 
         p_star = 0.0
-        if kind is not None:
-            lo, hi = DELAY_BOUNDS if kind == DELAY else LAG_BOUNDS
+        if spec_in is not None:
+            lo, hi = spec_in.params[0].lower, spec_in.params[0].upper
             res = minimize_scalar(lambda p: solve(float(p))[1], bounds=(lo, hi),
                                   method="bounded", options={"xatol": 2e-4})
             p_star = float(res.x)
         _, _, C = solve(p_star)
         u = u_of(p_star)
         blocks = [X0] if C is None else [X0, C]
-        if kind is not None:
+        if spec_in is not None:
             h = 1e-3
-            lo, hi = DELAY_BOUNDS if kind == DELAY else LAG_BOUNDS
+            lo, hi = spec_in.params[0].lower, spec_in.params[0].upper
             a, b = max(lo, p_star - h), min(hi, p_star + h)
             if b <= a:
                 return None
@@ -559,21 +757,19 @@ class ArmFitter:
         pred = asm.reg.Xc @ tr + asm.reg.kc
         effect_pars: dict[str, dict[str, Estimate]] = {}
         for i, e in enumerate(comps):
-            _, _, dxc, dkc = self._compliance(cj[i], start, stop, st)
+            _, _, dxc, dkc = self._state_column(e, start, stop, st)
             c = float(np.nan_to_num(theta[P + i]))
             pred = pred - c * (dxc @ theta0_full(tr) + dkc)
             effect_pars[e.key] = {e.params[0].name: _est(
-                e.params[0], c_at[cj[i]] + theta[P + i], std[P + i], ident[P + i])}
-        p_final = p_star
-        if kind is not None:
+                e.params[0], c_at[e.key] + theta[P + i], std[P + i], ident[P + i])}
+        if spec_in is not None and inp is not None:
             k = P + len(comps)
-            spec = transforms[0]
+            par = spec_in.params[0]
             delta = float(np.nan_to_num(theta[k]))
-            p_final = p_star + delta if abs(delta) < 0.5 * (spec.params[0].upper
-                                                            - spec.params[0].lower) else p_star
-            effect_pars[spec.key] = {spec.params[0].name: _est(spec.params[0], p_final, std[k],
-                                                               ident[k])}
-        pred = self._logged(kind, p_star, pred)
+            p_final = p_star + delta if abs(delta) < 0.5 * (par.upper - par.lower) else p_star
+            effect_pars[spec_in.key] = {par.name: _est(par, p_final, std[k], ident[k])}
+            if p_star != 0.0:
+                pred = inp.logged(self, p_star, pred)
         at = np.stack([np.interp(self.t_st, self.sig.t_s, pred[:, j]) for j in range(self.n)],
                       axis=1)
         resid = self.tau_st - at
@@ -581,9 +777,8 @@ class ArmFitter:
         train = (self.t_st >= t0) & (self.t_st <= t1)
         for key, idx in asm.slices.items():
             spec = next(e for e in effects if e.key == key)
-            i = idx[0]
-            effect_pars[key] = {spec.params[0].name: _est(spec.params[0], theta[i], std[i],
-                                                          ident[i])}
+            effect_pars[key] = {p.name: _est(p, theta[i], std[i], ident[i])
+                                for p, i in zip(spec.params, idx, strict=True)}
         return ArmFit(tuple(asm.names), tuple(asm.units), theta[:P], std[:P], ident[:P],
                       effect_pars, self.t_st, resid, train, cond)
 
@@ -701,20 +896,52 @@ class ArmFitter:
         return out
 
     # ------------------------------------------------------------------ the engine's fitter
-    def _implied_rigid(self, fit: ArmFit) -> dict[str, Estimate]:
-        """Against a nominal rigid body: the base parameters it implies (nominal plus the
-        payload when fitted), so that explanations implying different bodies can be compared."""
+    def _implied_rigid(self, fit: ArmFit, effects: Sequence[EffectSpec]
+                       ) -> dict[str, Estimate]:
+        """Against a nominal rigid body: the base parameters it implies (nominal plus what
+        the fitted effects change of the body, a payload), so that explanations implying
+        different bodies can be compared."""
         assert self.nominal is not None
         rd = make_design(self.model, (), rigid=True)
-        inc = rd.to_base(self.model.payload_increment())
         base = rd.to_base(self.nominal)
-        pay = fit.effect_parameters.get(f"{Term.PAYLOAD}({TOOL_TARGET})", {}).get("payload")
-        m, sm = (pay.value, pay.std) if pay is not None else (0.0, 0.0)
+        moves: list[tuple[Array, float, float]] = []
+        for e in effects:
+            h = hook(e)
+            d = h.body_change(self) if isinstance(h, ColumnEffect) else None
+            est = fit.effect_parameters.get(e.key, {}).get(e.params[0].name)
+            if d is not None and est is not None:
+                moves.append((rd.to_base(d), est.value, est.std))
         out = {}
         for k, (name, unit) in enumerate(zip(rd.names, rd.units, strict=True)):
-            v, s = float(base[k] + m * inc[k]), float(abs(inc[k]) * sm)
+            v = float(base[k])
+            for inc, m, _ in moves:
+                v = float(v + m * inc[k])
+            s = math.hypot(*(float(abs(inc[k]) * sm) for inc, _, sm in moves))
             out[name] = Estimate(name, v, s, (v - 1.96 * s, v + 1.96 * s), True, unit)
         return out
+
+    def addable(self, effects: Sequence[EffectSpec]) -> list[EffectSpec]:
+        """Those of ``effects`` this fitter's model can take and does not already hold (a
+        payload is regrouped into a fitted body; a term the baseline has is there)."""
+        return [e for e in effects if hook(e).applies(self) and not hook(e).absorbed(self)]
+
+    def extensions(self, effects: Sequence[EffectSpec]) -> list[EffectSpec]:
+        """Those of ``effects`` that extend this fitter's model: addable (:meth:`addable`),
+        not fitted in place of a baseline term (an alternative is a different model) and not
+        a change of the rigid body (a payload)."""
+        out = []
+        for e in self.addable(effects):
+            h = hook(e)
+            if h.replaces(self.baseline) is not None:
+                continue
+            if isinstance(h, ColumnEffect) and h.body_change(self) is not None:
+                continue
+            out.append(e)
+        return out
+
+    def applicable(self, effects: Sequence[EffectSpec]) -> list[EffectSpec]:
+        """Those of ``effects`` this fitter's model can take (see :meth:`addable`)."""
+        return [e for e in effects if hook(e).applies(self)]
 
     def model_fit(self, fit: ArmFit, effects: tuple[EffectSpec, ...]) -> ModelFit:
         """The shared engine's view of ``fit``: residuals over the noise floors, the held-out
@@ -727,7 +954,7 @@ class ArmFitter:
         if (~tr).any():
             held = float(np.sum(z[~tr] ** 2)) * tr.sum() / (~tr).sum()
         params = fit.estimates() if self.nominal is None else (
-            fit.estimates() | self._implied_rigid(fit))
+            fit.estimates() | self._implied_rigid(fit, effects))
         k = len(fit.theta) + sum(len(v) for v in fit.effect_parameters.values())
         return ModelFit(effects, params, fit.effect_parameters, sse, held, n, k, payload=fit)
 
@@ -858,17 +1085,24 @@ def discovery_from_selection(
     nominal: bool,
     untestable: list[str],
     path: Sequence[ModelFit | None] = (),
+    catalogue: Sequence[EffectSpec] = (),
 ) -> ArmDiscovery:
     """Turn the engine's selection into the arm's discovery result; ``path``: the fits of the
     accepted effects' prefixes (one per named effect, the last being ``sel.final``), for the
-    held-out RMS after each (default: only the final one is known)."""
+    held-out RMS after each (default: only the final one is known); ``catalogue``: the effects
+    tried (for what each was fitted in place of; the accepted ones are known anyway)."""
     before = _pooled(sel.base)
-    by_key = {e.key: e for e in sel.final.effects}
+    by_key = {e.key: e for e in (*catalogue, *sel.final.effects)}
+
+    def replaces(key: str) -> str | None:
+        e = by_key.get(key)
+        return None if e is None else hook(e).replaces(baseline)
+
     trials = [
-        EffectFinding(t.key.split("(")[0],
+        EffectFinding(by_key[t.key].id if t.key in by_key else t.key.split("(")[0],
                       list(sel.final.effect_parameters.get(t.key, {}).values()),
                       before, math.nan, t.excludes_null, t.accepted,
-                      _replaces(t.key, baseline), t.delta_bic, t.key)
+                      replaces(t.key), t.delta_bic, t.key)
         for t in sel.tried
     ]
     named: list[EffectFinding] = []
@@ -881,21 +1115,11 @@ def discovery_from_selection(
         dbic = next((t.delta_bic for t in sel.tried if t.key == key and t.accepted), math.nan)
         named.append(EffectFinding(by_key[key].id,
                                    list(sel.final.effect_parameters.get(key, {}).values()),
-                                   prev, after, True, True, _replaces(key, baseline), dbic, key))
+                                   prev, after, True, True, replaces(key), dbic, key))
         prev = after
     notes = [c.note for c in sel.confounds]
     return ArmDiscovery(tuple(str(t) for t in baseline), nominal, named, trials, untestable,
                         sel, notes)
-
-
-def _replaces(key: str, baseline: tuple[Term, ...]) -> str | None:
-    eid, _, rest = key.partition("(")
-    try:
-        term = Term(eid)
-    except ValueError:
-        return None
-    alt = ALTERNATIVES.get(term)
-    return f"{alt}({rest}" if alt is not None and alt in baseline else None
 
 
 def run_discovery(
@@ -927,7 +1151,7 @@ def run_discovery(
     path: list[ModelFit | None] = [fitter(effects[: i + 1]) for i in range(len(effects) - 1)]
     path.append(sel.final)
     return discovery_from_selection(sel, fitter.baseline, fitter.nominal is not None, untestable,
-                                    path)
+                                    path, cat)
 
 
 def discover_arm(

@@ -32,7 +32,12 @@ from calib.diff_drive.adequacy import (
 )
 from calib.diff_drive.data import DriveRun
 from calib.diff_drive.dead_reckoning import dead_reckon
-from calib.diff_drive.effects import DiffDriveSelection, discover_effects, stuck_spec
+from calib.diff_drive.effects import (
+    WHEEL_SLIP,
+    DiffDriveSelection,
+    discover_effects,
+    stuck_spec,
+)
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.odom_imu import analyze_odom_imu
 from calib.diff_drive.odometry_lsq import (
@@ -292,14 +297,14 @@ def _calibrate_and_judge(
             judged_runs, judged_params, offset = slip_corrected(runs, slip.params, k), \
                 slip.params, slip.offset
             used = slip_corrected(used, slip.params, k)
-            model += " + wheel_slip(wheels)"
+            model += f" + {WHEEL_SLIP.key}"
             result = dataclasses.replace(
                 result, method="LSQ", parameters={**result.parameters, **{
                     n: slip.with_slip[n] for n in PARAMETER_NAMES}},
                 verdict=result.verdict + "; " + slip.note)
-            warnings.append(slip.note + " (wheel_slip)")
+            warnings.append(f"{slip.note} ({WHEEL_SLIP.id})")
             if disc is not None:
-                disc = dataclasses.replace(disc, also_named=("wheel_slip",))
+                disc = dataclasses.replace(disc, also_named=(WHEEL_SLIP.id,))
         else:
             result = dataclasses.replace(result, parameters=spanned(result.parameters, slip))
     change = stages.run("adequacy.radius_change",

@@ -348,8 +348,7 @@ def _judge(
     else:
         stages.skip("discovery", "--no-discovery")
     # a payload is regrouped into the fitted body; a term the fitted model already has is there
-    accepted = [e for e in (disc.accepted if disc else ())
-                if e.id != str(Term.PAYLOAD) and e.id not in {str(t) for t in cfg.terms}]
+    accepted = fitter.addable(disc.accepted if disc else ())
     changes = (split.change,) if split is not None else ()
     final = first
     if accepted:
@@ -402,7 +401,7 @@ def _judge(
     if confounds:
         alts = []
         for c in confounds:
-            alt_effects = [e for e in c.alternative_fit.effects if e.id != str(Term.PAYLOAD)]
+            alt_effects = fitter.applicable(c.alternative_fit.effects)
             alt = fitter.fit_arm(tuple(alt_effects))
             if alt is not None:
                 alts.append((c.alternative, widened(alt.estimates(), adequacy, pieces)))
