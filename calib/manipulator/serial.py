@@ -294,7 +294,7 @@ class _TransmissionReader:
         self.current: dict[str, Any] | None = None
         self.at = 0  # depth of the open <transmission>
 
-    def refuse(self, *_: Any) -> None:
+    def refuse(self, *_: Any) -> Any:
         raise ArmModelError(f"{self.path}: declares a DOCTYPE or an entity; a URDF logcal reads "
                             "has no document type or entities (they are never resolved)")
 

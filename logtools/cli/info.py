@@ -56,7 +56,7 @@ def register(app: typer.Typer) -> None:
         same = distinct_recordings(inputs.runs, inputs.channel_map)[1] if len(
             inputs.runs) > 1 else []
         if as_json:
-            doc = (
+            doc: dict[str, Any] = (
                 summaries[0].to_dict() if len(summaries) == 1 else {
                     "logs": [s.to_dict() for s in summaries],
                     "same_recordings": [
@@ -71,8 +71,9 @@ def register(app: typer.Typer) -> None:
             return
         typer.echo("\n\n".join(s.report() for s in summaries))
         if trans is not None:
-            shown = [t["line"] for t in trans["transmissions"]] or ["none"]
-            say(f"Transmissions in {trans['source']}:\n  " + "\n  ".join(shown), stderr=False)
+            shown = [f"  {t['line']}" for t in trans["transmissions"]] or ["  none"]
+            for line in [f"Transmissions in {trans['source']}:", *shown]:
+                say(line, stderr=False)  # each line escaped on its own
         for group in same:
             say(f"note: {group.sentence('analyse it once')}", stderr=False)
 

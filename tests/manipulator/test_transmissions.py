@@ -176,7 +176,8 @@ def test_info_lists_the_transmissions(arm: Path, capsys: pytest.CaptureFixture[s
     assert main(["info", log, "--urdf", urdf]) == 0
     out = capsys.readouterr().out
     assert "Transmissions in" in out
-    assert "t1 (SimpleTransmission): joint j1 <- actuator m1, mechanical reduction 50" in out
+    assert "\n  t1 (SimpleTransmission): joint j1 <- actuator m1, mechanical reduction 50\n" in out
+    assert "\n  t2 (SimpleTransmission): joint j2 <- actuator m2, mechanical reduction -20" in out
     assert main(["info", log, "--urdf", urdf, "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert [t["reduction"] for t in doc["urdf"]["transmissions"]] == [50.0, -20.0]
