@@ -49,6 +49,7 @@ __all__ = [
     "AlignMethod",
     "Gap",
     "align_signals",
+    "common_times",
     "find_gaps",
     "median_rate_hz",
     "resample_at",
@@ -265,6 +266,27 @@ def resample_at(
     if hold:
         return _sample_hold(t_src, v, grid, tol_ns)
     return _sample_continuous(t_src, v, grid, tol_ns, AlignMethod.INTERPOLATE)
+
+
+def common_times(
+    frames: Mapping[str, pl.DataFrame], *, hold: bool = False
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Put signals (frames ``t_ns``, ``value``) on the sample times of the one with the most
+    samples (the others by :func:`resample_at`: interpolated, or held for the commands of
+    :data:`DEFAULT_HOLD` and for all with ``hold``); NaN where an input has no sample near
+    enough. Returns the times (int64 ns) and each signal's values there."""
+    if not frames:
+        return np.zeros(0, dtype=np.int64), {}
+    base = max(frames, key=lambda n: frames[n].height)
+    t_ns = frames[base]["t_ns"].to_numpy()
+    out: dict[str, np.ndarray] = {}
+    for name, frame in frames.items():
+        t, v = frame["t_ns"].to_numpy(), frame["value"].to_numpy()
+        if name == base or (t.size == t_ns.size and np.array_equal(t, t_ns)):
+            out[name] = v.astype(float)
+        else:
+            out[name] = resample_at(t, v, t_ns, hold=hold or name in DEFAULT_HOLD)
+    return t_ns, out
 
 
 @dataclass(frozen=True)

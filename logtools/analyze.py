@@ -3,24 +3,26 @@
 
 Which robot a log comes from is decided when it is read (:mod:`logtools.robot`); everything
 after that goes through the robot's :class:`~logtools.robots.base.RobotPlugin`. The library
-never prints: progress goes to an optional callback ``progress(stage: str)``.
+never prints: progress goes to an optional callback ``progress(stage: str)``. The settings of
+an analysis, :class:`AnalysisConfig`, live in :mod:`logtools.analysis_config` (named here too).
 
 An analysis runs its linear algebra on one BLAS thread (``threadpoolctl``): its matrices are
 tall and thin (a log's rows by a few parameters), where OpenBLAS's thread pool spins rather
 than works; on the 2-core machine it made the 1-hour analysis ~35 % more expensive in CPU
-(issue 14). Parallelism comes from analysing logs side by side (``logcal batch``).
+Parallelism comes from analysing logs side by side (``logcal batch``).
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
-from typing import Any, TypeVar
+from dataclasses import replace
+from typing import Any
 
 from threadpoolctl import threadpool_limits
 
-from calib.results import AnalysisResult, Baseline
+from calib.results import AnalysisResult
+from logtools.analysis_config import AnalysisConfig
 from logtools.errors import LogcalInputError
 from logtools.load import LoadedLog, load_log
 from logtools.robots import plugin_for
@@ -36,48 +38,6 @@ __all__ = [
 ]
 
 Progress = Callable[[str], None]
-T = TypeVar("T", bound=RobotOptions)
-
-
-@dataclass(frozen=True)
-class AnalysisConfig:
-    """Settings of one analysis.
-
-    Args:
-        repeats: repeats (moving-block bootstrap replicates) per method table row.
-        baseline: the model discovery compares against (``Baseline.TRANSIENT``, the default:
-            the off-axle trailer kinematics, which diagnoses best in
-            bench/discovery_confusion_study.py; ``Baseline.STEADY``: the patent's steady state).
-            A tractor-trailer setting (its plugin's ``uses_settings``).
-        seed: seed of every random draw (bootstrap), for reproducible reports.
-        discovery: run model-mismatch discovery.
-        per_segment: also report the method table per command type.
-        debug: let a failing stage raise (with its traceback) instead of recording it.
-        robot_options: each robot's own options by plugin name (an instance of that plugin's
-            ``options`` class); a robot not named gets its options' defaults. Read them with
-            :meth:`options`.
-    """
-
-    repeats: int = 10
-    baseline: Baseline = Baseline.TRANSIENT
-    seed: int = 0
-    discovery: bool = True
-    per_segment: bool = True
-    debug: bool = False
-    robot_options: Mapping[str, RobotOptions] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        for name, opts in self.robot_options.items():
-            if not isinstance(opts, RobotOptions):
-                raise TypeError(f"robot_options[{name!r}]: expected a RobotOptions instance, "
-                                f"got {type(opts).__name__}")
-
-    def options(self, cls: type[T]) -> T:
-        """The options of class ``cls`` given for this analysis, else ``cls()`` (defaults)."""
-        for opts in self.robot_options.values():
-            if type(opts) is cls:
-                return opts
-        return cls()
 
 
 def options_from_settings(

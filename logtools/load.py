@@ -1,10 +1,11 @@
-"""Load a drive log into one aligned frame: read -> resolve signals -> align -> derive kappa.
+"""Load a log into one aligned frame: read -> resolve signals -> align -> the robot completes it.
 
 ``load_log`` composes :func:`logtools.readers.read_log`,
 :func:`logtools.channel_map.resolve_signals`, :func:`logtools.robot.infer_robot`,
 :func:`logtools.align.align_signals` (its module docstring gives the alignment method and
-tolerance), :func:`logtools.align.find_gaps` and
-:func:`logtools.robots.tractor_trailer.curvature.derive_kappa`.
+tolerance), :func:`logtools.align.find_gaps` and the robot plugin's ``prepare`` (the
+tractor-trailer's measured curvature); the result is a :class:`~logtools.loaded.LoadedLog`
+(a record of :mod:`logtools.loaded`, named here too).
 The signal resolution excludes single-sample outliers (:mod:`logtools.outliers`); they are
 listed in ``problems`` with their times.
 
@@ -20,15 +21,16 @@ import math
 import os
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import polars as pl
 
 from logtools.align import AlignMethod, Gap, align_signals, find_gaps
-from logtools.channel_map import ChannelMap, ResolvedSignals, resolve_signals
+from logtools.channel_map import ChannelMap, resolve_signals
 from logtools.errors import LogcalInputError, MissingSignalsError
+from logtools.loaded import LoadedLog, ResolvedSignals
 from logtools.problems import Problem, ProblemKind
 from logtools.readers import (
     DEFAULT_DECODERS,
@@ -40,8 +42,7 @@ from logtools.readers import (
     read_log,
 )
 from logtools.robot import METADATA_RECORD, infer_robot
-from logtools.robots.tractor_trailer.curvature import KappaCmdOrigin
-from logtools.signals import RobotConfig, SignalSource
+from logtools.signals import SignalSource
 
 __all__ = [
     "GROUND_TRUTH_SIGNALS",
@@ -96,45 +97,6 @@ class LoadRequest(ChannelMap):
 
 
 _NOT_TRUTH = ("robot", "seed")
-
-
-@dataclass(frozen=True)
-class LoadedLog:
-    """A log read, resolved and aligned.
-
-    Attributes:
-        path: the file read.
-        log: the raw frames per topic.
-        signals: the logical signals found (raw per-signal frames ``signals.signals``), where
-            they came from, the ones that carry nothing, and how kappa_cmd was obtained.
-        frame: aligned frame (``t_ns`` + one float64 column per signal, plus ``kappa`` (1/m)
-            and ``kappa_source`` when odometry, pose or steering allow it).
-        robot: the robot type, a plugin's name (channel map, metadata, else inferred from the
-            signals).
-        truth: true parameters from the ``logcal`` metadata record (simulated logs).
-        problems: what was lost or repaired, from reading to alignment (``str(p)`` is the
-            sentence; the signal resolution's sentences are ``ProblemKind.SIGNAL`` records).
-        gaps: recorder stalls and dropouts of the signals, one record per stretch of time.
-    """
-
-    path: str
-    log: LogData
-    signals: ResolvedSignals
-    frame: pl.DataFrame
-    robot: str
-    truth: dict[str, float]
-    problems: list[Problem]
-    gaps: list[Gap] = field(default_factory=list)
-
-    @property
-    def kappa_cmd_origin(self) -> KappaCmdOrigin | None:
-        """How ``kappa_cmd`` was obtained (logged, formula, steering, twist); None without it."""
-        return self.signals.kappa_cmd_origin
-
-    @property
-    def robot_config(self) -> RobotConfig:
-        """The channel map's [robot] table (wheelbase completed from the metadata record)."""
-        return self.signals.robot
 
 
 def metadata_truth(metadata: Mapping[str, Mapping[str, str]]) -> dict[str, float]:
@@ -223,7 +185,7 @@ def analysis_columns(
 
     No estimator uses a covariance the log carries (each measures its own noise), and they
     are most of a ROS 2 log's frames: 72 of /odom's 90 columns, 380 of 420 MB on a 1-hour
-    100 Hz log (issue 14). ``read_log`` and ``logcal info`` still read everything.
+    100 Hz log. ``read_log`` and ``logcal info`` still read everything.
     """
     sources = getattr(channel_map, "signals", channel_map) or {}
     if any("covariance" in str(getattr(s, "field", "")) for s in sources.values()):
@@ -390,10 +352,10 @@ def join_ground_truth(
         sources,
         [m for m in resolved.missing if m not in have],
         notes,
-        resolved.flat,
-        resolved.kappa_cmd_origin,
-        resolved.robot,
-        [*resolved.outliers, *gt.outliers],
+        flat=resolved.flat,
+        origins=resolved.origins,
+        robot=resolved.robot,
+        outliers=[*resolved.outliers, *gt.outliers],
     )
 
 

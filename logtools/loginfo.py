@@ -10,14 +10,13 @@ from typing import Any
 
 from calib.results import json_safe
 from logtools.align import Gap, find_gaps
-from logtools.channel_map import FlatSignal
 from logtools.errors import NoDriveSignalsError
 from logtools.load import gap_notes, read_and_resolve
+from logtools.loaded import FlatSignal
 from logtools.readers import TopicInfo
 from logtools.robot import explain_robot
-from logtools.robots.tractor_trailer.curvature import KappaCmdOrigin
 from logtools.safe_text import printable
-from logtools.signals import SignalSource
+from logtools.signals import SignalOrigin, SignalSource
 
 __all__ = ["LogSummary", "SignalSummary", "summarize_log"]
 
@@ -57,7 +56,8 @@ class LogSummary:
         problems: what was lost or repaired while reading and resolving signals.
         gaps: recorder stalls and dropouts of the signals found (one record per stretch).
         flat: signals found but not used because they carry nothing.
-        kappa_cmd_origin: how kappa_cmd was obtained, None without it.
+        origins: how derived signals were obtained (a formula, a robot's derivation), and for
+            a signal a robot could derive, that it was logged.
     """
 
     path: str
@@ -70,7 +70,7 @@ class LogSummary:
     problems: list[str]
     gaps: list[Gap] = field(default_factory=list)
     flat: list[FlatSignal] = field(default_factory=list)
-    kappa_cmd_origin: KappaCmdOrigin | None = None
+    origins: dict[str, SignalOrigin] = field(default_factory=dict)
 
     @property
     def span_ns(self) -> tuple[int, int] | None:
@@ -109,9 +109,7 @@ class LogSummary:
                 "problems": self.problems,
                 "gaps": [g.to_dict() for g in self.gaps],
                 "flat": [vars(f) for f in self.flat],
-                "kappa_cmd_origin": (
-                    self.kappa_cmd_origin.to_dict() if self.kappa_cmd_origin else None
-                ),
+                "origins": {n: o.to_dict() for n, o in self.origins.items()},
             }
         )
 
@@ -149,8 +147,7 @@ class LogSummary:
             )
         if not self.signals:
             lines.append("  (no drive signals; see the topics above)")
-        if self.kappa_cmd_origin is not None:
-            lines.append(f"kappa_cmd: {self.kappa_cmd_origin.detail}")
+        lines += [f"{name}: {o.description}" for name, o in self.origins.items()]
         for f in self.flat:
             lines.append(
                 f"not used (carries nothing): {f.name} <- {f.topic} : {f.field}, "
@@ -160,7 +157,7 @@ class LogSummary:
         if self.gaps:
             origin = span[0] if span else 0
             lines.append(f"gaps ({len(self.gaps)}):")
-            every = set(self.signals)
+            every = set(self.signals) - _by_robot(self.origins)
             for g in self.gaps:
                 who = "all signals" if every <= set(g.signals) else ", ".join(g.signals)
                 lines.append(
@@ -175,6 +172,11 @@ class LogSummary:
         # names and values come from the log: each line is escaped before the lines are joined,
         # so a control character or newline in a topic name cannot reach the terminal
         return "\n".join(printable(line) for line in lines)
+
+
+def _by_robot(origins: Mapping[str, SignalOrigin]) -> set[str]:
+    """The signals a robot derived (not recorded: their gaps are not the recording's)."""
+    return {n for n, o in origins.items() if o.by_robot}
 
 
 def summarize_log(
@@ -207,12 +209,11 @@ def summarize_log(
             max=float(values.max()),  # type: ignore[arg-type]
             source=src.describe(),
         )
-    # a derived kappa_cmd (omega / v from a twist command) is undefined while the command's
-    # speed is zero (a stop, a spot turn): those stretches are not gaps of the recording,
-    # whose own gaps show in the signals it is derived from
-    derived = resolved.kappa_cmd_origin is not None and resolved.kappa_cmd_origin.kind == "twist"
-    gaps = find_gaps({k: v for k, v in resolved.signals.items()
-                      if not (derived and k == "kappa_cmd")})
+    # a signal a robot derived is undefined where its inputs do not define it (the
+    # tractor-trailer's omega_cmd / v_cmd while the commanded speed is zero, a stop or a spot
+    # turn): those stretches are not gaps of the recording, whose own gaps show in the inputs
+    recorded = {k: v for k, v in resolved.signals.items() if k not in _by_robot(resolved.origins)}
+    gaps = find_gaps(recorded)
     origin = min((i.first_ns for i in log.info.values() if i.first_ns is not None), default=0)
     return LogSummary(
         path=log.path,
@@ -225,9 +226,9 @@ def summarize_log(
         problems=[
             *map(str, log.problems),
             *resolved.problems,
-            *map(str, gap_notes(log.path, gaps, list(resolved.signals), origin)),
+            *map(str, gap_notes(log.path, gaps, list(recorded), origin)),
         ],
         gaps=gaps,
         flat=resolved.flat,
-        kappa_cmd_origin=resolved.kappa_cmd_origin,
+        origins=dict(resolved.origins),
     )

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from logtools.channel_map import ResolvedSignals
 from logtools.errors import LogcalInputError, NoDriveSignalsError
+from logtools.loaded import ResolvedSignals
 from logtools.readers import LogData
 
 __all__ = ["METADATA_RECORD", "explain_robot", "infer_robot"]

@@ -1,7 +1,8 @@
 """Logical signals, where they come from, and the default topic/field mapping of LOG_FORMAT.md.
 
 Besides the tables of default names this module holds the small pieces a channel map is made of:
-:class:`SignalSource` (topic, field and how to turn the field into the signal), units,
+:class:`SignalSource` (topic, field and how to turn the field into the signal),
+:class:`SignalOrigin` (how a signal was obtained when it is derived or derivable), units,
 :class:`RobotConfig` (the ``[robot]`` table) and :class:`Formula`, a safe evaluator of the
 arithmetic a channel map may use to derive one signal from others (parsed with :mod:`ast`,
 never ``eval``).
@@ -30,7 +31,9 @@ __all__ = [
     "UNIT_FACTORS",
     "Formula",
     "FormulaError",
+    "OriginKind",
     "RobotConfig",
+    "SignalOrigin",
     "SignalSource",
     "Stamp",
     "default_candidates",
@@ -138,6 +141,41 @@ class SignalSource:
         ]
         how = f" ({', '.join(extra)})" if extra else ""
         return f"{self.topic}:{self.field}{how}"
+
+
+class OriginKind(StrEnum):
+    """The kinds of :class:`SignalOrigin` the shared resolution gives; a robot's derivation
+    (``RobotPlugin.derived_signals``) names its own kinds (the tractor-trailer's ``steering``)."""
+
+    LOGGED = "logged"  # a field of the log
+    FORMULA = "formula"  # a channel-map formula
+
+
+@dataclass(frozen=True)
+class SignalOrigin:
+    """How a signal was obtained: kept for every signal computed from others (a channel-map
+    formula, a robot's derivation) and for a signal a robot could derive but the log holds.
+
+    Attributes:
+        kind: ``logged``, ``formula`` (:class:`OriginKind`) or the derivation's own kind.
+        source: ``topic:field`` when logged, else the expression evaluated (e.g.
+            ``tan(steer_cmd) / 0.42``).
+        description: one sentence for reports (the inputs, the constants and where they came
+            from).
+    """
+
+    kind: str
+    source: str
+    description: str
+
+    @property
+    def by_robot(self) -> bool:
+        """True when a robot's derivation computed the signal (neither logged nor a formula)."""
+        return self.kind not in (OriginKind.LOGGED, OriginKind.FORMULA)
+
+    def to_dict(self) -> dict[str, str]:
+        """JSON-safe dictionary."""
+        return {"kind": str(self.kind), "source": self.source, "description": self.description}
 
 
 @dataclass(frozen=True)

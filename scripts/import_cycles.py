@@ -1,7 +1,7 @@
 """Import cycles among logcal's own modules (calib, logtools, viz): files that import each other,
-directly or round a loop, whether the import sits at the top of the module or inside a function
-(an import moved into a function only hides a cycle; it does not break it). Imports under
-``if TYPE_CHECKING:`` are left out: they never run.
+directly or round a loop, wherever the import sits: at the top of the module, inside a function
+or under ``if TYPE_CHECKING:`` (an import moved into a function or behind TYPE_CHECKING only
+hides a cycle; the modules still depend on each other, so it does not break it).
 
     python scripts/import_cycles.py      # prints each cycle; exit code 1 when there is one
 """
@@ -23,12 +23,6 @@ def module_name(path: Path) -> str:
     return ".".join(parts)
 
 
-def _type_checking(node: ast.If) -> bool:
-    t = node.test
-    return (isinstance(t, ast.Name) and t.id == "TYPE_CHECKING") or (
-        isinstance(t, ast.Attribute) and t.attr == "TYPE_CHECKING")
-
-
 def imports(path: Path, modules: set[str]) -> set[str]:
     """The logcal modules ``path`` imports (a package's ``from pkg import name`` counts the
     submodule ``pkg.name`` when there is one, else the package)."""
@@ -39,10 +33,6 @@ def imports(path: Path, modules: set[str]) -> set[str]:
 
     def visit(node: ast.AST) -> None:
         for child in ast.iter_child_nodes(node):
-            if isinstance(child, ast.If) and _type_checking(child):
-                for n in child.orelse:
-                    visit(n)
-                continue
             if isinstance(child, ast.Import):
                 for a in child.names:
                     if a.name.split(".")[0] in PACKAGES:

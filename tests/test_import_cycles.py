@@ -1,5 +1,5 @@
 """No import cycles among calib, logtools and viz (scripts/import_cycles.py: imports inside
-functions count; TYPE_CHECKING imports do not)."""
+functions and under ``if TYPE_CHECKING:`` count too)."""
 
 from __future__ import annotations
 
@@ -29,6 +29,22 @@ def test_the_checker_sees_a_cycle_hidden_inside_a_function(tmp_path: Path) -> No
     (pkg / "__init__.py").write_text("")
     (pkg / "a.py").write_text("from logtools.b import x\n")
     (pkg / "b.py").write_text("x = 1\n\ndef f():\n    from logtools import a\n    return a\n")
+    checker.ROOT = tmp_path
+    checker.PACKAGES = ("logtools",)
+    assert checker.cycles() == [["logtools.a", "logtools.b"]]
+
+
+def test_the_checker_sees_a_cycle_through_a_type_checking_import(tmp_path: Path) -> None:
+    checker = _checker()
+    pkg = tmp_path / "logtools"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from logtools.b import x\n")
+    (pkg / "b.py").write_text(
+        "from typing import TYPE_CHECKING\n\nif TYPE_CHECKING:\n    from logtools.a import A\n"
+        "x = 1\n"
+    )
+    (pkg / "c.py").write_text("from logtools.b import x\n")  # one way only: no cycle
     checker.ROOT = tmp_path
     checker.PACKAGES = ("logtools",)
     assert checker.cycles() == [["logtools.a", "logtools.b"]]

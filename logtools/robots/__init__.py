@@ -14,12 +14,13 @@ import importlib
 from importlib.metadata import entry_points
 
 from logtools.errors import LogcalInputError
-from logtools.robots.base import RobotPlugin, SignalSpec
+from logtools.robots.base import RobotPlugin, SignalDerivation, SignalSpec
 from logtools.robots.options import RobotOptions
 
 __all__ = [
     "RobotOptions",
     "RobotPlugin",
+    "SignalDerivation",
     "SignalSpec",
     "UnknownRobotError",
     "identify_robot",

@@ -16,7 +16,7 @@ an import path, so that ``logtools`` never imports rerun); the plugin module in
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
@@ -31,16 +31,19 @@ if TYPE_CHECKING:
     from rich.console import RenderableType
 
     from calib.results import AnalysisResult
-    from logtools.analyze import AnalysisConfig
-    from logtools.load import LoadedLog
-    from logtools.signals import RobotConfig
+    from logtools.analysis_config import AnalysisConfig
+    from logtools.loaded import LoadedLog
+    from logtools.signals import RobotConfig, SignalOrigin
 
 __all__ = [
     "AnalyzeFn",
     "CommandsFn",
+    "Derived",
+    "FoundSignals",
     "PoolFn",
     "Progress",
     "RobotPlugin",
+    "SignalDerivation",
     "SignalSpec",
     "Views",
     "lazy",
@@ -57,7 +60,7 @@ Progress = Callable[[str], None]
 class AnalyzeFn(Protocol):
     """Analyse one loaded log: ``(loaded, config, progress) -> AnalysisResult``.
 
-    ``config`` is a :class:`logtools.analyze.AnalysisConfig`. Each stage runs inside its own
+    ``config`` is a :class:`logtools.analysis_config.AnalysisConfig`. Each stage runs inside its own
     boundary (``logtools.stages.Stages``): a stage that lacks data or fails numerically says so
     in ``AnalysisResult.stages`` and the others still report. Raises ``LogcalInputError`` (or a
     subclass naming file, topic and field) only when the log cannot be analysed at all.
@@ -117,6 +120,67 @@ class SignalSpec:
 
 
 @dataclass(frozen=True)
+class FoundSignals:
+    """What a :class:`SignalDerivation` is given: the signals found in one log so far.
+
+    Attributes:
+        path: the log (for notes).
+        signals: logical name -> frame (``t_ns`` int64 increasing, ``value`` float64), cleaned.
+        sources: logical name -> where it came from.
+        robot: the channel map's ``[robot]`` table, its wheelbase completed from the ``logcal``
+            metadata record.
+        wheelbase_from: where ``robot.wheelbase`` came from (for notes); "" without one.
+    """
+
+    path: str
+    signals: Mapping[str, pl.DataFrame]
+    sources: Mapping[str, SignalSource]
+    robot: RobotConfig
+    wheelbase_from: str = ""
+
+
+@dataclass(frozen=True)
+class Derived:
+    """What a :class:`SignalDerivation` gives: the signal (None: it cannot be derived from this
+    log), its source and origin, and notes for the log's problems either way.
+
+    Attributes:
+        signal: frame ``t_ns`` (int64 increasing), ``value`` (float64 finite); None: not derived.
+        source: where it came from (topic ``(derived)``, field and formula the expression).
+        origin: how it was obtained (the derivation's kind, expression and one sentence).
+        notes: sentences for ``problems`` (why it was not derived, what was left out).
+    """
+
+    signal: pl.DataFrame | None = None
+    source: SignalSource | None = None
+    origin: SignalOrigin | None = None
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class SignalDerivation:
+    """A signal a robot derives from others when a log lacks it (the tractor-trailer's curvature
+    command from a steering command and the wheelbase, or from a velocity command).
+
+    The signal resolution (:func:`logtools.channel_map.resolve_signals`) runs every plugin's
+    derivations on every log (the robot is told from the signals found), after the channel
+    map's formulas, in plugin order.
+
+    Attributes:
+        name: the signal it gives.
+        derive: ``(found) -> Derived``, called when the log has no ``name`` and the channel map
+            does not switch it off.
+        check: ``(found) -> notes``, called on every log after the derivations: what the
+            signals found mean for what this robot derives (a saturated steering angle gives no
+            curvature); None: nothing to check.
+    """
+
+    name: str
+    derive: Callable[[FoundSignals], Derived]
+    check: Callable[[FoundSignals], Sequence[str]] | None = None
+
+
+@dataclass(frozen=True)
 class RobotPlugin:
     """One robot type.
 
@@ -156,6 +220,8 @@ class RobotPlugin:
             ``q3`` matches ``q``; none present: all signals).
         prepare: completes the aligned frame after reading, given the channel map's
             ``[robot]`` table (e.g. the tractor-trailer derives the measured curvature).
+        derived_signals: signals it derives from others when a log lacks them
+            (:class:`SignalDerivation`; the tractor-trailer's ``kappa_cmd``).
     """
 
     name: str
@@ -172,6 +238,7 @@ class RobotPlugin:
     aliases: tuple[str, ...] = ()
     span_signals: tuple[str, ...] = ()
     prepare: Callable[[pl.DataFrame, RobotConfig], pl.DataFrame] | None = None
+    derived_signals: tuple[SignalDerivation, ...] = ()
     options: type[RobotOptions] = RobotOptions
     uses_settings: tuple[str, ...] = ()
     simulate: str | None = None

@@ -28,12 +28,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, TypeVar
+from typing import Any, Literal, Protocol, TypeVar
 
 from logtools.errors import LogcalInputError
-
-if TYPE_CHECKING:
-    from logtools.robots.base import RobotPlugin
 
 __all__ = [
     "OptionSpec",
@@ -192,8 +189,20 @@ def options_fields(cls: type[RobotOptions], robot: str = "") -> tuple[OptionSpec
     return tuple(out)
 
 
-def option_specs(plugin: RobotPlugin) -> tuple[OptionSpec, ...]:
-    """The options ``plugin`` declares (``plugin.options``), in field order."""
+class _DeclaresOptions(Protocol):
+    """What :func:`option_specs` reads of a ``RobotPlugin`` (named by shape: the plugin
+    contract imports this module)."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def options(self) -> type[RobotOptions]: ...
+
+
+def option_specs(plugin: _DeclaresOptions) -> tuple[OptionSpec, ...]:
+    """The options ``plugin`` (a ``RobotPlugin``) declares (``plugin.options``), in field
+    order."""
     return options_fields(plugin.options, plugin.name)
 
 

@@ -16,8 +16,7 @@ from logtools.cli.main import main
 from logtools.errors import ChannelMapEntryError, ChannelMapError, LogcalInputError
 from logtools.load import load_log
 from logtools.readers import read_log
-from logtools.robots.tractor_trailer.curvature import KappaCmdKind
-from logtools.signals import Formula, FormulaError, SignalSource, Stamp
+from logtools.signals import Formula, FormulaError, OriginKind, SignalSource, Stamp
 
 TOPICS = {
     "/enc": {"deg": "psi_deg"},
@@ -88,8 +87,10 @@ def test_scale_offset_unit_formula_and_off(tmp_path, truth, log_path):
     np.testing.assert_allclose(
         res.signals["kappa_cmd"]["value"].to_numpy(), truth["kappa_cmd"], atol=1e-12
     )
-    assert res.kappa_cmd_origin is not None
-    assert res.kappa_cmd_origin.kind is KappaCmdKind.FORMULA
+    origin = res.origins.get("kappa_cmd")
+    assert origin is not None
+    assert origin.kind is OriginKind.FORMULA
+    assert not origin.by_robot
     assert res.sources["kappa_cmd"].describe() == "= tan(steer_cmd) / wheelbase"
     assert "omega" not in res.signals
     loaded = load_log(log_path, cmap)

@@ -27,8 +27,9 @@ def _log(tmp_path: Path, *, stall: bool) -> Path:
 
 def test_spot_turn_is_not_a_gap_of_the_derived_command(tmp_path: Path) -> None:
     summary = summarize_log(_log(tmp_path, stall=False))
-    assert summary.kappa_cmd_origin is not None
-    assert summary.kappa_cmd_origin.kind == "twist"
+    origin = summary.origins.get("kappa_cmd")
+    assert origin is not None
+    assert origin.kind == "twist"
     assert summary.gaps == []
 
 

@@ -118,12 +118,12 @@ def test_zero_twist_is_reported_and_kappa_comes_from_the_path(foxy, tmp_path):
 def test_steering_command_gives_kappa_cmd_with_the_wheelbase(foxy, tmp_path):
     path, _drive = foxy
     loaded = load_log(path, _map(tmp_path))
-    origin = loaded.kappa_cmd_origin
+    origin = loaded.signals.origins.get("kappa_cmd")
     assert origin is not None
     assert origin.kind is KappaCmdKind.STEERING
-    assert origin.wheelbase == 0.42
-    assert origin.expression == "tan(steer_cmd) / 0.42"
-    assert "truck.toml [robot] wheelbase" in origin.detail
+    assert origin.source == "tan(steer_cmd) / 0.42"
+    assert "wheelbase 0.42 m from the channel map" in origin.description
+    assert "truck.toml [robot] wheelbase" in origin.description
     raw = loaded.signals.signals["kappa_cmd"]
     cmd = loaded.log.topics["/cmd_vel"]
     np.testing.assert_array_equal(raw["t_ns"].to_numpy(), cmd["t_ns"].to_numpy())
@@ -141,13 +141,14 @@ def test_wheelbase_from_the_metadata_record_or_not_derived(tmp_path):
     no_wheelbase = TRUCK_MAP.replace("wheelbase = 0.42\n", "")
     bag = write_rosbag2(tmp_path / "meta", drive, custom={"logcal.wheelbase": "0.5"})
     res = resolve_signals(read_log(bag), _map(tmp_path, no_wheelbase))
-    assert res.kappa_cmd_origin is not None
-    assert res.kappa_cmd_origin.wheelbase == 0.5
-    assert "logcal metadata record" in res.kappa_cmd_origin.detail
+    origin = res.origins.get("kappa_cmd")
+    assert origin is not None
+    assert origin.source == "tan(steer_cmd) / 0.5"
+    assert "wheelbase 0.5 m from the logcal metadata record" in origin.description
     bare = write_rosbag2(tmp_path / "bare", drive)
     res = resolve_signals(read_log(bare), _map(tmp_path, no_wheelbase))
     assert "kappa_cmd" not in res.signals
-    assert res.kappa_cmd_origin is None
+    assert "kappa_cmd" not in res.origins
     assert any("no wheelbase is known" in p and "not derived" in p for p in res.problems)
 
 
@@ -169,8 +170,10 @@ def test_saturated_steering_is_reported_and_left_out(tmp_path):
 def test_without_a_map_the_twist_command_gives_kappa_cmd_with_a_warning(foxy):
     path, _ = foxy
     res = resolve_signals(read_log(path))
-    assert res.kappa_cmd_origin is not None
-    assert res.kappa_cmd_origin.kind is KappaCmdKind.TWIST
+    origin = res.origins.get("kappa_cmd")
+    assert origin is not None
+    assert origin.kind is KappaCmdKind.TWIST
+    assert origin.by_robot
     assert any("map it as steer_cmd" in p for p in res.problems)
     assert res.sources["x"].topic == "/odom"  # ROS default: the Odometry pose
     assert {f.name for f in res.flat} == {"v", "omega"}
@@ -241,6 +244,7 @@ def test_the_readme_example_map_reads_the_bag(foxy, tmp_path):
     assert readme_map.off == frozenset({"omega_cmd"})
     path, _ = foxy
     res = resolve_signals(read_log(path), readme_map)
-    assert res.kappa_cmd_origin is not None
-    assert res.kappa_cmd_origin.kind is KappaCmdKind.STEERING
+    origin = res.origins.get("kappa_cmd")
+    assert origin is not None
+    assert origin.kind is KappaCmdKind.STEERING
     assert {f.name for f in res.flat} == {"v", "omega"}

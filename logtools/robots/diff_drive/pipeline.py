@@ -53,12 +53,12 @@ from calib.diff_drive.slip import SlipFit, fit_slip, slip_corrected, spanned
 from calib.diff_drive.umbmark import umbmark, umbmark_result
 from calib.errors import InsufficientDataError
 from calib.results import AnalysisResult, CalibrationResult
-from logtools.load import LoadedLog
+from logtools.loaded import LoadedLog
 from logtools.robots.base import Progress
 from logtools.stages import Stages
 
 if TYPE_CHECKING:
-    from logtools.analyze import AnalysisConfig
+    from logtools.analysis_config import AnalysisConfig
 
 __all__ = ["NOMINAL_RECORD", "analyze_diff_drive", "nominal_params", "pool_diff_drive"]
 

@@ -20,12 +20,12 @@ from typing import TYPE_CHECKING, Any
 from calib.errors import CalibError
 from calib.manipulator.units import EffortScaling, actuator_scaling, joint_scaling
 from logtools.errors import LogcalInputError
-from logtools.load import LoadedLog
+from logtools.loaded import LoadedLog
 from logtools.robots.manipulator.options import EffortSide, ManipulatorOptions
 
 if TYPE_CHECKING:
     from calib.manipulator.model import ArmModel
-    from logtools.analyze import AnalysisConfig
+    from logtools.analysis_config import AnalysisConfig
 
 __all__ = ["TORQUE_CONSTANT", "EffortChoice", "effort_choice", "torque_constants"]
 

@@ -39,7 +39,7 @@ from calib.manipulator.planar import Planar2Link, Planar2Params
 from calib.manipulator.units import EffortScale, effort_scale, effort_unit
 from calib.results import AnalysisResult, CalibrationResult, Estimate
 from logtools.errors import LogcalInputError
-from logtools.load import LoadedLog
+from logtools.loaded import LoadedLog
 from logtools.robots.base import Progress
 from logtools.robots.manipulator.effort import effort_choice
 from logtools.robots.manipulator.options import ManipulatorOptions
@@ -47,7 +47,7 @@ from logtools.safe_text import printable
 from logtools.stages import Stages
 
 if TYPE_CHECKING:
-    from logtools.analyze import AnalysisConfig
+    from logtools.analysis_config import AnalysisConfig
 
 __all__ = ["analyze_manipulator"]
 

@@ -1,11 +1,13 @@
 """The tractor with an off-axle trailer (the patent's two-link nonholonomic robot): link lengths
-L1 (hitch behind link 1's axle, m) and L2 (hitch to trailer axle, m)."""
+L1 (hitch behind link 1's axle, m) and L2 (hitch to trailer axle, m). Its curvature command
+``kappa_cmd``, when a log lacks it, is derived from a steering or velocity command
+(``derived_signals``, :mod:`logtools.robots.tractor_trailer.curvature`)."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from logtools.robots.base import RobotPlugin, SignalSpec, lazy
+from logtools.robots.base import RobotPlugin, SignalDerivation, SignalSpec, lazy
 from logtools.robots.tractor_trailer.options import TractorTrailerOptions
 
 if TYPE_CHECKING:
@@ -17,7 +19,9 @@ __all__ = ["PLUGIN", "TractorTrailerOptions"]
 
 # the pipeline imports calib's estimators (scipy): named by import path and imported on first
 # analysis (``lazy``), so that `logcal info` and robot inference stay fast; polars too is imported
-# only when a frame is prepared (the CLI loads every declaration to offer the robots' options)
+# only when a frame is prepared or a signal derived (the CLI loads every declaration to offer the
+# robots' options)
+_CURVATURE = "logtools.robots.tractor_trailer.curvature"
 
 
 def _identify(signals: frozenset[str]) -> str | None:
@@ -60,6 +64,13 @@ PLUGIN = RobotPlugin(
     png="viz.tractor_trailer.views:tractor_trailer_png",
     span_signals=("psi", "kappa_cmd", "v", "omega", "x", "y", "yaw"),
     prepare=_prepare,
+    derived_signals=(
+        SignalDerivation(
+            "kappa_cmd",
+            derive=lazy(f"{_CURVATURE}:derive_kappa_cmd"),
+            check=lazy(f"{_CURVATURE}:saturated_steer_notes"),
+        ),
+    ),
     options=TractorTrailerOptions,
     uses_settings=("baseline",),
     simulate="logtools.robots.tractor_trailer.commands:register_simulate",

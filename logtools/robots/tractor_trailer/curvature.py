@@ -26,33 +26,41 @@ Rows where no source applies have a null ``kappa`` and ``kappa_source``. Signals
 nothing (an all-zero odometry twist) never reach this module: the channel map drops them
 (:mod:`logtools.channel_map`), so ``kappa`` comes from the path instead of 0/0.
 
-The commanded curvature ``kappa_cmd`` is logged, or derived when the channel map resolves the
-signals; :class:`KappaCmdOrigin` records how (:class:`KappaCmdKind`). From a steering command,
-:func:`kappa_from_steering` gives tan(delta) / wheelbase and says which samples are saturated
-(|delta| >= 85 deg, where the curvature runs to infinity); those are reported and left out.
+The commanded curvature ``kappa_cmd`` is logged, or derived while the log's signals are
+resolved: :func:`derive_kappa_cmd` is this robot's derived signal (``RobotPlugin.derived_signals``)
+and its :class:`~logtools.signals.SignalOrigin` says how (:class:`KappaCmdKind`). From a steering
+command ``steer_cmd`` and the wheelbase, :func:`kappa_from_steering` gives tan(delta) /
+wheelbase and says which samples are saturated (|delta| >= 85 deg, where the curvature runs to
+infinity); those are reported and left out. Else from a velocity command, omega_cmd / v_cmd
+where |v_cmd| > :data:`V_CMD_MIN`. :func:`saturated_steer_notes` reports a saturated measured
+steering angle.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
 import polars as pl
 
-from calib.results import JsonRecord
 from calib.smoothing import savgol_filter
+from logtools.align import common_times
 from logtools.errors import LogcalInputError
+from logtools.readers import TIME_COLUMN
+from logtools.robots.base import Derived, FoundSignals
+from logtools.signals import DERIVED_TOPIC, SignalOrigin, SignalSource
 
 __all__ = [
     "KAPPA_SOURCES",
     "STEER_SATURATION_RAD",
+    "V_CMD_MIN",
     "KappaCmdKind",
-    "KappaCmdOrigin",
     "derive_kappa",
+    "derive_kappa_cmd",
     "kappa_from_steering",
     "path_curvature",
+    "saturated_steer_notes",
 ]
 
 KAPPA_SOURCES = ("omega/v", "path", "steer")
@@ -61,32 +69,16 @@ STEER_SATURATION_RAD = math.radians(85.0)
 """|steering angle| at or beyond this (rad) is saturated: tan(delta) / wheelbase is not used."""
 
 
-class KappaCmdKind(StrEnum):
-    """How the curvature command ``kappa_cmd`` was obtained."""
+V_CMD_MIN = 0.05
+"""|v_cmd| (m/s) above which kappa_cmd = omega_cmd / v_cmd is derived."""
 
-    LOGGED = "logged"  # a curvature-command field of the log
-    FORMULA = "formula"  # a channel-map formula
+
+class KappaCmdKind(StrEnum):
+    """How a derived curvature command ``kappa_cmd`` was obtained (``SignalOrigin.kind``; a
+    logged one or a channel-map formula has the shared kinds ``logged``, ``formula``)."""
+
     STEERING = "steering"  # tan(steer_cmd) / wheelbase
     TWIST = "twist"  # omega_cmd / v_cmd of a velocity command
-
-
-@dataclass(frozen=True)
-class KappaCmdOrigin(JsonRecord):
-    """Where ``kappa_cmd`` came from.
-
-    Attributes:
-        kind: logged, formula, steering or twist.
-        expression: ``topic:field`` when logged, else the expression evaluated, e.g.
-            ``tan(steer_cmd) / 0.42``.
-        detail: one sentence for reports (inputs, wheelbase and where it came from).
-        wheelbase: the wheelbase used (m), for ``steering``.
-    """
-
-    kind: KappaCmdKind
-    expression: str
-    detail: str
-    wheelbase: float | None = None
-
 
 
 def kappa_from_steering(
@@ -221,3 +213,96 @@ def derive_kappa(
         pl.Series("kappa", kappa, dtype=pl.Float64).fill_nan(None),
         pl.Series("kappa_source", source.tolist(), dtype=pl.String),
     )
+
+
+def derive_kappa_cmd(found: FoundSignals) -> Derived:
+    """``kappa_cmd`` for a log without one: tan(steer_cmd) / wheelbase from a steering command
+    (none without a wheelbase: a note says what to set), else omega_cmd / v_cmd from a velocity
+    command where |v_cmd| > :data:`V_CMD_MIN` (with a note: on some robots ``angular.z`` is a
+    steering angle). Saturated steering samples are left out and reported."""
+    if "steer_cmd" in found.signals:
+        return _from_steering(found)
+    if "omega_cmd" in found.signals and "v_cmd" in found.signals:
+        return _from_twist(found)
+    return Derived()
+
+
+def _from_steering(found: FoundSignals) -> Derived:
+    wheelbase = found.robot.wheelbase
+    steer = found.sources["steer_cmd"]
+    if wheelbase is None:
+        return Derived(notes=(
+            f"{found.path}: a steering command steer_cmd ({steer.describe()}) is there but no "
+            "wheelbase is known, so kappa_cmd = tan(steer_cmd) / wheelbase is not derived; set "
+            "[robot] wheelbase = … (m) in the channel map or 'wheelbase' in the logcal metadata "
+            "record",
+        ))
+    frame = found.signals["steer_cmd"]
+    kappa, saturated = kappa_from_steering(frame["value"].to_numpy(), wheelbase)
+    notes = []
+    n_sat = int(saturated.sum())
+    if n_sat:
+        peak = math.degrees(float(np.max(np.abs(frame["value"].to_numpy()))))
+        notes.append(
+            f"{found.path}: {n_sat} of {frame.height} samples of steer_cmd ({steer.describe()}) "
+            f"are saturated (|delta| >= {math.degrees(STEER_SATURATION_RAD):.0f} deg, up to "
+            f"{peak:.1f} deg): tan(delta) / wheelbase runs to infinity there, so kappa_cmd is "
+            "left out on those samples"
+            + ('; beyond 360 deg the values look like degrees: set unit = "deg"'
+               if peak > 360 else "")
+        )
+    expr = f"tan(steer_cmd) / {wheelbase:g}"
+    out = frame.with_columns(pl.Series("value", kappa).fill_nan(None)).drop_nulls("value")
+    if not out.height:
+        return Derived(notes=tuple(notes))
+    origin = SignalOrigin(
+        KappaCmdKind.STEERING,
+        expr,
+        f"tan(steer_cmd) / wheelbase from the steering command {steer.describe()}, wheelbase "
+        f"{wheelbase:g} m from {found.wheelbase_from}",
+    )
+    return Derived(out, SignalSource(DERIVED_TOPIC, expr, formula=expr), origin, tuple(notes))
+
+
+def _from_twist(found: FoundSignals) -> Derived:
+    t_ns, values = common_times(
+        {n: found.signals[n] for n in ("omega_cmd", "v_cmd")}, hold=True
+    )
+    v_cmd, omega_cmd = values["v_cmd"], values["omega_cmd"]
+    ok = np.isfinite(v_cmd) & np.isfinite(omega_cmd) & (np.abs(v_cmd) > V_CMD_MIN)
+    if not ok.any():
+        return Derived()
+    expr = "omega_cmd / v_cmd"
+    out = pl.DataFrame(
+        {TIME_COLUMN: pl.Series(t_ns[ok], dtype=pl.Int64), "value": omega_cmd[ok] / v_cmd[ok]}
+    )
+    w, v = found.sources["omega_cmd"], found.sources["v_cmd"]
+    origin = SignalOrigin(
+        KappaCmdKind.TWIST,
+        expr,
+        f"omega_cmd / v_cmd from {w.describe()} and {v.describe()} where |v_cmd| > "
+        f"{V_CMD_MIN} m/s",
+    )
+    note = (
+        f"{found.path}: kappa_cmd is derived as omega_cmd / v_cmd ({w.describe()} / "
+        f"{v.describe()}); if that field is a steering angle rather than a yaw rate, map it as "
+        "steer_cmd and set [robot] wheelbase in a channel map"
+    )
+    return Derived(out, SignalSource(DERIVED_TOPIC, expr, formula=expr), origin, (note,))
+
+
+def saturated_steer_notes(found: FoundSignals) -> list[str]:
+    """A measured steering angle ``steer`` at or beyond saturation gives no curvature there (see
+    :func:`derive_kappa`): one note saying how many samples, for the log's problems."""
+    if "steer" not in found.signals:
+        return []
+    values = found.signals["steer"]["value"].to_numpy()
+    n_sat = int(np.count_nonzero(np.abs(values) >= STEER_SATURATION_RAD))
+    if not n_sat:
+        return []
+    return [
+        f"{found.path}: {n_sat} of {values.size} samples of steer "
+        f"({found.sources['steer'].describe()}) are saturated (|delta| >= "
+        f"{math.degrees(STEER_SATURATION_RAD):.0f} deg, up to "
+        f"{math.degrees(float(np.max(np.abs(values)))):.1f} deg): no curvature is taken from them"
+    ]

@@ -17,7 +17,7 @@ import polars as pl
 
 from calib.errors import InsufficientDataError
 from calib.tractor_trailer.estimators.drive_path import DrivePath, pose_smoothing
-from logtools.load import LoadedLog
+from logtools.loaded import LoadedLog
 
 __all__ = [
     "PathInputs",

@@ -29,7 +29,7 @@ from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.estimators.steering import SteeringGeometry
 from calib.tractor_trailer.path_discovery import PathDiscovery
 from logtools.errors import LogcalInputError, MissingSignalsError
-from logtools.load import LoadedLog
+from logtools.loaded import LoadedLog
 from logtools.robots.tractor_trailer.options import TractorTrailerOptions
 from logtools.robots.tractor_trailer.path_inputs import (
     PathInputs,
@@ -41,7 +41,7 @@ from logtools.robots.tractor_trailer.path_inputs import (
 from logtools.stages import Stages
 
 if TYPE_CHECKING:
-    from logtools.analyze import AnalysisConfig
+    from logtools.analysis_config import AnalysisConfig
 
 __all__ = ["PATH_INPUTS", "analyze_tractor_trailer", "pool_tractor_trailer"]
 

@@ -1,0 +1,60 @@
+"""The settings of one analysis (:class:`AnalysisConfig`), read by every robot's plugin.
+
+A record only: the pipeline that uses it is :mod:`logtools.analyze`. This module imports no
+robot plugin machinery, so that the plugin contract (:mod:`logtools.robots.base`) can name it
+without an import circle.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TypeVar
+
+from calib.results import Baseline
+from logtools.robots.options import RobotOptions
+
+__all__ = ["AnalysisConfig"]
+
+T = TypeVar("T", bound=RobotOptions)
+
+
+@dataclass(frozen=True)
+class AnalysisConfig:
+    """Settings of one analysis.
+
+    Args:
+        repeats: repeats (moving-block bootstrap replicates) per method table row.
+        baseline: the model discovery compares against (``Baseline.TRANSIENT``, the default:
+            the off-axle trailer kinematics, which diagnoses best in
+            bench/discovery_confusion_study.py; ``Baseline.STEADY``: the patent's steady state).
+            A tractor-trailer setting (its plugin's ``uses_settings``).
+        seed: seed of every random draw (bootstrap), for reproducible reports.
+        discovery: run model-mismatch discovery.
+        per_segment: also report the method table per command type.
+        debug: let a failing stage raise (with its traceback) instead of recording it.
+        robot_options: each robot's own options by plugin name (an instance of that plugin's
+            ``options`` class); a robot not named gets its options' defaults. Read them with
+            :meth:`options`.
+    """
+
+    repeats: int = 10
+    baseline: Baseline = Baseline.TRANSIENT
+    seed: int = 0
+    discovery: bool = True
+    per_segment: bool = True
+    debug: bool = False
+    robot_options: Mapping[str, RobotOptions] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for name, opts in self.robot_options.items():
+            if not isinstance(opts, RobotOptions):
+                raise TypeError(f"robot_options[{name!r}]: expected a RobotOptions instance, "
+                                f"got {type(opts).__name__}")
+
+    def options(self, cls: type[T]) -> T:
+        """The options of class ``cls`` given for this analysis, else ``cls()`` (defaults)."""
+        for opts in self.robot_options.values():
+            if type(opts) is cls:
+                return opts
+        return cls()

@@ -1,0 +1,48 @@
+"""Map a log's topics and fields onto the logical signals of LOG_FORMAT.md.
+
+One module per concern:
+
+* :mod:`~logtools.channel_map.toml`: channel-map files and ``--signal`` entries (parsing and
+  checking every table, key and formula): :func:`load_channel_map`, :class:`ChannelMap`.
+* :mod:`~logtools.channel_map.resolve`: the signals of one log (entries, defaults, formulas,
+  the robots' derived signals; cleaned and checked): :func:`resolve_signals`.
+* :mod:`~logtools.channel_map.extract`: one signal out of a topic (field, unit, stamp, a tf
+  child frame, a joint by name).
+* :mod:`~logtools.channel_map.names`: the logical signal names and units.
+
+What resolution gives, :class:`ResolvedSignals`, is a record of :mod:`logtools.loaded`.
+"""
+
+from __future__ import annotations
+
+from logtools.channel_map.extract import TRANSFORMS
+from logtools.channel_map.names import (
+    JOINT_ARRAYS,
+    JOINT_TOPIC,
+    LOGICAL_SIGNALS,
+    is_logical_signal,
+)
+from logtools.channel_map.resolve import PLAUSIBLE_LIMITS, resolve_signals
+from logtools.channel_map.toml import (
+    ChannelMap,
+    load_channel_map,
+    parse_signal_option,
+    with_signal_options,
+)
+from logtools.loaded import FlatSignal, ResolvedSignals
+
+__all__ = [
+    "JOINT_ARRAYS",
+    "JOINT_TOPIC",
+    "LOGICAL_SIGNALS",
+    "PLAUSIBLE_LIMITS",
+    "TRANSFORMS",
+    "ChannelMap",
+    "FlatSignal",
+    "ResolvedSignals",
+    "is_logical_signal",
+    "load_channel_map",
+    "parse_signal_option",
+    "resolve_signals",
+    "with_signal_options",
+]

@@ -1,0 +1,391 @@
+"""Resolution: the logical signals of one log, from a channel map's entries, the defaults, the
+channel map's formulas and the robots' derived signals, each cleaned and checked.
+
+Without a channel map, the defaults of :mod:`logtools.signals` are tried in order (our JSON
+names, ROS 2 types on our topics, then the standard ROS names ``/cmd_vel``, ``/odom``,
+``/joint_states``, ``/tf``), then the sources the robot plugins declare; ``/joint_states``
+arrays become ``q1, q2, …``, ``qd1, …``, ``tau1, …``, and the columns of a CSV log are taken by
+their logical names. Entries of a channel map (:mod:`logtools.channel_map.toml`) take precedence.
+
+Measured signals that carry nothing (a speed, rate or angle that is zero in every sample, like
+the twist of an ``Odometry`` filled only with a pose) are detected, reported with topic and
+field, and not used: the next default source is tried, and ``kappa`` then comes from the pose
+path instead of 0/0. Commands may be constant; so may a nonzero speed or yaw rate, and a
+position (a robot may spin in place).
+
+After the formulas, every robot plugin's derived signals (``RobotPlugin.derived_signals``) are
+asked for the signals the log lacks (the tractor-trailer's ``kappa_cmd`` from a steering command
+and the wheelbase, or from a velocity command); :attr:`ResolvedSignals.origins` says how each
+derived signal was obtained. The wheelbase is the channel map's ``[robot] wheelbase``, else the
+``logcal`` metadata record's ``wheelbase``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+import polars as pl
+
+from logtools.align import common_times
+from logtools.channel_map.extract import (
+    extract_default,
+    extract_user,
+    signal_frame,
+    to_si,
+    topic_frame,
+)
+from logtools.channel_map.names import (
+    JOINT_ARRAYS,
+    JOINT_SIGNAL,
+    JOINT_TOPIC,
+    JOINT_UNITS,
+    LOGICAL_SIGNALS,
+    is_logical_signal,
+    plugin_sources,
+)
+from logtools.channel_map.toml import ChannelMap, parse_formula
+from logtools.errors import ChannelMapEntryError, SignalValueError
+from logtools.loaded import FlatSignal, ResolvedSignals
+from logtools.outliers import drop_outliers
+from logtools.problems import Problem
+from logtools.readers import CSV_TOPIC, TIME_COLUMN, LogData
+from logtools.robots import plugins
+from logtools.robots.base import FoundSignals
+from logtools.signals import (
+    SIGNAL_UNITS,
+    Formula,
+    FormulaError,
+    OriginKind,
+    RobotConfig,
+    SignalOrigin,
+    SignalSource,
+    default_candidates,
+)
+from logtools.validate import check_yaw_units, clean_signal
+
+__all__ = [
+    "FLAT_MIN_SAMPLES",
+    "PLAUSIBLE_LIMITS",
+    "resolve_signals",
+]
+
+FLAT_MIN_SAMPLES = 5
+"""A signal needs at least this many samples to be called constant."""
+_ZERO_MEANS_EMPTY = ("v", "omega", "psi", "steer", "wheel_left", "wheel_right", "yaw", "yaw2")
+
+PLAUSIBLE_LIMITS: dict[str, float] = {
+    "m/s": 1e3,
+    "rad/s": 1e4,
+    "1/m": 1e3,
+    "m": 1e8,
+    "rad": 1e9,
+    "N·m": 1e7,
+}
+"""Largest |value| a logical signal can physically hold, per SI unit (a speed of 1 km/s, a
+position 1e8 m from the origin, 1e9 rad of accumulated yaw or wheel angle): beyond it (after
+outliers are excluded) the values are not in the unit the channel map says, and every
+integration step count downstream would grow with them)."""
+
+
+
+def resolve_signals(
+    log: LogData, channel_map: Mapping[str, SignalSource] | None = None
+) -> ResolvedSignals:
+    """Find the logical signals of ``log``.
+
+    Args:
+        log: the frames from :func:`logtools.readers.read_log`.
+        channel_map: a :class:`ChannelMap` (see :func:`load_channel_map`) or any mapping of
+            signal -> source overriding the defaults.
+
+    Returns:
+        The cleaned signals, their sources, the missing names, the repairs made, the signals
+        that carry nothing, and how derived signals were obtained.
+
+    Raises:
+        ChannelMapError: a channel-map entry names a topic or field the log does not have, or a
+            formula uses a signal the log does not have.
+        UnknownEncodingError: a signal's topic is in an encoding logcal cannot decode.
+        SignalValueError, TimestampError: a signal cannot be repaired (see
+            :func:`logtools.validate.clean_signal`).
+    """
+    cmap = (
+        channel_map if isinstance(channel_map, ChannelMap) else ChannelMap(dict(channel_map or {}))
+    )
+    state = _Resolution(log, cmap)
+    direct = {n: s for n, s in cmap.items() if not s.is_derived}
+    derived = {n: s for n, s in cmap.items() if s.is_derived}
+    for name, src in direct.items():
+        state.take(name, extract_user(log, name, src), src)
+    skip = set(direct) | set(derived) | set(cmap.off)
+    state.take_defaults(skip, user=direct)
+    state.evaluate_formulas(derived)
+    state.derive(cmap.off)
+    signals, sources, notes = state.signals, state.sources, state.notes
+    for yaw, rate in (("yaw", "omega"), ("yaw2", None)):
+        if yaw in signals:
+            notes += check_yaw_units(
+                signals[yaw],
+                signals.get(rate) if rate else None,
+                path=log.path,
+                source=sources[yaw],
+            )
+    missing = [s for s in LOGICAL_SIGNALS if s not in signals and not _any_joint(s, signals)]
+    return ResolvedSignals(
+        signals,
+        sources,
+        missing,
+        notes,
+        flat=state.flat,
+        origins=state.origins,
+        robot=state.robot,
+        outliers=state.outliers,
+    )
+
+
+
+class _Resolution:
+    """The signals found so far and what was noted on the way."""
+
+    def __init__(self, log: LogData, cmap: ChannelMap) -> None:
+        self.log, self.cmap = log, cmap
+        self.signals: dict[str, pl.DataFrame] = {}
+        self.sources: dict[str, SignalSource] = {}
+        self.notes: list[str] = []
+        self.flat: list[FlatSignal] = []
+        self.origins: dict[str, SignalOrigin] = {}
+        self.robot, self.wheelbase_from = _robot_config(log, cmap, self.notes)
+        self.outliers: list[Problem] = []
+        firsts = [i.first_ns for i in log.info.values() if i.first_ns is not None]
+        self.origin = min(firsts, default=0)
+
+    def take(self, name: str, frame: pl.DataFrame, src: SignalSource) -> bool:
+        """Clean and keep the signal; False (and a record) when it is empty or carries nothing.
+
+        Outliers are excluded (and recorded); values beyond :data:`PLAUSIBLE_LIMITS` refused."""
+        cleaned, repaired = clean_signal(frame, path=self.log.path, name=name, source=src)
+        self.notes += repaired
+        if not cleaned.height:
+            return False
+        kept, found = drop_outliers(self.log.path, {name: cleaned}, self.origin)
+        cleaned = kept[name]
+        self.outliers += found
+        _check_plausible(self.log.path, name, cleaned, src)
+        flat = _flatness(name, cleaned, src)
+        if flat is not None:
+            self.flat.append(flat)
+            self.notes.append(flat.message(self.log.path))
+            return False
+        self.signals[name], self.sources[name] = cleaned, src
+        return True
+
+    def take_defaults(self, skip: set[str], user: Mapping[str, SignalSource]) -> None:
+        log = self.log
+        if set(log.topics) == {CSV_TOPIC}:
+            frame = log.topics[CSV_TOPIC]
+            for c in frame.columns:
+                if c != TIME_COLUMN and is_logical_signal(c) and c not in skip:
+                    self.take(c, signal_frame(frame, pl.col(c)), SignalSource(CSV_TOPIC, c))
+            return
+        # a topic the map reads the trailer's pose from does not also give the tractor's pose
+        # by the default names (a trailer tracked on /odom is not the tractor)
+        trailer_topics = {s.topic for n, s in user.items() if n in ("x2", "y2", "yaw2")}
+        candidates_by_name = default_candidates(self.cmap.tf_frame)
+        for name, extra in plugin_sources().items():
+            candidates_by_name.setdefault(name, []).extend(extra)
+        for name, candidates in candidates_by_name.items():
+            if name in skip:
+                continue
+            for src in candidates:
+                if name in ("x", "y", "yaw") and src.topic in trailer_topics:
+                    continue
+                found = extract_default(log, name, src)
+                if found is not None and self.take(name, *found):
+                    break
+        joints = topic_frame(log, JOINT_TOPIC)
+        if joints is None:
+            return
+        for col in joints.columns:
+            array, _, index = col.rpartition(".")
+            if array in JOINT_ARRAYS and index.isdigit():
+                name = f"{JOINT_ARRAYS[array]}{int(index) + 1}"
+                if name not in skip and not _joint_family_mapped(name, user):
+                    self.take(
+                        name, signal_frame(joints, pl.col(col)), SignalSource(JOINT_TOPIC, col)
+                    )
+
+    def evaluate_formulas(self, derived: Mapping[str, SignalSource]) -> None:
+        parsed: dict[str, Formula] = {}
+        for name, src in derived.items():  # maps built in code are checked here
+            parsed[name] = parse_formula(
+                src.origin or "", f"signals.{name}.formula", src.formula or ""
+            )
+        pending = dict(derived)
+        while pending:
+            ready = [n for n in pending if not (set(parsed[n].names) & set(pending))]
+            if not ready:  # circular: load_channel_map refuses these; maps built in code may not
+                name = sorted(pending)[0]
+                raise ChannelMapEntryError(
+                    pending[name].origin or "", f"signals.{name}.formula", "is circular."
+                )
+            for name in ready:
+                self._evaluate(name, pending.pop(name))
+
+    def _evaluate(self, name: str, src: SignalSource) -> None:
+        key = f"signals.{name}.formula"
+        formula = parse_formula(src.origin or "", key, src.formula or "")
+        constants = self.robot.constants()
+        inputs = [n for n in formula.names if n not in constants]
+        absent = [n for n in inputs if n not in self.signals]
+        if absent:
+            why = "; ".join(f.message(self.log.path) for f in self.flat if f.name in absent)
+            raise ChannelMapEntryError(
+                src.origin or "",
+                key,
+                f"{src.formula!r} uses {', '.join(absent)}, which {self.log.path} does not have"
+                f"{' (' + why + ')' if why else ''}. Signals found: "
+                f"{', '.join(sorted(self.signals)) or '(none)'}.",
+            )
+        t_ns, arrays = common_times({n: self.signals[n] for n in inputs})
+        values: dict[str, np.ndarray | float] = dict(arrays)
+        values.update({c: v for c, v in constants.items() if c in formula.names})
+        try:
+            out = formula.evaluate(values)
+        except FormulaError as err:
+            raise ChannelMapEntryError(src.origin or "", key, str(err)) from err
+        except RecursionError as err:
+            raise ChannelMapEntryError(src.origin or "", key, "is nested too deeply.") from err
+        out = np.broadcast_to(out, t_ns.shape) if t_ns.size else out
+        frame = pl.DataFrame(
+            {TIME_COLUMN: pl.Series(t_ns, dtype=pl.Int64), "value": np.asarray(out, dtype=float)}
+        )
+        frame = to_si(frame, src).with_columns(pl.col("value").fill_nan(None))
+        dropped = frame["value"].null_count()
+        if dropped:
+            self.notes.append(
+                f"{self.log.path}: signal {name!r} = {src.formula}: {dropped} of {frame.height} "
+                "samples are undefined (division by zero or an input missing at that time); "
+                "left out"
+            )
+        frame = frame.drop_nulls("value")
+        if not frame.height:
+            raise ChannelMapEntryError(
+                src.origin or "", key, f"{src.formula!r} gives no finite value on this log."
+            )
+        if self.take(name, frame, src):
+            self.origins[name] = SignalOrigin(
+                OriginKind.FORMULA, src.formula or "", f"channel-map formula {src.formula}"
+            )
+
+    def derive(self, off: frozenset[str]) -> None:
+        """Every robot plugin's derived signals (``RobotPlugin.derived_signals``): one the log
+        lacks (and the channel map does not switch off) is derived, one it holds is recorded as
+        logged; then each derivation's check adds its notes."""
+        derivations = [d for p in plugins() for d in p.derived_signals]
+        for d in derivations:
+            if d.name in self.signals:
+                if d.name not in self.origins:
+                    src = self.sources[d.name]
+                    self.origins[d.name] = SignalOrigin(
+                        OriginKind.LOGGED, f"{src.topic}:{src.field}", f"logged on {src.describe()}"
+                    )
+                continue
+            if d.name in off:
+                continue
+            got = d.derive(self.found())
+            self.notes += got.notes
+            if got.signal is not None and got.source is not None:
+                self.signals[d.name], self.sources[d.name] = got.signal, got.source
+                if got.origin is not None:
+                    self.origins[d.name] = got.origin
+        found = self.found()
+        for d in derivations:
+            if d.check is not None:
+                self.notes += d.check(found)
+
+    def found(self) -> FoundSignals:
+        """The signals found so far, as a derivation sees them."""
+        return FoundSignals(
+            self.log.path, self.signals, self.sources, self.robot, self.wheelbase_from
+        )
+
+
+def _robot_config(log: LogData, cmap: ChannelMap, notes: list[str]) -> tuple[RobotConfig, str]:
+    """The channel map's [robot] table with the wheelbase completed from the metadata record."""
+    robot = cmap.robot
+    text = log.metadata.get("logcal", {}).get("wheelbase")
+    meta: float | None = None
+    if text is not None:
+        try:
+            meta = float(text)
+        except ValueError:
+            meta = None
+        if meta is None or not (math.isfinite(meta) and meta > 0):
+            notes.append(
+                f"{log.path}: the logcal metadata record's wheelbase {text!r} is not a positive "
+                "number; ignored"
+            )
+            meta = None
+    if robot.wheelbase is not None:
+        where = f"the channel map {cmap.path}".rstrip() + " [robot] wheelbase"
+        if meta is not None and not math.isclose(meta, robot.wheelbase, rel_tol=1e-9):
+            notes.append(
+                f"{log.path}: the channel map's wheelbase {robot.wheelbase:g} m differs from the "
+                f"logcal metadata record's {meta:g} m; the channel map's is used"
+            )
+        return robot, where
+    if meta is not None:
+        return (
+            RobotConfig(robot.type, meta, dict(robot.params)),
+            "the logcal metadata record",
+        )
+    return robot, ""
+
+
+def _flatness(name: str, frame: pl.DataFrame, src: SignalSource) -> FlatSignal | None:
+    """A record when a measured rate or angle is zero in every sample (an empty twist, an
+    unconnected encoder, an orientation never filled in). Commands, positions (a robot may spin
+    in place) and joint signals are never flagged, nor a nonzero constant (a circle driven at
+    constant speed)."""
+    if name not in _ZERO_MEANS_EMPTY or frame.height < FLAT_MIN_SAMPLES:
+        return None
+    values = frame["value"].to_numpy()
+    if np.any(np.abs(values) > 1e-12):
+        return None
+    return FlatSignal(name, src.topic, src.field, 0.0, frame.height)
+
+
+def _joint_family_mapped(name: str, user: Mapping[str, SignalSource]) -> bool:
+    """A user map naming any of q1, q2, … replaces the default q signals altogether."""
+    m = JOINT_SIGNAL.match(name)
+    return m is not None and any(
+        (u := JOINT_SIGNAL.match(k)) and u.group(1) == m.group(1) for k in user
+    )
+
+
+def _check_plausible(path: str, name: str, frame: pl.DataFrame, src: SignalSource) -> None:
+    """Refuse a signal holding values no robot produces in its SI unit (see PLAUSIBLE_LIMITS)."""
+    family = m.group(1) if (m := JOINT_SIGNAL.match(name)) else name
+    unit = SIGNAL_UNITS.get(family) or JOINT_UNITS.get(family)
+    limit = PLAUSIBLE_LIMITS.get(unit or "")
+    if limit is None or not frame.height:
+        return
+    values = frame["value"].to_numpy()
+    beyond = np.flatnonzero(np.abs(values) > limit)
+    if beyond.size:
+        first = float(values[beyond[0]])
+        raise SignalValueError(
+            f"{path}: signal {name!r} (topic {src.topic!r}, field {src.field!r}): {beyond.size} "
+            f"of {values.size} samples are beyond +-{limit:g} {unit} (first: {first:.4g}); "
+            f"expected {unit}. Set the unit or scale in the channel map if the field holds "
+            "another unit."
+        )
+
+
+def _any_joint(family: str, signals: Mapping[str, pl.DataFrame]) -> bool:
+    return family in ("q", "qd", "tau") and any(
+        (m := JOINT_SIGNAL.match(k)) and m.group(1) == family for k in signals
+    )
+
