@@ -36,6 +36,10 @@ class AnalysisConfig:
         robot_options: each robot's own options by plugin name (an instance of that plugin's
             ``options`` class); a robot not named gets its options' defaults. Read them with
             :meth:`options`.
+        window_s: analyse the log by time windows of this many seconds, each read and analysed
+            on its own and the windows' estimates pooled (:mod:`logtools.windows`); 0: the whole
+            log at once; None (default): windows only when the log is long (more than about
+            2 h of samples at 100 Hz), so that memory stays bounded in the log's length.
     """
 
     repeats: int = 10
@@ -45,6 +49,7 @@ class AnalysisConfig:
     per_segment: bool = True
     debug: bool = False
     robot_options: Mapping[str, RobotOptions] = field(default_factory=dict)
+    window_s: float | None = None
 
     def __post_init__(self) -> None:
         for name, opts in self.robot_options.items():

@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from threadpoolctl import threadpool_limits
 
@@ -28,6 +28,9 @@ from logtools.load import LoadedLog, load_log
 from logtools.robots import plugin_for
 from logtools.robots.options import RobotOptions
 from logtools.signals import SignalSource
+
+if TYPE_CHECKING:
+    from logtools.windows import WindowPlan
 
 __all__ = [
     "AnalysisConfig",
@@ -82,11 +85,92 @@ def analyze_log(
     progress: Progress | None = None,
 ) -> tuple[LoadedLog, AnalysisResult]:
     """Read ``path`` (MCAP, ROS bag or CSV) and analyse it; returns the loaded log and the
-    result."""
+    result.
+
+    A long log (``config.window_s``; by default more than about 2 h of samples at 100 Hz) is
+    analysed by time windows (:mod:`logtools.windows`): each window read and analysed on its
+    own, then pooled; ``result.source["windows"]`` says how, ``result.runs`` holds each
+    window's result and the loaded log returned is the last window's.
+
+    Raises:
+        LogcalInputError: the log cannot be read or analysed, or ``config.window_s`` is not a
+            number >= 0.
+    """
     progress = progress or _noop
+    cfg = config or AnalysisConfig()
+    plan = _window_plan(path, channel_map, cfg)
+    if plan is not None:
+        return _analyze_windows(os.fspath(path), plan, channel_map, cfg, progress)
     progress("reading log")
     loaded = load_log(path, channel_map)
-    return loaded, analyze_loaded(loaded, config=config, progress=progress)
+    return loaded, analyze_loaded(loaded, config=cfg, progress=progress)
+
+
+def _window_plan(
+    path: str | os.PathLike[str],
+    channel_map: Mapping[str, SignalSource] | None,
+    cfg: AnalysisConfig,
+) -> WindowPlan | None:
+    from logtools.load import LoadRequest
+    from logtools.windows import plan_windows
+
+    req = channel_map if isinstance(channel_map, LoadRequest) else None
+    return plan_windows(path, cfg.window_s, start_s=req.start_s if req else None,
+                        end_s=req.end_s if req else None)
+
+
+def _analyze_windows(
+    path: str,
+    plan: WindowPlan,
+    channel_map: Mapping[str, SignalSource] | None,
+    cfg: AnalysisConfig,
+    progress: Progress,
+) -> tuple[LoadedLog, AnalysisResult]:
+    """Each window of ``plan`` read, analysed and reduced to its result before the next is
+    read; the results pooled (:func:`logtools.windows.pool_windows`)."""
+    from logtools.channel_map import ChannelMap
+    from logtools.load import LoadRequest
+    from logtools.windows import pool_windows, window_result
+
+    base = channel_map if isinstance(channel_map, ChannelMap) else ChannelMap(
+        dict(channel_map or {}))
+    user_end = channel_map.end_s if isinstance(channel_map, LoadRequest) else None
+    truth = channel_map.ground_truth if isinstance(channel_map, LoadRequest) else None
+
+    def request(k: int) -> ChannelMap | None:
+        a, b = plan.spans_s[k]
+        # a window ends 1 ns before the next one starts: no sample is in two windows
+        end = user_end if k == len(plan.spans_s) - 1 else b - 1e-9
+        return LoadRequest.of(base, ground_truth=truth, start_s=a, end_s=end,
+                              origin_ns=plan.origin_ns)
+
+    results: list[AnalysisResult] = []
+    errors: list[str] = []
+    counts: dict[str, int] = {}
+    last: LoadedLog | None = None
+    last_ok = -1
+    n = len(plan.spans_s)
+    def one(k: int) -> LoadedLog:
+        # its own frame: a window's frames and analysis are released when it returns
+        loaded = load_log(path, request(k))
+        res = analyze_loaded(loaded, config=cfg, progress=progress)
+        for topic, info in loaded.log.info.items():
+            counts[topic] = counts.get(topic, 0) + info.message_count
+        results.append(window_result(res, k + 1, plan.spans_s[k]))
+        return loaded
+
+    for k, (a, b) in enumerate(plan.spans_s):
+        progress(f"window {k + 1} of {n}: {a:.0f}-{b:.0f} s")
+        last = None  # the previous window's frames go before the next window is read
+        try:
+            last, last_ok = one(k), k
+        except LogcalInputError as err:
+            errors.append(f"window {k + 1} ({a:.0f}-{b:.0f} s): {err}")
+    progress(f"pooling {len(results)} windows")
+    pooled = pool_windows(path, plan, results, errors, counts)
+    if last is None:  # the last window failed: the loaded log returned is the last one read
+        last = load_log(path, request(last_ok))
+    return last, pooled
 
 
 def analyze_loaded(
@@ -152,24 +236,36 @@ def analyze_logs(
         return [loaded], res
     runs: list[tuple[LoadedLog, AnalysisResult]] = []
     errors: list[LogcalInputError] = []
+    windowed = False
     for i, p in enumerate(paths, 1):
         progress(f"run {i} of {len(paths)}: {p}")
         try:
-            progress("reading log")
-            loaded = load_log(p, channel_map)
+            plan = _window_plan(p, channel_map, cfg)
+            if plan is not None:  # a long run: by windows, its result pooled over them
+                loaded, res = _analyze_windows(os.fspath(p), plan, channel_map, cfg, progress)
+                windowed = True
+            else:
+                progress("reading log")
+                loaded = load_log(p, channel_map)
             if runs and str(loaded.robot) != str(runs[0][0].robot):
                 raise LogcalInputError(
                     f"{loaded.path}: a {loaded.robot} log among runs of robot "
                     f"{runs[0][0].robot} ({runs[0][0].path}); analyse each robot's runs "
                     "on their own."
                 )
-            runs.append((loaded, analyze_loaded(loaded, config=cfg, progress=progress)))
+            if plan is None:
+                res = analyze_loaded(loaded, config=cfg, progress=progress)
+            runs.append((loaded, res))
         except LogcalInputError as err:
             errors.append(err)
     if not runs:
         raise errors[0]
     plugin = plugin_for(str(runs[0][0].robot))
-    if plugin.pool is not None:
+    if windowed:  # the robot's joint fit needs every run's samples, which windows do not keep
+        from logtools.windows import pool_runs
+
+        pooled = pool_runs([r for _, r in runs])
+    elif plugin.pool is not None:
         with threadpool_limits(limits=1, user_api="blas"):
             pooled = plugin.pool(runs, cfg, progress)
     else:

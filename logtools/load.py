@@ -70,11 +70,15 @@ class LoadRequest(ChannelMap):
             ``yaw``) on the log's clock whose ``x``, ``y``, ``yaw`` replace the log's own.
         start_s: keep samples from this many seconds after the log's first sample (None: 0).
         end_s: keep samples up to this many seconds after the log's first sample (None: all).
+        origin_ns: the time (ns) ``start_s`` and ``end_s`` count from, when known before
+            reading (a windowed analysis): the read then asks the reader for that span only
+            (:func:`logtools.readers.read_log` ``span_ns``). None: the log's first sample.
     """
 
     ground_truth: str | None = None
     start_s: float | None = None
     end_s: float | None = None
+    origin_ns: int | None = None
 
     @classmethod
     def of(
@@ -84,6 +88,7 @@ class LoadRequest(ChannelMap):
         ground_truth: str | os.PathLike[str] | None = None,
         start_s: float | None = None,
         end_s: float | None = None,
+        origin_ns: int | None = None,
     ) -> ChannelMap | None:
         """``channel_map`` with these settings (unchanged when none is given)."""
         if ground_truth is None and start_s is None and end_s is None:
@@ -92,7 +97,7 @@ class LoadRequest(ChannelMap):
         return cls(
             dict(base.signals), base.off, base.robot, base.tf_frame, base.path,
             ground_truth=os.fspath(ground_truth) if ground_truth is not None else None,
-            start_s=start_s, end_s=end_s,
+            start_s=start_s, end_s=end_s, origin_ns=origin_ns,
         )
 
 
@@ -271,9 +276,16 @@ def read_input(
 ) -> LogData:
     """Read ``path`` with :func:`logtools.readers.read_log` (any registered format, TUM
     trajectories included); cropped as a :class:`LoadRequest` says."""
-    log = read_log(path, decoders=decoders, keep=keep)
+    span = None
+    if isinstance(channel_map, LoadRequest) and channel_map.origin_ns is not None:
+        o = channel_map.origin_ns
+        span = (o + round((channel_map.start_s or 0.0) * 1e9),
+                o + round(channel_map.end_s * 1e9) if channel_map.end_s is not None
+                else 2**63 - 1)
+    log = read_log(path, decoders=decoders, keep=keep, span_ns=span)
     if isinstance(channel_map, LoadRequest):
-        log = crop_log(log, channel_map.start_s, channel_map.end_s)
+        log = crop_log(log, channel_map.start_s, channel_map.end_s,
+                       origin_ns=channel_map.origin_ns)
     return log
 
 
@@ -399,6 +411,7 @@ def load_log(
             ground_truth=req.ground_truth if ground_truth is None else ground_truth,
             start_s=req.start_s if start_s is None else start_s,
             end_s=req.end_s if end_s is None else end_s,
+            origin_ns=req.origin_ns,
         )
     log, resolved = read_and_resolve(
         path, channel_map, decoders=decoders, keep=analysis_columns(channel_map)

@@ -69,6 +69,10 @@ def _runs_table(result: AnalysisResult) -> Table:
         table.add_column(Text(printable(f"{n} ({units[n]})")), overflow="fold")
     notes: list[str] = []
     runs = short_names([str(r.source.get("path", "")) for r in result.runs])
+    if "windows" in result.source:  # one log analysed by time windows: windows by their span
+        from logtools.windows import window_label
+
+        runs = [window_label(r) for r in result.runs]
     for r, run_name in zip(result.runs, runs, strict=True):
         params = r.estimate.parameters if r.estimate else {}
         skipped = [s.stage for s in r.stages if s.status != "ok"]
@@ -161,15 +165,19 @@ def render_analysis(result: AnalysisResult, detail: str = "methods") -> Renderab
 
 
 def _render_pooled(result: AnalysisResult, detail: str) -> RenderableType:
+    windows = result.source.get("windows")
     parts: list[RenderableType] = [
         Text.assemble(
-            (f"{len(result.runs)} runs", "bold"),
+            (f"{printable(str(result.source.get('path', '')))}: {len(result.runs)} windows of "
+             f"{windows['window_s']:g} s" if isinstance(windows, dict)
+             else f"{len(result.runs)} runs", "bold"),
             f"  robot: {result.robot}",
             f"  pooled: {result.source['runs_pooled']}" if "runs_pooled" in result.source else "",
         ),
         _runs_table(result),
     ]
-    _answer(result, parts, "Recommended estimate (all runs pooled)")
+    _answer(result, parts, "Recommended estimate (all windows pooled)" if windows
+            else "Recommended estimate (all runs pooled)")
     if detail == "quiet":
         return Group(*parts[1:]) if len(parts) > 1 else Group(*parts)
     plugin = plugin_for(result.robot)

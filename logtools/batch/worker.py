@@ -217,9 +217,13 @@ def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
             baseline=Baseline(options.baseline),
             robot_options=options_from_settings(
                 s.options, where=s.sources[-1] if s.sources else "logcal.toml"),
+            window_s=0.0 if options.views else None,  # views draw every sample
         )
         loaded, result = analyze_log(job.path, channel_map=cmap, config=config)
-        start_ns, end_ns = _time_span(loaded.frame["t_ns"].to_list())
+        win = result.source.get("windows")  # a long log analysed by windows: its whole span
+        start_ns, end_ns = _time_span(
+            [win["first_ns"], win["last_ns"]] if isinstance(win, dict)
+            else loaded.frame["t_ns"].to_list())
         views: dict[str, bytes] = {}
         notes: list[str] = []
         if options.views:

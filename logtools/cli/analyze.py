@@ -68,6 +68,13 @@ def register(app: typer.Typer) -> None:
         ground_truth: Path | None = _GROUND_TRUTH,
         start: float | None = start_option(),
         end: float | None = end_option(),
+        window: float | None = typer.Option(
+            None, "--window", metavar="SECONDS",
+            help="Analyse the log by time windows of this length, each read and analysed on "
+            "its own, and pool them (memory stays that of one window); 0: the whole log at "
+            "once. Default: windows of 1 h at 100 Hz when the log holds more than 2 h of "
+            "samples at 100 Hz (an MCAP file with a summary), else whole.",
+        ),
         no_discovery: bool = typer.Option(False, "--no-discovery", help="Skip discovery."),
         seed: int = typer.Option(0, "--seed", metavar="N", help="Seed of the bootstrap draws."),
         methods: bool = typer.Option(
@@ -92,7 +99,14 @@ def register(app: typer.Typer) -> None:
         from logtools.robots import plugin_for
         from logtools.safe_text import printable
         from logtools.views import write_views
+        from logtools.windows import check_window
 
+        check_window(window)
+        if window and (rrd is not None or png is not None):
+            raise LogcalInputError(
+                f"--window {window:g}: the views (--rrd, --png) draw every sample of the log; "
+                "give --window 0, or --start/--end to view a part"
+            )
         inputs = read_inputs(logs, channel_map=channel_map, signals=signal,
                              ground_truth=ground_truth, start=start, end=end)
         runs = inputs.runs
@@ -109,6 +123,8 @@ def register(app: typer.Typer) -> None:
         cfg = AnalysisConfig(
             repeats=repeats, baseline=baseline, seed=seed, discovery=not no_discovery,
             debug=_debug(), robot_options=robot_options.by_robot(),
+            # the views need every sample: with --rrd/--png the log is analysed whole
+            window_s=0.0 if rrd is not None or png is not None else window,
         )
         err = Console(stderr=True)
         from calib.tractor_trailer.models.hitch_rk4 import compiled_available

@@ -75,7 +75,8 @@ def register(app: typer.Typer) -> None:
         for note in inputs.notes:
             say(f"logcal: {note}")
         cfg = AnalysisConfig(repeats=repeats, baseline=baseline,
-                             robot_options=robot_options.by_robot())
+                             robot_options=robot_options.by_robot(),
+                             window_s=0.0)  # the views draw every sample: never by windows
         loadeds, result = analyze_logs(inputs.runs, channel_map=inputs.channel_map, config=cfg)
         plugin = plugin_for(result.robot)
         for warning in robot_options.unused(plugin) + general_warnings(plugin, {

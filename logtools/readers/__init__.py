@@ -21,11 +21,12 @@ from __future__ import annotations
 import os
 import stat
 from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 from logtools.errors import LogFileNotFoundError, NotAnMcapError
 from logtools.problems import Problem, ProblemKind
-from logtools.readers.base import TIME_COLUMN, ColumnFilter, LogData, TopicInfo
+from logtools.readers.base import TIME_COLUMN, ColumnFilter, LogData, TopicInfo, in_span
 from logtools.readers.csv_reader import CSV_TOPIC
 from logtools.readers.decoders import DEFAULT_DECODERS, Decoders, MessageDecoder, known_encodings
 from logtools.readers.formats import HEAD_BYTES, FormatReader, ReadRequest, format_for
@@ -40,11 +41,14 @@ __all__ = [
     "Decoders",
     "FormatReader",
     "LogData",
+    "LogExtent",
     "MessageDecoder",
     "Problem",
     "ProblemKind",
     "TopicInfo",
+    "in_span",
     "known_encodings",
+    "log_extent",
     "read_log",
     "read_rosbag",
 ]
@@ -56,6 +60,7 @@ def read_log(
     topics: Iterable[str] | None = None,
     decoders: Decoders = DEFAULT_DECODERS,
     keep: ColumnFilter | None = None,
+    span_ns: tuple[int, int] | None = None,
 ) -> LogData:
     """Read a drive log in any registered format (:mod:`logtools.readers.formats`: MCAP, ROS
     bags, OptiOdom runs, TUM trajectories, CSV, and any format a plugin registers).
@@ -68,6 +73,9 @@ def read_log(
             never take memory for the whole log; other formats after reading.
         decoders: MCAP message encoding -> decoder (default: JSON, ROS 2, ROS 1, protobuf);
             e.g. ``{**DEFAULT_DECODERS, "cbor": decode_cbor}`` adds one for this read only.
+        span_ns: keep only the messages logged from ``span_ns[0]`` to ``span_ns[1]`` (ns,
+            inclusive; ``info`` then describes those). A large intact MCAP file reads just the
+            chunks its chunk index places there; other formats are read whole and cut.
 
     Returns:
         The log's frames, topic summaries, metadata records and the problems repaired.
@@ -103,9 +111,51 @@ def read_log(
         if MAGIC.startswith(head):
             raise NotAnMcapError(name, f"only {len(head)} bytes of an MCAP header: truncated")
         raise NotAnMcapError(name, f"it starts with the bytes {head[:8]!r}")
-    log = reader.read(name, ReadRequest(topics, keep, decoders, size))
+    log = reader.read(name, ReadRequest(topics, keep, decoders, size, span_ns))
+    if span_ns is not None:
+        log = in_span(log, *span_ns)
     log.problems.extend(checked_numbers(name, log.metadata))
     return log
+
+
+@dataclass(frozen=True)
+class LogExtent:
+    """A log's time span (first and last log time, ns) and message count per topic, as its
+    index gives them."""
+
+    first_ns: int
+    last_ns: int
+    messages: dict[str, int]
+
+    @property
+    def duration_s(self) -> float:
+        return (self.last_ns - self.first_ns) * 1e-9
+
+    @property
+    def rate_hz(self) -> float:
+        """The fastest topic's mean rate (1/s; 0 for a log of one instant)."""
+        span = self.last_ns - self.first_ns
+        return max(self.messages.values(), default=0) / (span * 1e-9) if span > 0 else 0.0
+
+
+def log_extent(path: str | os.PathLike[str]) -> LogExtent | None:
+    """The extent of ``path`` read from its index alone (an MCAP file's summary statistics),
+    without reading its messages; None for a format or file that keeps no such index (read
+    the log to learn it)."""
+    from logtools.readers.mcap_reader import mcap_extent
+
+    p = Path(os.fspath(path))
+    try:
+        st = p.stat()
+    except OSError:
+        return None
+    if not stat.S_ISREG(st.st_mode):
+        return None
+    try:
+        ext = mcap_extent(os.fspath(p), st.st_size)
+    except (OSError, ValueError):
+        return None
+    return None if ext is None else LogExtent(ext.first_ns, ext.last_ns, dict(ext.messages))
 
 
 NUMERIC_METADATA: dict[str, tuple[str, ...]] = {

@@ -19,6 +19,7 @@ __all__ = [
     "Problem",
     "ProblemKind",
     "TopicInfo",
+    "in_span",
     "sorted_by_time",
 ]
 
@@ -110,3 +111,29 @@ def sorted_by_time(
         )
         frame = frame.sort(TIME_COLUMN, maintain_order=True)
     return frame
+
+
+def in_span(log: LogData, t0_ns: int, t1_ns: int) -> LogData:
+    """``log`` with only the messages logged from ``t0_ns`` to ``t1_ns`` (inclusive); each
+    decoded topic's ``info`` counts what is kept (a topic not decoded keeps its ``info``)."""
+    topics: dict[str, pl.DataFrame] = {}
+    info: dict[str, TopicInfo] = {}
+    for name, ti in log.info.items():
+        frame = log.topics.get(name)
+        if frame is None:
+            info[name] = ti
+            continue
+        t = frame[TIME_COLUMN]
+        inside = frame.height and t0_ns <= int(t.min()) and int(t.max()) <= t1_ns  # type: ignore[arg-type]
+        kept = frame if inside else frame.filter(pl.col(TIME_COLUMN).is_between(t0_ns, t1_ns))
+        topics[name] = kept
+        times = kept[TIME_COLUMN]
+        info[name] = TopicInfo(
+            ti.topic, ti.schema_name, ti.schema_encoding, ti.message_encoding, kept.height,
+            int(times.min()) if kept.height else None,  # type: ignore[arg-type]
+            int(times.max()) if kept.height else None,  # type: ignore[arg-type]
+        )
+    for name, frame in log.topics.items():  # a frame without info (none today): cut as well
+        if name not in topics:
+            topics[name] = frame.filter(pl.col(TIME_COLUMN).is_between(t0_ns, t1_ns))
+    return LogData(log.path, topics, info, log.metadata, log.problems)

@@ -56,7 +56,8 @@ def _read_mcap(name: str, req: ReadRequest) -> LogData:
 
     decoders = req.decoders if req.decoders is not None else DEFAULT_DECODERS
     if req.size >= _BATCHED_MIN_BYTES:  # a large intact MCAP: a batch at a time
-        batched = read_mcap_batched(name, req.size, req.topics, decoders, req.keep)
+        batched = read_mcap_batched(name, req.size, req.topics, decoders, req.keep,
+                                    req.span_ns)
         if batched is not None:
             return batched
     buf = _whole(name)

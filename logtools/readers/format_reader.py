@@ -19,13 +19,16 @@ HEAD_BYTES = 4096
 @dataclass(frozen=True)
 class ReadRequest:
     """What a caller asks of a read: ``topics`` to decode (None: all), a column filter
-    ``keep``, the MCAP ``decoders`` (None: the default ones), and the file's ``size`` in bytes
-    (0 for a folder)."""
+    ``keep``, the MCAP ``decoders`` (None: the default ones), the file's ``size`` in bytes
+    (0 for a folder), and ``span_ns``, a time range (first, last log time in ns, inclusive)
+    the caller keeps: a format with a time index (MCAP's chunk index) reads only the parts that
+    cover it; any format may return more (``read_log`` cuts the rest)."""
 
     topics: Iterable[str] | None = None
     keep: ColumnFilter | None = None
     decoders: Decoders | None = None
     size: int = 0
+    span_ns: tuple[int, int] | None = None
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import mmap
 from collections.abc import Iterable
+from io import RawIOBase
 
 import numpy as np
 import polars as pl
@@ -40,7 +41,7 @@ from logtools.readers.mcap_scan import (
     summary_offset,
 )
 
-__all__ = ["BATCH_BYTES", "read_mcap", "read_mcap_batched"]
+__all__ = ["BATCH_BYTES", "McapExtent", "mcap_extent", "read_mcap", "read_mcap_batched"]
 
 
 def read_mcap(
@@ -113,10 +114,18 @@ def read_mcap_batched(
     topics: Iterable[str] | None = None,
     decoders: Decoders = DEFAULT_DECODERS,
     keep: ColumnFilter | None = None,
+    span_ns: tuple[int, int] | None = None,
 ) -> LogData | None:
     """Read a large, intact MCAP file ``BATCH_BYTES`` of chunks at a time, never holding the
     whole file; None when the file does not qualify or is not MCAP (the caller then reads it
     whole, which also reports any damage).
+
+    ``span_ns`` (first, last log time, inclusive): read only the chunks whose time range meets
+    it (the summary's chunk index gives each chunk's first and last log time) and keep only
+    its messages, so a time window of a long log costs that window's chunks, not the file's.
+    ``info`` then counts the messages of the span, and the check against the statistics'
+    counts (which are the whole file's) is left to the caller: a windowed analysis compares
+    the sum over its windows (:mod:`logtools.windows`).
 
     Reading whole holds the file's bytes and every decompressed chunk until the last channel
     is decoded: for a 1 M-message JSON log, 36 MB of file and 75 MB of chunks beside 21 MB of
@@ -142,12 +151,7 @@ def read_mcap_batched(
         amap = mmap.mmap(-1, size)  # anonymous: only the pages written take memory
 
         def load(start: int, end: int) -> bool:
-            fh.seek(start)
-            view = memoryview(amap)[start:end]
-            try:
-                return fh.readinto(view) == end - start
-            finally:
-                view.release()
+            return _load(fh, amap, start, end)
 
         tail = min(size, 4096)
         if not load(size - tail, size):
@@ -174,6 +178,9 @@ def read_mcap_batched(
                 return None
             if not read_metadata_record(amap[mi.offset : mi.offset + mi.length], summary):
                 return None
+        if span_ns is not None:
+            ordered = [c for c in ordered if c.message_end_time >= span_ns[0]
+                       and c.message_start_time <= span_ns[1]]
         wanted = None if topics is None else set(topics)
         times: dict[int, list[np.ndarray]] = {}
         parts: dict[int, list[pl.DataFrame]] = {}
@@ -183,13 +190,25 @@ def read_mcap_batched(
             hi += batch[-1].message_index_length
             if not (len(MAGIC) <= lo < hi <= summary_start and load(lo, hi)):
                 return None
-            ok = _decode_batch(path, amap, batch, summary, wanted, decoders, keep, times, parts)
+            ok = _decode_batch(path, amap, batch, summary, wanted, decoders, keep, times, parts,
+                               span_ns)
             if hasattr(mmap, "MADV_DONTNEED"):  # give the batch's pages back (Linux, macOS)
                 first = lo // mmap.PAGESIZE * mmap.PAGESIZE
                 amap.madvise(mmap.MADV_DONTNEED, first, hi - first)
             if not ok:
                 return None
-    return _assemble(path, summary, stats, wanted, decoders, keep, times, parts)
+    return _assemble(path, summary, stats, wanted, decoders, keep, times, parts,
+                     whole=span_ns is None)
+
+
+def _load(fh: RawIOBase, amap: mmap.mmap, start: int, end: int) -> bool:
+    """Read the file's bytes ``start:end`` into ``amap`` at the same offsets."""
+    fh.seek(start)
+    view = memoryview(amap)[start:end]
+    try:
+        return fh.readinto(view) == end - start
+    finally:
+        view.release()
 
 
 def _batches(ordered: list[ChunkIndex]) -> list[list[ChunkIndex]]:
@@ -214,14 +233,19 @@ def _assemble(
     keep: ColumnFilter | None,
     times: dict[int, list[np.ndarray]],
     parts: dict[int, list[pl.DataFrame]],
+    *,
+    whole: bool = True,
 ) -> LogData | None:
-    """The batches' pieces as one :class:`LogData` (None if the counts disagree)."""
+    """The batches' pieces as one :class:`LogData` (None if the counts disagree; not
+    ``whole``: a time span was read, whose counts the statistics do not give)."""
     summary.messages = {
         cid: ChannelMessages(np.concatenate(t) if len(t) > 1 else t[0]) for cid, t in times.items()
     }
     counts = {cid: len(m.log_times) for cid, m in summary.messages.items() if len(m.log_times)}
-    if counts != {c: n for c, n in stats.channel_message_counts.items() if n}:
+    if whole and counts != {c: n for c, n in stats.channel_message_counts.items() if n}:
         return None  # a message outside the listed chunks, or a summary that disagrees
+    if not whole:
+        summary.statistics = None  # the whole file's counts: no "lost messages" for a span
     by_topic = _channels_by_topic(summary)
     info = {topic: _topic_info(summary, chans) for topic, chans in by_topic.items()}
     origin = min((i.first_ns for i in info.values() if i.first_ns is not None), default=0)
@@ -253,21 +277,26 @@ def _decode_batch(
     keep: ColumnFilter | None,
     times: dict[int, list[np.ndarray]],
     parts: dict[int, list[pl.DataFrame]],
+    span_ns: tuple[int, int] | None = None,
 ) -> bool:
     """Open the chunks ``batch`` and decode their messages into ``times`` and ``parts`` (per
-    channel); False on damage or lost messages. Its own function so that nothing refers to
-    the batch's decompressed chunks once it returns."""
+    channel), only those within ``span_ns`` when given; False on damage or lost messages. Its
+    own function so that nothing refers to the batch's decompressed chunks once it returns."""
     scan = scan_chunks(buf, probe, batch)
     if scan.damage.any or scan.channel_conflicts or set(scan.messages) - set(scan.channels):
         return False  # the whole read reports damage, reused channel ids, unknown channels
     for cid, msgs in scan.messages.items():
-        times.setdefault(cid, []).append(msgs.log_times)
+        t = msgs.log_times
+        inside = None if span_ns is None else (t >= span_ns[0]) & (t <= span_ns[1])
+        times.setdefault(cid, []).append(t if inside is None else t[inside])
         ch = scan.channels[cid]
         if wanted is not None and ch.topic not in wanted:
             continue
         frame, problem = _decode_channel(path, scan, ch, decoders, keep)
         if problem is not None or frame is None:
             return False
+        if span_ns is not None:
+            frame = frame.filter(pl.col(TIME_COLUMN).is_between(*span_ns))
         parts.setdefault(cid, []).append(frame)
     probe.channels.update(scan.channels)
     probe.schemas.update(scan.schemas)
@@ -500,3 +529,45 @@ def _damage_problems(
         for e in damage.chunk_errors
     ]
     return out
+
+
+@dataclasses.dataclass(frozen=True)
+class McapExtent:
+    """What an MCAP file's summary says of its messages, without reading them: the first and
+    last log time (ns) and the number of messages per topic."""
+
+    first_ns: int
+    last_ns: int
+    messages: dict[str, int]
+
+
+def mcap_extent(path: str, size: int) -> McapExtent | None:
+    """The extent of the MCAP file ``path`` (``size`` bytes) from its summary's statistics; None
+    when it is not MCAP or has no readable summary with statistics (only the footer and the
+    summary are read)."""
+    if size < len(MAGIC) + 64:
+        return None
+    with open(path, "rb", buffering=0) as fh:
+        if fh.read(len(MAGIC)) != MAGIC:
+            return None
+        amap = mmap.mmap(-1, size)  # anonymous: only the pages written take memory
+
+        def load(start: int, end: int) -> bool:
+            return _load(fh, amap, start, end)
+
+        tail = min(size, 4096)
+        if not load(size - tail, size):
+            return None
+        summary_start = summary_offset(amap)
+        if not summary_start or not load(summary_start, size):
+            return None
+        summary, start = read_summary(amap)
+    stats = summary.statistics
+    if not start or stats is None or not stats.message_count:
+        return None
+    counts: dict[str, int] = {}
+    for cid, n in stats.channel_message_counts.items():
+        ch = summary.channels.get(cid)
+        if ch is not None and n:
+            counts[ch.topic] = counts.get(ch.topic, 0) + n
+    return McapExtent(int(stats.message_start_time), int(stats.message_end_time), counts)
