@@ -62,7 +62,8 @@ import tempfile
 import time
 from collections import Counter, defaultdict
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import fields, replace
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -84,17 +85,32 @@ MAGNITUDES: dict[str, tuple[float, float]] = {
 }
 CATALOGUE = tuple(MAGNITUDES)
 UNCATALOGUED = "trailer_slip"
-PARAM = {
-    "actuator_delay": "delay",
-    "actuator_lag": "time_constant",
-    "understeer": "K",
-    "sensor_offset(psi)": "offset",
-    "sensor_offset(omega)": "offset",
-    "sensor_scale(omega)": "scale",
-    "sensor_scale(psi)": "scale",
-    "clock_offset(hitch)": "offset",
-    "clock_offset(odom)": "offset",
-}
+
+@cache
+def _effects() -> dict[str, Any]:
+    """calib's command-driven catalogue by key: each effect's parameter, kind, channels and
+    simulator switch come from it (``Effect.spec``), not from lists kept here."""
+    from calib.tractor_trailer.discovery.effects import catalogue
+
+    return {e.key: e for e in catalogue("steady")}
+
+
+def sim_effects(truth: dict[str, dict[str, float]]) -> dict[str, Any]:
+    """The simulator options (``Effects`` keyword arguments, the same in calib's simulator and
+    the independent generator) that produce the catalogued effects of ``truth``: each effect's
+    ``sim_switch``, per target when it has one."""
+    kw: dict[str, Any] = {}
+    for k, p in truth.items():
+        if k == UNCATALOGUED:
+            continue
+        e = _effects()[k]
+        v = next(iter(p.values()))
+        if e.target is None:
+            kw[e.spec.sim_switch] = v
+        else:
+            kw.setdefault(e.spec.sim_switch, {})[e.target] = v
+    return kw
+
 SHORT = {
     "actuator_delay": "delay",
     "actuator_lag": "lag",
@@ -130,13 +146,12 @@ def draw_truth(rng: np.random.Generator) -> dict[str, dict[str, float]]:
         lo, hi = MAGNITUDES[n]
         mag = float(np.exp(rng.uniform(math.log(lo), math.log(hi))))
         sign = float(rng.choice([-1.0, 1.0]))
-        if n.startswith("sensor_scale"):
-            val = 1.0 + sign * mag
-        elif n.startswith(("sensor_offset", "clock_offset")):
-            val = sign * mag
-        else:
-            val = mag
-        out[n] = {PARAM[n]: val}
+        spec = _effects()[n].spec
+        par = spec.params[0]
+        # a sensor's or a clock's error goes either way; an actuator's delay, lag, understeer
+        # only one
+        val = par.null + (sign * mag if spec.kind in ("sensor", "clock") else mag)
+        out[n] = {par.name: val}
     return out
 
 
@@ -165,27 +180,10 @@ def frame_indgen(
         from indgen.scenario import _random_command  # type: ignore[import-not-found]
 
         scn = replace(scn, command=_random_command(rng, scn.command.M, duration, command_kind))
-    kw: dict[str, Any] = {}
-    offs: dict[str, float] = {}
-    scales: dict[str, float] = {}
-    clocks: dict[str, float] = {}
-    for k, p in truth.items():
-        v = next(iter(p.values()))
-        if k == "actuator_delay":
-            kw["actuator_delay_s"] = v
-        elif k == "actuator_lag":
-            kw["actuator_lag_s"] = v
-        elif k == "understeer":
-            kw["understeer_K"] = v
-        elif k == UNCATALOGUED:
-            kw["trailer_slip"] = v
-        elif k.startswith("sensor_offset"):
-            offs[k[14:-1]] = v
-        elif k.startswith("sensor_scale"):
-            scales[k[13:-1]] = v
-        elif k.startswith("clock_offset"):
-            clocks[k[13:-1]] = v
-    eff = indgen.Effects(sensor_offset=offs, sensor_scale=scales, clock_offset_s=clocks, **kw)
+    kw = sim_effects(truth)
+    if UNCATALOGUED in truth:
+        kw["trailer_slip"] = next(iter(truth[UNCATALOGUED].values()))
+    eff = indgen.Effects(**kw)
     topics = dict(scn.topics)
     if _needs_odom(truth) and "odom" not in topics:
         topics["odom"] = replace(topics["hitch"], quantum={}, noise={"v": 0.02, "omega": 0.005})
@@ -234,19 +232,16 @@ def _effect_signals(
     out = {}
     for k in truth:
         e = scn.effects
-        kw = {
-            "actuator_delay_s": 0.0 if k == "actuator_delay" else e.actuator_delay_s,
-            "actuator_lag_s": 0.0 if k == "actuator_lag" else e.actuator_lag_s,
-            "understeer_K": 0.0 if k == "understeer" else e.understeer_K,
-            "trailer_slip": 0.0 if k == UNCATALOGUED else e.trailer_slip,
-            "sensor_offset": {
-                s: v for s, v in e.sensor_offset.items() if k != f"sensor_offset({s})"
-            },
-            "sensor_scale": {s: v for s, v in e.sensor_scale.items() if k != f"sensor_scale({s})"},
-            "clock_offset_s": {
-                g: v for g, v in e.clock_offset_s.items() if k != f"clock_offset({g})"
-            },
-        }
+        kw = {f.name: getattr(e, f.name) for f in fields(e)}
+        if k == UNCATALOGUED:
+            kw["trailer_slip"] = 0.0
+        else:  # the effect's switch off: its target's entry dropped, or its null
+            eff = _effects()[k]
+            if eff.target is None:
+                kw[eff.spec.sim_switch] = eff.spec.params[0].null
+            else:
+                kw[eff.spec.sim_switch] = {
+                    t: v for t, v in kw[eff.spec.sim_switch].items() if t != eff.target}
         less = indgen.generate(replace(scn, topics=quiet, effects=indgen.Effects(**kw)), seed=seed)
         best = 0.0
         for topic, field, c in (("/odom", "omega", "omega"), ("/hitch/angle", "angle", "psi")):
@@ -319,27 +314,9 @@ def frame_sim(
     from calib.tractor_trailer.sim.tractor_trailer import Effects
 
     del seed
-    kw: dict[str, Any] = {}
-    offs: dict[str, float] = {}
-    scales: dict[str, float] = {}
-    clocks: dict[str, float] = {}
-    for k, p in truth.items():
-        v = next(iter(p.values()))
-        if k == "actuator_delay":
-            kw["actuator_delay_s"] = v
-        elif k == "actuator_lag":
-            kw["actuator_lag_s"] = v
-        elif k == "understeer":
-            kw["understeer_K"] = v
-        elif k.startswith("sensor_offset"):
-            offs[k[14:-1]] = v
-        elif k.startswith("sensor_scale"):
-            scales[k[13:-1]] = v
-        elif k.startswith("clock_offset"):
-            clocks[k[13:-1]] = v
     if UNCATALOGUED in truth:
         raise ValueError("calib.tractor_trailer.sim has no trailer slip")
-    w = wide_run(rng, Effects(sensor_offset=offs, sensor_scale=scales, clock_offset_s=clocks, **kw))
+    w = wide_run(rng, Effects(**sim_effects(truth)))
     c = dict(w.conditions)
     c["generator"] = "sim"
     c["command"] = c.pop("command_kind")
@@ -436,12 +413,9 @@ def correct(rec: dict[str, Any]) -> tuple[bool, bool]:
 
 
 def channels(effect: str) -> tuple[str, ...]:
-    """Outputs an effect changes (as in calib's catalogue)."""
-    if effect.endswith(("(psi)", "(hitch)")):
-        return ("psi",)
-    if effect.endswith(("(omega)", "(odom)")):
-        return ("omega",)
-    return ("omega", "psi")
+    """Outputs an effect changes (calib's catalogue's; both for one outside it)."""
+    e = _effects().get(effect)
+    return tuple(e.channels) if e is not None else ("omega", "psi")
 
 
 def strength(rec: dict[str, Any]) -> float:

@@ -18,6 +18,7 @@ import numpy as np
 import polars as pl
 
 from calib.results import CommandType as C
+from calib.tractor_trailer.discovery.effects import catalogue
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,
@@ -149,13 +150,10 @@ LOGS: dict[str, tuple] = {
 L1_TRUE, L2_TRUE = 1.25, 2.48
 
 _SIM_TO_EFFECT = {
-    "actuator_delay_s": ("actuator_delay", "delay"),
-    "actuator_lag_s": ("actuator_lag", "time_constant"),
-    "understeer_K": ("understeer", "K"),
-    "sensor_offset": ("sensor_offset", "offset"),
-    "sensor_scale": ("sensor_scale", "scale"),
-    "clock_offset_s": ("clock_offset", "offset"),
+    e.spec.sim_switch: (e.id, e.params[0].name) for e in catalogue("steady") if e.spec.sim_switch
 }
+"""Simulator switch (a key of the run's parameters, before any ".target") -> (effect id, its
+parameter), from calib's catalogue entries."""
 
 
 def expected_effects(params: dict[str, float], baseline: str, hitch: str) -> list[dict]:

@@ -126,7 +126,7 @@ class PathEffectModel(Protocol):
     An effect shifts the joint angle's stamps (``stamp_shift``: all shifts are summed into one
     move of the modelled angle, before any reading change) or changes the reading (``apply``,
     in ``order``); ``undo`` takes its reading change out of recorded samples. The defaults
-    (for subclasses) shift nothing and undo nothing."""
+    (for subclasses) shift nothing, change nothing and undo nothing."""
 
     order: int
     """Position in the chain: reading changes apply in increasing order (undone in
@@ -144,8 +144,8 @@ class PathEffectModel(Protocol):
     def apply(self, state: PathState, value: float) -> tuple[PathState, FloatArray]:
         """The state after this effect's change of the reading (the earlier effects' columns
         carried through it) and its own column: the derivative of the new reading to
-        ``value``. Not called for an effect that shifts the stamps."""
-        raise NotImplementedError
+        ``value``. Not called for an effect that shifts the stamps (default: no change)."""
+        return state, np.zeros_like(state.y)
 
     def undo(self, state: Undone, value: float) -> Undone:
         """``state`` with this effect's change of the reading taken out."""

@@ -1,7 +1,8 @@
 """A tractor-trailer effect added the way every built-in one is: its catalogue entry and its
 hook (how it changes the modelled joint-angle reading) are defined here, in the test, and one
 line (``register_effect``) makes the discovery along the path try it. Nothing in calib knows
-its id.
+its id. The command-driven engine's effects are catalogue entries too (``Effect.spec``) and
+take a registered effect the same way.
 
 The effect: a joint-angle encoder that reads y + k y^2 (an asymmetric bend, unlike the built-in
 cubic). A clean log from the independent generator has its joint angle bent by this test's
@@ -11,7 +12,7 @@ residual; on the clean log it is tried and not accepted.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -19,6 +20,12 @@ import pytest
 from indgen.tractor_kinds import tractor_log
 
 from calib.adequacy import EffectKind, EffectParam, EffectSpec
+from calib.tractor_trailer.discovery.effects import Effect, ParamSpec
+from calib.tractor_trailer.discovery.effects import catalogue as command_catalogue
+from calib.tractor_trailer.discovery.effects import register_effect as register_command_effect
+from calib.tractor_trailer.discovery.effects import (
+    unregister_effect as unregister_command_effect,
+)
 from calib.tractor_trailer.estimators.drive_path import DrivePath
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.path_discovery import PathDiscovery, discover_along_path
@@ -140,3 +147,56 @@ def test_new_effect_is_tried_and_not_accepted_on_the_clean_log(registered: None)
     assert disc.selection is not None
     assert "sensor_quadratic(psi)" in {t.key for t in disc.selection.tried}
     assert "sensor_quadratic(psi)" not in [e.key for e in disc.accepted]
+
+
+# ----------------------------------------------------------------- command-driven catalogue
+class _CommandQuadratic(Effect):
+    """recorded psi = psi + k psi^2."""
+
+    id = "sensor_quadratic"
+    stage = 2
+    order = 3
+
+    @property
+    def params(self) -> tuple[ParamSpec, ...]:
+        return (ParamSpec("quadratic", "1/rad", 0.0, -3.0, 3.0, 0.0),)
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return ("psi",)
+
+    def modify_output(self, name: str, t_s: np.ndarray, y: np.ndarray,
+                      p: Mapping[str, float]) -> np.ndarray:
+        return y + p["quadratic"] * y * y if name == "psi" else y
+
+    def explanation(self, values: Mapping[str, float]) -> str:
+        return f"the joint angle reads {values['quadratic']:.3g} psi^2 too much"
+
+
+def test_command_effects_are_catalogue_entries() -> None:
+    by_key = {e.key: e.spec for e in command_catalogue("steady")}
+    assert by_key["actuator_delay"].kind is EffectKind.ACTUATOR
+    assert by_key["understeer"].kind is EffectKind.ACTUATOR
+    assert by_key["hitch_transient"].kind is EffectKind.DYNAMICS
+    assert by_key["clock_offset(hitch)"].kind is EffectKind.CLOCK
+    assert by_key["sensor_scale(psi)"].kind is EffectKind.SENSOR
+    assert by_key["sensor_scale(psi)"].confounded_with == ("param:L1", "param:L2")
+    assert by_key["clock_offset(odom)"].sim_switch == "clock_offset_s"
+    assert by_key["actuator_lag"].truth_key == "actuator_lag"
+    assert by_key["actuator_lag"].params[0].name == "time_constant"
+    assert all(s.model is not None and s.model.spec == s for s in by_key.values())
+    assert "hitch_transient" not in {e.key for e in command_catalogue("transient")}
+
+
+def test_command_catalogue_takes_a_registered_effect() -> None:
+    register_command_effect(lambda: _CommandQuadratic("psi"))  # the one line
+    try:
+        cat = command_catalogue("transient", channels=("psi",))
+        assert cat[-1].key == "sensor_quadratic(psi)"
+        assert cat[-1].spec.kind is EffectKind.SENSOR
+        assert cat[-1] is not command_catalogue("transient")[-1]  # a fresh one per catalogue
+        assert "sensor_quadratic(psi)" not in {
+            e.key for e in command_catalogue("transient", channels=("omega",))}
+    finally:
+        unregister_command_effect("sensor_quadratic(psi)")
+    assert "sensor_quadratic(psi)" not in {e.key for e in command_catalogue("transient")}

@@ -158,6 +158,7 @@ def _effect_fit(
         delta_bic=ev.delta_bic,
         explanation=effect.explanation(pars),
         alternatives=tuple(alternatives),
+        kind=str(effect.spec.kind),
     )
 
 

@@ -304,7 +304,9 @@ class EffectFit:
     model without this effect (the others kept and refitted) and with it; ``delta_bic`` the
     BIC change of adding it to the others (negative favours the effect); ``alternatives``
     labels of explanations the log barely tells from this one (details in
-    ``DiscoveryResult.alternatives``; a set of effects is joined with " + ").
+    ``DiscoveryResult.alternatives``; a set of effects is joined with " + "); ``kind``: the
+    effect's :class:`calib.adequacy.EffectKind` ("sensor", "actuator", "dynamics", "clock"),
+    from its catalogue entry.
     """
 
     id: str
@@ -316,6 +318,7 @@ class EffectFit:
     delta_bic: float
     explanation: str
     alternatives: tuple[str, ...] = ()
+    kind: str = ""
 
     @property
     def label(self) -> str:
@@ -367,6 +370,7 @@ class EffectFit:
                 "id": self.id,
                 "target": self.target,
                 "label": self.label,
+                "kind": self.kind,
                 "parameters": dict(self.parameters),
                 "std": dict(self.std),
                 "ci95": {k: list(v) for k, v in self.ci95.items()},

@@ -387,7 +387,15 @@ def _path_discovery(
     )
 
 
-_PSI_EFFECTS = {"sensor_offset": "sensor_offset(psi)", "clock_offset": "clock_offset(hitch)"}
+def _path_keys(labels: list[str]) -> list[str]:
+    """The effects command-driven discovery named (``labels``) that the path discovery also
+    catalogues (same key), less those its hooks leave to the path to judge (``tolerated``: the
+    joint-angle gain)."""
+    from calib.tractor_trailer.path_effects import catalogue
+
+    path = {e.key: e for e in catalogue()}
+    return [k for k in labels
+            if k in path and getattr(path[k].model, "tolerated", None) is None]
 
 
 def _judged(
@@ -409,8 +417,7 @@ def _judged(
     if disc is None or disc.adequacy is None:
         return estimate, not_assessed(estimate.method, disc.reason if disc is not None else
                                       "discovery along the path failed (see the stages)")
-    command_keys = [k for label in used for i, k in _PSI_EFFECTS.items()
-                    if label.startswith(i)]
+    command_keys = _path_keys(used)
     keys = list(dict.fromkeys([e.key for e in disc.accepted] + command_keys))
     if disc.status == "ok" and disc.change is None and set(keys) != {
         e.key for e in disc.accepted
@@ -594,7 +601,7 @@ def analyze_tractor_trailer(
     ):
         actuator = [
             e.label for e in getattr(discovery, "effects", []) or []
-            if e.id in ("actuator_delay", "actuator_lag", "understeer")
+            if e.kind == "actuator"
         ]
         if actuator:
             notes.append(

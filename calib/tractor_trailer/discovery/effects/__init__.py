@@ -1,10 +1,13 @@
 """The catalogue of physical effects: one interface (``Effect``), one module per effect.
 
-To add an effect, subclass ``Effect`` in a new module and list an instance in ``catalogue``.
+To add an effect, subclass ``Effect`` (its hooks and its catalogue entry's declarations: kind,
+confounds, simulator switch) and list an instance in ``catalogue``, or, from outside the
+package, pass its factory to ``register_effect`` (one line).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Literal
 
 from calib.tractor_trailer.discovery.effects.actuator_delay import ActuatorDelay
@@ -27,7 +30,22 @@ __all__ = [
     "SensorScale",
     "Understeer",
     "catalogue",
+    "register_effect",
+    "unregister_effect",
 ]
+
+_REGISTERED: list[Callable[[], Effect]] = []
+
+
+def register_effect(factory: Callable[[], Effect]) -> None:
+    """Add the effect ``factory()`` makes (a fresh one per catalogue: effects remember their
+    intermediate results) to every later ``catalogue``, after the built-in ones."""
+    _REGISTERED.append(factory)
+
+
+def unregister_effect(key: str) -> None:
+    """Remove the registered effects whose ``key`` is ``key`` (the built-in ones stay)."""
+    _REGISTERED[:] = [f for f in _REGISTERED if f().key != key]
 
 
 def catalogue(
@@ -36,8 +54,10 @@ def catalogue(
 ) -> list[Effect]:
     """Candidate effects of the tractor-trailer for ``baseline`` and the recorded ``channels``.
 
-    ``hitch_transient`` is a candidate only against the steady-state baseline (the transient
-    baseline already contains it); effects on a channel that was not recorded are left out.
+    An effect whose physics a baseline already contains (``Effect.in_baselines``: the
+    hitch transient in the transient baseline) is left out against it, and so are effects on a
+    channel that was not recorded. Registered effects (``register_effect``) follow the
+    built-in ones.
     """
     effects: list[Effect] = [
         HitchTransient(),
@@ -50,7 +70,7 @@ def catalogue(
         Understeer(),
         ClockOffset("hitch"),
         ClockOffset("odom"),
+        *(make() for make in _REGISTERED),
     ]
-    if baseline == "transient":
-        effects = [e for e in effects if not isinstance(e, HitchTransient)]
+    effects = [e for e in effects if baseline not in e.in_baselines]
     return [e for e in effects if any(c in channels for c in e.channels)]

@@ -17,6 +17,8 @@ class ActuatorDelay(Effect):
     id = "actuator_delay"
     stage = 0
     order = 1
+    confounded_with = ("clock_offset(odom)", "clock_offset(hitch)", "actuator_lag")
+    sim_switch = "actuator_delay_s"
 
     @property
     def params(self) -> tuple[ParamSpec, ...]:

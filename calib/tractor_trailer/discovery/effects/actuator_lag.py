@@ -43,6 +43,8 @@ class ActuatorLag(Effect):
     id = "actuator_lag"
     stage = 0
     order = 2
+    confounded_with = ("actuator_delay",)
+    sim_switch = "actuator_lag_s"
 
     @property
     def params(self) -> tuple[ParamSpec, ...]:

@@ -3,7 +3,11 @@
 An effect is a model extension: it owns a few parameters (with units, bounds and the value at
 which it does nothing) and changes the model at one stage: the inputs (commanded curvature and
 speed as the vehicle feels them), the hitch dynamics (relaxation length) or the outputs (what
-the sensors record).
+the sensors record). It is also its own catalogue entry: ``spec`` is the shared
+:class:`calib.adequacy.EffectSpec` (kind from its stage, parameters, the effects it is known to
+be confounded with, the simulator switch that produces it, its truth key) whose ``model`` hook
+is the effect itself, so reports, the pipeline and the studies read those from the effect
+instead of lists of ids.
 """
 
 from __future__ import annotations
@@ -17,6 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
+from calib.adequacy import EffectKind, EffectParam, EffectSpec
+
 __all__ = [
     "Effect",
     "FloatArray",
@@ -29,6 +35,11 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 T = TypeVar("T")
+STAGE_KIND = {0: EffectKind.ACTUATOR, 1: EffectKind.DYNAMICS, 2: EffectKind.SENSOR}
+"""The kind of an effect at each stage: the inputs as the vehicle feels them (the actuator's
+response to its command), the hitch dynamics, the outputs (what a sensor records)."""
+STAGE_TARGET = {0: "kappa", 1: "psi"}
+"""What an effect without a target acts on, by stage (the curvature; the joint angle)."""
 REMEMBERED = 6  # results an effect remembers (``remembered``)
 
 
@@ -63,12 +74,22 @@ class Effect:
 
     Subclasses set ``id``, ``stage`` (0 inputs, 1 hitch dynamics, 2 outputs), ``order`` within
     the stage, ``params`` and ``channels`` (the modelled outputs it changes), and override the
-    hooks they need.
+    hooks they need; for their catalogue entry (``spec``) also ``kind`` (default: the stage's,
+    ``STAGE_KIND``), ``confounded_with`` (keys of effects, or "param:" robot parameters, the
+    log may not tell it from) and ``sim_switch`` (the option of
+    :class:`calib.tractor_trailer.sim.tractor_trailer.Effects` that produces it; per target
+    when the effect has one).
     """
 
     id: str = ""
     stage: int = 0
     order: int = 0
+    kind: EffectKind | None = None
+    confounded_with: tuple[str, ...] = ()
+    sim_switch: str = ""
+    in_baselines: tuple[str, ...] = ()
+    """Baselines ("steady", "transient") that already contain this effect's physics: it is no
+    candidate against them."""
 
     def __init__(self, target: str | None = None) -> None:
         self.target = target
@@ -81,6 +102,21 @@ class Effect:
     @property
     def params(self) -> tuple[ParamSpec, ...]:
         raise NotImplementedError
+
+    @property
+    def spec(self) -> EffectSpec[Effect]:
+        """This effect as a catalogue entry, its hook the effect itself. The truth key is
+        ``key`` (what a simulated log's truth and the studies call it); an effect without a
+        target takes the one of its stage (``STAGE_TARGET``) in ``spec.target``."""
+        doc = (type(self).__doc__ or self.id).strip().splitlines()[0]
+        return EffectSpec(
+            self.id, self.target or STAGE_TARGET.get(self.stage, ""),
+            self.kind or STAGE_KIND[self.stage],
+            tuple(EffectParam(p.name, p.unit, p.null, p.lower, p.upper, p.init)
+                  for p in self.params),
+            doc, confounded_with=self.confounded_with, sim_switch=self.sim_switch,
+            truth_key=self.key, model=self,
+        )
 
     @property
     def channels(self) -> tuple[str, ...]:

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from calib.adequacy import EffectKind
 from calib.tractor_trailer.discovery.effects.base import Effect, FloatArray, ParamSpec, remembered
 
 __all__ = ["ClockOffset"]
@@ -27,6 +28,9 @@ class ClockOffset(Effect):
     id = "clock_offset"
     stage = 2
     order = 0
+    kind = EffectKind.CLOCK
+    confounded_with = ("actuator_delay",)
+    sim_switch = "clock_offset_s"
 
     @property
     def params(self) -> tuple[ParamSpec, ...]:

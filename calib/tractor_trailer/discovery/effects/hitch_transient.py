@@ -18,6 +18,8 @@ class HitchTransient(Effect):
 
     id = "hitch_transient"
     stage = 1
+    sim_switch = "hitch_model"
+    in_baselines = ("transient",)
 
     @property
     def params(self) -> tuple[ParamSpec, ...]:

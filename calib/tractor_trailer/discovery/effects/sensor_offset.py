@@ -17,6 +17,7 @@ class SensorOffset(Effect):
     id = "sensor_offset"
     stage = 2
     order = 2
+    sim_switch = "sensor_offset"
 
     @property
     def params(self) -> tuple[ParamSpec, ...]:

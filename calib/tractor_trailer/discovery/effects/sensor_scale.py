@@ -15,6 +15,11 @@ class SensorScale(Effect):
     id = "sensor_scale"
     stage = 2
     order = 1
+    sim_switch = "sensor_scale"
+
+    @property
+    def confounded_with(self) -> tuple[str, ...]:  # type: ignore[override]
+        return ("param:L1", "param:L2") if self.target == "psi" else ("understeer",)
 
     @property
     def params(self) -> tuple[ParamSpec, ...]:

@@ -15,6 +15,8 @@ class Understeer(Effect):
     id = "understeer"
     stage = 0
     order = 3
+    confounded_with = ("sensor_scale(omega)",)
+    sim_switch = "understeer_K"
 
     @property
     def params(self) -> tuple[ParamSpec, ...]:
