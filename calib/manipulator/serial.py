@@ -224,8 +224,16 @@ def _build(path: Path) -> tuple[Any, list[str]]:
 def movable_joints(urdf: str) -> tuple[str, ...]:
     """Names of the URDF's moving joints, in its order (``urdf``: path or example-robot NAME)."""
     path = Path(urdf).expanduser()
-    full, _ = _build(path if path.is_file() else example_robot_urdf(urdf))
+    full, _ = _build(path if _is_file(path) else example_robot_urdf(urdf))
     return tuple(full.names[i] for i in range(1, full.njoints) if full.joints[i].nv > 0)
+
+
+def _is_file(path: Path) -> bool:
+    """``path.is_file()``, False when the name cannot even be looked up (too long, ...)."""
+    try:
+        return path.is_file()
+    except OSError:
+        return False
 
 
 def urdf_path(urdf: str) -> Path:
@@ -235,7 +243,7 @@ def urdf_path(urdf: str) -> Path:
         ArmModelError: no such file, and not a model name.
     """
     path = Path(urdf).expanduser()
-    if not path.is_file():
+    if not _is_file(path):
         if any(sep in urdf for sep in ("/", "\\")) or urdf.endswith(".urdf"):
             raise ArmModelError(f"URDF {urdf}: no such file")
         path = example_robot_urdf(urdf)
@@ -474,7 +482,7 @@ class SerialArm:
     def transmissions(self) -> tuple[Transmission, ...]:
         """The URDF's transmissions (:func:`read_transmissions`; none without a file)."""
         path = Path(self.source)
-        return read_transmissions(path) if self.source and path.is_file() else ()
+        return read_transmissions(path) if self.source and _is_file(path) else ()
 
     def joint_kinds(self) -> tuple[str, ...]:
         """``revolute`` or ``prismatic`` per logged joint."""
