@@ -240,11 +240,15 @@ def prepared_folder(
     used = 0
     clean: list[str] = []
     for src in sources:
+        target = tmp / ((src.stem or "storage") if mode == "file" else src.name)
+        if target.name in clean:  # one storage file read twice, or two that would clash
+            raise NotARosbagError(
+                name, f"{_METADATA}: relative_file_paths names {src.name!r} where another "
+                f"entry already gives the storage file {target.name!r}; each file once"
+            )
         if mode == "file":
-            target = tmp / (src.stem or "storage")
             used += _decompress_file(name, src, target, budget - used)
         else:
-            target = tmp / src.name
             os.symlink(src.resolve(), target)
         clean.append(target.name)
     copy = {k: v for k, v in info.items() if k not in ("files",)}
