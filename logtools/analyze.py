@@ -130,7 +130,7 @@ def _analyze_windows(
     read; the results pooled (:func:`logtools.windows.pool_windows`)."""
     from logtools.channel_map import ChannelMap
     from logtools.load import LoadRequest
-    from logtools.windows import pool_windows, window_result
+    from logtools.windows import pool_windows, release_memory, window_result
 
     base = channel_map if isinstance(channel_map, ChannelMap) else ChannelMap(
         dict(channel_map or {}))
@@ -162,6 +162,7 @@ def _analyze_windows(
     for k, (a, b) in enumerate(plan.spans_s):
         progress(f"window {k + 1} of {n}: {a:.0f}-{b:.0f} s")
         last = None  # the previous window's frames go before the next window is read
+        release_memory()
         try:
             last, last_ok = one(k), k
         except LogcalInputError as err:
