@@ -69,7 +69,7 @@ def one_run(job: tuple[float, float, int, dict[str, float]]) -> dict[str, float]
         "identifiable": float(res.identifiable),
         "L1": float(inside(*res.parameters["L1"].ci95, L1)),
         "L2": float(inside(*res.parameters["L2"].ci95, L2)),
-        "sum": float(inside(*res.sum_L1_L2.ci95, L1 + L2)),
+        "sum": float(inside(*res.derived["sum_L1_L2"].ci95, L1 + L2)),
         "err_L1": res.parameters["L1"].value - L1,
         "se_L1": res.parameters["L1"].std,
     }
@@ -96,8 +96,8 @@ def steady_run(seed: int) -> dict[str, float]:
     return {
         "split_not_determined": float(not res.parameters["L1"].identifiable
                                       and not res.parameters["L2"].identifiable),
-        "sum_determined": float(res.sum_L1_L2.identifiable),
-        "sum_covered": float(inside(*res.sum_L1_L2.ci95, L1 + L2)),
+        "sum_determined": float(res.derived["sum_L1_L2"].identifiable),
+        "sum_covered": float(inside(*res.derived["sum_L1_L2"].ci95, L1 + L2)),
         "L1_covered": float(inside(*res.parameters["L1"].ci95, L1)),
     }
 

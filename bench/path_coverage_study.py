@@ -84,7 +84,7 @@ def one(i: int, seed: int) -> dict[str, Any]:
         row["stages"] = {s.stage: s.status for s in res.stages}
     if est is not None:
         for q in QUANTITIES:
-            e = est.sum_L1_L2 if q == "sum_L1_L2" else est.parameters[q]
+            e = est.derived[q] if q == "sum_L1_L2" else est.parameters[q]
             row[q] = {"value": e.value, "ci95": list(e.ci95), "determined": e.identifiable}
     return row
 

@@ -21,9 +21,12 @@ __all__ = [
     "Estimate",
     "Family",
     "JsonRecord",
+    "Matrix",
     "MethodResult",
     "Segment",
     "StageStatus",
+    "as_matrix",
+    "correlations_of",
     "format_pm",
     "json_safe",
 ]
@@ -197,46 +200,128 @@ class MethodResult(JsonRecord):
     std_kind: str = "repeats"
 
 
+Matrix = tuple[tuple[float, ...], ...]
+"""A square matrix as a tuple of rows of floats (immutable, and JSON-safe through json_safe)."""
+
+
+def as_matrix(m: Any) -> Matrix:
+    """``m`` (a nested sequence or a 2-D array) as a :data:`Matrix` of floats.
+
+    Raises:
+        ValueError: ``m`` is not square.
+    """
+    rows = tuple(tuple(float(x) for x in row) for row in m)
+    if any(len(r) != len(rows) for r in rows):
+        raise ValueError(f"a covariance must be square; got rows of lengths "
+                         f"{[len(r) for r in rows]}")
+    return rows
+
+
+def correlations_of(cov: Matrix) -> Matrix:
+    """The correlation matrix of covariance ``cov``: cov_ij / sqrt(cov_ii cov_jj), clipped to
+    [-1, 1]. An entry whose variances are not finite and positive is NaN (a parameter the data
+    do not determine has no correlation); the diagonal is exactly 1 where the variance is
+    finite and positive."""
+    sd = [math.sqrt(c[i]) if math.isfinite(c[i]) and c[i] > 0 else math.nan
+          for i, c in enumerate(cov)]
+    out = []
+    for i, row in enumerate(cov):
+        r = []
+        for j, c in enumerate(row):
+            den = sd[i] * sd[j]
+            if not (math.isfinite(den) and math.isfinite(c)):
+                r.append(math.nan)
+            else:
+                r.append(1.0 if i == j else max(-1.0, min(1.0, c / den)))
+        out.append(tuple(r))
+    return tuple(out)
+
+
+_RESULT_KEYS = frozenset({
+    "method", "verdict", "identifiable", "parameter_names", "derived_names", "covariance",
+    "correlations", "converged", "aic", "bic", "details",
+})
+"""The JSON keys of a CalibrationResult that are not a parameter or a derived quantity."""
+
+
 @dataclass(frozen=True)
 class CalibrationResult:
-    """One method's (or the recommended) parameter set, with intervals and a verdict.
+    """One method's (or the recommended) parameter set, with intervals and a verdict: the one
+    result type of every robot.
 
-    ``parameters`` maps each parameter's name to an ``Estimate`` (the tractor-trailer's "L1" and
-    "L2"; a differential drive's wheel radii and track; an arm's base parameters).
-    ``sum_L1_L2`` is the tractor-trailer's sum of link lengths, usually far better determined
-    than the split (None for other robots). ``verdict`` is a plain-language sentence for people.
+    ``parameters`` maps each parameter's name to an ``Estimate``, in the order of ``covariance``
+    (the tractor-trailer's "L1" and "L2"; a differential drive's wheel radii and track; an
+    arm's base parameters). ``derived`` holds the robot's own quantities computed from the
+    parameters, filled by that robot's code (the tractor-trailer's "sum_L1_L2", usually far
+    better determined than the split); this type knows no robot. ``covariance`` is the N x N
+    covariance of the fit the parameters come from, over ``parameters`` in their order (None
+    when unknown); where a robot widens its intervals afterwards (a misfit, explanations the
+    log cannot tell apart) the intervals may be wider than its diagonal says. ``verdict`` is a
+    plain-language sentence for people.
+
+    Raises:
+        ValueError: a covariance that is not N x N over the parameters, or a parameter or
+            derived name that clashes with another or with a key of the JSON document.
     """
 
     method: str
     parameters: Mapping[str, Estimate]
-    sum_L1_L2: Estimate | None
     verdict: str
-    covariance: tuple[tuple[float, float], tuple[float, float]] | None = None
+    covariance: Matrix | None = None
+    derived: Mapping[str, Estimate] = field(default_factory=dict)
     converged: bool = True
     aic: float = math.nan
     bic: float = math.nan
     details: Mapping[str, Any] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        clash = (set(self.parameters) & set(self.derived)) | (
+            (set(self.parameters) | set(self.derived)) & _RESULT_KEYS)
+        if clash:
+            raise ValueError(f"CalibrationResult {self.method!r}: names {sorted(clash)} clash "
+                             "(a parameter, a derived quantity and the JSON keys must differ)")
+        if self.covariance is not None:
+            cov = as_matrix(self.covariance)
+            if len(cov) != len(self.parameters):
+                raise ValueError(
+                    f"CalibrationResult {self.method!r}: covariance is {len(cov)} x {len(cov)} "
+                    f"but there are {len(self.parameters)} parameters")
+            object.__setattr__(self, "covariance", cov)
+
     @property
     def identifiable(self) -> bool:
         return all(e.identifiable for e in self.parameters.values())
 
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """The parameters' names in the order of ``covariance`` and ``correlations``."""
+        return tuple(self.parameters)
+
+    @property
+    def correlations(self) -> Matrix | None:
+        """The parameters' correlation matrix (:func:`correlations_of`); None without a
+        covariance."""
+        return None if self.covariance is None else correlations_of(self.covariance)
+
     def report(self) -> str:
         lines = [f"Recommended estimate ({self.method}):"]
         lines += ["  " + e.report() for e in self.parameters.values()]
-        if self.sum_L1_L2 is not None:
-            lines.append("  " + self.sum_L1_L2.report())
+        lines += ["  " + e.report() for e in self.derived.values()]
         lines.append("  " + self.verdict)
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
+        """Each parameter, then each derived quantity, at the top level under its key; the
+        result's own keys after them (``parameter_names`` gives the covariance's order)."""
         d: dict[str, Any] = {name: est.to_dict() for name, est in self.parameters.items()}
-        if self.sum_L1_L2 is not None:
-            d["sum_L1_L2"] = self.sum_L1_L2.to_dict()
+        d.update({name: est.to_dict() for name, est in self.derived.items()})
         d["method"] = self.method
         d["verdict"] = self.verdict
         d["identifiable"] = self.identifiable
+        d["parameter_names"] = list(self.parameters)
+        d["derived_names"] = list(self.derived)
         d["covariance"] = self.covariance
+        d["correlations"] = self.correlations
         d["converged"] = self.converged
         d["aic"] = self.aic
         d["bic"] = self.bic

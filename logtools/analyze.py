@@ -206,6 +206,7 @@ def _pooled_adequacy(pooled: AnalysisResult) -> AnalysisResult:
     if estimate is not None and adequacy.channels and not adequacy.explains:
         estimate = replace(
             estimate, parameters=under_misfit_all(estimate.parameters, adequacy),
+            derived=under_misfit_all(estimate.derived, adequacy),
             verdict=estimate.verdict + " " + adequacy.summary,
         )
     return replace(pooled, adequacy=adequacy, estimate=estimate)

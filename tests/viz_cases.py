@@ -62,7 +62,7 @@ def make_result(run, *, discovery: bool = True) -> AnalysisResult:
     estimate = CalibrationResult(
         method="EIV",
         parameters={"L1": l1, "L2": l2},
-        sum_L1_L2=_estimate("L1+L2", 3.73, 0.01),
+        derived={"sum_L1_L2": _estimate("L1+L2", 3.73, 0.01)},
         verdict="both lengths determined",
     )
     disc = None

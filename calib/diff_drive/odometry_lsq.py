@@ -37,7 +37,7 @@ from calib.diff_drive.data import DriveRun, check_runs
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.segments import SegmentIndex, cut_segments
 from calib.errors import InsufficientDataError
-from calib.results import CalibrationResult, Estimate
+from calib.results import CalibrationResult, Estimate, as_matrix
 
 __all__ = [
     "DEFAULT_SEGMENT_S",
@@ -105,6 +105,14 @@ class LsqFit:
         if self.boot.shape[0] < 2:
             return np.full(3, np.nan)
         return np.asarray(np.std(self.boot[:, :3], axis=0, ddof=1), dtype=float)
+
+    @property
+    def cov(self) -> Array:
+        """Bootstrap covariance of (r_R, r_L, b) (m^2; its diagonal is ``std`` squared), NaN
+        with fewer than two replicates."""
+        if self.boot.shape[0] < 2:
+            return np.full((3, 3), np.nan)
+        return np.asarray(np.cov(self.boot[:, :3], rowvar=False, ddof=1), dtype=float)
 
     @property
     def offset_std(self) -> tuple[float, float]:
@@ -327,8 +335,8 @@ def calibrate_lsq(
     result = CalibrationResult(
         method="LSQ",
         parameters=est,
-        sum_L1_L2=None,
         verdict=verdict,
+        covariance=as_matrix(fit.cov),
         details={
             "segments": fit.n_segments,
             "segment_s": segment_s,

@@ -29,7 +29,7 @@ from calib.diff_drive.data import DriveRun
 from calib.diff_drive.dead_reckoning import dead_reckon
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.errors import InsufficientDataError
-from calib.results import CalibrationResult, Estimate
+from calib.results import CalibrationResult, Estimate, as_matrix
 
 __all__ = ["UmbmarkResult", "square_end_error", "umbmark"]
 
@@ -76,6 +76,9 @@ class UmbmarkResult:
     Eb_std: float
     params: DiffDriveParams
     params_std: tuple[float, float, float]
+    params_cov: Array
+    """Covariance of (r_R, r_L, b) (m^2) from that of (alpha, beta); its diagonal is
+    ``params_std`` squared (the radii move together, in opposite directions)."""
 
 
 def _start_frame_error(run: DriveRun, nominal: DiffDriveParams) -> Array:
@@ -135,6 +138,9 @@ def umbmark(
     rbar = 0.5 * (nominal.r_R + nominal.r_L)
     r_R, r_L = 2 * rbar * Ed / (1 + Ed), 2 * rbar / (1 + Ed)
     dr = 2 * rbar / (1 + Ed) ** 2 * Ed_std  # both radii move by this (opposite signs)
+    # Jacobian of (r_R, r_L, b) in (alpha, beta)
+    jac = np.vstack([2 * rbar / (1 + Ed) ** 2 * g_Ed, -2 * rbar / (1 + Ed) ** 2 * g_Ed,
+                     [nominal.b * dEb, 0.0]])
     return UmbmarkResult(
         side=L,
         errors_cw=e_cw,
@@ -148,6 +154,7 @@ def umbmark(
         Eb_std=Eb_std,
         params=DiffDriveParams(float(r_R), float(r_L), float(b)),
         params_std=(float(dr), float(dr), float(nominal.b * Eb_std)),
+        params_cov=jac @ cov_ab @ jac.T,
     )
 
 
@@ -171,7 +178,7 @@ def umbmark_result(res: UmbmarkResult, n_cw: int, n_ccw: int) -> CalibrationResu
     return CalibrationResult(
         method="UMBmark",
         parameters=est,
-        sum_L1_L2=None,
+        covariance=as_matrix(res.params_cov),
         verdict=(
             f"UMBmark: Ed = r_R/r_L = {res.Ed:.5f} ± {res.Ed_std:.1g}, "
             f"Eb = b/b_nominal = {res.Eb:.4f} ± {res.Eb_std:.1g}"

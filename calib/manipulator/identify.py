@@ -25,7 +25,7 @@ from calib.manipulator.feasibility import Feasibility, check_feasibility
 from calib.manipulator.model import ArmModel
 from calib.manipulator.rows import Regressors, compute_regressors
 from calib.manipulator.signals import JointSignals, prepare_signals
-from calib.results import CalibrationResult, Estimate
+from calib.results import CalibrationResult, Estimate, as_matrix
 
 __all__ = [
     "ArmIdentification",
@@ -118,11 +118,15 @@ def _result(
     note: str = "",
     details: dict[str, object] | None = None,
 ) -> CalibrationResult:
+    est = _estimates(design, theta, w.std, w.identifiable, note)
+    # the HAC covariance over the parameters this log determines (NaN rows where it does not,
+    # as their standard errors are)
+    ok = np.array([e.identifiable for e in est.values()], dtype=bool)
     return CalibrationResult(
         method=method,
-        parameters=_estimates(design, theta, w.std, w.identifiable, note),
-        sum_L1_L2=None,
+        parameters=est,
         verdict=verdict,
+        covariance=as_matrix(np.where(np.outer(ok, ok), w.cov, np.nan)),
         converged=bool(np.all(np.isfinite(theta[w.identifiable]))),
         details=details or {},
     )

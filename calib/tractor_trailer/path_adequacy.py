@@ -25,6 +25,7 @@ from calib.adequacy import (
     under_misfit,
 )
 from calib.results import CalibrationResult
+from calib.tractor_trailer.derived import derived_sum, link_sum
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.path_effects import JointPathModel, JointSolution
 
@@ -143,7 +144,7 @@ def estimate_under_misfit(
     pieces = pieces or {}
     params = {k: under_misfit(e, adequacy, pieces=pieces.get(k, ()))
               for k, e in estimate.parameters.items()}
-    total = estimate.sum_L1_L2
+    total = link_sum(estimate)
     if total is not None:
         total = under_misfit(total, adequacy, pieces=pieces.get("L1+L2", ()))
     worst = max(adequacy.channels, key=lambda c: c.judged_ratio)
@@ -159,6 +160,7 @@ def estimate_under_misfit(
         + (" and by the spread over parts of the log" if pieces else "")
         + ", not a calibrated 95 %."
     )
-    return replace(estimate, parameters=params, sum_L1_L2=total, verdict=verdict,
+    return replace(estimate, parameters=params, derived=derived_sum(total, estimate.derived),
+                   verdict=verdict,
                    details={**estimate.details, "adequacy_verdict": adequacy.verdict,
                             "misfit_factor": adequacy.misfit_factor})

@@ -54,6 +54,7 @@ from calib.adequacy import (
 )
 from calib.errors import CalibError
 from calib.results import CalibrationResult, Estimate, json_safe
+from calib.tractor_trailer.derived import derived_sum, link_sum
 from calib.tractor_trailer.estimators.drive_path import DrivePath
 from calib.tractor_trailer.estimators.identifiability import undetermined
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
@@ -291,7 +292,7 @@ def _pieces(
 def _informative(f: PathTransientFit) -> bool:
     """A piece that determines L1 + L2 (by the estimator's own rule) and bounds L2 within half
     its value: a stretch driven straight or at rest determines neither and is left out."""
-    total = f.result_.sum_L1_L2
+    total = link_sum(f.result_)
     sd2 = math.sqrt(max(f.cov_[1, 1], 0.0))
     return bool(total is not None and total.identifiable and sd2 < 0.5 * abs(f.L2_))
 
@@ -588,19 +589,20 @@ def _spanned(est: CalibrationResult, alternatives: Sequence[tuple[str, Any]],
     for name in ("L1", "L2"):
         params[name] = span([params[name]] + [a[name] for _, a in alternatives], labels,
                             scale=scale, rel_tol=rel_tol)
-    total = est.sum_L1_L2
+    total = link_sum(est)
     if total is not None:
         alts = [_est("L1 + L2", a["L1"].value + a["L2"].value,
                      a["L1"].std**2 + a["L2"].std**2, "m") for _, a in alternatives]
         total = span([total, *alts], labels, scale=scale, rel_tol=rel_tol)
     if all(e.identifiable for e in params.values()) and (total is None or total.identifiable):
-        return replace(est, parameters=params, sum_L1_L2=total)
+        return replace(est, parameters=params, derived=derived_sum(total, est.derived))
     why = "; ".join(f"{k}" for k, _ in alternatives)
     verdict = (f"Not determined: the log cannot tell these link lengths from other explanations "
                f"({why}), which imply different ones; the intervals span them. The fit "
                f"alone says L1 = {est.parameters['L1'].value:.3f} m, L2 = "
                f"{est.parameters['L2'].value:.3f} m.")
-    return replace(est, parameters=params, sum_L1_L2=total, verdict=verdict)
+    return replace(est, parameters=params, derived=derived_sum(total, est.derived),
+                   verdict=verdict)
 
 
 def recommended(estimate: CalibrationResult, disc: PathDiscovery) -> CalibrationResult:
@@ -620,7 +622,7 @@ def recommended(estimate: CalibrationResult, disc: PathDiscovery) -> Calibration
             f"{e.parameters['L2'].value:.3f} m" for a, b, e, _ in disc.split)
         return replace(
             est, parameters=params,
-            sum_L1_L2=None if est.sum_L1_L2 is None else undetermined(est.sum_L1_L2, short),
+            derived={k: undetermined(e, short) for k, e in est.derived.items()},
             verdict=f"Not determined for the whole log: {disc.change.note}. Each part on its "
             f"own: {sides or 'not fitted'}.",
             details={**est.details, "change": disc.change.to_dict()})
@@ -641,11 +643,12 @@ def _widened_unstable(
     scale = 0.5 * (abs(est.parameters["L1"].value) + abs(est.parameters["L2"].value))
     sizes = dict.fromkeys(STABILITY_NAMES, scale)
     named = dict(est.parameters)
-    if est.sum_L1_L2 is not None:
-        named["L1+L2"] = est.sum_L1_L2
+    total = link_sum(est)
+    if total is not None:
+        named["L1+L2"] = total
     wide = widen_unstable(named, stability, rel_tol=rel_tol, scale=sizes)
     params = {k: wide[k] for k in est.parameters}
-    total = wide.get("L1+L2") if est.sum_L1_L2 is not None else None
+    total = wide.get("L1+L2") if total is not None else None
     lost = [k for k, e in wide.items() if not e.identifiable and named[k].identifiable]
     moved = ", ".join(f"{k} ({stability[k].chi2:.3g} on {stability[k].dof} dof)"
                       for k in STABILITY_NAMES if k in stability and stability[k].unstable)
@@ -656,7 +659,8 @@ def _widened_unstable(
                    f"leaves out moves them; the intervals are widened by that disagreement. "
                    f"The fit says " + ", ".join(f"{k} = {e.value:.3f} m"
                                                   for k, e in est.parameters.items()) + ".")
-    return replace(est, parameters=params, sum_L1_L2=total, verdict=verdict,
+    return replace(est, parameters=params, derived=derived_sum(total, est.derived),
+                   verdict=verdict,
                    details={**est.details, "piece_stability": {
                        k: v.to_dict() for k, v in stability.items()}})
 

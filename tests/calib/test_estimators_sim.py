@@ -73,7 +73,7 @@ def test_transient_coverage_small_study() -> None:
             hits += [
                 _inside(res.parameters["L1"].ci95, L1),
                 _inside(res.parameters["L2"].ci95, L2),
-                _inside(res.sum_L1_L2.ci95, L1 + L2),
+                _inside(res.derived["sum_L1_L2"].ci95, L1 + L2),
             ]
             n += 1
     assert np.all(hits / n >= 0.75), hits / n
@@ -95,9 +95,9 @@ def test_steady_state_only_low_curvature_log(with_speed: bool) -> None:
     assert res.method == "EIV-ML"  # the transient model cannot explain an instant joint angle
     assert not res.parameters["L1"].identifiable
     assert not res.parameters["L2"].identifiable
-    assert res.sum_L1_L2.identifiable
-    lo, hi = res.sum_L1_L2.ci95
-    assert lo < res.sum_L1_L2.value < hi
+    assert res.derived["sum_L1_L2"].identifiable
+    lo, hi = res.derived["sum_L1_L2"].ci95
+    assert lo < res.derived["sum_L1_L2"].value < hi
     assert "the split is not determined" in res.verdict
     assert [r.name for r in rows] == (["EIV-ML", TransientFit.name] if with_speed else ["EIV-ML"])
 

@@ -131,8 +131,8 @@ def test_misfit_makes_the_estimate_not_determined() -> None:
     est = recommended(fit.result_, judged)
     assert not est.identifiable
     assert "does not explain" in est.verdict
-    assert est.sum_L1_L2 is not None
-    assert not est.sum_L1_L2.identifiable
+    assert "sum_L1_L2" in est.derived
+    assert not est.derived["sum_L1_L2"].identifiable
     for name in ("L1", "L2"):
         e, e0 = est.parameters[name], fit.result_.parameters[name]
         assert e.value == e0.value

@@ -79,7 +79,7 @@ def _analyze(loaded: LoadedLog, config: AnalysisConfig, progress: object) -> Ana
     verdict = f"wheelbase from {n} samples above {MIN_SPEED} m/s"
     return AnalysisResult(
         robot="bicycle", segments=[], methods=[],
-        estimate=CalibrationResult("least squares", {"wheelbase": est}, None, verdict),
+        estimate=CalibrationResult("least squares", {"wheelbase": est}, verdict),
         adequacy=adequacy, source={"path": str(loaded.path)},
         stages=[StageStatus("wheelbase", "ok"), StageStatus("model adequacy", "ok")],
         sections={"samples_used": n, "wheelbase_guess": guess},

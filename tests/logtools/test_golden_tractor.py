@@ -8,7 +8,11 @@ yes/no facts moved from ``extra`` (as 1.0/0.0) to ``flags`` (booleans), and
 (2026-11-24): the path fit's Jacobian became exact (forward sensitivities instead of
 finite differences), which moved the quantities computed from it (``covariance``,
 ``details.input_noise_bias_correction`` and ``details.discretisation_error``) by about 1e-6
-relative; those fields were rewritten from the new output, nothing else."""
+relative; those fields were rewritten from the new output, nothing else. A third: the
+estimate gained ``parameter_names``, ``derived_names`` and ``correlations`` (results of any
+robot: named parameters, their N x N covariance and correlations, derived quantities such as
+``sum_L1_L2``); they were added to the golden files by a script, ``correlations`` computed from
+the file's own ``covariance``, nothing else changed."""
 
 from __future__ import annotations
 

@@ -31,7 +31,7 @@ def _estimate(names: tuple[str, ...]) -> CalibrationResult:
         n: Estimate(n, 0.1 * (i + 1), 0.01, (0.08, 0.12 + i), unit="N·m")
         for i, n in enumerate(names)
     }
-    return CalibrationResult(method="LSQ [ridge]", parameters=params, sum_L1_L2=None,
+    return CalibrationResult(method="LSQ [ridge]", parameters=params,
                              verdict="determined for [torso_lift_joint]")
 
 

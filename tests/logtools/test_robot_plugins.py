@@ -26,7 +26,7 @@ def _analyze(loaded: LoadedLog, config: Any, progress: Any) -> AnalysisResult:
     est = Estimate("theta0", mean, std, (mean - 1.96 * std, mean + 1.96 * std), unit="rad")
     return AnalysisResult(
         robot="test_pendulum", segments=[], methods=[],
-        estimate=CalibrationResult("mean", {"theta0": est}, None, "the mean angle"),
+        estimate=CalibrationResult("mean", {"theta0": est}, "the mean angle"),
         source={"path": loaded.path}, stages=[StageStatus("mean", "ok")],
         sections={"samples": int(theta.size)},
     )

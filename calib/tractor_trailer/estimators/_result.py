@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from calib.results import CalibrationResult, Family, MethodResult
+from calib.results import CalibrationResult, Family, MethodResult, as_matrix
+from calib.tractor_trailer.derived import derived_sum
 from calib.tractor_trailer.estimators.identifiability import IdentifiabilityVerdict
 
 __all__ = ["calibration_result", "information_criteria", "method_result"]
@@ -32,14 +33,15 @@ def calibration_result(
     bic: float = math.nan,
     details: Mapping[str, Any] | None = None,
 ) -> CalibrationResult:
-    """A ``CalibrationResult`` for (L1, L2) with covariance ``cov`` (m^2)."""
+    """A ``CalibrationResult`` for (L1, L2) with covariance ``cov`` (m^2; its leading 2 x 2
+    block when the fit has more parameters) and L1 + L2 as a derived quantity."""
     c = np.asarray(cov, dtype=float)
     return CalibrationResult(
         method=method,
         parameters={"L1": verdict.L1, "L2": verdict.L2},
-        sum_L1_L2=verdict.sum_L1_L2,
+        derived=derived_sum(verdict.sum_L1_L2),
         verdict=verdict.sentence,
-        covariance=((float(c[0, 0]), float(c[0, 1])), (float(c[1, 0]), float(c[1, 1]))),
+        covariance=as_matrix(c[:2, :2]),
         converged=converged,
         aic=aic,
         bic=bic,

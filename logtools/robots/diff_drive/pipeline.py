@@ -298,9 +298,10 @@ def _calibrate_and_judge(
                 slip.params, slip.offset
             used = slip_corrected(used, slip.params, k)
             model += f" + {WHEEL_SLIP.key}"
+            # the slip fit's radii and track: the LSQ bootstrap covariance is not theirs
             result = dataclasses.replace(
                 result, method="LSQ", parameters={**result.parameters, **{
-                    n: slip.with_slip[n] for n in PARAMETER_NAMES}},
+                    n: slip.with_slip[n] for n in PARAMETER_NAMES}}, covariance=None,
                 verdict=result.verdict + "; " + slip.note)
             warnings.append(f"{slip.note} ({WHEEL_SLIP.id})")
             if disc is not None:
@@ -524,8 +525,8 @@ def _odom_imu(loaded: LoadedLog, nominal: DiffDriveParams | None, stages: Stages
         f"{g.ci95[1]:.4g}]" + ("" if g.identifiable else " (not determined: " + g.note + ")")
         + "; wheel radii not determined (no encoder angles and no independent distance"
         + (")" if res.distance_scale is None else " but GPS)"))
-    cal = CalibrationResult(method="odometry vs gyro", parameters=params, sum_L1_L2=None,
-                            verdict=verdict, details={"windows": res.n_windows})
+    cal = CalibrationResult(method="odometry vs gyro", parameters=params, verdict=verdict,
+                            details={"windows": res.n_windows})
     return cal, res.adequacy, res, {"odometry_imu": res.to_dict()}
 
 

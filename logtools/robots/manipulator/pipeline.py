@@ -411,7 +411,10 @@ def _judge(
     if split is not None:
         sections["parameter_change"] = split.to_dict()
     verdict = _verdict(ident, adequacy)
-    estimate = replace(est, method=method, parameters=params, verdict=verdict)
+    # the identification's covariance is of its own fit: not of one with named effects
+    same_fit = not accepted and list(params) == list(est.parameters)
+    estimate = replace(est, method=method, parameters=params, verdict=verdict,
+                       covariance=est.covariance if same_fit else None)
     return _Judged(adequacy, disc, estimate, sections)
 
 

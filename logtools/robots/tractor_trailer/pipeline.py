@@ -24,6 +24,7 @@ from calib.results import (
     Segment,
     StageStatus,
 )
+from calib.tractor_trailer.derived import derived_sum, link_sum
 from calib.tractor_trailer.estimators.noslip import NoSlipRegression
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.estimators.steering import SteeringGeometry
@@ -223,13 +224,13 @@ def _span_confounds(
                 rel_tol=0.1, scale=0.05)
         for k, e in estimate.parameters.items()
     }
-    total = estimate.sum_L1_L2
+    total = link_sum(estimate)
     if total is not None:
-        total = span([total, *(a.sum_L1_L2 for _, a in alts if a.sum_L1_L2 is not None)],
-                     [estimate.method, *(lab for lab, a in alts if a.sum_L1_L2 is not None)],
+        sums = [(lab, s) for lab, a in alts if (s := link_sum(a)) is not None]
+        total = span([total, *(s for _, s in sums)], [estimate.method, *(lab for lab, _ in sums)],
                      rel_tol=0.1, scale=0.05)
     return replace(
-        estimate, parameters=params, sum_L1_L2=total,
+        estimate, parameters=params, derived=derived_sum(total, estimate.derived),
         verdict=estimate.verdict + " Discovery cannot tell apart explanations that imply "
         "different link lengths; the intervals span them (see the notes).",
     )
@@ -295,7 +296,7 @@ def _unexplained(
     )
     return replace(
         estimate, parameters=params,
-        sum_L1_L2=None if estimate.sum_L1_L2 is None else undetermined(estimate.sum_L1_L2, short),
+        derived={k: undetermined(e, short) for k, e in estimate.derived.items()},
         verdict=verdict, details={**estimate.details, "unexplained_structure": model.describe()},
     )
 
