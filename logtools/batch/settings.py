@@ -48,6 +48,7 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from logtools import toml_bounded
 from logtools.batch.files import SETTINGS_MAX_BYTES, open_regular, read_regular
 from logtools.errors import LogcalInputError
 
@@ -243,8 +244,9 @@ def _typed(options: Mapping[str, Any], specs: Mapping[str, list[_Declared]], whe
 def _read(archive: Path, file: Path, specs: Mapping[str, list[_Declared]]) -> dict[str, Any]:
     try:
         text = read_regular(file).decode("utf-8")
-        doc = tomllib.loads(text)
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
+        doc = toml_bounded.loads(text)
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError,
+            toml_bounded.TomlTooDeepError) as err:
         raise SettingsError(file, None, f"not a readable TOML file ({err}).") from err
     out: dict[str, Any] = {}
     for key, value in doc.items():

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from logtools import toml_bounded
 from logtools.channel_map.extract import TRANSFORMS
 from logtools.channel_map.names import LOGICAL_SIGNALS, is_logical_signal, si_unit
 from logtools.errors import ChannelMapEntryError, ChannelMapError
@@ -146,12 +147,12 @@ def load_channel_map(path: str | Path) -> ChannelMap:
             raise ChannelMapError(
                 f"{p}: larger than {MAX_CHANNEL_MAP_BYTES} bytes; not a channel map."
             )
-        doc = tomllib.loads(raw.decode("utf-8"))
+        doc = toml_bounded.loads(raw.decode("utf-8"))
     except FileNotFoundError as err:
         raise ChannelMapError(f"{p}: no such channel-map file.") from err
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
         raise ChannelMapError(f"{p}: not a readable TOML channel map ({err}).") from err
-    except RecursionError as err:
+    except (toml_bounded.TomlTooDeepError, RecursionError) as err:
         raise ChannelMapError(
             f"{p}: not a readable TOML channel map (arrays or tables nested too deeply)."
         ) from err
