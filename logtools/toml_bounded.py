@@ -2,10 +2,10 @@
 when its arrays and inline tables nest at most :data:`MAX_DEPTH` deep.
 
 ``tomllib`` parses nested arrays by recursion: a file of 100,000 ``[`` runs it into the
-interpreter's recursion limit, and a ``RecursionError`` raised inside its C-accelerated regex
-calls has been seen to leave the interpreter broken ("error return without exception set", then
-wrong calls and a crash in later, unrelated work). Counting the nesting first (one linear scan
-that skips strings and comments) refuses such a file before any recursion happens.
+interpreter's recursion limit. Catching that ``RecursionError`` is not enough: in a long-running
+fuzz worker, such a parse ended in "SystemError: error return without exception set", and the
+same process then failed unrelated calls and crashed. Counting the nesting first (one linear
+scan that skips strings and comments) refuses such a file before any recursion happens.
 """
 
 from __future__ import annotations
