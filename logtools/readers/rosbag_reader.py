@@ -70,6 +70,18 @@ def bag_path(path: Path) -> Path:
     return path
 
 
+def _database_errors() -> tuple[type[Exception], ...]:
+    """What the rosbag2 ``.db3`` storage raises for a damaged database (rosbags reads it with
+    ``apsw``; ``sqlite3`` as well): a damaged bag, not a bug of ours."""
+    import sqlite3
+
+    try:
+        import apsw
+    except ImportError:
+        return (sqlite3.Error,)
+    return (sqlite3.Error, apsw.Error)
+
+
 def read_rosbag(path: str | os.PathLike[str], topics: Iterable[str] | None = None) -> LogData:
     """Read a ROS bag into per-topic frames.
 
@@ -100,6 +112,7 @@ def read_rosbag(path: str | os.PathLike[str], topics: Iterable[str] | None = Non
         AnyReaderError,
         Ros1ReaderError,
         Ros2ReaderError,
+        *_database_errors(),
         OSError,
         ValueError,
         KeyError,
