@@ -18,8 +18,9 @@ code) is checked. Outcomes per input:
 - ``hang``: either bound, or no answer from the worker (idle and half-sent HTTP requests
   are closed by the client after 0.5 s: the server's idle timeout is tested in tests/batch);
 - ``crash``: the worker died of a signal other than SIGKILL;
-- ``blowup``: ``MemoryError`` under the cap, or the worker killed (SIGKILL: the kernel's
-  out-of-memory killer);
+- ``blowup``: ``MemoryError`` (or sqlite's / the OS's out-of-memory error) under the cap, or
+  the worker killed (SIGKILL: the kernel's out-of-memory killer); the progress lines print the
+  worker's address space, so that growth over many inputs shows;
 - ``escape``: a raw control character (ESC, BEL, C0/C1, CR), a bidi control (U+202E ...) or a
   forged ``failed:`` line in anything written to stdout/stderr; the same characters (tab,
   newline and CR allowed) in a text file a batch writes or in an HTTP answer; a file written
@@ -74,6 +75,7 @@ _TERMINAL = re.compile(r"[\x00-\x09\x0b-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f"
 # In a written text file or an HTTP answer: the same, tab, newline and CR allowed.
 _IN_FILE = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f"
                       r"\u202a-\u202e\u2066-\u2069]")
+_MEMORY = re.compile(r"MemoryError|NoMemError|Cannot allocate memory|out of memory")
 _TEXT_SUFFIXES = {".html", ".json", ".jsonl", ".txt", ".csv", ".md", ".toml"}
 
 
@@ -482,7 +484,7 @@ def worker(tasks: Any, results: Any, base: str, mem_gib: float, timeout_s: int,
             outcome, detail = "not_built", f"{outcome} while building: {detail[-300:]}"
         dt = time.perf_counter() - t0
         printed = out_txt.read_bytes().decode("utf-8", "replace")
-        if outcome == "traceback" and "MemoryError" in printed:
+        if outcome == "traceback" and _MEMORY.search(printed):
             outcome, detail = "blowup", printed[-500:]
         elif outcome == "traceback" and "_AlarmError" in printed:
             outcome, detail = "hang", printed[-500:]
@@ -501,7 +503,9 @@ def worker(tasks: Any, results: Any, base: str, mem_gib: float, timeout_s: int,
             outcome, detail = "escape", f"written outside the allowed folder: {written[:3]}"
         for d in watched:
             _clean_dir(d)
-        results.put(("done", i, outcome, detail, dt, printed[-3000:]))
+        with open("/proc/self/statm") as fh:  # the worker's address space (what RLIMIT_AS caps)
+            vm = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+        results.put(("done", i, outcome, detail, dt, printed[-3000:], vm))
 
 
 # ----------------------------------------------------------------------------- driver
@@ -517,6 +521,7 @@ class Job:
         self.base = work / f"job{j}"
         self.ctx = mp.get_context("spawn")
         self.proc: Any = None
+        self.vm = 0
         self.start()
 
     def start(self) -> None:
@@ -558,7 +563,7 @@ class Job:
                 started = True
                 deadline = time.monotonic() + self.args.wall_s + 15
                 continue
-            _, _, outcome, detail, dt, printed = msg
+            _, _, outcome, detail, dt, printed, self.vm = msg
             self.printed = printed
             return outcome, detail, dt
 
@@ -630,8 +635,9 @@ def main() -> int:
                 if done % step == 0:
                     rate = done / (time.perf_counter() - t0)
                     bad = sum(c[k] for c in counts.values() for k in BAD)
-                    print(f"  {done}/{len(indices)} inputs, {rate:.2f} inputs/s, failures {bad}",
-                          flush=True)
+                    vm = ", ".join(f"{j.vm / 2**30:.2f}" for j in jobs)
+                    print(f"  {done}/{len(indices)} inputs, {rate:.2f} inputs/s, failures {bad}, "
+                          f"worker address space {vm} GiB", flush=True)
 
     threads = [threading.Thread(target=drive, args=(job,)) for job in jobs]
     for t in threads:
