@@ -132,6 +132,9 @@ class PathDiscovery:
     corrected: tuple[np.ndarray, np.ndarray] | None = None
     notes: list[str] = field(default_factory=list)
     alternatives: list[tuple[str, Any]] = field(default_factory=list)
+    assumptions: list[str] = field(default_factory=list)
+    """What the link lengths' intervals take as given that the log does not check (an effect
+    held at its null within its tolerance), each with the lengths if it were left free."""
     context: Any = field(default=None, repr=False)
 
     @property
@@ -158,6 +161,7 @@ class PathDiscovery:
         out["thirds"] = self.thirds
         out["stability"] = {k: v.to_dict() for k, v in self.stability.items()}
         out["notes"] = list(self.notes)
+        out["assumptions"] = list(self.assumptions)
         safe: dict[str, Any] = json_safe(out)
         return safe
 
@@ -190,6 +194,7 @@ class PathDiscovery:
                 lines.append(f"  unstable: {st.name} differs between {st.pieces} pieces of the "
                              f"log beyond their errors (chi2 {st.chi2:.3g} on {st.dof} dof)")
         lines += [f"  note: {n}" for n in self.notes]
+        lines += [f"  assumes: {a}" for a in self.assumptions]
         return lines
 
 
@@ -435,7 +440,8 @@ def discover_along_path(
         if e.model is not None and e.model.tolerated is not None and e not in selection.accepted:
             tol = e.model.tolerated if gain_tolerance is None else replace(
                 e.model.tolerated, within=gain_tolerance)
-            out.alternatives += _tolerated_alternatives(ctx, selection, e, tol, out.notes)
+            out.alternatives += _tolerated_alternatives(ctx, selection, e, tol, out.notes,
+                                                        out.assumptions)
     for c in selection.confounds:
         if {"L1", "L2"} & set(c.parameters):
             out.alternatives.append((c.alternative, c.alternative_fit.parameters))
@@ -503,13 +509,13 @@ def _split(
 
 def _tolerated_alternatives(
     ctx: _Context, selection: Selection, spec: EffectSpec[PathEffectModel], tol: Tolerance,
-    notes: list[str],
+    notes: list[str], assumptions: list[str],
 ) -> list[tuple[str, Any]]:
     """The link lengths under the values of ``spec`` (e.g. the joint-angle gain) within
     ``tol.within`` of its null that the log cannot exclude (refits with the effect at each end
     of that range undone from the readings, by its hook); none when the log itself bounds the
-    effect within the tolerance (its null is then checked by the log, and the link lengths'
-    intervals stand)."""
+    effect within the tolerance: the link lengths' intervals then stand, and ``assumptions``
+    says that they take the effect at its null, with the lengths were it left free."""
     alt = ctx.fitter((*selection.accepted, spec))
     if alt is None or spec.model is None:
         return []
@@ -518,7 +524,15 @@ def _tolerated_alternatives(
     half = Z95 * g.std if math.isfinite(g.std) else math.inf
     tolerance, null = tol.within, par.null
     if null - tolerance <= g.value - half and g.value + half <= null + tolerance:
-        return []  # the log itself bounds the effect within the tolerance
+        # the log bounds the effect within the tolerance; the intervals are those at its null
+        free = "; ".join(
+            f"{k} = {e.value:.4g} {e.unit} [{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
+            for k, e in alt.parameters.items() if k in ("L1", "L2") and math.isfinite(e.std))
+        assumptions.append(
+            f"{tol.quantity} is {null:g} (the log bounds it only to "
+            f"[{g.value - half:.4g}, {g.value + half:.4g}], 95 %"
+            + (f"; left free: {free}" if free else "") + ")")
+        return []
     lo, hi = max(null - tolerance, g.value - half), min(null + tolerance, g.value + half)
     if not lo < null < hi:
         return []
@@ -628,7 +642,11 @@ def recommended(estimate: CalibrationResult, disc: PathDiscovery) -> Calibration
             details={**est.details, "change": disc.change.to_dict()})
     est = _spanned(est, disc.alternatives)
     est = estimate_under_misfit(est, disc.adequacy, disc.thirds)
-    return _widened_unstable(est, disc.stability)
+    est = _widened_unstable(est, disc.stability)
+    if disc.assumptions and any(e.identifiable for e in est.parameters.values()):
+        est = replace(est, verdict=f"{est.verdict} These intervals assume "
+                      + "; ".join(disc.assumptions) + ".")
+    return est
 
 
 def _widened_unstable(
