@@ -140,15 +140,3 @@ def write_views(
                 written_png = out
     return WrittenViews(written_rrd, written_png, messages)
 
-
-if TYPE_CHECKING:  # every robot's views fill the one Views signature (checked by mypy only)
-    from logtools.robots.base import Views
-    from logtools.robots.manipulator.options import ManipulatorOptions
-    from logtools.robots.tractor_trailer.options import TractorTrailerOptions
-    from viz.diff_drive.views import log_views as _dd_views
-    from viz.manipulator.views import log_views as _arm_views
-    from viz.tractor_trailer.views import tractor_trailer_rrd as _tt_views
-
-    _tt: Views[TractorTrailerOptions] = _tt_views
-    _dd: Views[RobotOptions] = _dd_views
-    _arm: Views[ManipulatorOptions] = _arm_views

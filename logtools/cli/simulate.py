@@ -1,8 +1,8 @@
 """``logcal simulate``: write simulated drive logs with known truth (LOG_FORMAT.md).
 
-Each robot adds its own subcommand(s) (``RobotPlugin.simulate``, e.g. ``simulate tractor-trailer``
-from :mod:`logtools.robots.tractor_trailer.commands`); ``logcal simulate samples [DIR]``
-regenerates ``sample_logs/``. The group is rebuilt from the plugins registered when the command
+Each robot adds its own subcommand(s) (``RobotPlugin.simulate``); ``logcal simulate samples
+[DIR]`` regenerates ``sample_logs/`` from the robots' declared samples (``RobotPlugin.samples``,
+:mod:`logtools.sample_logs`). The group is rebuilt from the plugins registered when the command
 line is built (:func:`sync`), so a plugin registered at run time brings its command too.
 """
 
@@ -32,7 +32,7 @@ def _group(ctx: typer.Context) -> None:
 def _samples(
     out_dir: Path = typer.Argument(Path("sample_logs"), help="Directory for the logs."),
 ) -> None:
-    """Regenerate the sample logs (same as `python -m logtools.sample_logs DIR`)."""
+    """Regenerate every robot's sample logs (same as `python -m logtools.sample_logs DIR`)."""
     from logtools.sample_logs import write_sample_logs
 
     for path in write_sample_logs(out_dir):

@@ -43,11 +43,13 @@ __all__ = [
     "PoolFn",
     "Progress",
     "RobotPlugin",
+    "SamplesFn",
     "SignalDerivation",
     "SignalSpec",
     "Views",
     "lazy",
     "load_commands",
+    "load_samples",
     "load_view",
     "load_views",
 ]
@@ -102,6 +104,13 @@ class CommandsFn(Protocol):
     ``(group: typer.Typer) -> None``."""
 
     def __call__(self, group: typer.Typer, /) -> None: ...
+
+
+class SamplesFn(Protocol):
+    """Writes a robot's sample logs into a folder that exists: ``(out_dir) -> paths written``,
+    the same bytes on every run (fixed presets and seeds; ``python -m logtools.sample_logs``)."""
+
+    def __call__(self, out_dir: Path, /) -> list[Path]: ...
 
 
 @dataclass(frozen=True)
@@ -215,6 +224,8 @@ class RobotPlugin:
         simulate: import path ``"module:function"`` of a :class:`CommandsFn` adding the robot's
             ``logcal simulate`` subcommand(s); None: none.
         reproduce: the same for ``logcal reproduce`` (published results); None: none.
+        samples: import path of a :class:`SamplesFn` writing the robot's sample logs
+            (``sample_logs/``, ``logcal simulate samples``); None: none.
         aliases: other names accepted for ``name`` (older metadata).
         span_signals: signals whose common time span sets the aligned frame (a joint signal
             ``q3`` matches ``q``; none present: all signals).
@@ -243,6 +254,7 @@ class RobotPlugin:
     uses_settings: tuple[str, ...] = ()
     simulate: str | None = None
     reproduce: str | None = None
+    samples: str | None = None
 
     @property
     def required(self) -> tuple[str, ...]:
@@ -271,6 +283,15 @@ def load_commands(path: str) -> CommandsFn:
 
     module, _, name = path.partition(":")
     fn: CommandsFn = getattr(importlib.import_module(module), name)
+    return fn
+
+
+def load_samples(path: str) -> SamplesFn:
+    """The :class:`SamplesFn` named by ``RobotPlugin.samples``."""
+    import importlib
+
+    module, _, name = path.partition(":")
+    fn: SamplesFn = getattr(importlib.import_module(module), name)
     return fn
 
 

@@ -3,10 +3,11 @@
 (omega = v tan(steer) / L).
 
 It brings its signals, identification, analysis (least-squares wheelbase with an interval and a
-``calib.adequacy`` verdict), report, rerun views, a ``simulate bicycle`` command and typed
-options (``--wheelbase-guess``), and then ``info`` recognises its logs, ``analyze`` (text and
-JSON) and ``view`` go through it, and its options are on the command line and in the typed
-configuration, with nothing robot-specific written anywhere else.
+``calib.adequacy`` verdict), report, rerun views, a ``simulate bicycle`` command, its sample log and
+typed options (``--wheelbase-guess``), and then ``info`` recognises its logs, ``analyze`` (text
+and JSON) and ``view`` go through it, ``simulate samples`` writes its sample beside the other
+robots', and its options are on the command line and in the typed configuration, with nothing
+robot-specific written anywhere else.
 """
 
 from __future__ import annotations
@@ -124,6 +125,25 @@ def bicycle_views(out: Path, loaded: LoadedLog, result: AnalysisResult,
     return out
 
 
+def simulated_csv(wheelbase: float, duration: float, rate: float, seed: int) -> tuple[str, int]:
+    """A kinematic bicycle's CSV drive log (text) and its number of rows."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration, 1.0 / rate)
+    v = 3.0 + 2.0 * np.sin(0.21 * t)
+    steer = 0.3 * np.sin(0.5 * t) + 0.1 * np.sin(1.3 * t + 0.4)
+    omega = v * np.tan(steer) / wheelbase + rng.normal(0.0, 0.005, t.size)
+    rows = "\n".join(f"{a:.4f},{s:.6f},{b:.5f},{w:.6f}"
+                     for a, s, b, w in zip(t, steer, v, omega, strict=True))
+    return "t,steer,v,omega\n" + rows + "\n", int(t.size)
+
+
+def write_samples(out_dir: Path) -> list[Path]:
+    """The bicycle's sample log (``RobotPlugin.samples``): a fixed seed, the same bytes."""
+    path = out_dir / "bicycle.csv"
+    path.write_text(simulated_csv(TRUE_WHEELBASE, 30.0, 50.0, seed=1)[0])
+    return [path]
+
+
 def register_simulate(group: typer.Typer) -> None:
     """Add ``bicycle`` to ``logcal simulate``."""
 
@@ -139,15 +159,9 @@ def register_simulate(group: typer.Typer) -> None:
         if wheelbase <= 0 or duration <= 1 or rate <= 0:
             raise LogcalInputError(f"--wheelbase {wheelbase:g} --duration {duration:g} --rate "
                                    f"{rate:g}: expected positive values, duration > 1 s")
-        rng = np.random.default_rng(seed)
-        t = np.arange(0.0, duration, 1.0 / rate)
-        v = 3.0 + 2.0 * np.sin(0.21 * t)
-        steer = 0.3 * np.sin(0.5 * t) + 0.1 * np.sin(1.3 * t + 0.4)
-        omega = v * np.tan(steer) / wheelbase + rng.normal(0.0, 0.005, t.size)
-        rows = "\n".join(f"{a:.4f},{s:.6f},{b:.5f},{w:.6f}"
-                         for a, s, b, w in zip(t, steer, v, omega, strict=True))
-        out.write_text("t,steer,v,omega\n" + rows + "\n")
-        print(f"wrote {out}: {t.size} rows, wheelbase {wheelbase:g} m, seed {seed}")
+        text, rows = simulated_csv(wheelbase, duration, rate, seed)
+        out.write_text(text)
+        print(f"wrote {out}: {rows} rows, wheelbase {wheelbase:g} m, seed {seed}")
 
 
 PLUGIN = RobotPlugin(
@@ -164,6 +178,7 @@ PLUGIN = RobotPlugin(
     views=f"{MODULE}:bicycle_views",
     options=BicycleOptions,
     simulate=f"{MODULE}:register_simulate",
+    samples=f"{MODULE}:write_samples",
 )
 
 
@@ -228,6 +243,24 @@ def test_viewed(log: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert main(["analyze", str(log), "--rrd", str(again)]) == 0  # analyze --rrd: same views
     assert again.is_file()
     assert seen_options[-1] == BicycleOptions()
+
+
+def test_samples_beside_the_other_robots(
+    bicycle: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from logtools.robots.tractor_trailer.samples import SAMPLES
+
+    out = tmp_path / "samples"
+    assert main(["simulate", "samples", str(out)]) == 0  # every robot's declared samples
+    printed = capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [*(s.name for s in SAMPLES), "bicycle.csv"])
+    assert str(out / "bicycle.csv") in printed
+    first = (out / "bicycle.csv").read_bytes()
+    assert write_samples(tmp_path) == [tmp_path / "bicycle.csv"]
+    assert (tmp_path / "bicycle.csv").read_bytes() == first  # the same bytes on every run
+    assert main(["info", str(out / "bicycle.csv")]) == 0
+    assert "robot: bicycle" in capsys.readouterr().out
 
 
 def test_options_on_the_command_line(log: Path, capsys: pytest.CaptureFixture[str]) -> None:

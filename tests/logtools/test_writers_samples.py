@@ -8,7 +8,8 @@ import pytest
 from mcap.reader import make_reader
 
 from logtools.readers import read_log
-from logtools.sample_logs import SAMPLES, SampleLog, main, write_sample_logs
+from logtools.robots.tractor_trailer.samples import SAMPLES, SampleLog
+from logtools.sample_logs import main, write_sample_logs
 
 pytestmark = pytest.mark.slow  # regenerates every sample log (~7 s)
 

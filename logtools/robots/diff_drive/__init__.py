@@ -11,8 +11,15 @@ light: every log's robot is resolved by loading all plugin declarations, so the 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from logtools.robots.base import RobotPlugin, SignalSpec, lazy
 from logtools.signals import SignalSource
+
+if TYPE_CHECKING:
+    from logtools.robots.base import Views
+    from logtools.robots.options import RobotOptions
+    from viz.diff_drive.views import log_views
 
 __all__ = ["PLUGIN"]
 
@@ -70,3 +77,6 @@ PLUGIN = RobotPlugin(
     simulate="logtools.robots.diff_drive.commands:register_simulate",
     reproduce="logtools.robots.diff_drive.commands:register_reproduce",
 )
+
+if TYPE_CHECKING:  # the views named above fill the one Views signature (checked by mypy only)
+    _views: Views[RobotOptions] = log_views

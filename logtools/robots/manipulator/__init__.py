@@ -13,8 +13,14 @@ light: every log's robot is resolved by loading all plugin declarations, so the 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from logtools.robots.base import RobotPlugin, SignalSpec, lazy
 from logtools.robots.manipulator.options import ManipulatorOptions
+
+if TYPE_CHECKING:
+    from logtools.robots.base import Views
+    from viz.manipulator.views import log_views
 
 __all__ = ["PLUGIN", "ManipulatorOptions"]
 
@@ -46,3 +52,6 @@ PLUGIN = RobotPlugin(
     simulate="logtools.robots.manipulator.commands:register_simulate",
     reproduce="logtools.robots.manipulator.commands:register_reproduce",
 )
+
+if TYPE_CHECKING:  # the views named above fill the one Views signature (checked by mypy only)
+    _views: Views[ManipulatorOptions] = log_views

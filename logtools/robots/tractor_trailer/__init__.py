@@ -13,7 +13,10 @@ from logtools.robots.tractor_trailer.options import TractorTrailerOptions
 if TYPE_CHECKING:
     import polars as pl
 
+    from logtools.robots.base import SamplesFn, Views
+    from logtools.robots.tractor_trailer.samples import write_samples
     from logtools.signals import RobotConfig
+    from viz.tractor_trailer.views import tractor_trailer_rrd
 
 __all__ = ["PLUGIN", "TractorTrailerOptions"]
 
@@ -75,4 +78,9 @@ PLUGIN = RobotPlugin(
     uses_settings=("baseline",),
     simulate="logtools.robots.tractor_trailer.commands:register_simulate",
     reproduce="logtools.robots.tractor_trailer.commands:register_reproduce",
+    samples="logtools.robots.tractor_trailer.samples:write_samples",
 )
+
+if TYPE_CHECKING:  # the functions named above fill their signatures (checked by mypy only)
+    _views: Views[TractorTrailerOptions] = tractor_trailer_rrd
+    _samples: SamplesFn = write_samples
