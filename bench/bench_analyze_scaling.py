@@ -1,14 +1,17 @@
 """How `analyze` scales with log length: CPU seconds per stage and peak RSS.
 
 Writes (once, cached in --workdir) 100 Hz tractor-trailer logs with ``logcal simulate`` of the
-given lengths, then runs ``analyze_log`` in a fresh subprocess per (log, discovery on/off, run),
-timing the stages from the progress callback (CPU seconds of the process between consecutive
-progress messages) and reading the peak RSS. Prints min and median over --repeat runs, and the
-CPU seconds per simulated hour (linear scaling: constant per hour).
+given lengths, then runs ``analyze_log`` in a fresh subprocess per (log, discovery on/off, run)
+on the whole log (``AnalysisConfig(window_s=0)``: no analysis by time windows, which would
+otherwise start by itself above 2 h of samples; windowed analysis is measured by
+``bench/bench_long_log.py``), timing the stages from the progress callback (CPU seconds of
+the process between consecutive progress messages) and reading the peak RSS. Prints min and
+median over --repeat runs, and the CPU seconds per simulated hour (linear scaling: constant per
+hour).
 
 Usage: python bench/bench_analyze_scaling.py [--minutes 10 60 240] [--repeat 3]
        [--discovery-minutes 10 60 240] [--discovery-repeat 3] [--profile]
-(the issue-14 figures: --minutes 10 60 240 --discovery-minutes 10 60 240; ~4 min, a 4-hour log
+(the full set: --minutes 10 60 240 --discovery-minutes 10 60 240; a 4-hour log analysed whole
 needs ~1 GB)
 --profile: one cProfile of the shortest log with discovery, top functions by internal time.
 """
@@ -44,7 +47,8 @@ def _measure(path: Path, discovery: bool) -> None:
         marks.append((stage, time.process_time()))
 
     c0, w0 = time.process_time(), time.perf_counter()
-    analyze_log(path, config=AnalysisConfig(discovery=discovery), progress=progress)
+    config = AnalysisConfig(discovery=discovery, window_s=0.0)  # whole, never by windows
+    analyze_log(path, config=config, progress=progress)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     stages: dict[str, float] = {}
     ends = [t for _, t in marks[1:]] + [c0 + cpu]
@@ -69,7 +73,7 @@ def _profile(path: Path) -> None:
 
     prof = cProfile.Profile()
     prof.enable()
-    analyze_log(path, config=AnalysisConfig(discovery=True))
+    analyze_log(path, config=AnalysisConfig(discovery=True, window_s=0.0))
     prof.disable()
     pstats.Stats(prof).sort_stats("tottime").print_stats(25)
     pstats.Stats(prof).sort_stats("cumulative").print_stats(30)
