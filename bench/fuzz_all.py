@@ -28,6 +28,12 @@ code) is checked. Outcomes per input:
   archive unchanged, the victim files next to it untouched); the secret (an environment
   variable, a file outside the archive) in any output.
 
+A worker is replaced by a fresh one every ``--recycle`` inputs (default 2000): a long-lived
+worker's address space grows (thread arenas of the report server and polars, caches; about
+1.9 -> 2.3 GiB over 2,500 inputs, resident memory about 0.7 GiB), and under the address-space
+cap the last inputs of a 20,000-input run without recycling failed to allocate, though each
+passes alone.
+
 Inputs are assigned to the classes in turn; input ``i`` is built from ``Random(seed, i)``, so
 one input can be replayed alone with ``--only I``. Failures are saved under ``--save``.
 
@@ -522,6 +528,7 @@ class Job:
         self.ctx = mp.get_context("spawn")
         self.proc: Any = None
         self.vm = 0
+        self.ran = 0
         self.start()
 
     def start(self) -> None:
@@ -539,7 +546,10 @@ class Job:
         self.proc.start()
 
     def run(self, i: int, cls: str) -> tuple[str, str, float]:
-        self.tasks.put((i, cls, self.args.seed))
+        self.ran += 1
+        if self.args.recycle and self.ran % self.args.recycle == 0:
+            self.start()  # a fresh worker: the cap then bounds one input, not the address
+        self.tasks.put((i, cls, self.args.seed))  # space thousands of inputs left behind
         started = False
         deadline = time.monotonic() + self.args.wall_s + 15 + 120  # first: seeds, imports
         while True:
@@ -590,6 +600,8 @@ def main() -> int:
                     help="wall-clock seconds per input (a wait on a FIFO, a socket)")
     ap.add_argument("--save", type=Path, default=Path("/tmp/logcal_fuzz_all"))
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--recycle", type=int, default=2000,
+                    help="start a fresh worker every N inputs (0: never)")
     ap.add_argument("--minutes", type=float, default=None,
                     help="take no new input after this long (the table counts what ran)")
     args = ap.parse_args()
