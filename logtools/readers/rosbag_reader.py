@@ -108,7 +108,7 @@ def read_rosbag(path: str | os.PathLike[str], topics: Iterable[str] | None = Non
         raise NotARosbagError(name, "a ROS 1 bag must be named *.bag for rosbags to read it")
     # rosbags checks some invariants of damaged bags with assert and indexes past short
     # buffers: those are damaged bags too, not bugs of the caller
-    errors = (
+    errors: tuple[type[Exception], ...] = (
         AnyReaderError,
         Ros1ReaderError,
         Ros2ReaderError,
