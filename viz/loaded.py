@@ -1,6 +1,7 @@
-"""What the views read of a loaded log and of a robot's options, as structural types: ``viz``
-draws what it is handed and depends on no ``logtools`` type (the data flow runs logtools ->
-calib -> viz, never back)."""
+"""What the views read of a loaded log, as structural types: ``viz`` draws what it is handed
+and depends on no ``logtools`` type (the data flow runs logtools -> calib -> viz, never back).
+A robot's options are read the same way, by a protocol in its own room (e.g.
+``viz.tractor_trailer.views.TractorViewOptions``)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from typing import Protocol
 
 import polars as pl
 
-__all__ = ["LoadedLike", "RawLog", "TractorViewOptions"]
+__all__ = ["LoadedLike", "RawLog"]
 
 
 class RawLog(Protocol):
@@ -27,10 +28,3 @@ class LoadedLike(Protocol):
 
     @property
     def log(self) -> RawLog: ...
-
-
-class TractorViewOptions(Protocol):
-    """The tractor-trailer's view option: the method whose lengths also draw the joint angle."""
-
-    @property
-    def method_for_psi(self) -> str | None: ...

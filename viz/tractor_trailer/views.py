@@ -8,11 +8,20 @@ analysis, ``options`` the robot's own options; they draw what those carry. The r
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Protocol
 
 from calib.results import AnalysisResult
-from viz.loaded import LoadedLike, TractorViewOptions
+from viz.loaded import LoadedLike
 
-__all__ = ["tractor_trailer_png", "tractor_trailer_rrd"]
+__all__ = ["TractorViewOptions", "tractor_trailer_png", "tractor_trailer_rrd"]
+
+
+class TractorViewOptions(Protocol):
+    """The tractor-trailer's view option (its ``TractorTrailerOptions``, read structurally):
+    the method whose lengths also draw the joint angle."""
+
+    @property
+    def method_for_psi(self) -> str | None: ...
 
 
 def tractor_trailer_rrd(
