@@ -71,5 +71,6 @@ class EffectSpec(Generic[H]):
 
     @property
     def key(self) -> str:
-        """``id(target)``, e.g. ``sensor_offset(psi)``: unique within a catalogue."""
-        return f"{self.id}({self.target})"
+        """``id(target)``, e.g. ``sensor_offset(psi)``, or ``id`` alone for an effect with no
+        target (``actuator_delay``): unique within a catalogue."""
+        return f"{self.id}({self.target})" if self.target else self.id

@@ -29,7 +29,6 @@ from calib.tractor_trailer.discovery import (
     discover,
     sensor_effects_for_fit,
 )
-from calib.tractor_trailer.discovery.confounds import GAIN_KEY, GAIN_RULE
 from calib.tractor_trailer.discovery.data import prepare_data
 from calib.tractor_trailer.discovery.result import EffectFit
 from logtools.load import load_log
@@ -38,6 +37,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import indgen  # type: ignore[import-not-found]
 
 L1_TRUE, L2_TRUE = 1.25, 2.48
+GAIN_KEY = "sensor_scale(psi)"  # the joint-angle gain, and its rule against the link lengths
+GAIN_RULE = "joint_angle_gain_vs_link_lengths"
 WRITERS: dict[str, tuple[Callable[..., None], str]] = {
     "json": (indgen.write_mcap_json, "mcap"),
     "ros2": (indgen.write_mcap_ros2, "mcap"),

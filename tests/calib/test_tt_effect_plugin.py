@@ -2,7 +2,10 @@
 hook (how it changes the modelled joint-angle reading) are defined here, in the test, and one
 line (``register_effect``) makes the discovery along the path try it. Nothing in calib knows
 its id. The command-driven engine's effects are catalogue entries too (``Effect.spec``) and
-take a registered effect the same way.
+take a registered effect the same way, with what it declares about the explanations the log
+may not tell it from (``Effect.equivalents``): a steering gain declared here, equivalent to the
+built-in yaw-rate gain, is tried in its place by the confirmation and reported as a confound of
+the link lengths, from that declaration alone.
 
 The effect: a joint-angle encoder that reads y + k y^2 (an asymmetric bend, unlike the built-in
 cubic). A clean log from the independent generator has its joint angle bent by this test's
@@ -15,17 +18,24 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, replace
 
+import indgen
 import numpy as np
 import pytest
 from indgen.tractor_kinds import tractor_log
 
 from calib.adequacy import EffectKind, EffectParam, EffectSpec
-from calib.tractor_trailer.discovery.effects import Effect, ParamSpec
+from calib.tractor_trailer.discovery.confirm import confirm_effects, equivalences, fit_set
+from calib.tractor_trailer.discovery.confounds import find_confounds
+from calib.tractor_trailer.discovery.data import prepare_data
+from calib.tractor_trailer.discovery.effects import Effect, Equivalent, ParamSpec, SensorScale
 from calib.tractor_trailer.discovery.effects import catalogue as command_catalogue
 from calib.tractor_trailer.discovery.effects import register_effect as register_command_effect
 from calib.tractor_trailer.discovery.effects import (
     unregister_effect as unregister_command_effect,
 )
+from calib.tractor_trailer.discovery.fit import fit_model, neff_factors
+from calib.tractor_trailer.discovery.model import ModelSpec
+from calib.tractor_trailer.discovery.selection import SelectionRules
 from calib.tractor_trailer.estimators.drive_path import DrivePath
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.path_discovery import PathDiscovery, discover_along_path
@@ -185,6 +195,10 @@ def test_command_effects_are_catalogue_entries() -> None:
     assert by_key["actuator_lag"].truth_key == "actuator_lag"
     assert by_key["actuator_lag"].params[0].name == "time_constant"
     assert all(s.model is not None and s.model.spec == s for s in by_key.values())
+    # one name: the spec's key is the effect's (no target: the id alone), and so is its truth key
+    assert all(s.key == k and s.truth_key == k for k, s in by_key.items())
+    assert by_key["actuator_delay"].target == ""
+    assert by_key["clock_offset(hitch)"].target == "hitch"
     assert "hitch_transient" not in {e.key for e in command_catalogue("transient")}
 
 
@@ -200,3 +214,97 @@ def test_command_catalogue_takes_a_registered_effect() -> None:
     finally:
         unregister_command_effect("sensor_quadratic(psi)")
     assert "sensor_quadratic(psi)" not in {e.key for e in command_catalogue("transient")}
+
+
+class _SteeringGain(Effect):
+    """kappa = gain x kappa_cmd (a steering ratio off by a factor)."""
+
+    id = "steering_gain"
+    stage = 0
+    order = 4
+    confounded_with = ("sensor_scale(omega)",)
+
+    @property
+    def params(self) -> tuple[ParamSpec, ...]:
+        return (ParamSpec("gain", "", 1.0, 0.5, 2.0, 1.0),)
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return ("omega", "psi")
+
+    def modify_inputs(self, t_s: np.ndarray, kappa: np.ndarray, v: np.ndarray,
+                      p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        return kappa * p["gain"], v
+
+    def equivalents(self, channels: tuple[str, ...]) -> tuple[Equivalent, ...]:
+        # the yaw rate reads gain x v kappa_cmd either way; the joint angle (~ kappa (L1 + L2)
+        # at small angles) takes a steering gain in as other link lengths
+        if "omega" not in channels:
+            return ()
+        me, yaw = self.key, SensorScale("omega").key
+        return (Equivalent(
+            GAIN_RULE, "the yaw rate cannot tell a steering gain from a gain of its sensor",
+            (me,), (yaw,),
+            lambda v, data: {yaw: {"scale": v[me]["gain"]}},
+            lambda v, data: {me: {"gain": v[yaw]["scale"]}},
+            exact=False,
+        ),)
+
+    def explanation(self, values: Mapping[str, float]) -> str:
+        return f"the vehicle steers {values['gain']:.3f} x the commanded curvature"
+
+
+GAIN_RULE = "steering_gain_vs_yaw_rate_gain"
+
+
+@pytest.fixture
+def steering_gain() -> Iterator[None]:
+    register_command_effect(_SteeringGain)  # the one line that adds the effect
+    try:
+        yield
+    finally:
+        unregister_command_effect("steering_gain")
+
+
+def test_declared_equivalence_is_confirmed_and_a_confound(steering_gain: None) -> None:
+    """Understeer K = 0.0125 s^2/m^2 at a constant 2 m/s: a steering gain 1 / (1 + K v^2) =
+    0.952. With the steering gain accepted, the confirmation tries the yaw-rate gain in its
+    place because the effect declares the pair (converted start: scale = gain); the two fit
+    alike, so it is listed as the alternative, and since a yaw-rate gain leaves the joint
+    angle's share to the link lengths, the confounds report it as implying another L1."""
+    from test_discovery_indgen_failures import indgen_log, scenario
+
+    pool = command_catalogue("transient")
+    rules = [eq.rule for eq in equivalences(pool, ("omega", "psi"))]
+    assert rules[-1] == GAIN_RULE  # approximate: after the built-in exact ones
+    assert GAIN_RULE not in [eq.rule for eq in equivalences(pool, ("psi",))]
+
+    frame, raw = indgen_log(scenario(indgen.Effects(understeer_K=0.0125), indgen.Speed(base=2.0)),
+                            seed=4)
+    data = prepare_data(frame, raw)
+    assert data.mean_square_speed() == pytest.approx(4.0, rel=1e-2)
+    by_key = {e.key: e for e in pool}
+    base = ModelSpec("transient")
+    factors = neff_factors(fit_model(base, data, [1.3, 2.4], data.train_mask()))
+    train = fit_set(base, [by_key["steering_gain"]], data, [1.3, 2.4], {}, data.train_mask())
+    conf = confirm_effects(data, base, [by_key["steering_gain"]], train, pool, factors,
+                           SelectionRules())
+    assert [e.key for e in conf.effects] == ["steering_gain"]
+    alt = next(a for a in conf.alternatives if a.rule == GAIN_RULE)
+    assert alt.reported == ("steering_gain",)
+    assert alt.alternative == ("sensor_scale(omega)",)
+    assert abs(alt.delta_bic) < 10.0
+    truth = 1.0 / (1.0 + 0.0125 * 4.0)
+    assert alt.parameters["sensor_scale(omega)"]["scale"] == pytest.approx(truth, abs=0.01)
+    gain = conf.final.theta[2]
+    assert gain == pytest.approx(truth, abs=0.01)
+
+    confound = next(c for c in find_confounds(data, base, conf, pool) if c.rule == GAIN_RULE)
+    assert confound.reported.effects == ("steering_gain",)
+    assert confound.alternative.effects == ("sensor_scale(omega)",)
+    assert confound.lengths_differ
+    assert not confound.corrections_differ
+    # the yaw-rate gain's L1 takes the joint angle's share of the gain: (L1 + L2) x gain
+    rep, other = confound.reported.parameters, confound.alternative.parameters
+    assert rep["L1"] == pytest.approx(1.25, abs=0.03)
+    assert other["L1"] + other["L2"] == pytest.approx(gain * (rep["L1"] + rep["L2"]), rel=0.01)

@@ -2,21 +2,23 @@
 
 Two passes after the greedy rounds (``selection``):
 
-1. Equivalent explanations (``EQUIVALENCES``). Some effects, or sets of effects, change the
-   recordings in (nearly) the same way: an actuator dead time delays the yaw rate and the joint
-   angle against the command exactly as the same clock offset on every measured topic would
-   (they differ only through speed changes within the delay); at constant speed understeer
-   scales the curvature by 1 / (1 + K v^2), which the yaw rate shows as a gain error and the
-   joint angle as slightly different link lengths; a first-order steering lag delays slow
-   commands like a dead time of its time constant. For each such pair whose one side is in the
-   accepted set, the other side is fitted in its place (jointly with the link lengths and the
-   other effects, on the training blocks). If it is better by more than ``EQUIVALENCE_MARGIN``
-   BIC units and no worse on the held-out blocks, it replaces the accepted side; if the two are
-   within the margin (or their held-out RMS differ by less than ``data.RESOLUTION``), the
-   explanation with fewer effects (one physical cause rather than two)
-   is reported, on equal counts the lower BIC (a replacement's held-out error at most
-   ``TIE_HOLDOUT_SLACK`` times larger), and the other is listed as an alternative. An
-   alternative is listed only if its own parameters are significant.
+1. Equivalent explanations (``equivalences``: what the catalogue's effects declare,
+   ``Effect.equivalents``). Some effects, or sets of effects, change the recordings in (nearly)
+   the same way: an actuator dead time delays the yaw rate and the joint angle against the
+   command exactly as the same clock offset on every measured topic would (they differ only
+   through speed changes within the delay); at constant speed understeer scales the curvature
+   by 1 / (1 + K v^2), which the yaw rate shows as a gain error and the joint angle as slightly
+   different link lengths; a first-order steering lag delays slow commands like a dead time of
+   its time constant. The declaring effect says which keys are on either side and how one
+   side's parameters convert into the other's starting values; this module knows no effect by
+   its key. For each such pair whose one side is in the accepted set, the other side is fitted
+   in its place (jointly with the link lengths and the other effects, on the training blocks).
+   If it is better by more than ``EQUIVALENCE_MARGIN`` BIC units and no worse on the held-out
+   blocks, it replaces the accepted side; if the two are within the margin (or their held-out
+   RMS differ by less than ``data.RESOLUTION``), the explanation with fewer effects (one
+   physical cause rather than two) is reported, on equal counts the lower BIC (a replacement's
+   held-out error at most ``TIE_HOLDOUT_SLACK`` times larger), and the other is listed as an
+   alternative. An alternative is listed only if its own parameters are significant.
 2. Each remaining effect must earn its place in the final model: its 95 % interval (Fisher,
    on the final joint fit over all valid rows; a time shift's includes the time resolution)
    excludes the value at which it does nothing, and removing it (refitting the rest on the
@@ -28,14 +30,15 @@ Two passes after the greedy rounds (``selection``):
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
-from calib.tractor_trailer.discovery.data import RESOLUTION, DiscoveryData, block_mean
+from calib.tractor_trailer.discovery.data import RESOLUTION, DiscoveryData
 from calib.tractor_trailer.discovery.effects import Effect
+from calib.tractor_trailer.discovery.effects.base import Equivalent
 from calib.tractor_trailer.discovery.fit import (
     ModelFit,
     bic,
@@ -54,14 +57,13 @@ from calib.tractor_trailer.discovery.selection import (
 )
 
 __all__ = [
-    "EQUIVALENCES",
     "EQUIVALENCE_MARGIN",
     "Confirmed",
-    "Equivalence",
     "Evidence",
     "confirm_effects",
     "effect_ci95",
     "effect_values",
+    "equivalences",
     "fit_set",
 ]
 
@@ -75,96 +77,17 @@ EQUIVALENCE_MARGIN = 10.0
 TIE_HOLDOUT_SLACK = 1.05
 
 
-def _clock_keys(channels: Sequence[str]) -> tuple[str, ...]:
-    """Clock offsets of every measured topic: odometry for the yaw rate, hitch for the angle."""
-    out = []
-    if "omega" in channels:
-        out.append("clock_offset(odom)")
-    if "psi" in channels:
-        out.append("clock_offset(hitch)")
-    return tuple(out)
-
-
-def _mean_v2(data: DiscoveryData) -> float:
-    v = block_mean(data.v, data.m)[data.valid]
-    return max(float(np.mean(v * v)), 1e-6)
-
-
-def _delay_to_clocks(vals: Values, keys: Sequence[str], data: DiscoveryData) -> Values:
-    d = vals["actuator_delay"]["delay"]
-    return {k: {"offset": d} for k in keys}
-
-
-def _clocks_to_delay(vals: Values, keys: Sequence[str], data: DiscoveryData) -> Values:
-    offsets = [vals[k]["offset"] for k in keys if k in vals]
-    return {"actuator_delay": {"delay": max(float(np.mean(offsets)), 0.0)}}
-
-
-def _understeer_to_gain(vals: Values, keys: Sequence[str], data: DiscoveryData) -> Values:
-    k = vals["understeer"]["K"]
-    return {"sensor_scale(omega)": {"scale": 1.0 / (1.0 + k * _mean_v2(data))}}
-
-
-def _gain_to_understeer(vals: Values, keys: Sequence[str], data: DiscoveryData) -> Values:
-    s = vals["sensor_scale(omega)"]["scale"]
-    return {"understeer": {"K": (1.0 / s - 1.0) / _mean_v2(data)}}
-
-
-@dataclass(frozen=True)
-class Equivalence:
-    """Two explanations that change the recordings (nearly) alike.
-
-    ``one``/``other``: functions of the recorded channels giving the effect keys of each side;
-    ``to_other``/``to_one``: starting values of one side's parameters from the other's.
-    """
-
-    rule: str
-    note: str
-    one: Callable[[Sequence[str]], tuple[str, ...]]
-    other: Callable[[Sequence[str]], tuple[str, ...]]
-    to_other: Callable[[Values, Sequence[str], DiscoveryData], Values]
-    to_one: Callable[[Values, Sequence[str], DiscoveryData], Values]
-
-
-def _delay_to_lag(vals: Values, keys: Sequence[str], data: DiscoveryData) -> Values:
-    return {"actuator_lag": {"time_constant": max(vals["actuator_delay"]["delay"], 1e-3)}}
-
-
-def _lag_to_delay(vals: Values, keys: Sequence[str], data: DiscoveryData) -> Values:
-    return {"actuator_delay": {"delay": vals["actuator_lag"]["time_constant"]}}
-
-
-EQUIVALENCES: tuple[Equivalence, ...] = (
-    Equivalence(
-        "dead_time_vs_clock_offsets",
-        "an actuator dead time delays the yaw rate and the joint angle against the command "
-        "exactly as the same clock offset on every measured topic would; they differ only "
-        "through speed changes within the delay",
-        lambda ch: ("actuator_delay",),
-        _clock_keys,
-        _delay_to_clocks,
-        _clocks_to_delay,
-    ),
-    Equivalence(
-        "understeer_vs_yaw_rate_gain",
-        "at constant speed understeer scales the curvature by 1 / (1 + K v^2): the yaw rate "
-        "shows it as a gain error and the joint angle as slightly different link lengths; only "
-        "speed changes tell them apart",
-        lambda ch: ("understeer",) if "omega" in ch else (),
-        lambda ch: ("sensor_scale(omega)",) if "omega" in ch else (),
-        _understeer_to_gain,
-        _gain_to_understeer,
-    ),
-    Equivalence(
-        "dead_time_vs_lag",
-        "a first-order steering lag of time constant tau delays slow commands like a dead time "
-        "tau; only fast command changes (steps) tell them apart",
-        lambda ch: ("actuator_delay",),
-        lambda ch: ("actuator_lag",),
-        _delay_to_lag,
-        _lag_to_delay,
-    ),
-)
+def equivalences(pool: Sequence[Effect], channels: Sequence[str]) -> list[Equivalent]:
+    """The equivalences between effects that the effects of ``pool`` declare for a log of
+    ``channels`` (``Effect.equivalents``), each rule once: the exact ones first, then the
+    approximate ones, each in catalogue order (an exact equivalent names a cause before an
+    approximate one is tried in its place)."""
+    seen: dict[str, Equivalent] = {}
+    for e in pool:
+        for eq in e.equivalents(tuple(channels)):
+            if not eq.of_parameters and eq.rule not in seen:
+                seen[eq.rule] = eq
+    return sorted(seen.values(), key=lambda eq: not eq.exact)
 
 
 @dataclass(frozen=True)
@@ -275,9 +198,9 @@ def _equivalences(
     alternatives: list[AlternativeExplanation] = []
     close: list[tuple[AlternativeExplanation, str]] = []
     swaps: list[dict[str, object]] = []
-    for eq in EQUIVALENCES:
-        sides = (eq.one(data.channels), eq.other(data.channels))
-        convert = (eq.to_other, eq.to_one)
+    for eq in equivalences(pool, data.channels):
+        sides = (eq.mine, eq.theirs)
+        convert = (eq.to_theirs, eq.to_mine)
         keys = [e.key for e in effects]
         if all(side and set(side) <= set(keys) for side in sides):
             # both explanations at once: one of them is redundant unless the log clearly
@@ -311,7 +234,9 @@ def _equivalences(
                 continue
             vals = effect_values(train)
             start = {k: v for k, v in vals.items() if k not in have}
-            start.update(convert[i](vals, list(want if i == 0 else have), data))
+            to_want = convert[i]
+            if to_want is not None:  # else from their initial values
+                start.update(to_want(vals, data))
             kept = [e for e in effects if e.key not in have]
             new = kept + [by_key[k] for k in want]
             g = fit_set(baseline, new, data, train.theta[:2], start, mask)
@@ -343,15 +268,13 @@ def _equivalences(
                     f"neither fits the held-out data better by {100 * rules.min_gain:.0f} % "
                     "on any output"
                 )
-            elif eq.rule == "dead_time_vs_clock_offsets":
-                # the same offset on every measured topic is what a dead time looks like: only
-                # speed changes within it (and the model's accuracy) tell them apart
-                clocks = (g, want) if i == 0 else (train, have)
-                if _common_shift(clocks[0], clocks[1], data):
-                    close_why = (
-                        "the clock offsets agree with each other: one shift of every measured "
-                        "topic, which is what a dead time looks like"
-                    )
+            elif eq.agree:
+                # their parameters agreeing is what the declaring side looks like (one offset
+                # on every topic's clock: a dead time): only speed changes within it (and the
+                # model's accuracy) tell them apart
+                theirs = (g, want) if i == 0 else (train, have)
+                if _agree(theirs[0], [by_key[k] for k in theirs[1]], eq.agree, data):
+                    close_why = eq.agree_note
             better = d_bic < -EQUIVALENCE_MARGIN and w_new <= w_cur and not below
             switch = better or (
                 tie and (fewer or (same and d_bic < 0)) and w_new <= TIE_HOLDOUT_SLACK * w_cur
@@ -390,18 +313,20 @@ def _equivalences(
 COMMON_SHIFT_Z = 2.0
 
 
-def _common_shift(fit: ModelFit, keys: Sequence[str], data: DiscoveryData) -> bool:
-    """The clock offsets ``keys`` of ``fit`` (two or more) agree within ``COMMON_SHIFT_Z``
-    combined standard errors: one shift of every measured topic."""
-    if len(keys) < 2:
+def _agree(fit: ModelFit, effects: Sequence[Effect], name: str, data: DiscoveryData) -> bool:
+    """The parameter ``name`` of ``effects`` (two or more) in ``fit`` agrees within
+    ``COMMON_SHIFT_Z`` combined standard errors (e.g. clock offsets: one shift of every measured
+    topic)."""
+    if len(effects) < 2:
         return False
     cov = covariance(fit, data)
     vals = effect_values(fit)
     res = data.time_resolution_s
     pts = []
-    for k in keys:
-        sd = param_std(fit, cov, f"{k}.offset", True, res)
-        pts.append((vals[k]["offset"], sd))
+    for e in effects:
+        p = next(p for p in e.params if p.name == name)
+        sd = param_std(fit, cov, f"{e.key}.{name}", p.time_shift, res)
+        pts.append((vals[e.key][name], sd))
     for a in range(len(pts)):
         for b in range(a + 1, len(pts)):
             s = math.hypot(pts[a][1], pts[b][1])
@@ -411,7 +336,7 @@ def _common_shift(fit: ModelFit, keys: Sequence[str], data: DiscoveryData) -> bo
 
 
 def _alternative(
-    eq: Equivalence,
+    eq: Equivalent,
     reported: Sequence[str],
     alt: Sequence[str],
     alt_fit: ModelFit,

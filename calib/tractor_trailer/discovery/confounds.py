@@ -15,9 +15,13 @@ trailer with L1 = 1.25 m, L2 = 2.48 m), and the log cannot tell.
 the reported one (``alternatives``), or that BIC separates but whose held-out errors differ
 immaterially (``Confirmed.close``), jointly with L1, L2 on every valid row, and keeps those
 whose link lengths differ by more than one combined standard error or whose joint-angle
-corrections differ. It also fits the reported model with a free joint-angle gain: if that
-widens the interval of L1 or L2 by more than ``GAIN_STD_RATIO`` (the log does not pin the
-gain), the gain is a confound of the link lengths (unless discovery named it).
+corrections differ. It also fits the reported model with each effect that declares an
+equivalence with the link lengths (``Effect.equivalents``: the joint-angle gain) left free: if
+that widens the interval of L1 or L2 by more than ``UNPINNED_STD_RATIO`` (the log does not pin
+the effect), the effect is a confound of the link lengths (unless discovery named it).
+
+What an explanation says about the joint-angle sensor (``corrections_of``) is what its effects
+declare (``Effect.joint_angle_correction``); this module knows no effect by its key.
 
 ``sensor_effects_for_fit`` turns a result into what the recommended estimate may take in
 (``fold``) and what it must span (refit with each option and take the union of the
@@ -40,7 +44,8 @@ from calib.tractor_trailer.discovery.confirm import (
     fit_set,
 )
 from calib.tractor_trailer.discovery.data import DiscoveryData
-from calib.tractor_trailer.discovery.effects import Effect
+from calib.tractor_trailer.discovery.effects import Effect, catalogue
+from calib.tractor_trailer.discovery.effects.base import Equivalent
 from calib.tractor_trailer.discovery.fit import ModelFit, covariance
 from calib.tractor_trailer.discovery.model import ModelSpec
 from calib.tractor_trailer.discovery.result import (
@@ -52,10 +57,7 @@ from calib.tractor_trailer.discovery.result import (
 )
 
 __all__ = [
-    "GAIN_KEY",
-    "GAIN_RULE",
-    "GAIN_STD_RATIO",
-    "MAX_SPAN_GAIN",
+    "UNPINNED_STD_RATIO",
     "SensorEffectsForFit",
     "SpanChoice",
     "corrections_of",
@@ -63,32 +65,45 @@ __all__ = [
     "sensor_effects_for_fit",
 ]
 
-GAIN_KEY = "sensor_scale(psi)"
-GAIN_RULE = "joint_angle_gain_vs_link_lengths"
-# a free joint-angle gain that widens the standard error of L1 or L2 by more than this factor
-# is not pinned by the log: it is a confound of the link lengths
-GAIN_STD_RATIO = 1.5
-# a gain confound is spanned (refit at the ends of the gain's interval) only when that interval
-# lies within 1 +/- this; wider, the link lengths are not determined by the log
-MAX_SPAN_GAIN = 0.1
-_OFFSET_KEY = "sensor_offset(psi)"
-_SHIFT_KEYS = ("clock_offset(hitch)", "clock_offset(psi)")
-_PSI_KEYS = (_OFFSET_KEY, *_SHIFT_KEYS, GAIN_KEY)
+# a free effect (declared equivalent to the link lengths) that widens the standard error of L1
+# or L2 by more than this factor is not pinned by the log: it is a confound of the link lengths
+UNPINNED_STD_RATIO = 1.5
+CHANNELS = ("omega", "psi")  # every output an effect may act on
 
 
-def corrections_of(values: Mapping[str, Mapping[str, float]]) -> SensorCorrections:
-    """The joint-angle corrections of a set of effects (key -> parameter values)."""
-    shift = 0.0
-    for k in _SHIFT_KEYS:
-        if k in values:
-            shift = float(values[k]["offset"])
-    scale = float(values[GAIN_KEY]["scale"]) if GAIN_KEY in values else 1.0
-    return SensorCorrections(
-        psi_offset=_OFFSET_KEY in values,
-        psi_shift_s=shift,
-        psi_scale=scale,
-        labels=tuple(k for k in values if k in _PSI_KEYS),
-    )
+def _catalogue() -> dict[str, Effect]:
+    """Every effect of the catalogue (built-in and registered, against either baseline) by
+    key."""
+    return {e.key: e for b in ("steady", "transient") for e in catalogue(b, CHANNELS)}
+
+
+def corrections_of(
+    values: Mapping[str, Mapping[str, float]], effects: Mapping[str, Effect] | None = None
+) -> SensorCorrections:
+    """The joint-angle corrections of a set of effects (key -> parameter values): what each
+    declares (``Effect.joint_angle_correction``), combined in the order of ``values``.
+    ``effects``: the effects by key (default: the catalogue's); a key not among them says
+    nothing about the joint angle."""
+    by_key = _catalogue() if effects is None else effects
+    out = SensorCorrections()
+    for k, p in values.items():
+        e = by_key.get(k)
+        c = e.joint_angle_correction(p) if e is not None else None
+        if c is not None:
+            out = out.combined(c)
+    return out
+
+
+def _parameter_rules(
+    effects: Sequence[Effect], channels: tuple[str, ...]
+) -> list[tuple[Effect, Equivalent]]:
+    """The equivalences with robot parameters that ``effects`` declare (each rule once)."""
+    out: list[tuple[Effect, Equivalent]] = []
+    for e in effects:
+        for eq in e.equivalents(channels):
+            if eq.of_parameters and all(eq.rule != q.rule for _, q in out):
+                out.append((e, eq))
+    return out
 
 
 def _explanation(fit: ModelFit, cov: np.ndarray, data: DiscoveryData) -> ExplanationFit:
@@ -105,7 +120,7 @@ def _explanation(fit: ModelFit, cov: np.ndarray, data: DiscoveryData) -> Explana
         ci95={n: (vals[n] - 1.96 * sd[n], vals[n] + 1.96 * sd[n]) for n in vals},
         effect_parameters=ev,
         effect_ci95=effect_ci95(fit, data, cov),
-        corrections=corrections_of(ev),
+        corrections=corrections_of(ev, {e.key: e for e in fit.spec.effects}),
     )
 
 
@@ -165,19 +180,22 @@ def _alternative_confound(
     )
 
 
-def _gain_confound(
+def _unpinned_confound(
     data: DiscoveryData,
     baseline: ModelSpec,
     conf: Confirmed,
-    by_key: Mapping[str, Effect],
+    effect: Effect,
+    eq: Equivalent,
     reported: ExplanationFit,
 ) -> Confound | None:
-    keys = {e.key for e in conf.effects}
-    if "psi" not in data.channels or GAIN_KEY in keys or GAIN_KEY not in by_key:
-        return None
+    """``effect``, declared equivalent to robot parameters by ``eq``, as a confound of them if
+    left free beside the reported effects it widens their intervals by more than
+    ``UNPINNED_STD_RATIO`` (the log does not pin it)."""
+    if effect.key in {e.key for e in conf.effects}:
+        return None  # named: the lengths were fitted with it
     g = fit_set(
         baseline,
-        [*conf.effects, by_key[GAIN_KEY]],
+        [*conf.effects, effect],
         data,
         conf.final.theta[:2],
         effect_values(conf.final),
@@ -186,22 +204,24 @@ def _gain_confound(
     )
     free = _explanation(g, covariance(g, data), data)
     ratio = max(
-        (free.std[k] / reported.std[k] if reported.std[k] > 0 else math.inf) for k in ("L1", "L2")
+        (free.std[k] / reported.std[k] if reported.std[k] > 0 else math.inf)
+        for k in eq.parameters
     )
-    if math.isfinite(ratio) and ratio <= GAIN_STD_RATIO:
-        return None  # the log pins the gain: the link lengths do not depend on it
-    lo, hi = free.effect_ci95[GAIN_KEY]["scale"]
-    s = free.effect_parameters[GAIN_KEY]["scale"]
+    if math.isfinite(ratio) and ratio <= UNPINNED_STD_RATIO:
+        return None  # the log pins the effect: the link lengths do not depend on it
+    left = ", ".join(
+        f"{v:.3f} [95 %: {free.effect_ci95[effect.key][n][0]:.3f}, "
+        f"{free.effect_ci95[effect.key][n][1]:.3f}]"
+        for n, v in free.effect_parameters[effect.key].items()
+    )
     return Confound(
-        rule=GAIN_RULE,
+        rule=eq.rule,
         reported=reported,
         alternative=free,
         delta_bic=math.nan,
         why=(
-            f"a gain of the joint-angle sensor is taken in by L1 + L2 (psi ~ kappa (L1 + L2) "
-            f"at small angles): left free it is {s:.3f} [95 %: {lo:.3f}, {hi:.3f}] and the "
-            f"intervals of the link lengths grow {ratio:.1f}x; the reported lengths hold only "
-            "for a gain of exactly 1"
+            f"{eq.note}: left free it is {left} and the intervals of the link lengths grow "
+            f"{ratio:.1f}x; the reported lengths hold only for {eq.assumes}"
         ),
         lengths_differ=True,
         corrections_differ=True,
@@ -216,7 +236,8 @@ def find_confounds(
 ) -> list[Confound]:
     """The confounds of the link lengths in a confirmed result (module docstring): each
     alternative and close explanation that implies other link lengths or other joint-angle
-    corrections, then the joint-angle gain if the log does not pin it."""
+    corrections, then each effect of ``pool`` declared equivalent to the link lengths (the
+    joint-angle gain) if the log does not pin it."""
     by_key = {e.key: e for e in pool}
     reported = _explanation(conf.final, conf.cov, data)
     out: list[Confound] = []
@@ -228,9 +249,10 @@ def find_confounds(
         c = _alternative_confound(data, baseline, conf, by_key, reported, alt, close)
         if c is not None:
             out.append(c)
-    gain = _gain_confound(data, baseline, conf, by_key, reported)
-    if gain is not None:
-        out.append(gain)
+    for effect, eq in _parameter_rules(pool, data.channels):
+        c = _unpinned_confound(data, baseline, conf, effect, eq, reported)
+        if c is not None:
+            out.append(c)
     return out
 
 
@@ -240,13 +262,17 @@ class SpanChoice:
     joint-angle corrections of one explanation) and take the union of the intervals.
     ``lengths``: discovery's own union of the sides' 95 % intervals of L1, L2 (m), for a
     consumer that cannot refit. ``spannable``: False when the options do not cover what the
-    log allows (a joint-angle gain whose interval reaches beyond 1 +/- ``MAX_SPAN_GAIN``):
-    the estimate is then not determined (``SensorEffectsForFit.undetermined``)."""
+    log allows (an effect whose interval reaches beyond what its equivalence declares
+    spannable, ``Equivalent.span_within``: a joint-angle gain beyond 1 +/- 0.1): the estimate
+    is then not determined (``SensorEffectsForFit.undetermined``). ``free_effect``: for a
+    confound of one effect with the link lengths (the joint-angle gain), that effect's key
+    (the options put its parameter at the ends of its interval); empty for two explanations."""
 
     confound: Confound
     options: tuple[SensorCorrections, ...]
     lengths: Mapping[str, tuple[float, float]]
     spannable: bool
+    free_effect: str = ""
 
 
 @dataclass(frozen=True)
@@ -281,26 +307,27 @@ class SensorEffectsForFit:
         return tuple(ch.confound.report() for ch in self.span)
 
 
-def _gain_options(
-    c: Confound, tolerance: float | None
-) -> tuple[tuple[SensorCorrections, ...], bool]:
-    """The reported explanation's corrections as they are and with the gain at each end of
-    its interval (cut to 1 +/- ``tolerance``); whether that spans what the log allows."""
+def _free_options(
+    c: Confound, effect: Effect, eq: Equivalent, tolerance: float | None
+) -> tuple[tuple[SensorCorrections, ...], bool, tuple[float, float]]:
+    """The reported explanation's corrections as they are and with ``effect``'s parameter at
+    each end of its interval (cut to its null +/- ``tolerance``); whether that spans what the
+    log allows (within null +/- ``eq.span_within``); the interval."""
     base = c.reported.corrections
-    lo, hi = c.alternative.effect_ci95[GAIN_KEY]["scale"]
+    p = effect.params[0]
+    ci = lo, hi = c.alternative.effect_ci95[effect.key][p.name]
     spannable = math.isfinite(lo) and math.isfinite(hi)
     if tolerance is not None:
-        lo, hi = max(lo, 1.0 - tolerance), min(hi, 1.0 + tolerance)
-        lo, hi = min(lo, 1.0), max(hi, 1.0)
+        lo, hi = max(lo, p.null - tolerance), min(hi, p.null + tolerance)
+        lo, hi = min(lo, p.null), max(hi, p.null)
     else:
-        spannable = spannable and lo >= 1.0 - MAX_SPAN_GAIN and hi <= 1.0 + MAX_SPAN_GAIN
-    labels = (*base.labels, GAIN_KEY)
-    opts = tuple(
-        SensorCorrections(base.psi_offset, base.psi_shift_s, float(s), labels)
-        for s in (lo, hi)
-        if math.isfinite(s) and s > 0
-    )
-    return (base, *opts), spannable
+        spannable = spannable and lo >= p.null - eq.span_within and hi <= p.null + eq.span_within
+    opts = []
+    for s in (lo, hi):
+        corr = effect.joint_angle_correction({p.name: float(s)}) if math.isfinite(s) else None
+        if corr is not None:
+            opts.append(base.combined(corr))
+    return (base, *opts), spannable, ci
 
 
 def sensor_effects_for_fit(
@@ -311,32 +338,35 @@ def sensor_effects_for_fit(
     ``fold``: the joint-angle offset, clock shift and gain of the named effects that no
     confound involves. For each confound (``result.confounds``) a ``SpanChoice``: refit with
     each option and report the union of the intervals (or "not determined" when they
-    disagree beyond it). A joint-angle gain the log does not pin is spanned by refitting at
-    the ends of its 95 % interval, given ``psi_gain_tolerance`` (the sensor's gain is known
-    to 1 +/- it: the interval is cut to that) or when that interval lies within
-    1 +/- ``MAX_SPAN_GAIN``; otherwise the link lengths are not determined by the log
-    (``undetermined``). A result without effects or confounds gives an empty ``fold`` and
-    nothing to span.
+    disagree beyond it). An effect declared equivalent to the link lengths that the log does
+    not pin (the joint-angle gain) is spanned by refitting at the ends of its 95 % interval,
+    given ``psi_gain_tolerance`` (its parameter is known to its null +/- it, the sensor's gain
+    to 1 +/- it: the interval is cut to that) or when that interval lies within what its
+    equivalence declares (``Equivalent.span_within``: 1 +/- 0.1 for the gain); otherwise the
+    link lengths are not determined by the log (``undetermined``). A result without effects or
+    confounds gives an empty ``fold`` and nothing to span.
     """
     named = {e.label: dict(e.parameters) for e in result.effects}
     involved: set[str] = set()
     for c in result.confounds:
         a, b = set(c.reported.effects), set(c.alternative.effects)
         involved |= a ^ b
-    fold = corrections_of({k: v for k, v in named.items() if k not in involved})
+    effects = _catalogue()
+    fold = corrections_of({k: v for k, v in named.items() if k not in involved}, effects)
+    free = {eq.rule: (e, eq) for e, eq in _parameter_rules(list(effects.values()), CHANNELS)}
     span: list[SpanChoice] = []
     undetermined: list[str] = []
     for c in result.confounds:
-        if c.rule == GAIN_RULE:
-            options, ok = _gain_options(c, psi_gain_tolerance)
+        if c.rule in free:
+            effect, eq = free[c.rule]
+            options, ok, (lo, hi) = _free_options(c, effect, eq, psi_gain_tolerance)
             if not ok:
-                lo, hi = c.alternative.effect_ci95[GAIN_KEY]["scale"]
                 undetermined.append(
-                    "the joint-angle sensor's gain is not pinned by this log (95 %: "
-                    f"{lo:.3f} to {hi:.3f}) and trades off against L1 + L2"
+                    f"{eq.what} is not pinned by this log (95 %: {lo:.3f} to {hi:.3f}) and "
+                    f"trades off against {' + '.join(eq.parameters)}"
                 )
+            span.append(SpanChoice(c, options, c.span(), ok, effect.key))
         else:
             options = (c.reported.corrections, c.alternative.corrections)
-            ok = True
-        span.append(SpanChoice(c, options, c.span(), ok))
+            span.append(SpanChoice(c, options, c.span(), True))
     return SensorEffectsForFit(fold, tuple(span), tuple(undetermined))

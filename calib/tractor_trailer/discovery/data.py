@@ -190,6 +190,12 @@ class DiscoveryData:
     def channels(self) -> tuple[str, ...]:
         return tuple(self.outputs)
 
+    def mean_square_speed(self) -> float:
+        """Mean of v^2 over the valid fitting rows (m^2/s^2; each row's speed the mean of its
+        block): the speed at which a conversion between speed-dependent explanations holds."""
+        v = block_mean(self.v, self.m)[self.valid]
+        return float(np.mean(v * v))
+
     @property
     def dt_s(self) -> float:
         """Median sample period of the aligned grid (s)."""

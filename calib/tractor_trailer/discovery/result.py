@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 
 from calib.results import Estimate, json_safe
 from calib.tractor_trailer.discovery.diagnostics import UNITS, MismatchRegion
+from calib.tractor_trailer.discovery.effects.base import SensorCorrections
 from calib.tractor_trailer.discovery.sparse import SparseResidualModel
 from calib.tractor_trailer.discovery.windows import DataWindows
 
@@ -93,48 +94,6 @@ class AlternativeExplanation:
 
 
 @dataclass(frozen=True)
-class SensorCorrections:
-    """What an explanation says about the joint-angle sensor, in the terms a fit of the link
-    lengths along the measured path can take in: ``psi_offset`` (fit a constant offset of the
-    recorded joint angle), ``psi_shift_s`` (the joint-angle topic is stamped this many seconds
-    late: compare the model at t - shift), ``psi_scale`` (recorded = scale x true: divide the
-    recorded angle by it; 1.0 for none); ``labels``: the effects they come from. Effects on the
-    actuator (dead time, lag, understeer) and on the yaw rate do not enter such a fit."""
-
-    psi_offset: bool = False
-    psi_shift_s: float = 0.0
-    psi_scale: float = 1.0
-    labels: tuple[str, ...] = ()
-
-    @property
-    def empty(self) -> bool:
-        return not self.psi_offset and self.psi_shift_s == 0.0 and self.psi_scale == 1.0
-
-    def same_as(self, other: SensorCorrections, *, shift_tol_s: float = 0.0) -> bool:
-        """The same corrections (time shifts within ``shift_tol_s``; scales to 1e-9)."""
-        return (
-            self.psi_offset == other.psi_offset
-            and abs(self.psi_shift_s - other.psi_shift_s) <= shift_tol_s
-            and abs(self.psi_scale - other.psi_scale) <= 1e-9
-        )
-
-    def as_tuple(self) -> tuple[bool, float, list[str]]:
-        """(fit a joint-angle offset, joint-angle clock shift in s, labels): the shape of the
-        tractor-trailer pipeline's ``_sensor_effects``."""
-        return self.psi_offset, self.psi_shift_s, list(self.labels)
-
-    def to_dict(self) -> dict[str, Any]:
-        return json_safe(
-            {
-                "psi_offset": self.psi_offset,
-                "psi_shift_s": self.psi_shift_s,
-                "psi_scale": self.psi_scale,
-                "labels": list(self.labels),
-            }
-        )
-
-
-@dataclass(frozen=True)
 class ExplanationFit:
     """One explanation of a confound: its effects fitted jointly with L1, L2 on every valid
     row (the fit ``JointFit`` is for the reported one). ``effects``: labels (empty: the
@@ -184,9 +143,10 @@ class Confound:
     ``corrections`` and take the union of the intervals) or be "not determined"; it may not
     take one side's. ``calib.tractor_trailer.discovery.sensor_effects_for_fit`` says which.
 
-    ``rule``: the equivalence (``confirm.EQUIVALENCES``), "same_round", or
-    "joint_angle_gain_vs_link_lengths" (a gain of the joint-angle sensor that L1 + L2 absorb:
-    at small angles psi ~ kappa (L1 + L2)); ``reported``/``alternative``: the two
+    ``rule``: the equivalence an effect declares (``Effect.equivalents``: with other effects,
+    or with the link lengths, e.g. "joint_angle_gain_vs_link_lengths", a gain of the
+    joint-angle sensor that L1 + L2 absorb: at small angles psi ~ kappa (L1 + L2)), or
+    "same_round"; ``reported``/``alternative``: the two
     explanations (``reported`` the one in ``DiscoveryResult.effects``); ``delta_bic``:
     BIC(alternative) - BIC(reported) on the training blocks (NaN where not compared);
     ``why``: why the log does not tell them apart (within ``EQUIVALENCE_MARGIN`` BIC, held-out

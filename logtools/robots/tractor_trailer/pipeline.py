@@ -154,17 +154,17 @@ def _sensor_effects(discovery: object) -> tuple[bool, float, list[str], tuple[An
     confound involves are folded into the fit
     (``calib.tractor_trailer.discovery.sensor_effects_for_fit``);
     an actuator dead time that the log cannot tell from clock offsets is spanned, never folded
-    as offsets. The joint-angle gain is judged along the measured path (path discovery), so the
-    command side's gain confound is left to it. Effects on the actuator do not enter a
+    as offsets. An effect confounded with the link lengths themselves (the joint-angle gain,
+    ``SpanChoice.free_effect``) is judged along the measured path (path discovery), so the
+    command side's confound of it is left to it. Effects on the actuator do not enter a
     path-driven fit."""
     from calib.tractor_trailer.discovery import DiscoveryResult, sensor_effects_for_fit
-    from calib.tractor_trailer.discovery.confounds import GAIN_RULE
 
     if not isinstance(discovery, DiscoveryResult):
         return False, 0.0, [], ()
     plan = sensor_effects_for_fit(discovery)
     offset, shift, labels = plan.fold.as_tuple()
-    spans = tuple(ch for ch in plan.span if ch.confound.rule != GAIN_RULE)
+    spans = tuple(ch for ch in plan.span if not ch.free_effect)
     return offset, shift, list(labels), spans
 
 

@@ -1,7 +1,9 @@
 """The catalogue of physical effects: one interface (``Effect``), one module per effect.
 
 To add an effect, subclass ``Effect`` (its hooks and its catalogue entry's declarations: kind,
-confounds, simulator switch) and list an instance in ``catalogue``, or, from outside the
+confounds, simulator switch, the explanations it is equivalent to and how their parameters
+convert, ``Effect.equivalents``, and what it says about the joint-angle sensor,
+``Effect.joint_angle_correction``) and list an instance in ``catalogue``, or, from outside the
 package, pass its factory to ``register_effect`` (one line).
 """
 
@@ -12,7 +14,12 @@ from typing import Literal
 
 from calib.tractor_trailer.discovery.effects.actuator_delay import ActuatorDelay
 from calib.tractor_trailer.discovery.effects.actuator_lag import ActuatorLag
-from calib.tractor_trailer.discovery.effects.base import Effect, ParamSpec
+from calib.tractor_trailer.discovery.effects.base import (
+    Effect,
+    Equivalent,
+    ParamSpec,
+    SensorCorrections,
+)
 from calib.tractor_trailer.discovery.effects.clock_offset import ClockOffset
 from calib.tractor_trailer.discovery.effects.hitch_transient import HitchTransient
 from calib.tractor_trailer.discovery.effects.sensor_offset import SensorOffset
@@ -24,8 +31,10 @@ __all__ = [
     "ActuatorLag",
     "ClockOffset",
     "Effect",
+    "Equivalent",
     "HitchTransient",
     "ParamSpec",
+    "SensorCorrections",
     "SensorOffset",
     "SensorScale",
     "Understeer",

@@ -8,6 +8,13 @@ the sensors record). It is also its own catalogue entry: ``spec`` is the shared
 be confounded with, the simulator switch that produces it, its truth key) whose ``model`` hook
 is the effect itself, so reports, the pipeline and the studies read those from the effect
 instead of lists of ids.
+
+An effect also declares the explanations the recordings may not tell it from
+(``Effect.equivalents``: which effects or robot parameters, and how one side's parameters
+convert into the other's) and what it says about the joint-angle sensor in the terms a fit of
+the link lengths along the measured path takes in (``Effect.joint_angle_correction``): the
+confirmation of the effects and the confounds of the link lengths read these declarations and
+know no effect by its key.
 """
 
 from __future__ import annotations
@@ -15,18 +22,27 @@ from __future__ import annotations
 from collections import OrderedDict
 from collections.abc import Callable, Hashable, Mapping
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
 from calib.adequacy import EffectKind, EffectParam, EffectSpec
+from calib.results import json_safe
+
+if TYPE_CHECKING:
+    from calib.tractor_trailer.discovery.data import DiscoveryData
 
 __all__ = [
+    "PARAM",
+    "Convert",
     "Effect",
+    "Equivalent",
     "FloatArray",
     "ParamSpec",
+    "SensorCorrections",
+    "Values",
     "hold_interp",
     "jump_intervals",
     "remembered",
@@ -38,9 +54,117 @@ T = TypeVar("T")
 STAGE_KIND = {0: EffectKind.ACTUATOR, 1: EffectKind.DYNAMICS, 2: EffectKind.SENSOR}
 """The kind of an effect at each stage: the inputs as the vehicle feels them (the actuator's
 response to its command), the hitch dynamics, the outputs (what a sensor records)."""
-STAGE_TARGET = {0: "kappa", 1: "psi"}
-"""What an effect without a target acts on, by stage (the curvature; the joint angle)."""
 REMEMBERED = 6  # results an effect remembers (``remembered``)
+
+
+Values = Mapping[str, Mapping[str, float]]
+"""Parameter values per effect key."""
+Convert = Callable[[Values, "DiscoveryData"], dict[str, dict[str, float]]]
+"""From one side's fitted values (and the log's conditions), starting values of the other's."""
+PARAM = "param:"
+"""Prefix of a robot parameter (``param:L1``) among the keys of an equivalent explanation."""
+
+
+@dataclass(frozen=True)
+class SensorCorrections:
+    """What an explanation says about the joint-angle sensor, in the terms a fit of the link
+    lengths along the measured path can take in: ``psi_offset`` (fit a constant offset of the
+    recorded joint angle), ``psi_shift_s`` (the joint-angle topic is stamped this many seconds
+    late: compare the model at t - shift), ``psi_scale`` (recorded = scale x true: divide the
+    recorded angle by it; 1.0 for none); ``labels``: the effects they come from. Effects on the
+    actuator (dead time, lag, understeer) and on the yaw rate do not enter such a fit."""
+
+    psi_offset: bool = False
+    psi_shift_s: float = 0.0
+    psi_scale: float = 1.0
+    labels: tuple[str, ...] = ()
+
+    @property
+    def empty(self) -> bool:
+        return not self.psi_offset and self.psi_shift_s == 0.0 and self.psi_scale == 1.0
+
+    def same_as(self, other: SensorCorrections, *, shift_tol_s: float = 0.0) -> bool:
+        """The same corrections (time shifts within ``shift_tol_s``; scales to 1e-9)."""
+        return (
+            self.psi_offset == other.psi_offset
+            and abs(self.psi_shift_s - other.psi_shift_s) <= shift_tol_s
+            and abs(self.psi_scale - other.psi_scale) <= 1e-9
+        )
+
+    def combined(self, other: SensorCorrections) -> SensorCorrections:
+        """Both corrections at once: an offset if either has one, the time shifts added, the
+        gains multiplied, the labels of both."""
+        return SensorCorrections(
+            self.psi_offset or other.psi_offset,
+            self.psi_shift_s + other.psi_shift_s,
+            self.psi_scale * other.psi_scale,
+            (*self.labels, *other.labels),
+        )
+
+    def as_tuple(self) -> tuple[bool, float, list[str]]:
+        """(fit a joint-angle offset, joint-angle clock shift in s, labels): the shape of the
+        tractor-trailer pipeline's ``_sensor_effects``."""
+        return self.psi_offset, self.psi_shift_s, list(self.labels)
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe(
+            {
+                "psi_offset": self.psi_offset,
+                "psi_shift_s": self.psi_shift_s,
+                "psi_scale": self.psi_scale,
+                "labels": list(self.labels),
+            }
+        )
+
+
+@dataclass(frozen=True)
+class Equivalent:
+    """An explanation that changes the recordings (nearly) as the declaring effect does
+    (``Effect.equivalents``).
+
+    ``rule``: its name in reports (``AlternativeExplanation.rule``, ``Confound.rule``);
+    ``note``: why the two look alike and what tells them apart. ``mine``: keys of the
+    declaring side (the declaring effect's, with any that go with it); ``theirs``: keys of the
+    other side, effects or robot parameters (``PARAM`` + name).
+
+    Between effects: ``to_theirs``/``to_mine`` give one side's starting values from the
+    other's fitted ones (unit conversions: a dead time into clock offsets, understeer into a
+    yaw-rate gain); ``exact``: the two change the recordings alike wherever the log's
+    conditions hold throughout (constant speed), rather than only approximately (slow
+    commands): exact equivalences are tried first. ``agree``, ``agree_note``: a parameter of
+    ``theirs`` whose values agreeing with each other are the declaring side's signature (a
+    dead time looks like the same offset on every topic's clock), and what that agreement
+    says.
+
+    With robot parameters (the log fixes only a combination of the effect and the parameters,
+    so there is no conversion): the effect is fitted free beside them; ``what``: the effect's
+    parameter in words; ``assumes``: what the parameters fitted without it assume of it;
+    ``span_within``: the effect's interval is spanned (refit at its ends) only within its null
+    +/- this, wider the parameters are not determined by the log.
+    """
+
+    rule: str
+    note: str
+    mine: tuple[str, ...]
+    theirs: tuple[str, ...]
+    to_theirs: Convert | None = None
+    to_mine: Convert | None = None
+    exact: bool = True
+    agree: str = ""
+    agree_note: str = ""
+    what: str = ""
+    assumes: str = ""
+    span_within: float = 0.0
+
+    @property
+    def of_parameters(self) -> bool:
+        """The other side is robot parameters (``PARAM``), not effects."""
+        return bool(self.theirs) and all(k.startswith(PARAM) for k in self.theirs)
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        """Names of the robot parameters on the other side."""
+        return tuple(k.removeprefix(PARAM) for k in self.theirs if k.startswith(PARAM))
 
 
 @dataclass(frozen=True)
@@ -76,7 +200,8 @@ class Effect:
     the stage, ``params`` and ``channels`` (the modelled outputs it changes), and override the
     hooks they need; for their catalogue entry (``spec``) also ``kind`` (default: the stage's,
     ``STAGE_KIND``), ``confounded_with`` (keys of effects, or "param:" robot parameters, the
-    log may not tell it from) and ``sim_switch`` (the option of
+    log may not tell it from; ``equivalents`` says how, for those the confirmation and the
+    confounds check) and ``sim_switch`` (the option of
     :class:`calib.tractor_trailer.sim.tractor_trailer.Effects` that produces it; per target
     when the effect has one).
     """
@@ -96,7 +221,9 @@ class Effect:
 
     @property
     def key(self) -> str:
-        """Unique name of this catalogue entry, e.g. ``sensor_offset(psi)``."""
+        """Unique name of this catalogue entry, e.g. ``sensor_offset(psi)``; ``id`` alone for
+        an effect without a target (``actuator_delay``). The same as ``spec.key``: reports,
+        JSON, ``confounded_with``, equivalences and a simulated log's truth all use it."""
         return self.id if self.target is None else f"{self.id}({self.target})"
 
     @property
@@ -105,12 +232,11 @@ class Effect:
 
     @property
     def spec(self) -> EffectSpec[Effect]:
-        """This effect as a catalogue entry, its hook the effect itself. The truth key is
-        ``key`` (what a simulated log's truth and the studies call it); an effect without a
-        target takes the one of its stage (``STAGE_TARGET``) in ``spec.target``."""
+        """This effect as a catalogue entry, its hook the effect itself. ``spec.key`` and the
+        truth key are ``key`` (an effect without a target has the empty target)."""
         doc = (type(self).__doc__ or self.id).strip().splitlines()[0]
         return EffectSpec(
-            self.id, self.target or STAGE_TARGET.get(self.stage, ""),
+            self.id, self.target or "",
             self.kind or STAGE_KIND[self.stage],
             tuple(EffectParam(p.name, p.unit, p.null, p.lower, p.upper, p.init)
                   for p in self.params),
@@ -126,6 +252,18 @@ class Effect:
     def explanation(self, values: Mapping[str, float]) -> str:
         """Plain-language account of the effect with its fitted ``values``."""
         raise NotImplementedError
+
+    def equivalents(self, channels: tuple[str, ...]) -> tuple[Equivalent, ...]:
+        """Explanations a log of the recorded ``channels`` may not tell this effect from, with
+        how their parameters convert (``Equivalent``). Declare each pair once, on one side;
+        the keys of both sides belong in the effects' ``confounded_with``. Default: none."""
+        return ()
+
+    def joint_angle_correction(self, p: Mapping[str, float]) -> SensorCorrections | None:
+        """What this effect with parameters ``p`` says about the joint-angle sensor, as a
+        fit of the link lengths along the measured path takes it in (labelled with ``key``),
+        or None if nothing (or if ``p`` is no valid such correction). Default: None."""
+        return None
 
     def modify_inputs(
         self, t_s: FloatArray, kappa: FloatArray, v: FloatArray, p: Mapping[str, float]

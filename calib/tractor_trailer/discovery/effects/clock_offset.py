@@ -8,7 +8,13 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from calib.adequacy import EffectKind
-from calib.tractor_trailer.discovery.effects.base import Effect, FloatArray, ParamSpec, remembered
+from calib.tractor_trailer.discovery.effects.base import (
+    Effect,
+    FloatArray,
+    ParamSpec,
+    SensorCorrections,
+    remembered,
+)
 
 __all__ = ["ClockOffset"]
 
@@ -67,6 +73,12 @@ class ClockOffset(Effect):
             tq = np.clip(t_s - c, t_s[0], t_s[-1])
             return remembered(self, c, (t_s, y), lambda: np.asarray(spline(tq), dtype=float))
         return remembered(self, c, (t_s, y), lambda: np.interp(t_s - c, t_s, y))
+
+    def joint_angle_correction(self, p: Mapping[str, float]) -> SensorCorrections | None:
+        """On the joint-angle topic: its stamps late by the offset."""
+        if _CHANNEL[self.target or "hitch"] != "psi":
+            return None
+        return SensorCorrections(psi_shift_s=float(p["offset"]), labels=(self.key,))
 
     def explanation(self, values: Mapping[str, float]) -> str:
         topic = "joint-angle" if self.target == "hitch" else "odometry (speed, yaw rate)"

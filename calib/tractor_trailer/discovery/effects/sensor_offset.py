@@ -4,7 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from calib.tractor_trailer.discovery.effects.base import Effect, FloatArray, ParamSpec
+from calib.tractor_trailer.discovery.effects.base import (
+    Effect,
+    FloatArray,
+    ParamSpec,
+    SensorCorrections,
+)
 
 __all__ = ["SensorOffset"]
 
@@ -34,6 +39,12 @@ class SensorOffset(Effect):
 
     def true_from_recorded(self, name: str, y: float, p: Mapping[str, float]) -> float:
         return y - p["offset"] if name == self.target else y
+
+    def joint_angle_correction(self, p: Mapping[str, float]) -> SensorCorrections | None:
+        """On the joint angle: a constant offset the path fit fits itself."""
+        if self.target != "psi":
+            return None
+        return SensorCorrections(psi_offset=True, labels=(self.key,))
 
     def explanation(self, values: Mapping[str, float]) -> str:
         what = "joint-angle sensor" if self.target == "psi" else "yaw-rate sensor"
