@@ -11,7 +11,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TypeVar
 
-from calib.results import Baseline
 from logtools.robots.options import RobotOptions
 
 __all__ = ["AnalysisConfig"]
@@ -25,10 +24,6 @@ class AnalysisConfig:
 
     Args:
         repeats: repeats (moving-block bootstrap replicates) per method table row.
-        baseline: the model discovery compares against (``Baseline.TRANSIENT``, the default:
-            the off-axle trailer kinematics, which diagnoses best in
-            bench/discovery_confusion_study.py; ``Baseline.STEADY``: the patent's steady state).
-            A tractor-trailer setting (its plugin's ``uses_settings``).
         seed: seed of every random draw (bootstrap), for reproducible reports.
         discovery: run model-mismatch discovery.
         per_segment: also report the method table per command type.
@@ -43,7 +38,6 @@ class AnalysisConfig:
     """
 
     repeats: int = 10
-    baseline: Baseline = Baseline.TRANSIENT
     seed: int = 0
     discovery: bool = True
     per_segment: bool = True

@@ -10,7 +10,8 @@ Each log is cropped to its span (``AnalysisOptions.start_s``/``end_s``, the comm
 :class:`~logtools.load.LoadRequest` that ``logcal analyze --start/--end`` builds.
 
 The robot's own options come from the log's ``logcal.toml`` settings (plain values by key,
-``LogSettings.options``), turned into typed options by
+``LogSettings.options``) and, over them, from the command line (``AnalysisOptions.options``: the
+options robots declare ``batch=True``), turned into typed options by
 :func:`~logtools.analyze.options_from_settings` for ``AnalysisConfig(robot_options=...)``; the
 views are drawn by :func:`logtools.views.write_views`, as ``logcal analyze --rrd`` does.
 """
@@ -20,6 +21,7 @@ from __future__ import annotations
 import tempfile
 import time
 import traceback
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -44,32 +46,36 @@ class AnalysisOptions:
         repeats: bootstrap repeats per method-table row.
         seed: seed of the bootstrap draws (the same for every log: reproducible reports).
         discovery: run model-mismatch discovery.
-        baseline: discovery baseline (``transient`` | ``steady``; tractor-trailer only).
         views: also draw each log's rerun recording (``.rrd``) and static image (``.png``) when
             its robot plugin has them.
         start_s, end_s: analyse each log from / up to this many seconds after its first sample
             (``--start``/``--end``; None: the ``logcal.toml`` keys ``start``/``end``, else the
             whole log).
+        options: robot options given on the command line, as plain values by settings key
+            (e.g. the tractor-trailer's ``{"baseline": "steady"}``); each wins over the same
+            ``logcal.toml`` key.
     """
 
     repeats: int = 10
     seed: int = 0
     discovery: bool = True
-    baseline: str = "transient"
     views: bool = True
     start_s: float | None = None
     end_s: float | None = None
+    options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         check_span(self.start_s, self.end_s)
 
     def fingerprint(self) -> str:
         """The settings that change a result, as text (part of each log's manifest key; the
-        bounds only when given, so that a batch without them keeps its keys)."""
+        bounds and robot options only when given, so that a batch without them keeps its
+        keys)."""
         span = "".join(f";{k}={v!r}" for k, v in (("start", self.start_s), ("end", self.end_s))
                        if v is not None)
+        given = "".join(f";{k}={v!r}" for k, v in sorted(self.options.items()))
         return (f"repeats={self.repeats};seed={self.seed};discovery={self.discovery};"
-                f"baseline={self.baseline};views={self.views}{span}")
+                f"views={self.views}{given}{span}")
 
 
 def check_span(start_s: float | None, end_s: float | None) -> None:
@@ -197,7 +203,6 @@ def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
     try:
         from dataclasses import replace
 
-        from calib.results import Baseline
         from logtools.analyze import AnalysisConfig, analyze_log, options_from_settings
         from logtools.channel_map import ChannelMap, load_channel_map
         from logtools.load import LoadRequest
@@ -214,9 +219,9 @@ def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
         cmap = LoadRequest.of(cmap, start_s=start_s, end_s=end_s)  # as analyze --start/--end
         config = AnalysisConfig(
             repeats=options.repeats, seed=options.seed, discovery=options.discovery,
-            baseline=Baseline(options.baseline),
             robot_options=options_from_settings(
-                s.options, where=s.sources[-1] if s.sources else "logcal.toml"),
+                {**s.options, **options.options},
+                where=s.sources[-1] if s.sources else "logcal.toml"),
             window_s=0.0 if options.views else None,  # views draw every sample
         )
         loaded, result = analyze_log(job.path, channel_map=cmap, config=config)

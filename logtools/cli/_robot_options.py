@@ -1,6 +1,7 @@
-"""Every registered robot's own options as CLI options of ``analyze`` and ``view``, generated from
-the plugins' declarations (:mod:`logtools.robots.options`), and the warning when one given does
-not apply to the robot found.
+"""Every registered robot's own options as CLI options of ``analyze``, ``view``, ``batch`` and
+``info`` (those declared ``view=True``, ``batch=True``, ``info=True``), generated from the
+plugins' declarations (:mod:`logtools.robots.options`), and the warning when one given does not
+apply to the robot found.
 
 A command opts in with :func:`with_robot_options`: its function takes one parameter
 ``robot_options: GivenOptions`` and the decorator offers each declared option (``--urdf``,
@@ -14,6 +15,8 @@ from __future__ import annotations
 import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from enum import Enum
+from pathlib import PurePath
 from typing import TYPE_CHECKING, Any, Literal
 
 import typer
@@ -25,6 +28,8 @@ if TYPE_CHECKING:
 __all__ = ["GivenOptions", "general_warnings", "with_robot_options"]
 
 _PARAM = "robot_options"
+
+Command = Literal["analyze", "view", "batch", "info"]
 
 
 @dataclass(frozen=True)
@@ -39,7 +44,7 @@ class _CliOption:
         return self.specs[0].flag
 
 
-def _cli_options(command: Literal["analyze", "view"]) -> list[_CliOption]:
+def _cli_options(command: Command) -> list[_CliOption]:
     """The robots' options ``command`` offers, one per flag (robots may share one)."""
     from logtools.robots import plugins
     from logtools.robots.options import option_specs
@@ -47,7 +52,9 @@ def _cli_options(command: Literal["analyze", "view"]) -> list[_CliOption]:
     by_flag: dict[str, list[OptionSpec]] = {}
     for plugin in plugins():
         for spec in option_specs(plugin):
-            if command == "analyze" or spec.view:
+            if (command == "analyze" or (command == "view" and spec.view)
+                    or (command == "batch" and spec.batch)
+                    or (command == "info" and spec.info)):
                 by_flag.setdefault(spec.flag, []).append(spec)
     out = []
     for flag, specs in by_flag.items():
@@ -101,6 +108,21 @@ class GivenOptions:
             for robot, values in keyed.items()
         }
 
+    def by_key(self) -> dict[str, Any]:
+        """The values given by settings key, as plain data (an Enum as its value, a path as
+        text), checked against every robot declaring them: what ``logcal batch`` hands its
+        workers with the ``logcal.toml`` keys.
+
+        Raises:
+            LogcalInputError: a value that is not what its option expects (naming the flag).
+        """
+        self.by_robot()  # checks each value against every robot declaring its flag
+        out: dict[str, Any] = {}
+        for flag, value in self.values.items():
+            plain = value.value if isinstance(value, Enum) else value
+            out[self.specs[flag][0].key] = str(plain) if isinstance(plain, PurePath) else plain
+        return out
+
     def unused(self, plugin: RobotPlugin, where: str = "") -> list[str]:
         """One warning per option given that ``plugin``'s robot does not declare."""
         out = []
@@ -122,8 +144,8 @@ def general_warnings(plugin: RobotPlugin, given: Mapping[str, tuple[str, object]
                      where: str = "") -> list[str]:
     """Warnings for general options given that only some robots use: ``given`` maps a flag to
     (what it sets, its value; None or False: not given). What it sets is an ``AnalysisConfig``
-    setting (``baseline``: robots naming it in ``uses_settings``) or ``pose`` (robots reading
-    the pose signals x, y, yaw: ``--ground-truth``)."""
+    setting (robots naming it in ``uses_settings``) or ``pose`` (robots reading the pose
+    signals x, y, yaw: ``--ground-truth``)."""
     from logtools.robots import plugins
 
     def applies(p: RobotPlugin, what: str) -> bool:
@@ -144,7 +166,7 @@ class _WithRobotOptions:
     """A command function whose signature, as typer reads it, has the robots' options in place
     of its ``robot_options`` parameter (computed anew each time the command is built)."""
 
-    def __init__(self, fn: Callable[..., None], command: Literal["analyze", "view"]) -> None:
+    def __init__(self, fn: Callable[..., None], command: Command) -> None:
         self._fn = fn
         self._command = command
         self.__name__ = fn.__name__
@@ -193,11 +215,12 @@ class _WithRobotOptions:
 
 
 def with_robot_options(
-    command: Literal["analyze", "view"],
+    command: Command,
 ) -> Callable[[Callable[..., None]], Any]:
     """Decorate a command function (before ``app.command``) so that it offers every robot's
-    options (``view``: those declared ``view=True``) and receives them as one
-    ``robot_options: GivenOptions`` argument."""
+    options (``view``: those declared ``view=True``; ``batch``: ``batch=True``; ``info``:
+    ``info=True``) and receives
+    them as one ``robot_options: GivenOptions`` argument."""
 
     def deco(fn: Callable[..., None]) -> Any:
         return _WithRobotOptions(fn, command)

@@ -12,7 +12,6 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from calib.results import Baseline
 from logtools.cli._inputs import (
     LOGS_HELP,
     channel_map_option,
@@ -57,11 +56,6 @@ def register(app: typer.Typer) -> None:
         ),
         repeats: int = typer.Option(
             10, "--repeats", min=1, metavar="N", help="Bootstrap repeats per method."
-        ),
-        baseline: Baseline = typer.Option(
-            Baseline.TRANSIENT, "--baseline",
-            help="Discovery baseline of the tractor-trailer: transient (default) or steady "
-            "(the patent's view).",
         ),
         channel_map: Path | None = _CHANNEL_MAP,
         signal: list[str] | None = _SIGNAL,
@@ -121,21 +115,12 @@ def register(app: typer.Typer) -> None:
                     "give one log, or use --rrd (one recording file holds every run)"
                 )
         cfg = AnalysisConfig(
-            repeats=repeats, baseline=baseline, seed=seed, discovery=not no_discovery,
+            repeats=repeats, seed=seed, discovery=not no_discovery,
             debug=_debug(), robot_options=robot_options.by_robot(),
             # the views need every sample: with --rrd/--png the log is analysed whole
             window_s=0.0 if rrd is not None or png is not None else window,
         )
         err = Console(stderr=True)
-        from calib.tractor_trailer.models.hitch_rk4 import compiled_available
-
-        if not compiled_available():
-            err.print(
-                "logcal: the compiled integrator (calib/tractor_trailer/models/_hitch_rk4.c) is "
-                "not built here; "
-                "analysing on its numpy loop, about 5x slower (pip install . builds it)",
-                markup=False,
-            )
         if sys.stderr.isatty():
             with err.status("analysing", spinner="dots") as status:
                 loadeds, result = analyze_logs(
@@ -146,7 +131,6 @@ def register(app: typer.Typer) -> None:
             loadeds, result = analyze_logs(runs, channel_map=inputs.channel_map, config=cfg)
         plugin = plugin_for(str(result.robot))
         unused = robot_options.unused(plugin) + general_warnings(plugin, {
-            "--baseline": ("baseline", baseline if baseline is not Baseline.TRANSIENT else None),
             "--ground-truth": ("pose", ground_truth),
         })
         for warning in unused:

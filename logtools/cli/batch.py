@@ -9,9 +9,9 @@ from pathlib import Path
 
 import typer
 
-from calib.results import Baseline
 from logtools.batch.choices import Engine
 from logtools.cli._inputs import end_option, start_option
+from logtools.cli._robot_options import GivenOptions, with_robot_options
 
 __all__ = ["register"]
 
@@ -20,6 +20,7 @@ def register(app: typer.Typer) -> None:
     """Add the ``batch`` and ``serve`` commands to ``app``."""
 
     @app.command("batch")
+    @with_robot_options("batch")
     def batch(
         archive: Path = typer.Argument(..., help="Folder of logs (MCAP, CSV, ROS bags), with "
                                        "optional logcal.toml files (docs/batch.md)."),
@@ -35,12 +36,12 @@ def register(app: typer.Typer) -> None:
                                     "method."),
         no_discovery: bool = typer.Option(False, "--no-discovery", help="Skip discovery."),
         no_views: bool = typer.Option(False, "--no-views", help="Do not draw .rrd/.png views."),
-        baseline: Baseline = typer.Option(Baseline.TRANSIENT, "--baseline",
-                                          help="Discovery baseline (tractor-trailer)."),
         seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap draws."),
         force: bool = typer.Option(False, "--force", help="Redo every log."),
         start: float | None = start_option(),
         end: float | None = end_option(),
+        *,
+        robot_options: GivenOptions,
     ) -> None:
         """Analyse every log of ARCHIVE in parallel (resumable) and write fleet results and
         an HTML report to --out."""
@@ -61,8 +62,9 @@ def register(app: typer.Typer) -> None:
         if address and engine is not Engine.RAY:
             raise typer.BadParameter("--address needs --engine ray", param_hint="--address")
         options = AnalysisOptions(repeats=repeats, seed=seed, discovery=not no_discovery,
-                                  baseline=str(baseline), views=not no_views, start_s=start,
-                                  end_s=end)  # --start/--end: crop each log as analyze does
+                                  views=not no_views, start_s=start, end_s=end,
+                                  options=robot_options.by_key())
+        # --start/--end crop each log as analyze does; robot options apply to every log
         err = Console(stderr=True)
         bar = Progress(
             TextColumn("[bold]analysing"), BarColumn(), MofNCompleteColumn(),

@@ -7,7 +7,6 @@ from pathlib import Path
 
 import typer
 
-from calib.results import Baseline
 from logtools.cli._inputs import (
     channel_map_option,
     end_option,
@@ -42,10 +41,6 @@ def register(app: typer.Typer) -> None:
         repeats: int = typer.Option(
             10, "--repeats", min=1, metavar="N", help="Bootstrap repeats per method."
         ),
-        baseline: Baseline = typer.Option(
-            Baseline.TRANSIENT, "--baseline",
-            help="Discovery baseline of the tractor-trailer: transient (default) or steady.",
-        ),
         channel_map: Path | None = _CHANNEL_MAP,
         signal: list[str] | None = _SIGNAL,
         ground_truth: Path | None = _GROUND_TRUTH,
@@ -74,13 +69,12 @@ def register(app: typer.Typer) -> None:
         target = check_output(rrd or default, option="--rrd", suffixes=(".rrd",), inputs=every)
         for note in inputs.notes:
             say(f"logcal: {note}")
-        cfg = AnalysisConfig(repeats=repeats, baseline=baseline,
+        cfg = AnalysisConfig(repeats=repeats,
                              robot_options=robot_options.by_robot(),
                              window_s=0.0)  # the views draw every sample: never by windows
         loadeds, result = analyze_logs(inputs.runs, channel_map=inputs.channel_map, config=cfg)
         plugin = plugin_for(result.robot)
         for warning in robot_options.unused(plugin) + general_warnings(plugin, {
-            "--baseline": ("baseline", baseline if baseline is not Baseline.TRANSIENT else None),
             "--ground-truth": ("pose", ground_truth),
         }):
             say(f"logcal: warning: {warning}")

@@ -1,12 +1,12 @@
 """A robot's own analysis options, typed: one frozen dataclass per robot (``RobotPlugin.options``)
-whose fields are declared with :func:`option` (CLI flag, help, metavar, whether ``view`` also
-takes it); the settings key is the field name.
+whose fields are declared with :func:`option` (CLI flag, help, metavar, whether ``view``,
+``batch`` and ``info`` also take it); the settings key is the field name.
 
-The command line (``analyze``, ``view``) offers every registered robot's options from these
-declarations, a settings file names them by key, and both are turned into the dataclass by
-:func:`build_options`, which checks each value and raises one :class:`LogcalInputError` naming
-the flag or key and what was expected. An analysis reads its robot's options with
-``AnalysisConfig.options(TheRobotOptions)``.
+The command line (``analyze``; ``view``, ``batch`` and ``info`` those declared for them) offers
+every registered robot's options from these declarations, a settings file names them by key, and
+both are turned into the dataclass by :func:`build_options`, which checks each value and raises
+one :class:`LogcalInputError` naming the flag or key and what was expected. An analysis reads
+its robot's options with ``AnalysisConfig.options(TheRobotOptions)``.
 
     @dataclass(frozen=True)
     class ArmOptions(RobotOptions):
@@ -62,6 +62,8 @@ class _Declared:
     at_least: float | None
     file: bool = False
     or_name: bool = False
+    batch: bool = False
+    info: bool = False
 
 
 def option(
@@ -75,6 +77,8 @@ def option(
     at_least: float | None = None,
     file: bool = False,
     or_name: bool = False,
+    batch: bool = False,
+    info: bool = False,
 ) -> Any:
     """A field of a :class:`RobotOptions` subclass that is also a CLI option and settings key.
 
@@ -89,12 +93,19 @@ def option(
         file: the value names a file (a text or ``Path`` option; ``Path`` ones always do): a
             settings file may name only a file inside its archive.
         or_name: with ``file``: a plain name (letters, digits, ``_``, ``-``) is not a file.
+        batch: ``logcal batch`` takes it too, for every log of the archive (over the
+            ``logcal.toml`` key); not for an option naming a file.
+        info: ``logcal info`` takes it too, and hands it to the robot's ``info`` hook
+            (``RobotPlugin.info``: what the robot says of it, e.g. a URDF's transmissions).
     """
     if not flag.startswith("--"):
         raise ValueError(f"option flag {flag!r}: expected a long option such as --name")
     if or_name and not file:
         raise ValueError(f"option {flag}: or_name=True needs file=True")
-    declared = _Declared(flag, help, metavar, view, above, at_least, file, or_name)
+    if batch and file:
+        raise ValueError(f"option {flag}: batch=True is for options that name no file")
+    declared = _Declared(flag, help, metavar, view, above, at_least, file, or_name, batch,
+                         info)
     return dataclasses.field(default=default, metadata={_META: declared})
 
 
@@ -114,6 +125,8 @@ class OptionSpec:
         robot: the plugin declaring it (its ``name``; "" when asked of a bare class).
         file: the value names a file (declared ``file=True``, or of type ``Path``).
         or_name: a plain name (``panda``) is a name, not a file.
+        batch: ``logcal batch`` takes it too.
+        info: ``logcal info`` takes it too.
     """
 
     key: str
@@ -127,6 +140,8 @@ class OptionSpec:
     robot: str = ""
     file: bool = False
     or_name: bool = False
+    batch: bool = False
+    info: bool = False
 
     def expected(self) -> str:
         """What a value must be, in words ("a number > 0")."""
@@ -177,6 +192,9 @@ def options_fields(cls: type[RobotOptions], robot: str = "") -> tuple[OptionSpec
         if declared.file and kind not in (str, Path):
             raise TypeError(f"{cls.__name__}.{f.name}: file=True needs a str or Path option")
         names_file = declared.file or kind is Path
+        if declared.batch and names_file:
+            raise TypeError(f"{cls.__name__}.{f.name}: batch=True is for options that name "
+                            "no file")
         metavar = declared.metavar
         if metavar is None:
             metavar = (("PATH_OR_NAME" if declared.or_name else "PATH") if names_file
@@ -184,7 +202,8 @@ def options_fields(cls: type[RobotOptions], robot: str = "") -> tuple[OptionSpec
         out.append(OptionSpec(
             key=f.name, flag=declared.flag, help=declared.help, metavar=metavar,
             view=declared.view, type=kind, above=declared.above, at_least=declared.at_least,
-            robot=robot, file=names_file, or_name=declared.or_name,
+            robot=robot, file=names_file, or_name=declared.or_name, batch=declared.batch,
+            info=declared.info,
         ))
     return tuple(out)
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from calib.results import Baseline
 from logtools.robots.options import RobotOptions, option
 
 __all__ = ["TractorTrailerOptions"]
@@ -18,6 +19,9 @@ class TractorTrailerOptions(RobotOptions):
             (default 600; 0: all of it).
         method_for_psi: a method (e.g. ``OLS1(EM1)``) whose steady-state joint angle the views
             also draw.
+        baseline: the model discovery compares against (None: ``Baseline.TRANSIENT``, the
+            off-axle trailer kinematics, which diagnoses best in
+            bench/discovery_confusion_study.py; ``Baseline.STEADY``: the patent's steady state).
     """
 
     discovery_span_s: float | None = option(
@@ -28,4 +32,9 @@ class TractorTrailerOptions(RobotOptions):
     method_for_psi: str | None = option(
         flag="--method", metavar="NAME", view=True,
         help="In the rerun views, also draw psi predicted by this method (e.g. OLS1(EM1)).",
+    )
+    baseline: Baseline | None = option(  # noqa: RUF009  (option() is a dataclasses.field)
+        flag="--baseline", view=True, batch=True,
+        help="Discovery baseline of the tractor-trailer: transient (default) or steady "
+        "(the patent's view).",
     )
