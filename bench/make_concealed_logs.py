@@ -1,9 +1,9 @@
 """Write the concealed-effect sample logs (sample_logs/field_run_NN.mcap) and their truth.
 
-Each log is a simulated tractor-trailer run written with ``logtools.writers.write_mcap_json``
-and its default metadata (robot, L1, L2, seed: nothing about the effect). File names and topics
-are the same for every log; which effect each one holds is written only to
-tests/fixtures/concealed_truth.json. Run from the repository root:
+Each log is a simulated tractor-trailer run written with
+``logtools.writers.tractor_trailer.write_mcap_json`` and its default metadata (robot, L1, L2,
+seed: nothing about the effect). File names and topics are the same for every log; which effect
+each one holds is written only to tests/fixtures/concealed_truth.json. Run from the repository root:
 
     python bench/make_concealed_logs.py
 """
@@ -27,7 +27,7 @@ from calib.tractor_trailer.sim.tractor_trailer import (
     TractorTrailerSim,
     simulate_tractor_trailer,
 )
-from logtools.writers import write_mcap_json
+from logtools.writers.tractor_trailer import write_mcap_json
 
 ROOT = Path(__file__).resolve().parents[1]
 LOG_DIR = ROOT / "sample_logs"

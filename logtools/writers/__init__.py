@@ -2,7 +2,10 @@
 
 The generic writers (:func:`write_frames_mcap` with a :class:`JsonEncoder` or
 :class:`CdrEncoder`, and :func:`write_frames_csv`) map sensor-group frames onto topics through
-:class:`TopicBinding` lists; the tractor-trailer writers declare theirs.
+:class:`TopicBinding` lists. Each robot's writer is a module of its own here
+(:mod:`logtools.writers.tractor_trailer`, :mod:`~logtools.writers.diff_drive`,
+:mod:`~logtools.writers.manipulator`), declaring its bindings, and is imported from that module
+by the robot's code; this package exports only the generic writers.
 
 The writers load numpy, polars and mcap on first use of a name exported here, so that
 ``logtools.writers.encoding`` (the :class:`LogEncoding` choices the CLI needs at start-up)
@@ -26,13 +29,6 @@ if TYPE_CHECKING:
         write_frames_mcap,
     )
     from logtools.writers.ros2_msgdefs import MSGDEFS, msgdef
-    from logtools.writers.tractor_trailer import (
-        run_metadata,
-        write_csv,
-        write_mcap_json,
-        write_mcap_ros2,
-        write_run,
-    )
 
 __all__ = [
     "ENCODINGS",
@@ -44,13 +40,8 @@ __all__ = [
     "frames_to_table",
     "json_schema",
     "msgdef",
-    "run_metadata",
-    "write_csv",
     "write_frames_csv",
     "write_frames_mcap",
-    "write_mcap_json",
-    "write_mcap_ros2",
-    "write_run",
 ]
 
 _LAZY = {
@@ -63,11 +54,6 @@ _LAZY = {
     "write_frames_mcap": "mcap_writer",
     "MSGDEFS": "ros2_msgdefs",
     "msgdef": "ros2_msgdefs",
-    "run_metadata": "tractor_trailer",
-    "write_csv": "tractor_trailer",
-    "write_mcap_json": "tractor_trailer",
-    "write_mcap_ros2": "tractor_trailer",
-    "write_run": "tractor_trailer",
 }
 
 

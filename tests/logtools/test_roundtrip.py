@@ -19,7 +19,7 @@ from calib.tractor_trailer.sim.tractor_trailer import (
 )
 from logtools.readers import read_log
 from logtools.signals import DEFAULT_JSON_MAP, DEFAULT_ROS2_MAP
-from logtools.writers import write_csv, write_mcap_json, write_mcap_ros2
+from logtools.writers.tractor_trailer import write_csv, write_mcap_json, write_mcap_ros2
 
 
 @pytest.fixture(scope="module")

@@ -27,9 +27,11 @@ from logtools.writers import (
     TopicBinding,
     json_schema,
     msgdef,
+    write_frames_mcap,
+)
+from logtools.writers.tractor_trailer import (
     run_metadata,
     write_csv,
-    write_frames_mcap,
     write_mcap_json,
     write_mcap_ros2,
 )
