@@ -450,6 +450,12 @@ def analyze_tractor_trailer(
     stages = Stages(cfg.debug)
     rng = np.random.default_rng(cfg.seed)
     notes: list[str] = []
+    from calib.tractor_trailer.models.hitch_rk4 import compiled_available
+
+    if not compiled_available():
+        notes.append("the compiled integrator (calib/tractor_trailer/models/_hitch_rk4.c) is not "
+                     "built here; analysed on its numpy loop, about 5x slower (pip install . "
+                     "builds it)")
     geometry = _steering_geometry(loaded, stages, progress, notes)
     if geometry is not None:
         loaded = _with_kappa_cmd_from_steering(loaded, geometry, notes)
@@ -541,14 +547,14 @@ def analyze_tractor_trailer(
         from calib.tractor_trailer.discovery.windows import DEFAULT_MAX_SPAN_S
 
         progress("model-mismatch discovery")
-        given = cfg.options(TractorTrailerOptions).discovery_span_s
-        span = DEFAULT_MAX_SPAN_S if given is None else given
+        opts = cfg.options(TractorTrailerOptions)
+        span = DEFAULT_MAX_SPAN_S if opts.discovery_span_s is None else opts.discovery_span_s
         L1 = estimate.parameters["L1"].value
         L2 = estimate.parameters["L2"].value
         discovery = stages.run(
             "discovery",
             lambda: discover(
-                frame, L1, L2, baseline="steady" if cfg.baseline == "steady" else "transient",
+                frame, L1, L2, baseline="steady" if opts.baseline == "steady" else "transient",
                 segments=segments, rng=rng, signals=loaded.signals.signals, max_span_s=span,
             ),
         )
