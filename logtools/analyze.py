@@ -168,7 +168,8 @@ def _analyze_windows(
         except LogcalInputError as err:
             errors.append(f"window {k + 1} ({a:.0f}-{b:.0f} s): {err}")
     progress(f"pooling {len(results)} windows")
-    pooled = pool_windows(path, plan, results, errors, counts)
+    derive = plugin_for(str(results[0].robot)).derive_pooled if results else None
+    pooled = pool_windows(path, plan, results, errors, counts, derive=derive)
     if last is None:  # the last window failed: the loaded log returned is the last one read
         last = load_log(path, request(last_ok))
     return last, pooled
@@ -266,7 +267,7 @@ def analyze_logs(
     if windowed:  # the robot's joint fit needs every run's samples, which windows do not keep
         from logtools.windows import pool_runs
 
-        pooled = pool_runs([r for _, r in runs])
+        pooled = pool_runs([r for _, r in runs], derive=plugin.derive_pooled)
     elif plugin.pool is not None:
         with threadpool_limits(limits=1, user_api="blas"):
             pooled = plugin.pool(runs, cfg, progress)

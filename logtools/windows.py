@@ -9,15 +9,24 @@ is that of one window whatever the log's length.
 
 Why not the robot's own pooled fit (``RobotPlugin.pool``)? It refits every run's samples at
 once, which is what the windows are there to avoid. The windows' estimates are pooled here
-instead, parameter by parameter, by inverse-variance weighting with Cochran's Q test of whether
-they agree (:func:`logtools.batch.pooling.pool_estimates`, the batch's meta-analysis): when they
-disagree beyond their errors, the DerSimonian-Laird random-effects interval includes the
-between-window spread and the parameter is flagged. A single change of the parameters between
-consecutive windows (a trailer swapped mid-log) is tested with
-:func:`calib.adequacy.parameter_change` and reported in the adequacy, as a robot reports one
-within a log. Adequacy: the pooled model explains the log only if it explains every window
-(:func:`calib.adequacy.combine_runs`). Correlations between parameters are not pooled (the
-pooled result has no covariance).
+instead, by their values and covariances (:func:`calib.pooling.pool_gls`): generalised least
+squares over all parameters at once, the generalised Cochran's Q test of whether the windows
+agree, and where they disagree beyond their errors random effects (the multivariate
+DerSimonian-Laird between-window covariance; a single widening factor Q/df where some window
+lacks a parameter) and the parameters flagged. Each
+window's covariance is taken with its correlations and its reported standard errors (a window
+whose robot widened an interval for a misfit counts with the wider one); a parameter a window
+does not determine (no finite std) takes no part from it. The pooled result carries the pooled
+covariance, and the robot recomputes its derived quantities from it (``RobotPlugin.
+derive_pooled``, e.g. the tractor's L1 + L2 from the pooled L1, L2 and their covariance). When
+some window has no covariance, each parameter is pooled on its own instead (inverse-variance
+weighting, :func:`logtools.batch.pooling.pool_estimates`, the batch's meta-analysis), and so is
+each derived quantity; the pooled result then has no covariance.
+
+A single change of the parameters between consecutive windows (a trailer swapped mid-log) is
+tested with :func:`calib.adequacy.parameter_change` and reported in the adequacy, as a robot
+reports one within a log. Adequacy: the pooled model explains the log only if it explains every
+window (:func:`calib.adequacy.combine_runs`).
 """
 
 from __future__ import annotations
@@ -27,20 +36,30 @@ import ctypes.util
 import gc
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
+
+import numpy as np
 
 from calib.adequacy import PieceFit, parameter_change
 from calib.adequacy.combine import combine_runs
 from calib.adequacy.verdict import NOT_EXPLAINED, Adequacy
-from calib.results import AnalysisResult, CalibrationResult, Estimate, json_safe
+from calib.results import (
+    AnalysisResult,
+    CalibrationResult,
+    Estimate,
+    as_matrix,
+    correlations_of,
+    json_safe,
+)
 from logtools.errors import LogcalInputError
 from logtools.readers import LogExtent, log_extent, read_log
 
 __all__ = [
     "AUTO_ROWS",
     "WINDOW_ROWS",
+    "DeriveFn",
     "Reduced",
     "WindowPlan",
     "check_window",
@@ -221,12 +240,18 @@ def window_label(result: AnalysisResult) -> str:
     return f"window {w['index']} ({w['start_s']:.0f}-{w['end_s']:.0f} s)"
 
 
+DeriveFn = Callable[[CalibrationResult, Sequence[CalibrationResult]], Mapping[str, Estimate]]
+"""A robot's derived quantities of a pooled estimate (``RobotPlugin.derive_pooled``): given the
+pooled result (parameters and covariance) and the pieces' own results, the quantities under
+their keys."""
+
+
 def _pooled_estimates(
-    windows: Sequence[AnalysisResult], kind: str,
+    windows: Sequence[AnalysisResult], kind: str, what: str = "windows",
 ) -> tuple[dict[str, Estimate], dict[str, dict[str, Any]], list[str]]:
-    """Each parameter (``kind`` "parameters") or derived quantity ("derived") pooled over the
-    windows: the estimates, the meta-analysis per name, and warnings for names whose windows
-    disagree."""
+    """Each parameter (``kind`` "parameters") or derived quantity ("derived") pooled on its own
+    over the windows (``what``: "windows" or "runs"): the estimates, the meta-analysis per
+    name, and warnings for names whose windows disagree."""
     from logtools.batch.pooling import pool_estimates
 
     names: list[str] = []
@@ -251,18 +276,18 @@ def _pooled_estimates(
         determined = [e for e in ests if e is not None and e.identifiable]
         k = pe.n_logs
         if k == 0:
-            note = "no window determines it"
+            note = f"no {what[:-1]} determines it"
         elif pe.heterogeneous:
-            note = (f"the {k} windows disagree beyond their errors (Cochran's Q p = "
-                    f"{pe.p_heterogeneity:.2g}, I2 = {100 * (pe.i2 or 0):.0f} %, between-window "
-                    f"std {pe.tau:.3g} {unit}): random-effects interval, which includes the "
-                    "spread")
+            note = (f"the {k} {what} disagree beyond their errors (Cochran's Q p = "
+                    f"{pe.p_heterogeneity:.2g}, I2 = {100 * (pe.i2 or 0):.0f} %, between-"
+                    f"{what[:-1]} std {pe.tau:.3g} {unit}): random-effects interval, which "
+                    "includes the spread")
             warnings.append(f"{n} differs between the windows of the log beyond their errors "
                             f"(Cochran's Q p = {pe.p_heterogeneity:.2g}): a part that changed "
                             "or wore, or physics the model leaves out; each window's own "
                             "estimate is in runs")
         else:
-            note = (f"{k} windows agree within their errors"
+            note = (f"{k} {what} agree within their errors"
                     + (f" (Cochran's Q p = {pe.p_heterogeneity:.2g})"
                        if pe.p_heterogeneity is not None else ""))
         e = pe.estimate
@@ -270,6 +295,128 @@ def _pooled_estimates(
                           note)
         stats[n] = pe.to_dict()
     return out, stats, warnings
+
+
+def _piece_covariance(est: CalibrationResult, names: Sequence[str]) -> np.ndarray:
+    """``est``'s covariance over ``names`` with its correlations and its reported standard
+    errors (NaN for a name it lacks or does not determine to a finite std)."""
+    own = list(est.parameters)
+    corr = np.array(correlations_of(as_matrix(est.covariance or ())), dtype=float)
+    p = len(names)
+    sd = np.array([est.parameters[n].std if n in est.parameters else math.nan for n in names],
+                  dtype=float)
+    cov = np.full((p, p), math.nan)
+    for a, na in enumerate(names):
+        for b, nb in enumerate(names):
+            if a == b:
+                cov[a, a] = sd[a] ** 2
+            elif na in est.parameters and nb in est.parameters:
+                cov[a, b] = corr[own.index(na), own.index(nb)] * sd[a] * sd[b]
+    return cov
+
+
+def _joint_pooled(
+    pieces: Sequence[AnalysisResult], names: Sequence[str], what: str,
+) -> tuple[dict[str, Estimate], np.ndarray, dict[str, dict[str, Any]], list[str]]:
+    """The parameters ``names`` pooled jointly over ``pieces`` (each with an estimate and a
+    covariance) by :func:`calib.pooling.pool_gls`: the estimates, the pooled covariance, the
+    pooling per name and warnings where the pieces disagree."""
+    from calib.pooling import pool_gls, pool_univariate
+
+    ests = [r.estimate for r in pieces if r.estimate is not None]
+    labels = [window_label(r) for r in pieces if r.estimate is not None]
+    vals = np.array([[e.parameters[n].value if n in e.parameters else math.nan for n in names]
+                     for e in ests], dtype=float)
+    covs = np.array([_piece_covariance(e, names) for e in ests])
+    pooled = pool_gls(vals, covs)
+    one = what[:-1]
+    het = pooled.heterogeneous
+    i2 = max(0.0, (pooled.q - pooled.df) / pooled.q) if pooled.q > 0 else 0.0
+    test = (f"generalised Cochran's Q over {', '.join(names)} p = {pooled.p_value:.2g}, "
+            f"df {pooled.df}" if pooled.df > 0 else "")
+    out: dict[str, Estimate] = {}
+    stats: dict[str, dict[str, Any]] = {}
+    warnings: list[str] = []
+    marginal_bad: list[str] = []
+    for j, n in enumerate(names):
+        own = [e.parameters.get(n) for e in ests]
+        first = next(e for e in own if e is not None)
+        informing = [i for i in range(len(ests)) if math.isfinite(covs[i, j, j])
+                     and covs[i, j, j] > 0 and math.isfinite(vals[i, j])]
+        k = int(pooled.pieces[j])
+        sd = pooled.cov[j, j] ** 0.5 if math.isfinite(pooled.cov[j, j]) else math.nan
+        value = float(pooled.value[j])
+        marginal = pool_univariate(vals[:, j], np.sqrt(covs[:, j, j]), random="never")
+        if marginal.heterogeneous:
+            marginal_bad.append(n)
+        if k == 0 or not math.isfinite(sd):
+            note = f"no {one} determines it"
+        elif het:
+            note = (f"the {len(ests)} {what} disagree beyond their errors ({test}, I2 = "
+                    f"{100 * i2:.0f} %): {pooled.method}, an interval that includes the spread")
+        elif pooled.df > 0 and pooled.inflation > 1.0:
+            note = (f"{k} {what} agree within their errors ({test}); {pooled.method}: the "
+                    f"spread between them widens the variances up to x{pooled.inflation:.3g}")
+        elif pooled.df > 0:
+            note = f"{k} {what} agree within their errors ({test}); {pooled.method}"
+        else:
+            note = f"one {one}"
+        determined = any(e is not None and e.identifiable for e in own)
+        half = 1.959963984540054 * sd
+        out[n] = Estimate(first.name, value, sd, (value - half, value + half),
+                          determined and k > 0 and math.isfinite(sd), first.unit, note)
+        stats[n] = json_safe({
+            "estimate": out[n].to_dict(), "method": pooled.method, "n_logs": k,
+            "left_out": [f"{lab}: not determined by this {one}"
+                         for i, lab in enumerate(labels) if i not in informing],
+            "joint": list(names), "q": pooled.q, "df": pooled.df,
+            "p_heterogeneity": pooled.p_value, "i2": i2, "heterogeneous": het,
+            "inflation": pooled.inflation, "parameter_q": marginal.q,
+            "parameter_p_heterogeneity": marginal.p_value,
+        })
+    among = "the windows of the log" if what == "windows" else f"the {what}"
+    if het:
+        for n in marginal_bad:
+            p_n = stats[n]["parameter_p_heterogeneity"]
+            warnings.append(f"{n} differs between {among} beyond their errors (Cochran's Q "
+                            f"p = {p_n:.2g}): a part that changed or wore, or physics the "
+                            f"model leaves out; each {one}'s own estimate is in runs")
+        if not marginal_bad:
+            warnings.append(f"{', '.join(names)} differ jointly between {among} beyond "
+                            f"their errors ({test}), though none does on its own: a part that "
+                            f"changed or wore, or physics the model leaves out; each {one}'s "
+                            "own estimate is in runs")
+    return out, pooled.cov, stats, warnings
+
+
+def _pool_pieces(
+    pieces: Sequence[AnalysisResult], what: str, derive: DeriveFn | None,
+) -> tuple[dict[str, Estimate], dict[str, Estimate], np.ndarray | None, dict[str, Any],
+           list[str]]:
+    """The parameters and derived quantities of ``pieces`` (each with an estimate) pooled:
+    jointly with the pooled covariance when every piece has a covariance, the derived ones then
+    recomputed by ``derive`` (the robot's; without it, pooled on their own); else each on its
+    own, with no covariance. Returns parameters, derived, covariance, pooling per name and
+    warnings."""
+    ests = [r.estimate for r in pieces if r.estimate is not None]
+    names: list[str] = []
+    for e in ests:
+        names += [n for n in e.parameters if n not in names]
+    if not names or any(e.covariance is None for e in ests):
+        params, stats, warns = _pooled_estimates(pieces, "parameters", what)
+        derived, dstats, dwarns = _pooled_estimates(pieces, "derived", what)
+        return params, derived, None, {**stats, **dstats}, warns + dwarns
+    params, cov, stats, warns = _joint_pooled(pieces, names, what)
+    if derive is None:
+        derived, dstats, dwarns = _pooled_estimates(pieces, "derived", what)
+        return params, derived, cov, {**stats, **dstats}, warns + dwarns
+    base = CalibrationResult(method="pooled", parameters=params, verdict="",
+                             covariance=as_matrix(cov))
+    derived = dict(derive(base, ests))
+    for n, d in derived.items():
+        stats[n] = json_safe({"estimate": d.to_dict(), "method": "computed by the robot from "
+                              "the pooled parameters and their covariance"})
+    return params, derived, cov, stats, warns
 
 
 def _change(windows: Sequence[AnalysisResult], names: Sequence[str]) -> Any:
@@ -293,12 +440,15 @@ def pool_windows(
     windows: Sequence[AnalysisResult],
     errors: Sequence[str],
     counts: Mapping[str, int],
+    *,
+    derive: DeriveFn | None = None,
 ) -> AnalysisResult:
     """One result of a log analysed by ``plan``'s windows: each window's own result in
-    ``runs``, the parameters pooled over them in ``estimate`` (see the module docstring),
-    ``source["windows"]`` the plan, and warnings for windows that could not be analysed,
-    parameters that differ between windows and messages that do not add up to the log's index
-    (``counts``: messages read per topic over all windows).
+    ``runs``, the parameters pooled over them in ``estimate`` (see the module docstring; the
+    robot's ``derive`` recomputes its derived quantities from the pooled parameters and
+    covariance), ``source["windows"]`` the plan, and warnings for windows that could not be
+    analysed, parameters that differ between windows and messages that do not add up to the
+    log's index (``counts``: messages read per topic over all windows).
 
     Raises:
         LogcalInputError: no window could be analysed (the first window's error).
@@ -320,10 +470,8 @@ def pool_windows(
     with_estimate = [r for r in windows if r.estimate is not None]
     adequacy = combine_runs([(window_label(r), r.adequacy) for r in windows], model)
     if with_estimate:
-        params, stats, more = _pooled_estimates(with_estimate, "parameters")
-        derived, dstats, more_d = _pooled_estimates(with_estimate, "derived")
-        stats.update(dstats)
-        warnings += more + more_d
+        params, derived, cov, stats, more = _pool_pieces(with_estimate, "windows", derive)
+        warnings += more
         methods = {r.estimate.method for r in with_estimate if r.estimate is not None}
         one = next(iter(methods)) if len(methods) == 1 else "each window's method"
         model = one
@@ -336,9 +484,7 @@ def pool_windows(
                 notes=(*adequacy.notes, f"one parameter set does not hold over the windows: "
                        f"{change.note}"),
             )
-        verdict = (f"{len(with_estimate)} of {len(windows)} windows pooled, each parameter by "
-                   "inverse-variance weighting (random effects where the windows disagree); "
-                   "correlations between parameters are not pooled.")
+        verdict = f"{len(with_estimate)} of {len(windows)} windows pooled, " + _how(cov, "windows")
         if adequacy.channels and not adequacy.explains:
             params = _not_determined(params, adequacy)
             derived = _not_determined(derived, adequacy)
@@ -346,6 +492,7 @@ def pool_windows(
         estimate = CalibrationResult(
             method=f"{one} pooled over {len(with_estimate)} windows",
             parameters=params, derived=derived, verdict=verdict,
+            covariance=None if cov is None else as_matrix(cov),
         )
     truths = [dict(r.truth) for r in windows]
     source = {
@@ -380,34 +527,44 @@ def _not_determined(estimates: Mapping[str, Estimate], adequacy: Adequacy
             for n, e in estimates.items()}
 
 
-def pool_runs(results: Sequence[AnalysisResult]) -> AnalysisResult:
+def _how(cov: np.ndarray | None, what: str) -> str:
+    """How the pooled estimate was obtained, for its verdict."""
+    if cov is None:
+        return (f"each parameter by inverse-variance weighting (random effects where the {what} "
+                "disagree); correlations between parameters are not pooled (some "
+                f"{what[:-1]} has no covariance).")
+    return ("all parameters jointly by generalised least squares over their covariances "
+            f"(random effects where the {what} disagree).")
+
+
+def pool_runs(results: Sequence[AnalysisResult], *, derive: DeriveFn | None = None
+              ) -> AnalysisResult:
     """Several runs pooled by their estimates (the pooling of :func:`pool_windows`, without the
     test for a change in time): what ``analyze_logs`` uses when a run was analysed by windows,
-    whose samples the robot's own pooled fit would need."""
+    whose samples the robot's own pooled fit would need. ``derive``: the robot's derived
+    quantities of the pooled estimate (``RobotPlugin.derive_pooled``)."""
     labels = [str(r.source.get("path", "")) for r in results]
     with_estimate = [r for r in results if r.estimate is not None]
     model = "each run's model"
-    warnings = ["runs analysed by windows: the runs are pooled by their estimates (each "
-                "parameter by inverse-variance weighting), not by the robot's joint fit"]
+    warnings = ["runs analysed by windows: the runs are pooled by their estimates and "
+                "covariances, not by the robot's joint fit"]
     estimate = None
     stats: dict[str, Any] = {}
     if with_estimate:
-        params, stats, more = _pooled_estimates(with_estimate, "parameters")
-        derived, dstats, more_d = _pooled_estimates(with_estimate, "derived")
-        stats.update(dstats)
-        warnings += [w.replace("the windows of the log", "the runs") for w in more + more_d]
+        params, derived, cov, stats, more = _pool_pieces(with_estimate, "runs", derive)
+        warnings += [w.replace("the windows of the log", "the runs") for w in more]
         methods = {r.estimate.method for r in with_estimate if r.estimate is not None}
         model = next(iter(methods)) if len(methods) == 1 else "each run's method"
         adequacy = combine_runs(list(zip(labels, [r.adequacy for r in results], strict=True)),
                                 model)
-        verdict = (f"{len(with_estimate)} of {len(results)} runs pooled, each parameter by "
-                   "inverse-variance weighting (random effects where the runs disagree).")
+        verdict = f"{len(with_estimate)} of {len(results)} runs pooled, " + _how(cov, "runs")
         if adequacy.channels and not adequacy.explains:
             params = _not_determined(params, adequacy)
             derived = _not_determined(derived, adequacy)
             verdict += " " + adequacy.summary
         estimate = CalibrationResult(method=f"{model} pooled over {len(with_estimate)} runs",
-                                     parameters=params, derived=derived, verdict=verdict)
+                                     parameters=params, derived=derived, verdict=verdict,
+                                     covariance=None if cov is None else as_matrix(cov))
     else:
         adequacy = combine_runs(list(zip(labels, [r.adequacy for r in results], strict=True)),
                                 model)

@@ -30,7 +30,7 @@ if TYPE_CHECKING:
     import typer
     from rich.console import RenderableType
 
-    from calib.results import AnalysisResult
+    from calib.results import AnalysisResult, CalibrationResult, Estimate
     from logtools.analysis_config import AnalysisConfig
     from logtools.loaded import LoadedLog
     from logtools.signals import RobotConfig, SignalOrigin
@@ -233,6 +233,10 @@ class RobotPlugin:
             ``[robot]`` table (e.g. the tractor-trailer derives the measured curvature).
         derived_signals: signals it derives from others when a log lacks them
             (:class:`SignalDerivation`; the tractor-trailer's ``kappa_cmd``).
+        derive_pooled: its derived quantities (``CalibrationResult.derived``) of an estimate
+            pooled by estimates (windows, runs), computed from the pooled parameters and their
+            covariance: ``(pooled, pieces) -> {key: Estimate}`` (the tractor-trailer's
+            L1 + L2); None: each derived quantity is pooled on its own.
     """
 
     name: str
@@ -250,6 +254,8 @@ class RobotPlugin:
     span_signals: tuple[str, ...] = ()
     prepare: Callable[[pl.DataFrame, RobotConfig], pl.DataFrame] | None = None
     derived_signals: tuple[SignalDerivation, ...] = ()
+    derive_pooled: Callable[[CalibrationResult, Sequence[CalibrationResult]],
+                            Mapping[str, Estimate]] | None = None
     options: type[RobotOptions] = RobotOptions
     uses_settings: tuple[str, ...] = ()
     simulate: str | None = None

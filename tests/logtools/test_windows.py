@@ -302,3 +302,126 @@ def test_a_window_keeps_no_per_sample_arrays(steady_log: Path) -> None:
         assert own.pop("source")["window"]["index"] in (1, 2)
         doc.pop("source")
         assert own == doc
+
+
+# --- pooling the windows by their covariances (calib.pooling through pool_windows) ---------
+
+
+def _window(k: int, l1: float, l2: float, cov: list[list[float]] | None,
+            sum_determined: bool = True) -> object:
+    """A window's result as pool_windows receives it: a tractor estimate (L1, L2, their
+    covariance, the sum as the estimator would give it)."""
+    from calib.results import AnalysisResult, CalibrationResult, Estimate
+    from calib.tractor_trailer.derived import derived_sum
+
+    c = np.array(cov) if cov is not None else np.diag([0.01, 0.01])
+
+    def est(name: str, v: float, var: float, ok: bool = True) -> Estimate:
+        sd = math.sqrt(var) if math.isfinite(var) else math.nan
+        return Estimate(name, v, sd, (v - 1.96 * sd, v + 1.96 * sd), ok)
+
+    total = est("L1+L2", l1 + l2, float(c[0, 0] + c[1, 1] + 2 * c[0, 1]), sum_determined)
+    return AnalysisResult(
+        robot="tractor_trailer", segments=[], methods=[],
+        estimate=CalibrationResult("PATH", {"L1": est("L1", l1, c[0, 0]),
+                                            "L2": est("L2", l2, c[1, 1])},
+                                   "fit", covariance=cov, derived=derived_sum(total)),
+        source={"path": "x.mcap", "window": {"index": k, "start_s": 60.0 * (k - 1),
+                                             "end_s": 60.0 * k}},
+    )
+
+
+def _pool(windows: list[object], derive: bool = True) -> object:
+    from calib.tractor_trailer.derived import pooled_derived
+    from logtools.readers import LogExtent
+    from logtools.windows import WindowPlan, pool_windows
+
+    spans = tuple((60.0 * i, 60.0 * (i + 1)) for i in range(len(windows)))
+    plan = WindowPlan(0, spans, 60.0, False, LogExtent(0, 10**12, {}), whole=False)
+    return pool_windows("x.mcap", plan, windows, [], {},  # type: ignore[arg-type]
+                        derive=pooled_derived if derive else None)
+
+
+# L1, L2 nearly opposite: the sum far better determined than the split
+_COV = [[0.04, -0.0396], [-0.0396, 0.04]]
+
+
+def test_windows_pool_with_their_covariance_and_the_robot_recomputes_the_sum() -> None:
+    rng = np.random.default_rng(3)
+    c = np.array(_COV)
+    # windows that agree better than their errors say: no between-window spread to add
+    draws = rng.multivariate_normal([1.0, 2.5], 0.01 * c, size=4)
+    res = _pool([_window(k + 1, *d, _COV) for k, d in enumerate(draws)])
+    est = res.estimate  # type: ignore[attr-defined]
+    assert est.covariance is not None
+    sigma = c / 4  # identical covariances: Sigma / k, the mean of the values
+    np.testing.assert_allclose(np.array(est.covariance), sigma, rtol=1e-9)
+    assert est.parameters["L1"].value == pytest.approx(draws[:, 0].mean())
+    assert est.correlations[0][1] == pytest.approx(-0.99)
+    total = est.derived["sum_L1_L2"]
+    assert total.value == pytest.approx(draws.sum(axis=1).mean())
+    assert total.std == pytest.approx(math.sqrt(sigma.sum()), rel=1e-9)
+    assert total.std < 0.2 * est.parameters["L1"].std  # the covariance, not the diagonal
+    assert total.identifiable
+    stats = res.source["windows"]["pooling"]  # type: ignore[attr-defined]
+    assert stats["L1"]["joint"] == ["L1", "L2"]
+    assert stats["L1"]["df"] == 6
+    assert "jointly by generalised least squares" in est.verdict
+    doc = res.to_dict()  # type: ignore[attr-defined]
+    np.testing.assert_allclose(np.array(doc["estimate"]["covariance"]), sigma, rtol=1e-9)
+
+
+def test_windows_that_differ_only_in_the_sum_are_caught_jointly() -> None:
+    """Windows whose L1 + L2 differ by 10 of its stds while L1 and L2 each stay within a
+    fraction of their own: no per-parameter test sees it, the joint one does, and the pooled
+    covariance (so the sum) is widened."""
+    sd_sum = math.sqrt(0.04 + 0.04 - 2 * 0.0396)  # 0.028
+    vals = [(1.0, 2.5), (1.0, 2.5 + 10 * sd_sum), (1.0, 2.5), (1.0, 2.5 + 10 * sd_sum)]
+    res = _pool([_window(k + 1, a, b, _COV) for k, (a, b) in enumerate(vals)])
+    stats = res.source["windows"]["pooling"]  # type: ignore[attr-defined]
+    assert stats["L1"]["heterogeneous"]
+    assert stats["L1"]["parameter_p_heterogeneity"] > 0.05
+    assert stats["L2"]["parameter_p_heterogeneity"] > 0.05
+    assert any("differ jointly" in w for w in res.warnings)  # type: ignore[attr-defined]
+    est = res.estimate  # type: ignore[attr-defined]
+    total = est.derived["sum_L1_L2"]
+    assert total.std == pytest.approx(math.sqrt(np.sum(est.covariance)), rel=1e-9)
+    # the sums' own spread (std 5.8 of theirs) over 4 windows, not their stated 0.028 / 2
+    assert total.std > 2 * sd_sum
+    assert total.ci95[0] < 3.5 + 5 * sd_sum - 3 * sd_sum  # covers the spread
+
+
+def test_a_window_without_a_covariance_pools_each_parameter_on_its_own() -> None:
+    ws = [_window(1, 1.0, 2.5, _COV), _window(2, 1.1, 2.4, None)]
+    res = _pool(ws)
+    est = res.estimate  # type: ignore[attr-defined]
+    assert est.covariance is None
+    assert "not pooled" in est.verdict
+    # the sum pooled on its own (inverse-variance over the windows' own sums)
+    s1, s2 = (w.estimate.derived["sum_L1_L2"] for w in ws)  # type: ignore[attr-defined]
+    w1, w2 = s1.std**-2, s2.std**-2
+    assert est.derived["sum_L1_L2"].value == pytest.approx(
+        (w1 * s1.value + w2 * s2.value) / (w1 + w2))
+
+
+def test_a_window_that_does_not_determine_a_parameter_adds_nothing_for_it() -> None:
+    nan = math.nan
+    ws = [_window(1, 1.0, 2.5, [[0.04, 0.01], [0.01, 0.09]]),
+          _window(2, 1.3, 2.6, [[0.04, nan], [nan, nan]]),
+          _window(3, 1.2, 2.4, [[0.04, 0.01], [0.01, 0.09]])]
+    res = _pool(ws)
+    est = res.estimate  # type: ignore[attr-defined]
+    stats = res.source["windows"]["pooling"]  # type: ignore[attr-defined]
+    assert stats["L1"]["n_logs"] == 3
+    assert stats["L2"]["n_logs"] == 2
+    assert stats["L2"]["left_out"] == ["window 2 (60-120 s): not determined by this window"]
+    assert math.isfinite(est.parameters["L2"].std)
+    assert np.isfinite(np.array(est.covariance)).all()
+
+
+def test_without_the_robots_hook_derived_quantities_are_pooled_on_their_own() -> None:
+    ws = [_window(k, 1.0, 2.5, _COV) for k in (1, 2, 3)]
+    with_hook = _pool(ws).estimate.derived["sum_L1_L2"]  # type: ignore[attr-defined]
+    without = _pool(ws, derive=False).estimate.derived["sum_L1_L2"]  # type: ignore[attr-defined]
+    assert with_hook.value == pytest.approx(without.value)
+    assert with_hook.std == pytest.approx(without.std, rel=1e-6)  # consistent pieces: equal

@@ -74,6 +74,7 @@ PLUGIN = RobotPlugin(
             check=lazy(f"{_CURVATURE}:saturated_steer_notes"),
         ),
     ),
+    derive_pooled=lazy("calib.tractor_trailer.derived:pooled_derived"),
     options=TractorTrailerOptions,
     uses_settings=("baseline",),
     simulate="logtools.robots.tractor_trailer.commands:register_simulate",
