@@ -13,7 +13,7 @@ import polars as pl
 from numpy.typing import NDArray
 
 from calib.errors import InsufficientDataError
-from calib.tractor_trailer.discovery.effects.base import jump_intervals
+from calib.tractor_trailer.discovery.jumps import jump_intervals
 
 __all__ = [
     "OUTPUTS",

@@ -30,6 +30,7 @@ from scipy.interpolate import CubicSpline
 
 from calib.adequacy import EffectKind, EffectParam, EffectSpec
 from calib.results import json_safe
+from calib.tractor_trailer.discovery.jumps import jump_intervals
 
 if TYPE_CHECKING:
     from calib.tractor_trailer.discovery.data import DiscoveryData
@@ -330,17 +331,6 @@ def remembered(
     if len(store) > REMEMBERED:
         store.popitem(last=False)
     return value
-
-
-def jump_intervals(y: FloatArray, factor: float = 5.0) -> NDArray[np.bool_]:
-    """Flags per interval (length n - 1): True where y jumps, i.e. its change exceeds
-    ``factor`` times the larger change of the two neighbouring intervals (and 1e-9)."""
-    d = np.abs(np.diff(y))
-    if d.size == 0:
-        return np.zeros(0, dtype=bool)
-    pad = np.concatenate([[0.0], d, [0.0]])
-    neighbours = np.maximum(pad[:-2], pad[2:])
-    return (d > factor * neighbours) & (d > 1e-9)
 
 
 def hold_interp(t_s: FloatArray, y: FloatArray, tq: FloatArray) -> FloatArray:
