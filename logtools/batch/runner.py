@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import Any
 
 from logtools.batch.archive import ID_PATTERN, LogJob, find_logs
+from logtools.batch.budgets import Budgets
 from logtools.batch.engines import Engine, run_jobs
 from logtools.batch.files import open_regular
 from logtools.batch.worker import AnalysisOptions, LogOutcome, analyse_job, log_span
@@ -391,8 +392,10 @@ def run_batch(
     force: bool = False,
     progress: Callable[[BatchProgress], None] | None = None,
     report: bool = True,
+    budgets: Budgets | None = None,
 ) -> BatchSummary:
-    """Analyse every log below ``archive`` into ``out`` (see the module docstring).
+    """Analyse every log below ``archive`` into ``out`` (see the module docstring), each under
+    ``budgets`` of memory and time (default: :func:`~logtools.batch.engines.run_jobs`'s).
 
     Raises:
         LogcalInputError: ``archive`` is not a folder, ``out`` cannot be created, is on a
@@ -438,7 +441,8 @@ def run_batch(
         rest = [j for j in todo if j.entry_error is None and j.settings is not None]
         journal = _Journal(out)
         try:
-            outcomes = run_jobs(rest, options, engine=engine, workers=workers, address=address)
+            outcomes = run_jobs(rest, options, engine=engine, workers=workers, address=address,
+                                budgets=budgets)
             for outcome in _chain((analyse_job(j, options) for j in early), outcomes):
                 job = outcome.job
                 views: dict[str, str] = {}

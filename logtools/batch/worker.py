@@ -237,10 +237,17 @@ def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
             job, "ok", result=result.to_dict(), robot=result.robot, start_ns=start_ns,
             end_ns=end_ns, views=views, notes=notes, seconds=time.perf_counter() - t0,
         )
-    except _known_errors() as err:
-        return LogOutcome(job, "failed", error=str(err), error_kind="input",
-                          seconds=time.perf_counter() - t0)
-    except Exception as err:  # a bug of ours on this log: recorded, the batch goes on
+    except Exception as err:
+        from logtools.batch.budgets import Budgets, active, out_of_memory
+
+        if out_of_memory(err):  # over --log-memory (RLIMIT_AS of the worker): the log's size
+            message = (active() or Budgets(timeout_s=None)).memory_message(job.rel)
+            return LogOutcome(job, "failed", error=message, error_kind="input",
+                              seconds=time.perf_counter() - t0)
+        if isinstance(err, _known_errors()):
+            return LogOutcome(job, "failed", error=str(err), error_kind="input",
+                              seconds=time.perf_counter() - t0)
+        # a bug of ours on this log: recorded, the batch goes on
         return LogOutcome(
             job, "failed", error=f"internal error: {type(err).__name__}: {err}",
             error_kind="internal", detail=traceback.format_exc(),

@@ -40,6 +40,13 @@ def register(app: typer.Typer) -> None:
         force: bool = typer.Option(False, "--force", help="Redo every log."),
         start: float | None = start_option(),
         end: float | None = end_option(),
+        log_memory: float | None = typer.Option(
+            None, "--log-memory", min=0.0, metavar="GIB",
+            help="Memory budget of one log: its worker's address space in GiB (0: none; "
+            "default: 80% of RAM / workers, between 6 and 8 GiB)."),
+        log_timeout: float = typer.Option(
+            3600.0, "--log-timeout", min=0.0, metavar="SECONDS",
+            help="Time budget of one log (0: none)."),
         *,
         robot_options: GivenOptions,
     ) -> None:
@@ -55,6 +62,7 @@ def register(app: typer.Typer) -> None:
             TimeRemainingColumn,
         )
 
+        from logtools.batch.budgets import Budgets
         from logtools.batch.runner import BatchProgress, run_batch
         from logtools.batch.worker import AnalysisOptions
         from logtools.safe_text import printable
@@ -64,6 +72,7 @@ def register(app: typer.Typer) -> None:
         options = AnalysisOptions(repeats=repeats, seed=seed, discovery=not no_discovery,
                                   views=not no_views, start_s=start, end_s=end,
                                   options=robot_options.by_key())
+        budgets = Budgets.from_flags(log_memory, log_timeout, workers)  # docs/batch.md#budgets
         # --start/--end crop each log as analyze does; robot options apply to every log
         err = Console(stderr=True)
         bar = Progress(
@@ -82,7 +91,8 @@ def register(app: typer.Typer) -> None:
         t0 = time.perf_counter()
         with bar:
             summary = run_batch(archive, out, options=options, engine=engine,
-                                workers=workers, address=address, force=force, progress=show)
+                                workers=workers, address=address, force=force, progress=show,
+                                budgets=budgets)
         err.print(
             f"{summary.logs} logs: {len(summary.analysed)} analysed, {len(summary.skipped)} "
             f"already done, {len(summary.failed)} failed; {time.perf_counter() - t0:.1f} s. "
