@@ -1,10 +1,12 @@
-"""`logcal info LOG... [--json]`: topics, types, counts, rates, time span, signals found, robot."""
+"""`logcal info LOG... [--json]`: topics, types, counts, rates, time span, signals found, robot;
+and what each robot says of the options ``info`` takes (declared ``option(..., info=True)``,
+answered by the robot's ``RobotPlugin.info`` hook, e.g. an arm's URDF transmissions)."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 
@@ -16,6 +18,10 @@ from logtools.cli._inputs import (
     signal_option,
     start_option,
 )
+from logtools.cli._robot_options import GivenOptions, with_robot_options
+
+if TYPE_CHECKING:
+    from logtools.robots.info import InfoSection
 
 _LOGS = logs_argument()
 _CHANNEL_MAP = channel_map_option()
@@ -29,6 +35,7 @@ def register(app: typer.Typer) -> None:
     """Add the `info` command to ``app``."""
 
     @app.command("info")
+    @with_robot_options("info")
     def _cmd(
         logs: list[Path] = _LOGS,
         as_json: bool = typer.Option(
@@ -39,10 +46,8 @@ def register(app: typer.Typer) -> None:
         ground_truth: Path | None = _GROUND_TRUTH,
         start: float | None = start_option(),
         end: float | None = end_option(),
-        urdf: str | None = typer.Option(
-            None, "--urdf", metavar="PATH_OR_NAME",
-            help="An arm's URDF file or example-robot-data name: also list its transmissions "
-            "(what --effort actuator uses)."),
+        *,
+        robot_options: GivenOptions,
     ) -> None:
         """Show what a log holds: topics, types, counts, rates, signals found, robot, problems."""
         from logtools.cli._inputs import read_inputs, say
@@ -52,7 +57,7 @@ def register(app: typer.Typer) -> None:
         inputs = read_inputs(logs, channel_map=channel_map, signals=signal,
                              ground_truth=ground_truth, start=start, end=end, dedupe=False)
         summaries = [summarize_log(run, inputs.channel_map) for run in inputs.runs]
-        trans = _transmissions(urdf) if urdf else None
+        sections = _robot_sections(robot_options)
         same = distinct_recordings(inputs.runs, inputs.channel_map)[1] if len(
             inputs.runs) > 1 else []
         if as_json:
@@ -65,30 +70,29 @@ def register(app: typer.Typer) -> None:
                     ],
                 }
             )
-            if trans is not None:
-                doc["urdf"] = trans
+            for section in sections:
+                doc[section.key] = dict(section.doc)
             typer.echo(json.dumps(doc, indent=2))
             return
         typer.echo("\n\n".join(s.report() for s in summaries))
-        if trans is not None:
-            shown = [f"  {t['line']}" for t in trans["transmissions"]] or ["  none"]
-            for line in [f"Transmissions in {trans['source']}:", *shown]:
+        for section in sections:
+            for line in section.lines:
                 say(line, stderr=False)  # each line escaped on its own
         for group in same:
             say(f"note: {group.sentence('analyse it once')}", stderr=False)
 
 
-def _transmissions(urdf: str) -> dict[str, Any]:
-    """The URDF's transmissions (``calib.manipulator.serial.read_transmissions``) as JSON, each
-    with its line for people."""
-    from calib.errors import CalibError
-    from calib.manipulator.serial import read_transmissions, urdf_path
-    from logtools.errors import LogcalInputError
+def _robot_sections(given: GivenOptions) -> list[InfoSection]:
+    """What each robot given options says of them (its ``RobotPlugin.info`` hook), in
+    registry order."""
+    from logtools.robots import plugins
+    from logtools.robots.info import load_info
 
-    try:
-        path = urdf_path(urdf)
-        found = read_transmissions(path)
-    except CalibError as err:
-        raise LogcalInputError(f"--urdf {urdf}: {err}") from err
-    return {"source": str(path), "transmissions": [
-        {**t.to_dict(), "simple": t.simple, "line": t.describe()} for t in found]}
+    built = given.by_robot()
+    out = []
+    for plugin in plugins():
+        if plugin.name in built and plugin.info is not None:
+            section = load_info(plugin.info)(built[plugin.name])
+            if section is not None:
+                out.append(section)
+    return out

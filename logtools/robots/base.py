@@ -219,8 +219,11 @@ class RobotPlugin:
             are declared with :func:`logtools.robots.options.option` (flag, help, whether
             ``view`` takes it); ``analyze``/``view`` offer them, settings files name them by
             field name, the analysis reads them with ``AnalysisConfig.options(cls)``.
-        uses_settings: the general ``AnalysisConfig`` settings only this robot reads (the
-            tractor-trailer's ``baseline``): giving one for another robot is warned about.
+        uses_settings: the general ``AnalysisConfig`` settings only this robot reads: giving
+            one for another robot is warned about.
+        info: import path ``"module:function"`` of an :class:`~logtools.robots.info.InfoFn`
+            saying what ``logcal info`` shows of the robot's options declared ``info=True``
+            (the manipulator's URDF transmissions); None: nothing.
         simulate: import path ``"module:function"`` of a :class:`CommandsFn` adding the robot's
             ``logcal simulate`` subcommand(s); None: none.
         reproduce: the same for ``logcal reproduce`` (published results); None: none.
@@ -258,6 +261,7 @@ class RobotPlugin:
                             Mapping[str, Estimate]] | None = None
     options: type[RobotOptions] = RobotOptions
     uses_settings: tuple[str, ...] = ()
+    info: str | None = None
     simulate: str | None = None
     reproduce: str | None = None
     samples: str | None = None

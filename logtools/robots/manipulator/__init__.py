@@ -20,6 +20,8 @@ from logtools.robots.manipulator.options import ManipulatorOptions
 
 if TYPE_CHECKING:
     from logtools.robots.base import Views
+    from logtools.robots.info import InfoFn
+    from logtools.robots.manipulator.info import info_section
     from viz.manipulator.views import log_views
 
 __all__ = ["PLUGIN", "ManipulatorOptions"]
@@ -49,9 +51,11 @@ PLUGIN = RobotPlugin(
     aliases=("manipulator_2link",),
     span_signals=("q", "tau"),
     options=ManipulatorOptions,
+    info="logtools.robots.manipulator.info:info_section",
     simulate="logtools.robots.manipulator.commands:register_simulate",
     reproduce="logtools.robots.manipulator.commands:register_reproduce",
 )
 
-if TYPE_CHECKING:  # the views named above fill the one Views signature (checked by mypy only)
+if TYPE_CHECKING:  # the views and info hook named above fill their signatures (mypy only)
     _views: Views[ManipulatorOptions] = log_views
+    _info: InfoFn = info_section

@@ -32,7 +32,7 @@ class ManipulatorOptions(RobotOptions):
     """
 
     urdf: str | None = option(
-        flag="--urdf", metavar="PATH_OR_NAME", view=True, file=True, or_name=True,
+        flag="--urdf", metavar="PATH_OR_NAME", view=True, info=True, file=True, or_name=True,
         help="An arm's URDF file, or a model name of example-robot-data (e.g. panda).",
     )
     cutoff_hz: float | None = option(

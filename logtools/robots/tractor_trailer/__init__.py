@@ -76,7 +76,6 @@ PLUGIN = RobotPlugin(
     ),
     derive_pooled=lazy("calib.tractor_trailer.derived:pooled_derived"),
     options=TractorTrailerOptions,
-    uses_settings=("baseline",),
     simulate="logtools.robots.tractor_trailer.commands:register_simulate",
     reproduce="logtools.robots.tractor_trailer.commands:register_reproduce",
     samples="logtools.robots.tractor_trailer.samples:write_samples",
