@@ -21,8 +21,8 @@ from multiprocessing import Pool
 
 import numpy as np
 
-from calib.results import CommandType
 from calib.tractor_trailer.estimators import TransientFit, calibrate_link_lengths
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 
-from calib.results import CommandType as C
 from calib.tractor_trailer.discovery.effects import catalogue
+from calib.tractor_trailer.results import CommandType as C
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,

@@ -17,7 +17,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from calib.results import CommandType, Segment
+from calib.tractor_trailer.results import CommandType, Segment
 from calib.tractor_trailer.segmentation import segment_command
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec, command_value
 

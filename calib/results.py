@@ -1,4 +1,8 @@
-"""Result types shared by calib's estimators, the CLI reports and viz.
+"""Result types every robot shares (calib's estimators, the CLI reports and viz): an
+:class:`Estimate`, a :class:`CalibrationResult` (named parameters, N x N covariance, derived
+quantities), an :class:`AnalysisResult`, and the JSON helpers (:class:`JsonRecord`,
+:func:`json_safe`, :func:`format_pm`). A robot's own result types live in its room (the
+tractor-trailer's method rows and command segments: :mod:`calib.tractor_trailer.results`).
 
 Every result is a frozen dataclass with ``to_dict()`` (JSON-safe: NaN -> None) and, where it is
 shown to people, ``report()``.
@@ -15,15 +19,10 @@ from typing import Any, ClassVar
 __all__ = [
     "PM_MEANING",
     "AnalysisResult",
-    "Baseline",
     "CalibrationResult",
-    "CommandType",
     "Estimate",
-    "Family",
     "JsonRecord",
     "Matrix",
-    "MethodResult",
-    "Segment",
     "StageStatus",
     "as_matrix",
     "correlations_of",
@@ -47,43 +46,6 @@ def format_pm(value: float | None, std: float | None, digits: int = 3, unit: str
     if std is None or not math.isfinite(std) or std == 0:
         return f"{value:.{digits}f}{tail}"
     return f"{value:.{digits}f} ± {std:.{digits}f}{tail}"
-
-
-class Baseline(StrEnum):
-    """The model discovery compares a log against."""
-
-    TRANSIENT = "transient"
-    """The off-axle trailer kinematics (dynamic hitch angle); diagnoses best."""
-    STEADY = "steady"
-    """The patent's steady-state relation between curvature and hitch angle."""
-
-
-class Family(StrEnum):
-    """Families of link-length methods: the patent's three, and our estimators."""
-
-    EMLS = "EMLS"
-    """The patent's exact-model least squares."""
-    PMLS = "PMLS"
-    """The patent's prediction-model least squares (slope and intercept only)."""
-    CLS = "CLS"
-    """The patent's 24 combined least-squares methods M1-M24."""
-    EIV = "EIV"
-    """Errors-in-variables maximum likelihood on the steady-state relation."""
-    TRANSIENT = "TRANSIENT"
-    """Transient fits: the hitch angle simulated in time or along the measured path."""
-    NOSLIP = "NOSLIP"
-    """The trailer's no-side-slip regression from its own pose."""
-
-
-class CommandType(StrEnum):
-    """Curvature command shapes (patent: H harmonic, C curve/tanh, L linear) plus our own."""
-
-    HARMONIC = "harmonic"
-    CURVE = "curve"
-    LINEAR = "linear"
-    CONSTANT = "constant"
-    STEP = "step"
-    OTHER = "other"
 
 
 def json_safe(value: Any) -> Any:
@@ -130,23 +92,6 @@ class JsonRecord:
 
 
 @dataclass(frozen=True)
-class Segment(JsonRecord):
-    """A stretch of the log with one curvature command type.
-
-    Times in seconds from the first sample of the aligned log; ``start_index``/``end_index``
-    are row indices into the aligned frame (end exclusive). ``parameters`` are the fitted
-    template's parameters (e.g. amplitude ``M`` in 1/m, ``omega`` in rad/s).
-    """
-
-    start_s: float
-    end_s: float
-    command_type: CommandType
-    start_index: int = 0
-    end_index: int = 0
-    parameters: Mapping[str, float] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
 class Estimate(JsonRecord):
     """One estimated quantity: value +/- standard error, 95 % interval, identifiability.
 
@@ -171,33 +116,6 @@ class Estimate(JsonRecord):
             f"{self.name} = {self.value:.4g} ± {self.std:.2g} {self.unit} "
             f"[95 %: {lo:.4g}, {hi:.4g}]{tag}"
         )
-
-
-@dataclass(frozen=True)
-class MethodResult(JsonRecord):
-    """One least-squares method on one segment type, over repeats.
-
-    ``L1``/``L2`` (m) are means over repeats, ``L1_std``/``L2_std`` their standard deviations
-    (0 for one repeat) when ``std_kind`` is "repeats"; for a single fit (``std_kind``
-    "standard_error") they are its standard errors. ``condition_number`` is NaN where the
-    method has none. ``extra`` holds method-specific numbers (PM slope ``a`` and intercept
-    ``b``, ``mu1``, per-model condition numbers of TLS, each with ``_std``); ``flags`` its
-    yes/no facts (``split_determined``).
-    """
-
-    name: str
-    family: Family
-    segment: str  # "all" or a CommandType value
-    L1: float
-    L2: float
-    L1_std: float
-    L2_std: float
-    condition_number: float
-    condition_number_std: float = math.nan
-    n_repeats: int = 1
-    extra: Mapping[str, float] = field(default_factory=dict)
-    flags: Mapping[str, bool] = field(default_factory=dict)
-    std_kind: str = "repeats"
 
 
 Matrix = tuple[tuple[float, ...], ...]
@@ -350,13 +268,15 @@ class AnalysisResult:
     ``stages`` says how each stage ended. For several runs of one robot, ``estimate`` is the
     pooled one and ``runs`` holds each run's own analysis. ``sections`` holds a robot's own
     results (objects with ``to_dict()`` or JSON-safe values) under their JSON keys, e.g. a
-    differential drive's ``dead_reckoning`` or an arm's ``excitation``; ``methods`` may hold, for
-    robots other than the tractor-trailer, one ``CalibrationResult`` per method. ``artifacts``
-    carries arrays and inputs for later steps (views, pooling) and is not part of the JSON.
+    differential drive's ``dead_reckoning`` or an arm's ``excitation``. ``segments`` (stretches
+    of the log) and ``methods`` (one row per method) are the robot's own records, objects with
+    ``to_dict()`` (e.g. the tractor-trailer's ``Segment`` and ``MethodResult``; another robot's
+    ``methods`` may hold one ``CalibrationResult`` per method). ``artifacts`` carries arrays and
+    inputs for later steps (views, pooling) and is not part of the JSON.
     """
 
     robot: str
-    segments: list[Segment]
+    segments: list[Any]
     methods: list[Any]
     estimate: CalibrationResult | None
     discovery: Any = None

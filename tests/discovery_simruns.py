@@ -17,8 +17,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from sim_frame import aligned_frame_from_run
 
-from calib.results import CommandType
 from calib.tractor_trailer.discovery import discover
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,

@@ -9,13 +9,8 @@ from types import SimpleNamespace
 import numpy as np
 import polars as pl
 
-from calib.results import (
-    AnalysisResult,
-    CalibrationResult,
-    CommandType,
-    Estimate,
-    MethodResult,
-)
+from calib.results import AnalysisResult, CalibrationResult, Estimate
+from calib.tractor_trailer.results import CommandType, MethodResult
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.tractor_trailer import (
     SpeedProfile,

@@ -40,7 +40,7 @@ from numpy.typing import ArrayLike
 from calib.errors import SolverError
 from calib.lsq import OLS1, OLS2, TLS, LeastSquares, triangular_factor, triangular_factor_by_rows
 from calib.lsq.base import block_factors
-from calib.results import Family, JsonRecord
+from calib.results import JsonRecord
 from calib.tractor_trailer.patent_models import (
     EXACT_MODELS,
     PREDICTION_MODELS,
@@ -51,6 +51,7 @@ from calib.tractor_trailer.patent_models import (
     lengths_from_beta,
 )
 from calib.tractor_trailer.predicted_rows import predicted_rows_factor
+from calib.tractor_trailer.results import Family
 
 __all__ = [
     "CLS_ROWS",

@@ -17,7 +17,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calib.results import MethodResult
 from calib.stats import autocorrelation
 from calib.tractor_trailer.methods import (
     METHOD_NAMES,
@@ -26,6 +25,7 @@ from calib.tractor_trailer.methods import (
     family_of,
 )
 from calib.tractor_trailer.patent_models import check_excitation
+from calib.tractor_trailer.results import MethodResult
 
 __all__ = [
     "block_length",

@@ -35,9 +35,10 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from calib.results import AnalysisResult, MethodResult
+from calib.results import AnalysisResult
 from calib.tractor_trailer.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.models.icr import KAPPA_MIN, icr_construction
+from calib.tractor_trailer.results import MethodResult
 
 __all__ = [
     "VIEWS",

@@ -13,7 +13,6 @@ from discovery_simruns import null_study  # type: ignore[import-not-found]
 from sim_frame import aligned_frame_from_run  # type: ignore[import-not-found]
 
 from calib.errors import InsufficientDataError
-from calib.results import CommandType
 from calib.tractor_trailer.discovery import catalogue, discover
 from calib.tractor_trailer.discovery.data import CommandSignal, prepare_data
 from calib.tractor_trailer.discovery.diagnostics import ljung_box
@@ -26,6 +25,7 @@ from calib.tractor_trailer.discovery.model import (
 )
 from calib.tractor_trailer.discovery.sparse import stlsq
 from calib.tractor_trailer.models.hitch_kinematics import steady_state_psi
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,

@@ -13,8 +13,8 @@ import pytest
 from discovery_logs import ISSUE_CATALOGUE, LOG_DIR, load_truth, read_aligned
 from mcap.reader import make_reader
 
-from calib.results import CommandType, Segment
 from calib.tractor_trailer.discovery import DiscoveryResult, discover
+from calib.tractor_trailer.results import CommandType, Segment
 
 pytestmark = pytest.mark.slow  # discovery on twelve fixed logs: about a minute in all
 

@@ -22,9 +22,9 @@ import pytest
 from discovery_logs import LOG_DIR, read_aligned
 from sim_frame import aligned_frame_from_run  # type: ignore[import-not-found]
 
-from calib.results import CommandType
 from calib.tractor_trailer.discovery import DEFAULT_BASELINE, DiscoveryResult, catalogue, discover
 from calib.tractor_trailer.discovery.model import BASE_PARAMS
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,

@@ -11,13 +11,13 @@ import pytest
 from sim_frame import aligned_frame_from_run  # type: ignore[import-not-found]
 
 import calib.tractor_trailer.discovery.model as model
-from calib.results import CommandType
 from calib.tractor_trailer.discovery import catalogue
 from calib.tractor_trailer.discovery.data import DiscoveryData, prepare_data
 from calib.tractor_trailer.discovery.effects import ActuatorLag
 from calib.tractor_trailer.discovery.fit import fit_model
 from calib.tractor_trailer.discovery.model import ModelSpec, integrate_hitch_half, predict
 from calib.tractor_trailer.models.hitch_rk4 import compiled_available
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.tractor_trailer import NoiseSpec, SpeedProfile, TractorTrailerSim
 from calib.tractor_trailer.sim.tractor_trailer import simulate_tractor_trailer as simulate

@@ -6,13 +6,13 @@ import numpy as np
 import polars as pl
 import pytest
 
-from calib.results import CommandType, Segment
 from calib.tractor_trailer.discovery.windows import (
     DEFAULT_MAX_SPAN_S,
     WINDOW_S,
     choose_windows,
     restrict,
 )
+from calib.tractor_trailer.results import CommandType, Segment
 
 
 def test_a_log_within_the_budget_is_used_whole() -> None:

@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pytest
 
-from calib.results import CommandType
 from calib.tractor_trailer.estimators import TransientFit, calibrate_link_lengths
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.tractor_trailer import (
     Effects,

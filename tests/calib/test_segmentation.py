@@ -7,8 +7,8 @@ import itertools
 import numpy as np
 import pytest
 
-from calib.results import CommandType as C
-from calib.results import Segment
+from calib.tractor_trailer.results import CommandType as C
+from calib.tractor_trailer.results import Segment
 from calib.tractor_trailer.segmentation import segment_command
 from calib.tractor_trailer.sim.commands import CommandSequence
 from calib.tractor_trailer.sim.commands import CommandSpec as S

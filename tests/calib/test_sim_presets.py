@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from calib.errors import CalibError
-from calib.results import CommandType
 from calib.tractor_trailer.models.hitch_kinematics import kappa_limit, steady_state_kappa
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.presets import (
     MIXED_CYCLE_S,

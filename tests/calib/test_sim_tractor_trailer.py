@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from calib.results import CommandType
 from calib.tractor_trailer.models.hitch_kinematics import (
     psi_rate,
     steady_state_psi,
     steady_state_residual,
 )
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.tractor_trailer import (
     SENSOR_GROUPS,

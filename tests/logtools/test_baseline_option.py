@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from calib.results import Baseline
+from calib.tractor_trailer.results import Baseline
 from logtools.batch.archive import LogJob
 from logtools.batch.settings import SettingsError, settings_for
 from logtools.batch.worker import AnalysisOptions, analyse_job

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calib.results import CommandType as C
+from calib.tractor_trailer.results import CommandType as C
 from calib.tractor_trailer.sim.commands import CommandSequence
 from calib.tractor_trailer.sim.commands import CommandSpec as S
 from calib.tractor_trailer.sim.tractor_trailer import TractorTrailerSim, simulate_tractor_trailer

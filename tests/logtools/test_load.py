@@ -6,7 +6,7 @@ import numpy as np
 import polars as pl
 import pytest
 
-from calib.results import CommandType as C
+from calib.tractor_trailer.results import CommandType as C
 from calib.tractor_trailer.sim.commands import CommandSequence
 from calib.tractor_trailer.sim.commands import CommandSpec as S
 from calib.tractor_trailer.sim.tractor_trailer import TractorTrailerSim, simulate_tractor_trailer

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from calib.results import MethodResult
+from calib.tractor_trailer.results import MethodResult
 from viz._frame import robust_limits
 from viz.tractor_trailer.methods import forest_rows, nice_ticks, robust_range, zoom_range
 

@@ -20,7 +20,8 @@ import numpy as np
 import rerun as rr
 from numpy.typing import ArrayLike
 
-from calib.results import PM_MEANING, AnalysisResult, MethodResult, format_pm
+from calib.results import PM_MEANING, AnalysisResult, format_pm
+from calib.tractor_trailer.results import MethodResult
 from viz.style import COLORS, ui_points
 
 __all__ = [

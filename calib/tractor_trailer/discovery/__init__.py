@@ -50,7 +50,7 @@ import numpy as np
 import polars as pl
 
 from calib.errors import CalibError
-from calib.results import Estimate, Segment
+from calib.results import Estimate
 from calib.tractor_trailer.discovery.confirm import (
     EQUIVALENCE_MARGIN,
     Confirmed,
@@ -101,6 +101,7 @@ from calib.tractor_trailer.discovery.windows import (
     choose_windows,
     restrict,
 )
+from calib.tractor_trailer.results import Segment
 
 __all__ = [
     "DEFAULT_BASELINE",

@@ -15,8 +15,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from calib.adequacy.whiteness import ljung_box
-from calib.results import Segment, json_safe
+from calib.results import json_safe
 from calib.tractor_trailer.discovery.data import DiscoveryData
+from calib.tractor_trailer.results import Segment
 
 __all__ = [
     "MismatchRegion",

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import polars as pl
 
-from calib.results import Segment
+from calib.tractor_trailer.results import Segment
 
 __all__ = ["DEFAULT_MAX_SPAN_S", "WINDOW_S", "DataWindows", "choose_windows", "restrict"]
 

@@ -8,9 +8,10 @@ from typing import Any
 
 import numpy as np
 
-from calib.results import CalibrationResult, Family, MethodResult, as_matrix
+from calib.results import CalibrationResult, as_matrix
 from calib.tractor_trailer.derived import derived_sum
 from calib.tractor_trailer.estimators.identifiability import IdentifiabilityVerdict
+from calib.tractor_trailer.results import Family, MethodResult
 
 __all__ = ["calibration_result", "information_criteria", "method_result"]
 

@@ -21,7 +21,7 @@ from scipy.optimize import least_squares
 
 from calib.errors import InsufficientDataError, SolverError
 from calib.lsq.base import triangular_factor_by_rows
-from calib.results import CalibrationResult, Family, MethodResult
+from calib.results import CalibrationResult
 from calib.stats import bartlett_bandwidth, hac_covariance, hf_noise_std
 from calib.tractor_trailer.estimators._result import (
     calibration_result,
@@ -29,6 +29,7 @@ from calib.tractor_trailer.estimators._result import (
     method_result,
 )
 from calib.tractor_trailer.estimators.identifiability import IdentifiabilityVerdict, identifiability
+from calib.tractor_trailer.results import Family, MethodResult
 
 __all__ = ["SteadyStateEIV", "project_onto_curve"]
 

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calib.errors import InsufficientDataError
-from calib.results import CalibrationResult, Family, MethodResult
+from calib.results import CalibrationResult
 from calib.stats import bartlett_bandwidth, hac_covariance
 from calib.tractor_trailer.estimators._result import (
     calibration_result,
@@ -32,6 +32,7 @@ from calib.tractor_trailer.estimators._result import (
 )
 from calib.tractor_trailer.estimators.drive_path import default_gap_s
 from calib.tractor_trailer.estimators.identifiability import IdentifiabilityVerdict, identifiability
+from calib.tractor_trailer.results import Family, MethodResult
 
 __all__ = ["NoSlipRegression"]
 

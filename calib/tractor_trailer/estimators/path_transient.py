@@ -37,7 +37,7 @@ from scipy.sparse import csr_matrix
 
 from calib.errors import InsufficientDataError, SolverError
 from calib.lsq.base import triangular_factor_by_rows
-from calib.results import CalibrationResult, Family, MethodResult
+from calib.results import CalibrationResult
 from calib.stats import (
     bartlett_bandwidth,
     detect_quantum,
@@ -52,6 +52,7 @@ from calib.tractor_trailer.estimators._result import (
 from calib.tractor_trailer.estimators.drive_path import DrivePath, default_gap_s
 from calib.tractor_trailer.estimators.identifiability import IdentifiabilityVerdict, identifiability
 from calib.tractor_trailer.models.hitch_path import advance_psi, advance_psi_jacobian, rk4_substeps
+from calib.tractor_trailer.results import Family, MethodResult
 
 __all__ = ["PathTransientFit"]
 

@@ -13,9 +13,10 @@ from dataclasses import replace
 import numpy as np
 
 from calib.errors import CalibError, InsufficientDataError
-from calib.results import CalibrationResult, MethodResult, Segment
+from calib.results import CalibrationResult
 from calib.tractor_trailer.estimators.eiv import SteadyStateEIV
 from calib.tractor_trailer.estimators.transient import TransientFit
+from calib.tractor_trailer.results import MethodResult, Segment
 
 __all__ = ["calibrate_link_lengths"]
 

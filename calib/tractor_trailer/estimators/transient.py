@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
 
 from calib.errors import InsufficientDataError, SolverError
-from calib.results import CalibrationResult, Family, MethodResult
+from calib.results import CalibrationResult
 from calib.stats import bartlett_bandwidth, hac_covariance, hf_noise_std
 from calib.tractor_trailer.estimators._integrate import plan_steps, simulate_psi
 from calib.tractor_trailer.estimators._propagate import propagated_covariance
@@ -35,6 +35,7 @@ from calib.tractor_trailer.estimators._result import (
     method_result,
 )
 from calib.tractor_trailer.estimators.identifiability import IdentifiabilityVerdict, identifiability
+from calib.tractor_trailer.results import Family, MethodResult
 
 __all__ = ["TransientFit", "block_average"]
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from calib.results import MethodResult, json_safe
+from calib.results import json_safe
 from calib.tractor_trailer.methods import (
     CLS_TABLE,
     METHOD_NAMES,
@@ -27,6 +27,7 @@ from calib.tractor_trailer.patent_models import ExactModel
 from calib.tractor_trailer.repeats import methods_over_repeats
 from calib.tractor_trailer.reproduce.published import PublishedCell, half_unit, load_published
 from calib.tractor_trailer.reproduce.scenario import COMMANDS, PATENT_SCENARIO, PatentScenario
+from calib.tractor_trailer.results import MethodResult
 
 __all__ = [
     "FigureCell",

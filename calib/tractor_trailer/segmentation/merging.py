@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib.results import CommandType
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.segmentation.scoring import Piece, Scorer, score
 from calib.tractor_trailer.segmentation.templates import TemplateFit
 

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib.results import CommandType, Segment
+from calib.tractor_trailer.results import CommandType, Segment
 from calib.tractor_trailer.segmentation.change_points import binseg, jumps, quantum
 from calib.tractor_trailer.segmentation.merging import absorb_short, merge
 from calib.tractor_trailer.segmentation.preparation import (

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.results import CommandType
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.segmentation.templates import (
     N_PARAMS_MIN,
     TEMPLATE_ORDER,

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from calib.results import CommandType
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.segmentation.scoring import Piece, Scorer, score
 
 __all__ = ["pair_levels", "step_rule"]

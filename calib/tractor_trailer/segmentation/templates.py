@@ -22,7 +22,7 @@ import numpy as np
 from scipy.interpolate import make_lsq_spline
 from scipy.optimize import least_squares, minimize_scalar
 
-from calib.results import CommandType
+from calib.tractor_trailer.results import CommandType
 
 __all__ = ["N_PARAMS_MIN", "TEMPLATE_ORDER", "TemplateFit", "fit_all", "fit_template"]
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from calib.results import CommandType, Segment
+from calib.tractor_trailer.results import CommandType, Segment
 from calib.tractor_trailer.sim.validation import check_finite, check_positive
 
 __all__ = ["CommandSequence", "CommandSpec", "command_value"]

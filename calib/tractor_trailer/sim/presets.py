@@ -16,8 +16,8 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any, Literal
 
-from calib.results import CommandType
 from calib.tractor_trailer.models.hitch_kinematics import steady_state_kappa
+from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.sim.choices import PresetName
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec
 from calib.tractor_trailer.sim.tractor_trailer import (

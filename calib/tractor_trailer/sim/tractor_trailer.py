@@ -22,9 +22,9 @@ import numpy as np
 import polars as pl
 from scipy.signal import lfilter
 
-from calib.results import Segment
 from calib.tractor_trailer.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.models.hitch_rk4 import rk4_hitch
+from calib.tractor_trailer.results import Segment
 from calib.tractor_trailer.sim.choices import HitchModel
 from calib.tractor_trailer.sim.commands import CommandSequence
 from calib.tractor_trailer.sim.validation import (

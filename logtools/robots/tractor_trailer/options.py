@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from calib.results import Baseline
+from calib.tractor_trailer.results import Baseline
 from logtools.robots.options import RobotOptions, option
 
 __all__ = ["TractorTrailerOptions"]

@@ -16,19 +16,13 @@ import numpy as np
 import polars as pl
 
 from calib.errors import CalibError
-from calib.results import (
-    AnalysisResult,
-    CalibrationResult,
-    CommandType,
-    MethodResult,
-    Segment,
-    StageStatus,
-)
+from calib.results import AnalysisResult, CalibrationResult, StageStatus
 from calib.tractor_trailer.derived import derived_sum, link_sum
 from calib.tractor_trailer.estimators.noslip import NoSlipRegression
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.estimators.steering import SteeringGeometry
 from calib.tractor_trailer.path_discovery import PathDiscovery
+from calib.tractor_trailer.results import CommandType, MethodResult, Segment
 from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.loaded import LoadedLog
 from logtools.robots.tractor_trailer.options import TractorTrailerOptions

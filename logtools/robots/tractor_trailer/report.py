@@ -10,8 +10,9 @@ from rich.console import RenderableType
 from rich.table import Table
 from rich.text import Text
 
-from calib.results import AnalysisResult, MethodResult
+from calib.results import AnalysisResult
 from calib.results import format_pm as _pm
+from calib.tractor_trailer.results import MethodResult
 from logtools.safe_text import printable_lines
 
 __all__ = ["CLS_SPLIT_NOTE", "report_lines"]
