@@ -34,18 +34,15 @@ import math
 import os
 import signal
 import threading
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from logtools.batch.archive import LogJob
-from logtools.batch.worker import AnalysisOptions, LogOutcome, analyse_job
 from logtools.errors import LogcalInputError
 
-__all__ = ["DEFAULT_TIMEOUT_S", "Budgets", "LogTimeout", "analyse_in_ray",
-           "analyse_within_budget", "default_memory_gib", "init_worker", "out_of_memory"]
+__all__ = ["DEFAULT_TIMEOUT_S", "Budgets", "LogTimeout", "active", "default_memory_gib",
+           "init_worker", "marker_file", "out_of_memory", "set_active", "time_limit"]
 
 GIB = 2**30
 DEFAULT_TIMEOUT_S = 3600.0
@@ -162,6 +159,18 @@ def active() -> Budgets | None:
     return _ACTIVE
 
 
+def set_active(budgets: Budgets) -> None:
+    """Run this process under ``budgets`` (the Ray task's; a local worker's come from
+    :func:`init_worker`)."""
+    global _ACTIVE
+    _ACTIVE = budgets
+
+
+def marker_file() -> Path | None:
+    """The file in which this worker names the log it works on (None: not a local worker)."""
+    return None if _MARKERS is None else _MARKERS / str(os.getpid())
+
+
 def init_worker(budgets: Budgets, markers: str | None, setup: str | None = None) -> None:
     """Initializer of a local worker process: cap its address space, remember where to mark
     the log it works on (``markers``: a folder of the driver) and run ``setup``
@@ -186,7 +195,7 @@ def init_worker(budgets: Budgets, markers: str | None, setup: str | None = None)
 
 
 @contextlib.contextmanager
-def _time_limit(budgets: Budgets) -> Iterator[None]:
+def time_limit(budgets: Budgets) -> Iterator[None]:
     """Raise :class:`LogTimeout` in this (main) thread after ``budgets.timeout_s``; end the
     process at ``budgets.hard_stop_s`` if the code never comes back to the interpreter."""
     if budgets.timeout_s is None:
@@ -212,36 +221,3 @@ def _time_limit(budgets: Budgets) -> Iterator[None]:
             signal.signal(signal.SIGALRM, previous)
         if hard is not None:
             faulthandler.cancel_dump_traceback_later()
-
-
-def _run(job: LogJob, options: AnalysisOptions, budgets: Budgets) -> LogOutcome:
-    t0 = time.perf_counter()
-    try:
-        with _time_limit(budgets):
-            return analyse_job(job, options)
-    except LogTimeout:
-        return LogOutcome(job, "failed", error=budgets.time_message(job.rel),
-                          error_kind="input", seconds=time.perf_counter() - t0)
-
-
-def analyse_within_budget(job: LogJob, options: AnalysisOptions) -> LogOutcome:
-    """:func:`~logtools.batch.worker.analyse_job` in a local worker, under the budgets given to
-    :func:`init_worker`; while it runs, the worker's marker file names the log (and when it
-    started), so that the driver knows which log a dead worker held."""
-    budgets = _ACTIVE or Budgets(timeout_s=None)
-    marker = None if _MARKERS is None else _MARKERS / str(os.getpid())
-    if marker is not None:
-        marker.write_text(f"{job.id}\t{time.time()}")
-    try:
-        return _run(job, options, budgets)
-    finally:
-        if marker is not None:
-            marker.write_text("")
-
-
-def analyse_in_ray(job: LogJob, options: AnalysisOptions, budgets: Budgets) -> LogOutcome:
-    """The Ray task: the time budget as locally (alarm, then hard stop), no ``RLIMIT_AS`` (the
-    memory budget is the task's ``memory=`` request)."""
-    global _ACTIVE
-    _ACTIVE = budgets
-    return _run(job, options, budgets)

@@ -34,13 +34,8 @@ from pathlib import Path
 from typing import Any
 
 from logtools.batch.archive import LogJob
-from logtools.batch.budgets import (
-    DEFAULT_TIMEOUT_S,
-    Budgets,
-    analyse_in_ray,
-    analyse_within_budget,
-    init_worker,
-)
+from logtools.batch.budgeted import analyse_in_ray, analyse_within_budget
+from logtools.batch.budgets import DEFAULT_TIMEOUT_S, Budgets, init_worker
 from logtools.batch.choices import Engine
 from logtools.batch.worker import AnalysisOptions, LogOutcome
 from logtools.errors import LogcalInputError
@@ -100,7 +95,7 @@ _WORKER_SETUP: str | None = None
 def _held(markers: Path) -> dict[str, tuple[float, str]]:
     """Log id -> (when it started, its worker's stack dump) for every log a worker of this
     pool was analysing (the marker files of
-    :func:`~logtools.batch.budgets.analyse_within_budget`)."""
+    :func:`~logtools.batch.budgeted.analyse_within_budget`)."""
     held: dict[str, tuple[float, str]] = {}
     for marker in markers.iterdir():
         if not marker.name.isdigit():
