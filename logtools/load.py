@@ -34,11 +34,10 @@ from logtools.loaded import LoadedLog, ResolvedSignals
 from logtools.problems import Problem, ProblemKind
 from logtools.readers import (
     DEFAULT_DECODERS,
-    TIME_COLUMN,
     ColumnFilter,
     Decoders,
     LogData,
-    TopicInfo,
+    in_span,
     read_log,
 )
 from logtools.robot import METADATA_RECORD, infer_robot
@@ -243,28 +242,14 @@ def crop_log(
         )
     t0 = origin + round(lo * 1e9)
     t1 = last if math.isinf(hi) else origin + round(hi * 1e9)
-    topics: dict[str, pl.DataFrame] = {}
-    info: dict[str, TopicInfo] = {}
-    for name, ti in log.info.items():
-        frame = log.topics.get(name)
-        if frame is None:
-            info[name] = ti
-            continue
-        kept = frame.filter(pl.col(TIME_COLUMN).is_between(t0, t1))
-        topics[name] = kept
-        t = kept[TIME_COLUMN]
-        info[name] = TopicInfo(
-            ti.topic, ti.schema_name, ti.schema_encoding, ti.message_encoding, kept.height,
-            int(t.min()) if kept.height else None,  # type: ignore[arg-type]
-            int(t.max()) if kept.height else None,  # type: ignore[arg-type]
-        )
+    cut = in_span(log, t0, t1)
     shown_hi = min(hi, duration)
     note = Problem(
         ProblemKind.SIGNAL,
         message=f"{log.path}: cropped to {lo:.3f} s .. {shown_hi:.3f} s after the log's first "
         f"sample (--start/--end; the log spans {duration:.3f} s)",
     )
-    return LogData(log.path, topics, info, log.metadata, [*log.problems, note])
+    return LogData(log.path, cut.topics, cut.info, log.metadata, [*log.problems, note])
 
 
 def read_input(

@@ -153,13 +153,11 @@ def read_mcap_batched(
         def load(start: int, end: int) -> bool:
             return _load(fh, amap, start, end)
 
-        tail = min(size, 4096)
-        if not load(size - tail, size):
+        found = _summary(fh, amap, size)
+        if found is None:
             return None
+        summary, start = found
         summary_start = summary_offset(amap)
-        if not summary_start or not load(summary_start, size):
-            return None
-        summary, start = read_summary(amap)
         stats = summary.statistics
         ordered = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
         if (
@@ -199,6 +197,18 @@ def read_mcap_batched(
                 return None
     return _assemble(path, summary, stats, wanted, decoders, keep, times, parts,
                      whole=span_ns is None)
+
+
+def _summary(fh: RawIOBase, amap: mmap.mmap, size: int) -> tuple[ScanResult, int] | None:
+    """The summary of the MCAP file open as ``fh`` (``size`` bytes) and where it starts, its
+    footer and summary read into ``amap`` at their offsets; None when they cannot be read."""
+    tail = min(size, 4096)
+    if not _load(fh, amap, size - tail, size):
+        return None
+    summary_start = summary_offset(amap)
+    if not summary_start or not _load(fh, amap, summary_start, size):
+        return None
+    return read_summary(amap)
 
 
 def _load(fh: RawIOBase, amap: mmap.mmap, start: int, end: int) -> bool:
@@ -551,17 +561,10 @@ def mcap_extent(path: str, size: int) -> McapExtent | None:
         if fh.read(len(MAGIC)) != MAGIC:
             return None
         amap = mmap.mmap(-1, size)  # anonymous: only the pages written take memory
-
-        def load(start: int, end: int) -> bool:
-            return _load(fh, amap, start, end)
-
-        tail = min(size, 4096)
-        if not load(size - tail, size):
+        found = _summary(fh, amap, size)
+        if found is None:
             return None
-        summary_start = summary_offset(amap)
-        if not summary_start or not load(summary_start, size):
-            return None
-        summary, start = read_summary(amap)
+        summary, start = found
     stats = summary.statistics
     if not start or stats is None or not stats.message_count:
         return None
