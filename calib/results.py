@@ -157,7 +157,7 @@ def correlations_of(cov: Matrix) -> Matrix:
 
 _RESULT_KEYS = frozenset({
     "method", "verdict", "identifiable", "parameter_names", "derived_names", "covariance",
-    "correlations", "converged", "aic", "bic", "details",
+    "correlations", "converged", "aic", "bic", "details", "assumptions",
 })
 """The JSON keys of a CalibrationResult that are not a parameter or a derived quantity."""
 
@@ -175,7 +175,9 @@ class CalibrationResult:
     covariance of the fit the parameters come from, over ``parameters`` in their order (None
     when unknown); where a robot widens its intervals afterwards (a misfit, explanations the
     log cannot tell apart) the intervals may be wider than its diagonal says. ``verdict`` is a
-    plain-language sentence for people.
+    plain-language sentence for people. ``assumptions``: what the intervals take as given that
+    the log does not check (e.g. "the joint angle's gain is 1"), each a short clause; pooling
+    keeps those every piece shares.
 
     Raises:
         ValueError: a covariance that is not N x N over the parameters, or a parameter or
@@ -191,6 +193,7 @@ class CalibrationResult:
     aic: float = math.nan
     bic: float = math.nan
     details: Mapping[str, Any] = field(default_factory=dict)
+    assumptions: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         clash = (set(self.parameters) & set(self.derived)) | (
@@ -244,6 +247,7 @@ class CalibrationResult:
         d["aic"] = self.aic
         d["bic"] = self.bic
         d["details"] = dict(self.details)
+        d["assumptions"] = list(self.assumptions)
         return json_safe(d)
 
 

@@ -59,10 +59,11 @@ def _runs_table(result: AnalysisResult) -> Table:
             units.setdefault(name, e.unit)
     methods = {r.estimate.method if r.estimate else "none" for r in result.runs}
     one_method = len(methods) == 1
-    title = "Each run on its own (95 % intervals" + (
+    piece = "window" if "windows" in result.source else "run"
+    title = f"Each {piece} on its own (95 % intervals" + (
         f"; {printable(next(iter(methods)))})" if one_method else ")")
     table = Table(title=Text(title), title_justify="left")
-    table.add_column("run", no_wrap=True)
+    table.add_column(piece, no_wrap=True)
     if not one_method:
         table.add_column("estimate", overflow="fold")
     for n in names:

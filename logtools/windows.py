@@ -489,10 +489,13 @@ def pool_windows(
             params = _not_determined(params, adequacy)
             derived = _not_determined(derived, adequacy)
             verdict += " " + adequacy.summary
+        assumed = _shared_assumptions([r.estimate for r in with_estimate if r.estimate])
         estimate = CalibrationResult(
             method=f"{one} pooled over {len(with_estimate)} windows",
-            parameters=params, derived=derived, verdict=verdict,
-            covariance=None if cov is None else as_matrix(cov),
+            parameters=params, derived=derived,
+            verdict=_assuming(verdict, assumed, "window")
+            if any(e.identifiable for e in params.values()) else verdict,
+            covariance=None if cov is None else as_matrix(cov), assumptions=assumed,
         )
     truths = [dict(r.truth) for r in windows]
     source = {
@@ -562,9 +565,13 @@ def pool_runs(results: Sequence[AnalysisResult], *, derive: DeriveFn | None = No
             params = _not_determined(params, adequacy)
             derived = _not_determined(derived, adequacy)
             verdict += " " + adequacy.summary
-        estimate = CalibrationResult(method=f"{model} pooled over {len(with_estimate)} runs",
-                                     parameters=params, derived=derived, verdict=verdict,
-                                     covariance=None if cov is None else as_matrix(cov))
+        assumed = _shared_assumptions([r.estimate for r in with_estimate if r.estimate])
+        estimate = CalibrationResult(
+            method=f"{model} pooled over {len(with_estimate)} runs", parameters=params,
+            derived=derived,
+            verdict=_assuming(verdict, assumed, "run")
+            if any(e.identifiable for e in params.values()) else verdict,
+            covariance=None if cov is None else as_matrix(cov), assumptions=assumed)
     else:
         adequacy = combine_runs(list(zip(labels, [r.adequacy for r in results], strict=True)),
                                 model)
@@ -575,3 +582,17 @@ def pool_runs(results: Sequence[AnalysisResult], *, derive: DeriveFn | None = No
         source={"runs": labels, "runs_pooled": len(with_estimate), "pooling": stats},
         warnings=warnings, runs=list(results),
     )
+
+
+def _shared_assumptions(pieces: Sequence[CalibrationResult]) -> tuple[str, ...]:
+    """The assumptions every piece's estimate makes (in the first piece's order)."""
+    if not pieces:
+        return ()
+    return tuple(a for a in pieces[0].assumptions if all(a in p.assumptions for p in pieces))
+
+
+def _assuming(verdict: str, assumptions: Sequence[str], what: str) -> str:
+    """``verdict`` and, when there are any, the assumptions each piece's intervals made."""
+    if not assumptions:
+        return verdict
+    return f"{verdict} These intervals assume {'; '.join(assumptions)}, as each {what}'s do."

@@ -132,9 +132,10 @@ class PathDiscovery:
     corrected: tuple[np.ndarray, np.ndarray] | None = None
     notes: list[str] = field(default_factory=list)
     alternatives: list[tuple[str, Any]] = field(default_factory=list)
-    assumptions: list[str] = field(default_factory=list)
+    assumptions: list[tuple[str, str]] = field(default_factory=list)
     """What the link lengths' intervals take as given that the log does not check (an effect
-    held at its null within its tolerance), each with the lengths if it were left free."""
+    held at its null within its tolerance): a short clause, and the same with what the log
+    says of it and the lengths if it were left free."""
     context: Any = field(default=None, repr=False)
 
     @property
@@ -161,7 +162,7 @@ class PathDiscovery:
         out["thirds"] = self.thirds
         out["stability"] = {k: v.to_dict() for k, v in self.stability.items()}
         out["notes"] = list(self.notes)
-        out["assumptions"] = list(self.assumptions)
+        out["assumptions"] = [detail for _short, detail in self.assumptions]
         safe: dict[str, Any] = json_safe(out)
         return safe
 
@@ -194,7 +195,7 @@ class PathDiscovery:
                 lines.append(f"  unstable: {st.name} differs between {st.pieces} pieces of the "
                              f"log beyond their errors (chi2 {st.chi2:.3g} on {st.dof} dof)")
         lines += [f"  note: {n}" for n in self.notes]
-        lines += [f"  assumes: {a}" for a in self.assumptions]
+        lines += [f"  assumes: {detail}" for _short, detail in self.assumptions]
         return lines
 
 
@@ -509,7 +510,7 @@ def _split(
 
 def _tolerated_alternatives(
     ctx: _Context, selection: Selection, spec: EffectSpec[PathEffectModel], tol: Tolerance,
-    notes: list[str], assumptions: list[str],
+    notes: list[str], assumptions: list[tuple[str, str]],
 ) -> list[tuple[str, Any]]:
     """The link lengths under the values of ``spec`` (e.g. the joint-angle gain) within
     ``tol.within`` of its null that the log cannot exclude (refits with the effect at each end
@@ -528,10 +529,11 @@ def _tolerated_alternatives(
         free = "; ".join(
             f"{k} = {e.value:.4g} {e.unit} [{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
             for k, e in alt.parameters.items() if k in ("L1", "L2") and math.isfinite(e.std))
-        assumptions.append(
-            f"{tol.quantity} is {null:g} (the log bounds it only to "
+        short = f"{tol.quantity} is {null:g}"
+        assumptions.append((short,
+            f"{short} (the log bounds it only to "
             f"[{g.value - half:.4g}, {g.value + half:.4g}], 95 %"
-            + (f"; left free: {free}" if free else "") + ")")
+            + (f"; left free: {free}" if free else "") + ")"))
         return []
     lo, hi = max(null - tolerance, g.value - half), min(null + tolerance, g.value + half)
     if not lo < null < hi:
@@ -644,8 +646,10 @@ def recommended(estimate: CalibrationResult, disc: PathDiscovery) -> Calibration
     est = estimate_under_misfit(est, disc.adequacy, disc.thirds)
     est = _widened_unstable(est, disc.stability)
     if disc.assumptions and any(e.identifiable for e in est.parameters.values()):
-        est = replace(est, verdict=f"{est.verdict} These intervals assume "
-                      + "; ".join(disc.assumptions) + ".")
+        est = replace(
+            est, verdict=f"{est.verdict} These intervals assume "
+            + "; ".join(detail for _short, detail in disc.assumptions) + ".",
+            assumptions=(*est.assumptions, *(short for short, _detail in disc.assumptions)))
     return est
 
 

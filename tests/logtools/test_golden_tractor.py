@@ -12,7 +12,9 @@ relative; those fields were rewritten from the new output, nothing else. A third
 estimate gained ``parameter_names``, ``derived_names`` and ``correlations`` (results of any
 robot: named parameters, their N x N covariance and correlations, derived quantities such as
 ``sum_L1_L2``); they were added to the golden files by a script, ``correlations`` computed from
-the file's own ``covariance``, nothing else changed."""
+the file's own ``covariance``, nothing else changed. A fourth: the estimate gained
+``assumptions`` (what its intervals take as given; empty without discovery), added by a script
+as ``[]``."""
 
 from __future__ import annotations
 

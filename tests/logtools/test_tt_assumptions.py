@@ -39,3 +39,21 @@ def test_the_gain_assumption_is_stated_with_the_free_gain_lengths(
     free_width = float(free.group(3)) - float(free.group(2))
     held_width = est["L1"]["ci95"][1] - est["L1"]["ci95"][0]
     assert free_width > 3 * held_width
+    assert est["assumptions"] == ["the joint angle's gain is 1"]
+
+
+@pytest.mark.slow
+def test_pooled_windows_keep_the_assumption_every_window_makes(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code = main(["analyze", str(ROOT / "sample_logs" / "tt_mixed.mcap"), "--json",
+                 "--window", "80"])
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    runs = [r["estimate"] for r in doc["runs"]]
+    assert len(runs) == 3
+    assert all(r["assumptions"] == ["the joint angle's gain is 1"] for r in runs)
+    est = doc["estimate"]
+    assert est["assumptions"] == ["the joint angle's gain is 1"]
+    assert est["verdict"].endswith(
+        "These intervals assume the joint angle's gain is 1, as each window's do.")
