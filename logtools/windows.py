@@ -464,18 +464,17 @@ def pool_windows(
                         f"lists {listed}: a message outside the chunks its index lists, or a "
                         "summary that disagrees with the file")
     estimate = None
-    model = "each window's model"
     change = None
     stats: dict[str, Any] = {}
     with_estimate = [r for r in windows if r.estimate is not None]
-    adequacy = combine_runs([(window_label(r), r.adequacy) for r in windows], model)
-    if with_estimate:
+    labelled = [(window_label(r), r.adequacy) for r in windows]
+    if not with_estimate:
+        adequacy = combine_runs(labelled, "each window's model")
+    else:
         params, derived, cov, stats, more = _pool_pieces(with_estimate, "windows", derive)
         warnings += more
-        methods = {r.estimate.method for r in with_estimate if r.estimate is not None}
-        one = next(iter(methods)) if len(methods) == 1 else "each window's method"
-        model = one
-        adequacy = combine_runs([(window_label(r), r.adequacy) for r in windows], model)
+        model = _one_method(with_estimate, "each window's method")
+        adequacy = combine_runs(labelled, model)
         change = _change(with_estimate, list(params))
         if change is not None:
             warnings.append(f"{path}: {change.note} (between windows)")
@@ -484,19 +483,8 @@ def pool_windows(
                 notes=(*adequacy.notes, f"one parameter set does not hold over the windows: "
                        f"{change.note}"),
             )
-        verdict = f"{len(with_estimate)} of {len(windows)} windows pooled, " + _how(cov, "windows")
-        if adequacy.channels and not adequacy.explains:
-            params = _not_determined(params, adequacy)
-            derived = _not_determined(derived, adequacy)
-            verdict += " " + adequacy.summary
-        assumed = _shared_assumptions([r.estimate for r in with_estimate if r.estimate])
-        estimate = CalibrationResult(
-            method=f"{one} pooled over {len(with_estimate)} windows",
-            parameters=params, derived=derived,
-            verdict=_assuming(verdict, assumed, "window")
-            if any(e.identifiable for e in params.values()) else verdict,
-            covariance=None if cov is None else as_matrix(cov), assumptions=assumed,
-        )
+        estimate = _pooled_estimate(params, derived, cov, with_estimate, len(windows), adequacy,
+                                    model, "window")
     truths = [dict(r.truth) for r in windows]
     source = {
         "path": path,
@@ -547,34 +535,21 @@ def pool_runs(results: Sequence[AnalysisResult], *, derive: DeriveFn | None = No
     whose samples the robot's own pooled fit would need. ``derive``: the robot's derived
     quantities of the pooled estimate (``RobotPlugin.derive_pooled``)."""
     labels = [str(r.source.get("path", "")) for r in results]
+    labelled = list(zip(labels, [r.adequacy for r in results], strict=True))
     with_estimate = [r for r in results if r.estimate is not None]
-    model = "each run's model"
     warnings = ["runs analysed by windows: the runs are pooled by their estimates and "
                 "covariances, not by the robot's joint fit"]
     estimate = None
     stats: dict[str, Any] = {}
-    if with_estimate:
+    if not with_estimate:
+        adequacy = combine_runs(labelled, "each run's model")
+    else:
         params, derived, cov, stats, more = _pool_pieces(with_estimate, "runs", derive)
         warnings += [w.replace("the windows of the log", "the runs") for w in more]
-        methods = {r.estimate.method for r in with_estimate if r.estimate is not None}
-        model = next(iter(methods)) if len(methods) == 1 else "each run's method"
-        adequacy = combine_runs(list(zip(labels, [r.adequacy for r in results], strict=True)),
-                                model)
-        verdict = f"{len(with_estimate)} of {len(results)} runs pooled, " + _how(cov, "runs")
-        if adequacy.channels and not adequacy.explains:
-            params = _not_determined(params, adequacy)
-            derived = _not_determined(derived, adequacy)
-            verdict += " " + adequacy.summary
-        assumed = _shared_assumptions([r.estimate for r in with_estimate if r.estimate])
-        estimate = CalibrationResult(
-            method=f"{model} pooled over {len(with_estimate)} runs", parameters=params,
-            derived=derived,
-            verdict=_assuming(verdict, assumed, "run")
-            if any(e.identifiable for e in params.values()) else verdict,
-            covariance=None if cov is None else as_matrix(cov), assumptions=assumed)
-    else:
-        adequacy = combine_runs(list(zip(labels, [r.adequacy for r in results], strict=True)),
-                                model)
+        model = _one_method(with_estimate, "each run's method")
+        adequacy = combine_runs(labelled, model)
+        estimate = _pooled_estimate(params, derived, cov, with_estimate, len(results), adequacy,
+                                    model, "run")
     truths = [dict(r.truth) for r in results]
     return AnalysisResult(
         robot=results[0].robot, segments=[], methods=[], estimate=estimate, adequacy=adequacy,
@@ -582,6 +557,33 @@ def pool_runs(results: Sequence[AnalysisResult], *, derive: DeriveFn | None = No
         source={"runs": labels, "runs_pooled": len(with_estimate), "pooling": stats},
         warnings=warnings, runs=list(results),
     )
+
+
+def _one_method(pieces: Sequence[AnalysisResult], several: str) -> str:
+    """The method every piece's estimate used, or ``several`` when they differ."""
+    methods = {r.estimate.method for r in pieces if r.estimate is not None}
+    return next(iter(methods)) if len(methods) == 1 else several
+
+
+def _pooled_estimate(
+    params: dict[str, Estimate], derived: dict[str, Estimate], cov: np.ndarray | None,
+    pieces: Sequence[AnalysisResult], n_total: int, adequacy: Adequacy, model: str, what: str,
+) -> CalibrationResult:
+    """The pooled estimate of ``pieces`` (of ``n_total`` windows or runs, ``what``): not
+    determined where the pooled model does not explain them, with the assumptions every
+    piece's intervals make."""
+    verdict = f"{len(pieces)} of {n_total} {what}s pooled, " + _how(cov, f"{what}s")
+    if adequacy.channels and not adequacy.explains:
+        params = _not_determined(params, adequacy)
+        derived = _not_determined(derived, adequacy)
+        verdict += " " + adequacy.summary
+    assumed = _shared_assumptions([r.estimate for r in pieces if r.estimate])
+    if any(e.identifiable for e in params.values()):
+        verdict = _assuming(verdict, assumed, what)
+    return CalibrationResult(
+        method=f"{model} pooled over {len(pieces)} {what}s", parameters=params, derived=derived,
+        verdict=verdict, covariance=None if cov is None else as_matrix(cov),
+        assumptions=assumed)
 
 
 def _shared_assumptions(pieces: Sequence[CalibrationResult]) -> tuple[str, ...]:
