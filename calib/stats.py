@@ -15,6 +15,7 @@ __all__ = [
     "hac_covariance",
     "hf_noise_std",
     "hf_noise_std_t",
+    "long_run_variance_ratio",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -111,6 +112,23 @@ def bartlett_bandwidth(r: np.ndarray, factor: float = 3.0) -> int:
     below = np.nonzero(rho < 0.05)[0]
     first = int(below[0]) if below.size else cap
     return int(min(cap, max(nw, math.ceil(factor * first))))
+
+
+def long_run_variance_ratio(x: np.ndarray) -> float:
+    """Bartlett long-run variance over plain variance of a centred series ``x`` (lag window
+    n^(1/3)): how much a sum over many consecutive terms holds of their variances (above 1:
+    positively correlated terms; below 1: terms that cancel). 1.0 for fewer than 8 terms or a
+    zero series; callers centre, trim and bound it as their use needs."""
+    n = x.size
+    if n < 8:
+        return 1.0
+    v0 = float(x @ x) / n
+    if v0 <= 0:
+        return 1.0
+    lag = max(1, round(n ** (1 / 3)))
+    lrv = v0 + 2 * sum((1 - k / (lag + 1)) * float(x[k:] @ x[:-k]) / n
+                       for k in range(1, lag + 1))
+    return lrv / v0
 
 
 _FFT_MIN_LAGS = 64

@@ -32,6 +32,7 @@ from calib.diff_drive.data import DriveRun
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.odometry_lsq import segment_design, solve_rows
 from calib.errors import InsufficientDataError
+from calib.stats import long_run_variance_ratio
 
 __all__ = [
     "FOLD_S",
@@ -383,17 +384,9 @@ def _lrv_ratio(x: Array) -> float:
     """Bartlett long-run variance over variance of a residual series (``LRV_FLOOR`` to 4):
     what a sum over many consecutive segments holds of their variances."""
     x = x[np.isfinite(x)]
-    n = x.size
-    if n < 8:
+    if x.size < 8:
         return 1.0
-    x = x - x.mean()
-    v0 = float(x @ x) / n
-    if v0 <= 0:
-        return 1.0
-    lag = max(1, round(n ** (1 / 3)))
-    lrv = v0 + 2 * sum((1 - k / (lag + 1)) * float(x[k:] @ x[:-k]) / n
-                       for k in range(1, lag + 1))
-    return float(min(4.0, max(LRV_FLOOR, lrv / v0)))
+    return float(min(4.0, max(LRV_FLOOR, long_run_variance_ratio(x - x.mean()))))
 
 
 def piece_fits(runs: Sequence[DriveRun], params: DiffDriveParams, piece_s: float | None = None,

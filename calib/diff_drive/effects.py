@@ -52,6 +52,7 @@ from calib.diff_drive.data import DriveRun
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.segments import SegmentIndex, cut_segments, segment_length
 from calib.results import Estimate, json_safe
+from calib.stats import long_run_variance_ratio
 
 __all__ = [
     "ASYMMETRY",
@@ -520,18 +521,11 @@ def _lrv_ratio(x: Array) -> float:
     much consecutive segments' shared errors (slip, ground-truth drift) inflate what a sum of
     squares counts as independent noise."""
     x = x[np.isfinite(x)] - np.median(x[np.isfinite(x)]) if np.isfinite(x).any() else x
-    n = x.size
-    if n < 8:
+    if x.size < 8:
         return 1.0
     clip = 4 * max(_mad(x), 1e-15)
     x = np.clip(x, -clip, clip)  # a stuck span must not pass for correlation
-    v0 = float(x @ x) / n
-    if v0 <= 0:
-        return 1.0
-    lag = max(1, round(n ** (1 / 3)))
-    lrv = v0 + 2 * sum((1 - k / (lag + 1)) * float(x[k:] @ x[:-k]) / n
-                       for k in range(1, lag + 1))
-    return max(1.0, lrv / v0)
+    return max(1.0, long_run_variance_ratio(x))
 
 
 def _raw_residuals(prob: _Problem, p: DiffDriveParams, marker: complex) -> Array:
