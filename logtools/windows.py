@@ -399,6 +399,12 @@ def _pool_pieces(
     own, with no covariance. Returns parameters, derived, covariance, pooling per name and
     warnings."""
     ests = [r.estimate for r in pieces if r.estimate is not None]
+    if len(ests) == 1:  # nothing to pool: the piece's own estimates, intervals as it gave them
+        one = ests[0]
+        cov = None if one.covariance is None else np.asarray(one.covariance, dtype=float)
+        return dict(one.parameters), dict(one.derived), cov, {
+            n: {"method": f"the only {what[:-1]}'s own estimate"}
+            for n in (*one.parameters, *one.derived)}, []
     names: list[str] = []
     for e in ests:
         names += [n for n in e.parameters if n not in names]
@@ -572,7 +578,9 @@ def _pooled_estimate(
     """The pooled estimate of ``pieces`` (of ``n_total`` windows or runs, ``what``): not
     determined where the pooled model does not explain them, with the assumptions every
     piece's intervals make."""
-    verdict = f"{len(pieces)} of {n_total} {what}s pooled, " + _how(cov, f"{what}s")
+    verdict = (f"{len(pieces)} of {n_total} {what}s pooled, " + _how(cov, f"{what}s")
+               if len(pieces) > 1 else
+               f"1 of {n_total} {what}s with an estimate: its own estimate, not pooled.")
     if adequacy.channels and not adequacy.explains:
         params = _not_determined(params, adequacy)
         derived = _not_determined(derived, adequacy)

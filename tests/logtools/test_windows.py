@@ -425,3 +425,24 @@ def test_without_the_robots_hook_derived_quantities_are_pooled_on_their_own() ->
     without = _pool(ws, derive=False).estimate.derived["sum_L1_L2"]  # type: ignore[attr-defined]
     assert with_hook.value == pytest.approx(without.value)
     assert with_hook.std == pytest.approx(without.std, rel=1e-6)  # consistent pieces: equal
+
+
+def test_one_window_keeps_its_own_estimate() -> None:
+    """Pooling a single window changes nothing: its parameters (intervals as the robot gave
+    them, widened or one-sided) and covariance are the pooled estimate's."""
+    from calib.results import AnalysisResult, CalibrationResult, Estimate
+    from logtools.windows import _pool_pieces
+
+    est = CalibrationResult(
+        method="m", verdict="v",
+        parameters={"a": Estimate("a", 4.7, 5.0, (1.13, math.inf), identifiable=False),
+                    "b": Estimate("b", 1.0, 0.1, (0.8, 1.2))},
+        covariance=((25.0, 0.1), (0.1, 0.01)),
+    )
+    piece = AnalysisResult(robot="r", segments=[], methods=[], estimate=est)
+    params, derived, cov, _stats, warns = _pool_pieces([piece], "windows", None)
+    assert params == dict(est.parameters)
+    assert derived == {}
+    assert cov is not None
+    assert cov.tolist() == [[25.0, 0.1], [0.1, 0.01]]
+    assert warns == []
