@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from calib.adequacy import PieceFit, parameter_change
+from calib.adequacy import PieceFit, parameter_change, under_misfit
 from calib.adequacy.combine import combine_runs
 from calib.adequacy.verdict import NOT_EXPLAINED, Adequacy
 from calib.results import (
@@ -515,13 +515,18 @@ def pool_windows(
     )
 
 
-def _not_determined(estimates: Mapping[str, Estimate], adequacy: Adequacy
-                    ) -> dict[str, Estimate]:
-    """The pooled estimates marked not determined when the model does not explain some window
-    (each window's interval was already widened for its own misfit: not widened again)."""
-    why = adequacy.summary
-    return {n: replace(e, identifiable=False, note=f"{e.note}; {why}" if e.note else why)
-            for n, e in estimates.items()}
+def _not_determined(estimates: Mapping[str, Estimate], adequacy: Adequacy,
+                    pieces: Sequence[Mapping[str, Estimate]]) -> dict[str, Estimate]:
+    """The pooled estimates when the model does not explain the pieces: not determined, widened
+    as a whole log's are (:func:`calib.adequacy.under_misfit`: the standard error by the
+    misfit factor, combined with the spread of the pieces' own values). Pooling divides the
+    pieces' errors by their number, but a misfit that biases every piece alike does not
+    average out; the spread and the factor keep the interval from narrowing over it."""
+    out = {}
+    for n, e in estimates.items():
+        values = [p[n].value for p in pieces if n in p and math.isfinite(p[n].value)]
+        out[n] = under_misfit(e, adequacy, pieces=values, why=adequacy.summary)
+    return out
 
 
 def _how(cov: np.ndarray | None, what: str) -> str:
@@ -582,8 +587,9 @@ def _pooled_estimate(
                if len(pieces) > 1 else
                f"1 of {n_total} {what}s with an estimate: its own estimate, not pooled.")
     if adequacy.channels and not adequacy.explains:
-        params = _not_determined(params, adequacy)
-        derived = _not_determined(derived, adequacy)
+        ests = [r.estimate for r in pieces if r.estimate is not None]
+        params = _not_determined(params, adequacy, [e.parameters for e in ests])
+        derived = _not_determined(derived, adequacy, [e.derived for e in ests])
         verdict += " " + adequacy.summary
     assumed = _shared_assumptions([r.estimate for r in pieces if r.estimate])
     if any(e.identifiable for e in params.values()):

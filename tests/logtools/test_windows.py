@@ -155,6 +155,10 @@ def test_a_parameter_that_changes_between_windows_is_flagged(tmp_path: Path) -> 
     assert l2.ci95[0] < 2.5
     assert l2.ci95[1] > 3.1
     assert not l2.identifiable  # one L2 does not hold over the log
+    # under the misfit the pooled interval does not narrow below the windows' own spread
+    values = [r.estimate.parameters["L2"].value for r in res.runs if r.estimate is not None]
+    assert len(values) == 4
+    assert l2.std >= float(np.std(values, ddof=1))
     assert res.adequacy is not None
     assert not res.adequacy.explains
     (change,) = res.adequacy.changes
