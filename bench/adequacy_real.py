@@ -54,8 +54,12 @@ def row(name: str, paths: list[Path], extra: dict[str, Any]) -> dict[str, Any]:
         config = AnalysisConfig(robot_options=options_from_settings(extra))
         _, res = analyze_logs(runs, config=config)
     except LogcalInputError as err:
-        return {"recording": name, "robot": "-", "verdict": "not analysed",
-                "why": str(err).splitlines()[0][:160]}
+        return {
+            "recording": name,
+            "robot": "-",
+            "verdict": "not analysed",
+            "why": str(err).splitlines()[0][:160],
+        }
     d = res.to_dict()
     adequacy = d.get("adequacy") or {}
     channels = adequacy.get("channels") or []
@@ -65,13 +69,20 @@ def row(name: str, paths: list[Path], extra: dict[str, Any]) -> dict[str, Any]:
     if isinstance(disc.get("named"), list):
         named = [str(x if not isinstance(x, dict) else x.get("name", x)) for x in disc["named"]]
     else:
-        named = [str(e.get("label") or e.get("name") or e.get("key") or e.get("id") or e)
-                 if isinstance(e, dict) else str(e) for e in (disc.get("effects") or [])]
+        named = [
+            str(e.get("label") or e.get("name") or e.get("key") or e.get("id") or e)
+            if isinstance(e, dict)
+            else str(e)
+            for e in (disc.get("effects") or [])
+        ]
     if not named and isinstance(disc.get("accepted"), list):
         named = [str(x) for x in disc["accepted"]]
     est = d.get("estimate") or {}
-    determined = [k for k, v in est.items()
-                  if isinstance(v, dict) and "identifiable" in v and v["identifiable"]]
+    determined = [
+        k
+        for k, v in est.items()
+        if isinstance(v, dict) and "identifiable" in v and v["identifiable"]
+    ]
     confident_over_misfit = adequacy.get("verdict") == "does not explain" and bool(determined)
     return {
         "recording": name,
@@ -101,16 +112,20 @@ def main(argv: list[str] | None = None) -> int:
         r = row(name, paths, extra)
         rows.append(r)
         ratio = f"{r['ratio']:.3g}x" if r.get("ratio") is not None else "-"
-        print(f"{name:45s} {r['robot']:15s} {r['verdict']:17s} {ratio:>8s}  "
-              f"located: {'; '.join(r.get('located') or []) or '-'}  "
-              f"named: {', '.join(map(str, r.get('named') or [])) or '-'}"
-              + (f"  WHY: {r['why']}" if "why" in r else "")
-              + ("  DETERMINED OVER A MISFIT" if r.get("determined_over_misfit") else ""),
-              flush=True)
+        print(
+            f"{name:45s} {r['robot']:15s} {r['verdict']:17s} {ratio:>8s}  "
+            f"located: {'; '.join(r.get('located') or []) or '-'}  "
+            f"named: {', '.join(map(str, r.get('named') or [])) or '-'}"
+            + (f"  WHY: {r['why']}" if "why" in r else "")
+            + ("  DETERMINED OVER A MISFIT" if r.get("determined_over_misfit") else ""),
+            flush=True,
+        )
     bad = sum(bool(r.get("determined_over_misfit")) for r in rows)
-    print(f"\n{len(rows)} recordings; {sum(r['verdict'] == 'explains' for r in rows)} explained,"
-          f" {sum(r['verdict'] == 'does not explain' for r in rows)} not explained, "
-          f"{bad} with an estimate determined over a misfit")
+    print(
+        f"\n{len(rows)} recordings; {sum(r['verdict'] == 'explains' for r in rows)} explained,"
+        f" {sum(r['verdict'] == 'does not explain' for r in rows)} not explained, "
+        f"{bad} with an estimate determined over a misfit"
+    )
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1, default=str))
     return 0

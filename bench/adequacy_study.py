@@ -85,20 +85,28 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return max(0.0, mid - half), min(1.0, mid + half)
 
 
-def draw(seed: int, i: int, robots: Sequence[str], kinds: Sequence[str] | None,
-         include_held_out: bool) -> dict[str, Any]:
+def draw(
+    seed: int, i: int, robots: Sequence[str], kinds: Sequence[str] | None, include_held_out: bool
+) -> dict[str, Any]:
     """The spec of log ``i`` (robot, kind or None, magnitude, format, generator seed)."""
     rng = np.random.default_rng([seed, i])
     robot = str(rng.choice(list(robots)))
-    pool = [k for k in kinds_of(robot, include_held_out=include_held_out)
-            if kinds is None or k in kinds]
+    pool = [
+        k for k in kinds_of(robot, include_held_out=include_held_out) if kinds is None or k in kinds
+    ]
     kind: str | None = None
     if pool and rng.random() >= CLEAN_SHARE:
         kind = str(rng.choice(pool))
     magnitude = draw_magnitude(rng, kind) if kind else 0.0
     fmt = "csv" if rng.random() < 0.2 else "mcap"
-    return {"i": i, "robot": robot, "kind": kind, "magnitude": magnitude, "fmt": fmt,
-            "gen_seed": int(rng.integers(0, 2**31 - 1))}
+    return {
+        "i": i,
+        "robot": robot,
+        "kind": kind,
+        "magnitude": magnitude,
+        "fmt": fmt,
+        "gen_seed": int(rng.integers(0, 2**31 - 1)),
+    }
 
 
 # ------------------------------------------------------------------ truth of the estimates
@@ -110,7 +118,7 @@ def _base_truth(name: str, full: dict[str, float]) -> float | None:
     name is unknown)."""
     total, pos = 0.0, 0
     for m in _TERM.finditer(name):
-        if m.start() != pos and name[pos:m.start()].strip():
+        if m.start() != pos and name[pos : m.start()].strip():
             return None
         pos = m.end()
         sign = -1.0 if m.group(1) == "-" else 1.0
@@ -162,8 +170,11 @@ def _named(doc: dict[str, Any]) -> list[str]:
         return [str(x if not isinstance(x, dict) else x.get("name", x)) for x in disc["named"]]
     out = []
     for e in disc.get("effects") or []:
-        out.append(str(e.get("label") or e.get("name") or e.get("id") or e)
-                   if isinstance(e, dict) else str(e))
+        out.append(
+            str(e.get("label") or e.get("name") or e.get("id") or e)
+            if isinstance(e, dict)
+            else str(e)
+        )
     return out
 
 
@@ -176,8 +187,16 @@ def _param_checks(doc: dict[str, Any], truth: dict[str, Any]) -> list[dict[str, 
         lo, hi = e["ci95"]
         inside = any(lo is not None and hi is not None and lo <= t <= hi for t in tv)
         ident = bool(e.get("identifiable"))
-        out.append({"name": name, "truth": tv, "value": e.get("value"), "ci95": [lo, hi],
-                    "identifiable": ident, "confident_wrong": ident and not inside})
+        out.append(
+            {
+                "name": name,
+                "truth": tv,
+                "value": e.get("value"),
+                "ci95": [lo, hi],
+                "identifiable": ident,
+                "confident_wrong": ident and not inside,
+            }
+        )
     return out
 
 
@@ -200,9 +219,10 @@ def run_one(spec: dict[str, Any], repeats: int = 10) -> dict[str, Any]:
         with tempfile.TemporaryDirectory(prefix="adequacy_") as d:
             paths = write_log(d, log, fmt=spec["fmt"])
             extra = {"urdf": str(paths["arm.urdf"])} if "arm.urdf" in paths else {}
-            _, res = analyze_log(paths["log"],
-                                 config=AnalysisConfig(repeats=repeats,
-                                                     robot_options=options_from_settings(extra)))
+            _, res = analyze_log(
+                paths["log"],
+                config=AnalysisConfig(repeats=repeats, robot_options=options_from_settings(extra)),
+            )
             doc = res.to_dict()
         ad = doc.get("adequacy") or {"verdict": "not assessed"}
         rec["verdict"] = ad.get("verdict", "not assessed")
@@ -216,16 +236,25 @@ def run_one(spec: dict[str, Any], repeats: int = 10) -> dict[str, Any]:
         rec["adequacy_summary"] = ad.get("summary") or ad.get("reason")
         rec["named"] = _named(doc)
         rec["params"] = _param_checks(doc, truth)
-        rec["failed_stages"] = [s["stage"] for s in doc.get("stages", [])
-                                if s.get("status") == "failed"]
+        rec["failed_stages"] = [
+            s["stage"] for s in doc.get("stages", []) if s.get("status") == "failed"
+        ]
         rec["error"] = None
     except Exception as err:  # a crash is a result of the study, not of the script
         rec["error"] = f"{type(err).__name__}: {err}"
         rec["traceback"] = traceback.format_exc(limit=-6)
         for key in ("effect_size", "refit_effect_size", "heldout_effect_size"):
             rec.setdefault(key, None)
-        rec.update(verdict="error", located=[], changes=[], is_located=False, named=[],
-                   params=[], before_verdict=None, before_located=False)
+        rec.update(
+            verdict="error",
+            located=[],
+            changes=[],
+            is_located=False,
+            named=[],
+            params=[],
+            before_verdict=None,
+            before_located=False,
+        )
     rec["seconds"] = time.perf_counter() - t0
     return rec
 
@@ -251,22 +280,28 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
         and locates the misfit, or the nominal model's verdict (``adequacy.before``) did and
         discovery named an effect that explains it."""
         final = r["verdict"] == "does not explain" and r["is_located"]
-        named = (r.get("before_verdict") == "does not explain"
-                 and (r.get("before_located") or bool(r.get("named"))))
+        named = r.get("before_verdict") == "does not explain" and (
+            r.get("before_located") or bool(r.get("named"))
+        )
         return bool(final or named)
 
     out: dict[str, Any] = {
-        "n_logs": len(records), "n_errors": len(records) - len(ok),
-        "confident_wrong_unwarned": _rate(sum(p["confident_wrong"] for p in params_unw),
-                                          len(params_unw)),
-        "confident_wrong_all": _rate(sum(p["confident_wrong"] for p in params_all),
-                                     len(params_all)),
+        "n_logs": len(records),
+        "n_errors": len(records) - len(ok),
+        "confident_wrong_unwarned": _rate(
+            sum(p["confident_wrong"] for p in params_unw), len(params_unw)
+        ),
+        "confident_wrong_all": _rate(
+            sum(p["confident_wrong"] for p in params_all), len(params_all)
+        ),
         "confident_wrong_logs_unwarned": _rate(
-            sum(any(p["confident_wrong"] for p in r["params"]) for r in unwarned), len(unwarned)),
+            sum(any(p["confident_wrong"] for p in r["params"]) for r in unwarned), len(unwarned)
+        ),
         "flagged_located_big": _rate(sum(flagged(r) for r in big), len(big)),
         "flagged_located_big_raw": _rate(sum(flagged(r) for r in big_raw), len(big_raw)),
-        "false_alarm_clean": _rate(sum(r["verdict"] == "does not explain" for r in clean),
-                                   len(clean)),
+        "false_alarm_clean": _rate(
+            sum(r["verdict"] == "does not explain" for r in clean), len(clean)
+        ),
         "verdicts": dict(sorted(_count(r["verdict"] for r in records).items())),
     }
     cells: dict[str, dict[str, Any]] = {}
@@ -279,17 +314,22 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
         b_raw = [r for r in good if _big(r, "effect_size")]
         ps = [p for r in good for p in r["params"]]
         cells[f"{robot}/{kind}"] = {
-            "robot": robot, "kind": kind, "n": len(rs), "errors": len(rs) - len(good),
+            "robot": robot,
+            "kind": kind,
+            "n": len(rs),
+            "errors": len(rs) - len(good),
             "held_out": kind in HELD_OUT_KINDS,
             "median_effect": _median(good, "effect_size"),
             "median_refit_effect": _median(good, "refit_effect_size"),
             "median_heldout_effect": _median(good, "heldout_effect_size"),
-            "n_big": len(b), "n_big_raw": len(b_raw),
+            "n_big": len(b),
+            "n_big_raw": len(b_raw),
             "flagged": sum(r["verdict"] == "does not explain" for r in good),
             "flagged_located_big": sum(flagged(r) for r in b),
             "flagged_located_big_raw": sum(flagged(r) for r in b_raw),
             "named_any": sum(bool(r["named"]) for r in good),
-            "cw_params": sum(p["confident_wrong"] for p in ps), "n_params": len(ps),
+            "cw_params": sum(p["confident_wrong"] for p in ps),
+            "n_params": len(ps),
         }
     out["cells"] = cells
     return out
@@ -321,9 +361,11 @@ def _fmt_rate(r: dict[str, Any]) -> str:
 
 def print_table(summary: dict[str, Any], seconds: float) -> None:
     """The compact table and the three target rates."""
-    hdr = (f"{'robot/kind':40} {'n':>3} {'err':>3} {'med raw':>8} {'refit':>7} {'h-out':>7} "
-           f"{'ho>2':>4} {'fl+loc':>6} {'raw>2':>5} {'fl+loc':>6} {'flag':>4} {'named':>5} "
-           f"{'cw/par':>7}")
+    hdr = (
+        f"{'robot/kind':40} {'n':>3} {'err':>3} {'med raw':>8} {'refit':>7} {'h-out':>7} "
+        f"{'ho>2':>4} {'fl+loc':>6} {'raw>2':>5} {'fl+loc':>6} {'flag':>4} {'named':>5} "
+        f"{'cw/par':>7}"
+    )
     print(hdr)
     print("-" * len(hdr))
 
@@ -332,35 +374,54 @@ def print_table(summary: dict[str, Any], seconds: float) -> None:
 
     for key, c in summary["cells"].items():
         mark = " (held out)" if c["held_out"] else ""
-        print(f"{key + mark:40} {c['n']:>3} {c['errors']:>3} {g(c['median_effect'], 8)} "
-              f"{g(c['median_refit_effect'], 7)} {g(c['median_heldout_effect'], 7)} "
-              f"{c['n_big']:>4} {c['flagged_located_big']:>6} {c['n_big_raw']:>5} "
-              f"{c['flagged_located_big_raw']:>6} {c['flagged']:>4} {c['named_any']:>5} "
-              f"{c['cw_params']:>3}/{c['n_params']:<3}")
+        print(
+            f"{key + mark:40} {c['n']:>3} {c['errors']:>3} {g(c['median_effect'], 8)} "
+            f"{g(c['median_refit_effect'], 7)} {g(c['median_heldout_effect'], 7)} "
+            f"{c['n_big']:>4} {c['flagged_located_big']:>6} {c['n_big_raw']:>5} "
+            f"{c['flagged_located_big_raw']:>6} {c['flagged']:>4} {c['named_any']:>5} "
+            f"{c['cw_params']:>3}/{c['n_params']:<3}"
+        )
     print("-" * len(hdr))
-    print("effect sizes (medians, noise units): raw = change of the recording, refit = what a "
-          "refit of the robot's parameters leaves of it, h-out = the same held out; "
-          "ho>2 / raw>2: logs above 2, fl+loc: of those flagged and located")
-    print(f"logs {summary['n_logs']}, errors {summary['n_errors']}, verdicts "
-          f"{summary['verdicts']}, {seconds:.0f} s")
+    print(
+        "effect sizes (medians, noise units): raw = change of the recording, refit = what a "
+        "refit of the robot's parameters leaves of it, h-out = the same held out; "
+        "ho>2 / raw>2: logs above 2, fl+loc: of those flagged and located"
+    )
+    print(
+        f"logs {summary['n_logs']}, errors {summary['n_errors']}, verdicts "
+        f"{summary['verdicts']}, {seconds:.0f} s"
+    )
     s = summary
-    print(f"confident-wrong params, unwarned logs: {_fmt_rate(s['confident_wrong_unwarned'])}"
-          "  target: upper <= 5 %")
+    print(
+        f"confident-wrong params, unwarned logs: {_fmt_rate(s['confident_wrong_unwarned'])}"
+        "  target: upper <= 5 %"
+    )
     print(f"confident-wrong params, all logs:      {_fmt_rate(s['confident_wrong_all'])}")
     print(f"logs with any confident-wrong (unw.):  {_fmt_rate(s['confident_wrong_logs_unwarned'])}")
-    print(f"flagged+located, held-out effect > 2:  {_fmt_rate(s['flagged_located_big'])}"
-          "  target: >= 90 %")
+    print(
+        f"flagged+located, held-out effect > 2:  {_fmt_rate(s['flagged_located_big'])}"
+        "  target: >= 90 %"
+    )
     print(f"  (raw effect size > 2, refit ignored: {_fmt_rate(s['flagged_located_big_raw'])})")
-    print(f"false alarms on clean logs:            {_fmt_rate(s['false_alarm_clean'])}"
-          "  target: upper <= 5 %")
+    print(
+        f"false alarms on clean logs:            {_fmt_rate(s['false_alarm_clean'])}"
+        "  target: upper <= 5 %"
+    )
 
 
 def _run(args: tuple[dict[str, Any], int]) -> dict[str, Any]:
     return run_one(*args)
 
 
-def run_study(n: int, seed: int, robots: Sequence[str], kinds: Sequence[str] | None,
-              include_held_out: bool, jobs: int = 1, repeats: int = 10) -> list[dict[str, Any]]:
+def run_study(
+    n: int,
+    seed: int,
+    robots: Sequence[str],
+    kinds: Sequence[str] | None,
+    include_held_out: bool,
+    jobs: int = 1,
+    repeats: int = 10,
+) -> list[dict[str, Any]]:
     """The records of logs 0 .. n-1 (in order)."""
     specs = [draw(seed, i, robots, kinds, include_held_out) for i in range(n)]
     if jobs <= 1:
@@ -397,8 +458,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         if r["error"]:
             print(f"  log {r['i']} ({r['robot']}/{r['kind']}): {r['error']}")
     if a.json:
-        Path(a.json).write_text(json.dumps({"args": vars(a), "summary": summary,
-                                            "records": records}, indent=1, default=str))
+        Path(a.json).write_text(
+            json.dumps(
+                {"args": vars(a), "summary": summary, "records": records}, indent=1, default=str
+            )
+        )
     return 0
 
 

@@ -71,8 +71,20 @@ def make_sources(folder: Path, distinct: int, duration: float) -> list[Path]:
         path = folder / f"src{i:03d}.mcap"
         asym = -0.01 + 0.02 * i / max(distinct - 1, 1)
         with contextlib.redirect_stdout(None):
-            code = logcal(["simulate", "diff-drive", "--out", str(path), "--duration",
-                           f"{duration:g}", "--seed", str(i), "--asymmetry", f"{asym:.4f}"])
+            code = logcal(
+                [
+                    "simulate",
+                    "diff-drive",
+                    "--out",
+                    str(path),
+                    "--duration",
+                    f"{duration:g}",
+                    "--seed",
+                    str(i),
+                    "--asymmetry",
+                    f"{asym:.4f}",
+                ]
+            )
         assert code == 0, f"simulate diff-drive failed for seed {i}"
         out.append(path)
     return out
@@ -168,24 +180,50 @@ def ray_cluster(*, cpus: int, nodes: int, port: int) -> Iterator[Cluster]:
     without CPUs for tasks and ``nodes`` worker nodes sharing ``cpus`` CPUs."""
     temp_dir = tempfile.mkdtemp(prefix="lcray", dir="/tmp")  # short: socket paths are limited
     env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}  # with the token of use_own_token
-    common = ["--temp-dir", temp_dir, "--object-store-memory", str(300 * 2**20),
-              "--disable-usage-stats"]
+    common = [
+        "--temp-dir",
+        temp_dir,
+        "--object-store-memory",
+        str(300 * 2**20),
+        "--disable-usage-stats",
+    ]
     address = f"127.0.0.1:{port}"
     try:
         head_cpus = cpus if nodes == 0 else 0
-        subprocess.run([_ray_bin(), "start", "--head", "--port", str(port),
-                        "--node-ip-address", "127.0.0.1", "--num-cpus", str(head_cpus),
-                        "--include-dashboard", "false", *common],
-                       env=env, check=True, capture_output=True, timeout=180)
+        subprocess.run(
+            [
+                _ray_bin(),
+                "start",
+                "--head",
+                "--port",
+                str(port),
+                "--node-ip-address",
+                "127.0.0.1",
+                "--num-cpus",
+                str(head_cpus),
+                "--include-dashboard",
+                "false",
+                *common,
+            ],
+            env=env,
+            check=True,
+            capture_output=True,
+            timeout=180,
+        )
         shares = [cpus // nodes + (i < cpus % nodes) for i in range(nodes)]
         for share in shares:
-            subprocess.run([_ray_bin(), "start", "--address", address, "--num-cpus",
-                            str(share), *common], env=env, check=True, capture_output=True,
-                           timeout=180)
+            subprocess.run(
+                [_ray_bin(), "start", "--address", address, "--num-cpus", str(share), *common],
+                env=env,
+                check=True,
+                capture_output=True,
+                timeout=180,
+            )
         yield Cluster(address, temp_dir, 1 + nodes)
     except subprocess.CalledProcessError as err:
-        raise RuntimeError(f"ray start failed: {err.stderr.decode(errors='replace')[-2000:]}"
-                           ) from err
+        raise RuntimeError(
+            f"ray start failed: {err.stderr.decode(errors='replace')[-2000:]}"
+        ) from err
     finally:
         _stop_cluster(temp_dir)
         shutil.rmtree(temp_dir, ignore_errors=True)
@@ -231,16 +269,29 @@ def _outputs(out: Path) -> tuple[str, pl.DataFrame]:
     return (json.dumps(read_records(out), sort_keys=True), pl.read_parquet(out / "fleet.parquet"))
 
 
-def run_engine(name: str, engine: Engine, workers: int, address: str | None,
-               archives: dict[int, Path], work: Path,
-               reference: dict[int, tuple[str, pl.DataFrame]]) -> list[Row]:
+def run_engine(
+    name: str,
+    engine: Engine,
+    workers: int,
+    address: str | None,
+    archives: dict[int, Path],
+    work: Path,
+    reference: dict[int, tuple[str, pl.DataFrame]],
+) -> list[Row]:
     rows = []
     for n, archive in archives.items():
         out = work / f"out_{name}_{n}"
         load = os.getloadavg()[0]
         t0 = time.perf_counter()
-        summary = run_batch(archive, out, options=OPTIONS, engine=engine, workers=workers,
-                            address=address, report=False)
+        summary = run_batch(
+            archive,
+            out,
+            options=OPTIONS,
+            engine=engine,
+            workers=workers,
+            address=address,
+            report=False,
+        )
         wall = time.perf_counter() - t0
         t1 = time.perf_counter()
         write_fleet_outputs(out)
@@ -255,9 +306,11 @@ def run_engine(name: str, engine: Engine, workers: int, address: str | None,
             same = str(outputs[0] == reference[n][0] and outputs[1].equals(reference[n][1]))
         row = Row(name, n, wall, report, mean_s, len(summary.failed), load, same)
         rows.append(row)
-        print(f"  {name:<10} {n:6d} logs: {wall:8.1f} s ({1e3 * wall / n:6.1f} ms/log), report "
-              f"{report:6.1f} s, failed {row.failed}, load {load:.1f}, same as local: {same}",
-              flush=True)
+        print(
+            f"  {name:<10} {n:6d} logs: {wall:8.1f} s ({1e3 * wall / n:6.1f} ms/log), report "
+            f"{report:6.1f} s, failed {row.failed}, load {load:.1f}, same as local: {same}",
+            flush=True,
+        )
         shutil.rmtree(out, ignore_errors=True)
     return rows
 
@@ -265,8 +318,12 @@ def run_engine(name: str, engine: Engine, workers: int, address: str | None,
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[100, 1000, 10000])
-    ap.add_argument("--engines", nargs="+", default=["local", "ray", "ray-nodes"],
-                    choices=["local", "ray", "ray-nodes"])
+    ap.add_argument(
+        "--engines",
+        nargs="+",
+        default=["local", "ray", "ray-nodes"],
+        choices=["local", "ray", "ray-nodes"],
+    )
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--nodes", type=int, default=2, help="worker nodes of ray-nodes")
     ap.add_argument("--distinct", type=int, default=50)
@@ -280,10 +337,13 @@ def main() -> None:
         t0 = time.perf_counter()
         sources = make_sources(work / "sources", args.distinct, args.duration)
         archives = {n: make_archive(work / f"archive_{n}", n, sources) for n in sizes}
-        print(f"archives {sizes}: {args.distinct} distinct {args.duration:g} s diff-drive "
-              f"logs, hard-linked, {ROBOTS} robots ({time.perf_counter() - t0:.1f} s); "
-              f"options {OPTIONS.fingerprint()}; {os.cpu_count()} CPUs, load "
-              f"{os.getloadavg()[0]:.1f}", flush=True)
+        print(
+            f"archives {sizes}: {args.distinct} distinct {args.duration:g} s diff-drive "
+            f"logs, hard-linked, {ROBOTS} robots ({time.perf_counter() - t0:.1f} s); "
+            f"options {OPTIONS.fingerprint()}; {os.cpu_count()} CPUs, load "
+            f"{os.getloadavg()[0]:.1f}",
+            flush=True,
+        )
         reference: dict[int, tuple[str, pl.DataFrame]] = {}
         rows: list[Row] = []
         workers_of: dict[str, int] = {}
@@ -293,8 +353,9 @@ def main() -> None:
             workers_of[name] = args.workers
             if name == "local":
                 nodes_of[name] = 1
-                rows += run_engine(name, Engine.LOCAL, args.workers, None, archives, work,
-                                   reference)
+                rows += run_engine(
+                    name, Engine.LOCAL, args.workers, None, archives, work, reference
+                )
                 continue
             try:
                 import ray  # noqa: F401
@@ -305,26 +366,35 @@ def main() -> None:
             try:
                 with ray_cluster(cpus=args.workers, nodes=nodes, port=args.port) as c:
                     nodes_of[name] = _cluster_nodes(c.address)
-                    print(f"{name}: Ray cluster at {c.address}, {nodes_of[name]} nodes alive, "
-                          f"{args.workers} CPUs for tasks", flush=True)
-                    rows += run_engine(name, Engine.RAY, args.workers, c.address, archives,
-                                       work, reference)
+                    print(
+                        f"{name}: Ray cluster at {c.address}, {nodes_of[name]} nodes alive, "
+                        f"{args.workers} CPUs for tasks",
+                        flush=True,
+                    )
+                    rows += run_engine(
+                        name, Engine.RAY, args.workers, c.address, archives, work, reference
+                    )
             except RuntimeError as err:
                 print(f"{name}: Ray could not run here: {err}")
-        print("\nengine      nodes workers   logs   wall s  ms/log  x100  marginal ms  "
-              "logs/s/worker  mean analysis s  report s  load  same as local")
+        print(
+            "\nengine      nodes workers   logs   wall s  ms/log  x100  marginal ms  "
+            "logs/s/worker  mean analysis s  report s  load  same as local"
+        )
         for name, group in itertools.groupby(rows, key=lambda r: r.engine):
             group_rows = list(group)
             base = group_rows[0]
             prev: Row | None = None
             for r in group_rows:
-                marginal = ("" if prev is None
-                            else f"{1e3 * (r.wall - prev.wall) / (r.n - prev.n):.1f}")
-                print(f"{name:<11} {nodes_of.get(name, 1):5d} {workers_of[name]:7d} {r.n:6d} "
-                      f"{r.wall:8.1f} {1e3 * r.wall / r.n:7.1f} "
-                      f"{(r.wall / r.n) / (base.wall / base.n):5.2f} {marginal:>12} "
-                      f"{r.n / r.wall / workers_of[name]:14.1f} {r.mean_s:16.4f} "
-                      f"{r.report:9.1f} {r.load:5.1f}  {r.same}")
+                marginal = (
+                    "" if prev is None else f"{1e3 * (r.wall - prev.wall) / (r.n - prev.n):.1f}"
+                )
+                print(
+                    f"{name:<11} {nodes_of.get(name, 1):5d} {workers_of[name]:7d} {r.n:6d} "
+                    f"{r.wall:8.1f} {1e3 * r.wall / r.n:7.1f} "
+                    f"{(r.wall / r.n) / (base.wall / base.n):5.2f} {marginal:>12} "
+                    f"{r.n / r.wall / workers_of[name]:14.1f} {r.mean_s:16.4f} "
+                    f"{r.report:9.1f} {r.load:5.1f}  {r.same}"
+                )
                 prev = r
     leftover = [p for p in _children().get(1, []) if _is_ray(p)]
     if leftover:

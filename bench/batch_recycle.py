@@ -28,9 +28,14 @@ from logtools.batch.worker import AnalysisOptions
 def _time(archive: Path, out: Path, workers: int, every: int) -> float:
     engines.RECYCLE_EVERY = every
     t0 = time.perf_counter()
-    summary = run_batch(archive, out, options=AnalysisOptions(repeats=2, discovery=False,
-                                                              views=False),
-                        workers=workers, force=True, report=False)
+    summary = run_batch(
+        archive,
+        out,
+        options=AnalysisOptions(repeats=2, discovery=False, views=False),
+        workers=workers,
+        force=True,
+        report=False,
+    )
     assert not summary.failed, summary.failed
     return time.perf_counter() - t0
 
@@ -59,11 +64,12 @@ def main() -> None:
     per_renewal = (rn - k) / max(1, renewals)
     print(f"{n} logs, {args.workers} workers, {args.rounds} rounds (median)")
     print(f"workers kept:               {k / n * 1e3:8.1f} ms/log")
-    print(f"renewed every {args.every:4d} logs:   {rn / n * 1e3:8.1f} ms/log  "
-          f"ratio {rn / k:.3f}")
+    print(f"renewed every {args.every:4d} logs:   {rn / n * 1e3:8.1f} ms/log  ratio {rn / k:.3f}")
     share = per_renewal / (args.workers * default) / (k / n)
-    print(f"cost per renewal: {per_renewal:.2f} s; at RECYCLE_EVERY={default} "
-          f"({args.workers * default} logs per pool): +{share * 100:.2f} % per log")
+    print(
+        f"cost per renewal: {per_renewal:.2f} s; at RECYCLE_EVERY={default} "
+        f"({args.workers * default} logs per pool): +{share * 100:.2f} % per log"
+    )
 
 
 if __name__ == "__main__":

@@ -56,17 +56,24 @@ def main() -> None:
             assert not died, died[0]  # each log must have been analysed (and refused) by a worker
             assert len(again.skipped) == n, len(again.skipped)
             rows.append((n, t1 - t0, t2 - t1))
-            print(f"{n:6d} logs: first run {t1 - t0:8.2f} s ({1e3 * (t1 - t0) / n:7.2f} ms/log)"
-                  f", rerun {t2 - t1:7.2f} s ({1e3 * (t2 - t1) / n:6.2f} ms/log)", flush=True)
+            print(
+                f"{n:6d} logs: first run {t1 - t0:8.2f} s ({1e3 * (t1 - t0) / n:7.2f} ms/log)"
+                f", rerun {t2 - t1:7.2f} s ({1e3 * (t2 - t1) / n:6.2f} ms/log)",
+                flush=True,
+            )
     print("\nmarginal time per added log (flat = linear):")
     for (n0, f0, a0), (n1, f1, a1) in itertools.pairwise(rows):
-        print(f"{n0:6d} -> {n1:6d} logs: first run {1e3 * (f1 - f0) / (n1 - n0):7.2f} ms/log, "
-              f"rerun {1e3 * (a1 - a0) / (n1 - n0):6.2f} ms/log")
+        print(
+            f"{n0:6d} -> {n1:6d} logs: first run {1e3 * (f1 - f0) / (n1 - n0):7.2f} ms/log, "
+            f"rerun {1e3 * (a1 - a0) / (n1 - n0):6.2f} ms/log"
+        )
     base_n, base_first, base_again = rows[0]
     print("\nper-log time relative to the smallest archive (1.0 = linear):")
     for n, first_s, again_s in rows:
-        print(f"{n:6d} logs: first run x{(first_s / n) / (base_first / base_n):5.2f}, "
-              f"rerun x{(again_s / n) / (base_again / base_n):5.2f}")
+        print(
+            f"{n:6d} logs: first run x{(first_s / n) / (base_first / base_n):5.2f}, "
+            f"rerun x{(again_s / n) / (base_again / base_n):5.2f}"
+        )
 
 
 if __name__ == "__main__":

@@ -56,8 +56,10 @@ def main() -> None:
     ap.add_argument("--no-ray", action="store_true")
     args = ap.parse_args()
     options = AnalysisOptions(repeats=args.repeats, discovery=args.discovery, views=args.views)
-    runs: list[tuple[str, Engine, int]] = [("local, 1 worker", Engine.LOCAL, 1),
-                                           ("local, 2 workers", Engine.LOCAL, 2)]
+    runs: list[tuple[str, Engine, int]] = [
+        ("local, 1 worker", Engine.LOCAL, 1),
+        ("local, 2 workers", Engine.LOCAL, 2),
+    ]
     if not args.no_ray:
         try:
             import ray  # noqa: F401
@@ -69,10 +71,14 @@ def main() -> None:
         archive = Path(tmp) / "archive"
         t0 = time.perf_counter()
         make_archive(archive, args.logs, args.duration)
-        print(f"archive: {args.logs} logs of {args.duration:g} s at 20 Hz "
-              f"({time.perf_counter() - t0:.1f} s to simulate); options: {options.fingerprint()}")
-        print(f"{'engine':<20} {'wall s':>8} {'logs/min':>9} {'failed':>7} "
-              f"{'per-log s (mean)':>17} {'report s':>9}")
+        print(
+            f"archive: {args.logs} logs of {args.duration:g} s at 20 Hz "
+            f"({time.perf_counter() - t0:.1f} s to simulate); options: {options.fingerprint()}"
+        )
+        print(
+            f"{'engine':<20} {'wall s':>8} {'logs/min':>9} {'failed':>7} "
+            f"{'per-log s (mean)':>17} {'report s':>9}"
+        )
         reference = None
         for name, engine, workers in runs:
             out = Path(tmp) / name.replace(" ", "_").replace(",", "")
@@ -84,11 +90,16 @@ def main() -> None:
             per_log = sum(float(e["seconds"]) for e in logs) / max(len(logs), 1)
             t1 = time.perf_counter()
             write_fleet_outputs(out)  # once more, to time the fleet table and report alone
-            print(f"{name:<20} {wall:8.1f} {60 * args.logs / wall:9.1f} "
-                  f"{len(summary.failed):7d} {per_log:17.2f} {time.perf_counter() - t1:9.1f}"
-                  f"  (load {load:.1f} on {os.cpu_count()} CPUs before)", flush=True)
-            outputs = (json.dumps(read_records(out), sort_keys=True),
-                       pl.read_parquet(out / "fleet.parquet"))
+            print(
+                f"{name:<20} {wall:8.1f} {60 * args.logs / wall:9.1f} "
+                f"{len(summary.failed):7d} {per_log:17.2f} {time.perf_counter() - t1:9.1f}"
+                f"  (load {load:.1f} on {os.cpu_count()} CPUs before)",
+                flush=True,
+            )
+            outputs = (
+                json.dumps(read_records(out), sort_keys=True),
+                pl.read_parquet(out / "fleet.parquet"),
+            )
             if reference is None:
                 reference = outputs
             else:

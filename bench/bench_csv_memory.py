@@ -48,8 +48,12 @@ def write_csv(path: Path, gib: float) -> None:
         first = True
         while fh.tell() < target:
             t = t0 + np.arange(rows) * 0.01
-            frame = pl.DataFrame({"t": t, **{c: rng.normal(size=rows)
-                                             for c in ("v", "omega", "x", "y", "yaw", "psi")}})
+            frame = pl.DataFrame(
+                {
+                    "t": t,
+                    **{c: rng.normal(size=rows) for c in ("v", "omega", "x", "y", "yaw", "psi")},
+                }
+            )
             frame.write_csv(fh, include_header=first)
             first = False
             t0 = float(t[-1]) + 0.01
@@ -65,22 +69,32 @@ def main() -> int:
     if not path.exists():
         t0 = time.perf_counter()
         write_csv(path, args.gib)
-        print(f"wrote {path} ({path.stat().st_size / 2**30:.2f} GiB) in "
-              f"{time.perf_counter() - t0:.0f} s")
+        print(
+            f"wrote {path} ({path.stat().st_size / 2**30:.2f} GiB) in "
+            f"{time.perf_counter() - t0:.0f} s"
+        )
     cap = int(args.cap_gib * 2**30)
-    proc = subprocess.run([sys.executable, "-c", _CHILD, str(path), str(cap)],
-                          capture_output=True, text=True, check=False)
+    proc = subprocess.run(
+        [sys.executable, "-c", _CHILD, str(path), str(cap)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     if proc.returncode:
         print(f"read failed (exit {proc.returncode}):\n{proc.stderr[-3000:]}")
         return 1
     rec = json.loads(proc.stdout)
     mib = 2**20
-    print(f"file {path.stat().st_size / mib:.0f} MiB; frame {rec['rows']} x {rec['cols']}, "
-          f"{rec['frame'] / mib:.0f} MiB; read in {rec['secs']:.1f} s under a "
-          f"{args.cap_gib:g} GiB cap")
-    print(f"RSS after imports {rec['base'] / mib:.0f} MiB; peak {rec['peak'] / mib:.0f} MiB; "
-          f"(peak - imports) / frame = {(rec['peak'] - rec['base']) / rec['frame']:.2f}; "
-          f"peak / file = {rec['peak'] / path.stat().st_size:.2f}")
+    print(
+        f"file {path.stat().st_size / mib:.0f} MiB; frame {rec['rows']} x {rec['cols']}, "
+        f"{rec['frame'] / mib:.0f} MiB; read in {rec['secs']:.1f} s under a "
+        f"{args.cap_gib:g} GiB cap"
+    )
+    print(
+        f"RSS after imports {rec['base'] / mib:.0f} MiB; peak {rec['peak'] / mib:.0f} MiB; "
+        f"(peak - imports) / frame = {(rec['peak'] - rec['base']) / rec['frame']:.2f}; "
+        f"peak / file = {rec['peak'] / path.stat().st_size:.2f}"
+    )
     return 0
 
 

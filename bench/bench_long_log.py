@@ -57,11 +57,16 @@ def _hour_frames(hour: int, seed: int, start: tuple[float, float, float]) -> tup
     frames["pose"] = pose.with_columns(
         pl.Series("x", x0 + c * pose["x"].to_numpy() - s * pose["y"].to_numpy()),
         pl.Series("y", y0 + s * pose["x"].to_numpy() + c * pose["y"].to_numpy()),
-        pl.Series("yaw", yaw), pl.Series("qz", np.sin(yaw / 2)), pl.Series("qw", np.cos(yaw / 2)),
+        pl.Series("yaw", yaw),
+        pl.Series("qz", np.sin(yaw / 2)),
+        pl.Series("qw", np.cos(yaw / 2)),
     )
     last = run.truth.row(-1, named=True)
-    nxt = (x0 + c * last["x"] - s * last["y"], y0 + s * last["x"] + c * last["y"],
-           yaw0 + last["yaw"])
+    nxt = (
+        x0 + c * last["x"] - s * last["y"],
+        y0 + s * last["x"] + c * last["y"],
+        yaw0 + last["yaw"],
+    )
     return frames, run_metadata(run, extra={"preset": "mixed"}), nxt
 
 
@@ -80,8 +85,10 @@ def _hour_messages(frames: dict) -> tuple:
         frame = frames[b.group]
         parts: list[pl.Expr] = []
         for k, (key, col) in enumerate(b.fields.items()):
-            parts += [pl.lit(("{" if k == 0 else ",") + json.dumps(key) + ":"),
-                      pl.col(col).cast(pl.Float64).cast(pl.String)]
+            parts += [
+                pl.lit(("{" if k == 0 else ",") + json.dumps(key) + ":"),
+                pl.col(col).cast(pl.Float64).cast(pl.String),
+            ]
         text = frame.select(pl.concat_str([*parts, pl.lit("}")]).cast(pl.Binary).alias("p"))
         times.append(frame["t_ns"].to_numpy())
         which.append(np.full(frame.height, i))
@@ -110,8 +117,9 @@ def write_logs(paths: dict[int, Path], seed: int) -> dict[str, float]:
         w.start(profile="", library="logcal")
         channels[h] = []
         for b in JSON_BINDINGS:
-            sid = w.register_schema(b.schema_name, "jsonschema",
-                                    json.dumps(json_schema(b)).encode())
+            sid = w.register_schema(
+                b.schema_name, "jsonschema", json.dumps(json_schema(b)).encode()
+            )
             channels[h].append(w.register_channel(b.topic, "json", sid))
     pose = (0.0, 0.0, 0.0)
     meta: dict = {}
@@ -131,10 +139,14 @@ def write_logs(paths: dict[int, Path], seed: int) -> dict[str, float]:
                 w.finish()
                 files[h].close()
                 tmp[h].replace(paths[h])
-        print(f"  hour {hour + 1} of {hours} written "
-              f"({time.perf_counter() - w0:.0f} s)", flush=True)
-    return {"cpu_s": time.process_time() - c0, "wall_s": time.perf_counter() - w0,
-            "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3}
+        print(
+            f"  hour {hour + 1} of {hours} written ({time.perf_counter() - w0:.0f} s)", flush=True
+        )
+    return {
+        "cpu_s": time.process_time() - c0,
+        "wall_s": time.perf_counter() - w0,
+        "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3,
+    }
 
 
 def _logs(workdir: Path, hours: list[int], seed: int) -> dict[int, Path]:
@@ -142,16 +154,34 @@ def _logs(workdir: Path, hours: list[int], seed: int) -> dict[int, Path]:
     missing = {h: p for h, p in paths.items() if not p.exists()}
     if missing:
         print(f"writing {', '.join(str(p) for p in missing.values())} ...", flush=True)
-        cmd = [sys.executable, __file__, "--write", "--seed", str(seed), "--workdir",
-               str(workdir), "--hours", *[str(h) for h in missing]]
+        cmd = [
+            sys.executable,
+            __file__,
+            "--write",
+            "--seed",
+            str(seed),
+            "--workdir",
+            str(workdir),
+            "--hours",
+            *[str(h) for h in missing],
+        ]
         subprocess.run(cmd, check=True)
     return paths
 
 
 def analyse(path: Path, extra: list[str], repeats: int) -> dict:
     """``logcal analyze --json`` of ``path`` in a fresh process: wall time, peak RSS, JSON."""
-    cmd = [sys.executable, "-m", "logtools.cli.main", "analyze", str(path), "--json",
-           "--repeats", str(repeats), *extra]
+    cmd = [
+        sys.executable,
+        "-m",
+        "logtools.cli.main",
+        "analyze",
+        str(path),
+        "--json",
+        "--repeats",
+        str(repeats),
+        *extra,
+    ]
     w0 = time.perf_counter()
     out = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.perf_counter() - w0
@@ -166,8 +196,16 @@ def analyse(path: Path, extra: list[str], repeats: int) -> dict:
 def _one_child_peak(path: Path, extra: list[str], repeats: int) -> dict:
     """:func:`analyse` from a parent of its own, so that RUSAGE_CHILDREN holds this child only
     (the maximum over children would otherwise be the largest one so far)."""
-    cmd = [sys.executable, __file__, "--measure", str(path), "--repeats", str(repeats),
-           "--", *extra]
+    cmd = [
+        sys.executable,
+        __file__,
+        "--measure",
+        str(path),
+        "--repeats",
+        str(repeats),
+        "--",
+        *extra,
+    ]
     out = subprocess.run(cmd, capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -176,12 +214,15 @@ def _summary(name: str, res: dict) -> str:
     doc = res["doc"]
     est = doc.get("estimate") or {}
     win = doc.get("source", {}).get("windows")
-    what = (f"{win['count']} windows of {win['window_s']:g} s" if win else "whole")
-    vals = ", ".join(f"{k} = {est[k]['value']:.4g} ± {est[k]['std']:.2g}"
-                     for k in ("L1", "L2") if k in est)
+    what = f"{win['count']} windows of {win['window_s']:g} s" if win else "whole"
+    vals = ", ".join(
+        f"{k} = {est[k]['value']:.4g} ± {est[k]['std']:.2g}" for k in ("L1", "L2") if k in est
+    )
     per = f", {res['wall_s'] / win['count']:.1f} s per window" if win else ""
-    return (f"{name:>14}: peak RSS {res['peak_mb']:7.0f} MB, wall {res['wall_s']:7.1f} s{per}; "
-            f"{what}; {vals}")
+    return (
+        f"{name:>14}: peak RSS {res['peak_mb']:7.0f} MB, wall {res['wall_s']:7.1f} s{per}; "
+        f"{what}; {vals}"
+    )
 
 
 def main() -> None:
@@ -191,8 +232,11 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--repeats", type=int, default=10, help="analyze --repeats")
     ap.add_argument("--skip-whole", action="store_true", help="skip the 4 h whole-log run")
-    ap.add_argument("--no-discovery", action="store_true",
-                    help="analyze --no-discovery (CPU ~2.5x less; the same peak on 1 h)")
+    ap.add_argument(
+        "--no-discovery",
+        action="store_true",
+        help="analyze --no-discovery (CPU ~2.5x less; the same peak on 1 h)",
+    )
     ap.add_argument("--write", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--measure", type=Path, default=None, help=argparse.SUPPRESS)
     ap.add_argument("extra", nargs="*", help=argparse.SUPPRESS)
@@ -203,8 +247,11 @@ def main() -> None:
         paths = {h: args.workdir / f"tt_100hz_{h}h_seed{args.seed}.mcap" for h in hours}
         cost = write_logs(paths, args.seed)
         sizes = {h: os.path.getsize(p) / 1e6 for h, p in paths.items()}
-        print(f"writer: {cost['wall_s']:.0f} s wall, {cost['cpu_s']:.0f} s CPU, peak RSS "
-              f"{cost['peak_mb']:.0f} MB; sizes (MB): {sizes}", flush=True)
+        print(
+            f"writer: {cost['wall_s']:.0f} s wall, {cost['cpu_s']:.0f} s CPU, peak RSS "
+            f"{cost['peak_mb']:.0f} MB; sizes (MB): {sizes}",
+            flush=True,
+        )
         return
     if args.measure is not None:
         res = analyse(args.measure, args.extra, args.repeats)
@@ -219,13 +266,16 @@ def main() -> None:
     results["1 h reference"] = _one_child_peak(paths[1], opts, args.repeats)
     if not args.skip_whole:
         results["4 h whole"] = _one_child_peak(paths[4], [*opts, "--window", "0"], args.repeats)
-    print(f"\nlogcal analyze --repeats {args.repeats} {' '.join(opts)}, 100 Hz tractor-trailer "
-          "logs:")
+    print(
+        f"\nlogcal analyze --repeats {args.repeats} {' '.join(opts)}, 100 Hz tractor-trailer logs:"
+    )
     for name, res in results.items():
         print(_summary(name, res))
     ratio = results[f"{long_h} h windowed"]["peak_mb"] / results["1 h reference"]["peak_mb"]
-    print(f"peak RSS {long_h} h windowed / 1 h whole: {ratio:.2f} (bounded: ~1; the log is "
-          f"{long_h}x longer)")
+    print(
+        f"peak RSS {long_h} h windowed / 1 h whole: {ratio:.2f} (bounded: ~1; the log is "
+        f"{long_h}x longer)"
+    )
     if "4 h whole" in results:
         r4 = results["4 h whole"]["peak_mb"] / results["1 h reference"]["peak_mb"]
         print(f"peak RSS 4 h whole / 1 h whole: {r4:.2f}")

@@ -59,7 +59,10 @@ def one_run(job: tuple[float, float, int, dict[str, float]]) -> dict[str, float]
     """Recommended estimate and the transient fit's interval variants for one log."""
     L1, L2, seed, noise = job
     cfg = TractorTrailerSim(
-        L1=L1, L2=L2, commands=commands(), noise=NoiseSpec(std=noise),
+        L1=L1,
+        L2=L2,
+        commands=commands(),
+        noise=NoiseSpec(std=noise),
         effects=Effects(actuator_lag_s=0.1),
     )
     t, k, v, p = measured(simulate_tractor_trailer(cfg, seed))
@@ -88,14 +91,18 @@ def steady_run(seed: int) -> dict[str, float]:
     """Steady-state-only, low-curvature log without speed: the EIV verdict."""
     L1, L2 = 1.25, 2.48
     cfg = TractorTrailerSim(
-        L1=L1, L2=L2, commands=CommandSequence([CommandSpec(CommandType.HARMONIC, 63.0, 0.1)]),
-        hitch_model="steady", noise=NoiseSpec(std={"v": 0.01, "omega": 0.0173, "psi": 0.0173}),
+        L1=L1,
+        L2=L2,
+        commands=CommandSequence([CommandSpec(CommandType.HARMONIC, 63.0, 0.1)]),
+        hitch_model="steady",
+        noise=NoiseSpec(std={"v": 0.01, "omega": 0.0173, "psi": 0.0173}),
     )
     t, k, _, p = measured(simulate_tractor_trailer(cfg, seed))
     res, _ = calibrate_link_lengths(t, k, p, None)
     return {
-        "split_not_determined": float(not res.parameters["L1"].identifiable
-                                      and not res.parameters["L2"].identifiable),
+        "split_not_determined": float(
+            not res.parameters["L1"].identifiable and not res.parameters["L2"].identifiable
+        ),
         "sum_determined": float(res.derived["sum_L1_L2"].identifiable),
         "sum_covered": float(inside(*res.derived["sum_L1_L2"].ci95, L1 + L2)),
         "L1_covered": float(inside(*res.parameters["L1"].ci95, L1)),
@@ -104,20 +111,24 @@ def steady_run(seed: int) -> dict[str, float]:
 
 def study(pool: Pool, noise: dict[str, float], seeds: int, label: str) -> bool:
     print(f"\n== {label}: noise std {noise}, {len(SPLITS)} splits x {seeds} seeds ==")
-    print(f"{'L1':>6} {'L2':>6} | {'trans':>5} {'ident':>5} | recommended 95 % coverage "
-          f"L1 / L2 / sum | naive Fisher L1 / L2 / sum | HAC-only L1 / L2 / sum | "
-          f"bias L1, emp sd / mean se")
+    print(
+        f"{'L1':>6} {'L2':>6} | {'trans':>5} {'ident':>5} | recommended 95 % coverage "
+        f"L1 / L2 / sum | naive Fisher L1 / L2 / sum | HAC-only L1 / L2 / sum | "
+        f"bias L1, emp sd / mean se"
+    )
     ok = True
     for L1, L2 in SPLITS:
         rows = pool.map(one_run, [(L1, L2, s, noise) for s in range(seeds)])
         m = {k: float(np.mean([r[k] for r in rows])) for k in rows[0]}
         err = np.array([r["err_L1"] for r in rows])
         se = np.mean([r["se_L1"] for r in rows])
-        print(f"{L1:6.3f} {L2:6.3f} | {m['transient']:5.2f} {m['identifiable']:5.2f} | "
-              f"{m['L1']:.2f} / {m['L2']:.2f} / {m['sum']:.2f}"
-              f"{'':>10}| {m['iid_L1']:.2f} / {m['iid_L2']:.2f} / {m['iid_sum']:.2f}"
-              f"{'':>9}| {m['hac_L1']:.2f} / {m['hac_L2']:.2f} / {m['hac_sum']:.2f}"
-              f"{'':>5}| {err.mean():+.5f}, {err.std():.5f} / {se:.5f}")
+        print(
+            f"{L1:6.3f} {L2:6.3f} | {m['transient']:5.2f} {m['identifiable']:5.2f} | "
+            f"{m['L1']:.2f} / {m['L2']:.2f} / {m['sum']:.2f}"
+            f"{'':>10}| {m['iid_L1']:.2f} / {m['iid_L2']:.2f} / {m['iid_sum']:.2f}"
+            f"{'':>9}| {m['hac_L1']:.2f} / {m['hac_L2']:.2f} / {m['hac_sum']:.2f}"
+            f"{'':>5}| {err.mean():+.5f}, {err.std():.5f} / {se:.5f}"
+        )
         ok &= min(m["L1"], m["L2"], m["sum"]) >= 0.90
     return ok
 
@@ -126,8 +137,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=50)
     ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--scenario", choices=["default", "noisy", "both"], default="default",
-                    help="sensor noise: the simulator's default, high input noise, or both")
+    ap.add_argument(
+        "--scenario",
+        choices=["default", "noisy", "both"],
+        default="default",
+        help="sensor noise: the simulator's default, high input noise, or both",
+    )
     args = ap.parse_args()
     t0 = time.perf_counter()
     with Pool(args.jobs) as pool:
@@ -138,11 +153,15 @@ def main() -> None:
             ok &= study(pool, NOISY, args.seeds, "noisy inputs (5x yaw-rate noise, psi 0.0173)")
         rows = pool.map(steady_run, range(args.seeds))
     m = {k: float(np.mean([r[k] for r in rows])) for k in rows[0]}
-    print(f"\n== steady-state-only log, M = 0.1 1/m, noise 0.0173, no speed (EIV), "
-          f"{args.seeds} seeds ==")
-    print(f"verdict 'split not determined': {m['split_not_determined']:.2f}; sum determined: "
-          f"{m['sum_determined']:.2f}; sum interval covers truth: {m['sum_covered']:.2f}; "
-          f"L1 interval covers truth: {m['L1_covered']:.2f}")
+    print(
+        f"\n== steady-state-only log, M = 0.1 1/m, noise 0.0173, no speed (EIV), "
+        f"{args.seeds} seeds =="
+    )
+    print(
+        f"verdict 'split not determined': {m['split_not_determined']:.2f}; sum determined: "
+        f"{m['sum_determined']:.2f}; sum interval covers truth: {m['sum_covered']:.2f}; "
+        f"L1 interval covers truth: {m['L1_covered']:.2f}"
+    )
     print(f"\nall recommended coverages >= 0.90: {ok}   ({time.perf_counter() - t0:.0f} s)")
 
 

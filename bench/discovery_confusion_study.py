@@ -86,6 +86,7 @@ MAGNITUDES: dict[str, tuple[float, float]] = {
 CATALOGUE = tuple(MAGNITUDES)
 UNCATALOGUED = "trailer_slip"
 
+
 @cache
 def _effects() -> dict[str, Any]:
     """calib's command-driven catalogue by key: each effect's parameter, kind, channels and
@@ -110,6 +111,7 @@ def sim_effects(truth: dict[str, dict[str, float]]) -> dict[str, Any]:
         else:
             kw.setdefault(e.spec.sim_switch, {})[e.target] = v
     return kw
+
 
 SHORT = {
     "actuator_delay": "delay",
@@ -241,7 +243,8 @@ def _effect_signals(
                 kw[eff.spec.sim_switch] = eff.spec.params[0].null
             else:
                 kw[eff.spec.sim_switch] = {
-                    t: v for t, v in kw[eff.spec.sim_switch].items() if t != eff.target}
+                    t: v for t, v in kw[eff.spec.sim_switch].items() if t != eff.target
+                }
         less = indgen.generate(replace(scn, topics=quiet, effects=indgen.Effects(**kw)), seed=seed)
         best = 0.0
         for topic, field, c in (("/odom", "omega", "omega"), ("/hitch/angle", "angle", "psi")):

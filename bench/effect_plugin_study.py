@@ -37,20 +37,23 @@ def diff_drive(n: int) -> None:
         clean = dd._clean(seed)
         run = dd._with_backward_gain(clean, dd.GAIN)
         fit = fit_lsq([run], n_boot=20)
-        d = discover_effects([run], dd.NOM, calibrated=fit.params, marker=fit.offset,
-                             extra=(dd.BACKWARD_GAIN,))
+        d = discover_effects(
+            [run], dd.NOM, calibrated=fit.params, marker=fit.offset, extra=(dd.BACKWARD_GAIN,)
+        )
         named += bool(d.named and d.named[0] == dd.BACKWARD_GAIN.id)
         if d.selection is not None:
             ratios.append(d.selection.final.heldout_sse / d.selection.base.heldout_sse)
         fc = fit_lsq([clean], n_boot=20)
-        dc = discover_effects([clean], dd.NOM, calibrated=fc.params, marker=fc.offset,
-                              extra=(dd.BACKWARD_GAIN,))
+        dc = discover_effects(
+            [clean], dd.NOM, calibrated=fc.params, marker=fc.offset, extra=(dd.BACKWARD_GAIN,)
+        )
         false += dd.BACKWARD_GAIN.id in dc.named
-        print(f"diff drive seed {seed:3d}: named {d.named}, clean log named {dc.named}",
-              flush=True)
-    print(f"diff drive: named first on {named}/{n} logs with the effect; accepted on "
-          f"{false}/{n} clean logs; held-out sum after/before, median "
-          f"{float(np.median(ratios)):.2f}")
+        print(f"diff drive seed {seed:3d}: named {d.named}, clean log named {dc.named}", flush=True)
+    print(
+        f"diff drive: named first on {named}/{n} logs with the effect; accepted on "
+        f"{false}/{n} clean logs; held-out sum after/before, median "
+        f"{float(np.median(ratios)):.2f}"
+    )
 
 
 def manipulator(n: int) -> None:
@@ -59,8 +62,9 @@ def manipulator(n: int) -> None:
     arm_discovery.register_effect(arm.RIPPLE)
     try:
         for seed in range(1, n + 1):
-            clean = simulate_planar(arm.ARM, Friction(), duration_s=20.0, sensors=Sensors(),
-                                    seed=seed)
+            clean = simulate_planar(
+                arm.ARM, Friction(), duration_s=20.0, sensors=Sensors(), seed=seed
+            )
             d = arm_discovery.run_discovery(arm._fitter(arm._with_ripple(clean)))
             keys = [f.key for f in d.named]
             named += bool(keys and keys[0] == arm.KEY)
@@ -69,12 +73,16 @@ def manipulator(n: int) -> None:
             sel = select_effects(arm._fitter(clean), (arm.RIPPLE,), max_effects=1)
             accepted = sel is not None and sel.tried[0].accepted
             false += accepted
-            print(f"arm seed {seed:3d}: named {keys}, accepted alone on the clean log: "
-                  f"{accepted}", flush=True)
+            print(
+                f"arm seed {seed:3d}: named {keys}, accepted alone on the clean log: {accepted}",
+                flush=True,
+            )
     finally:
         arm_discovery.unregister_effect(arm.RIPPLE)
-    print(f"arm: named first on {named}/{n} logs with the effect; accepted on {false}/{n} "
-          f"clean logs; held-out RMS after/before, median {float(np.median(ratios)):.2f}")
+    print(
+        f"arm: named first on {named}/{n} logs with the effect; accepted on {false}/{n} "
+        f"clean logs; held-out RMS after/before, median {float(np.median(ratios)):.2f}"
+    )
 
 
 def main() -> None:

@@ -70,17 +70,32 @@ for _p in (ROOT / "tests", ROOT / "tests" / "logtools", ROOT / "bench"):
         sys.path.insert(0, str(_p))
 
 CLASSES = (
-    "ros1", "bag2_meta", "bag2_db3", "bag2_zstd", "mcap", "mcap_json", "csv", "urdf",
-    "cmap", "meta", "archive", "settings", "serve",
+    "ros1",
+    "bag2_meta",
+    "bag2_db3",
+    "bag2_zstd",
+    "mcap",
+    "mcap_json",
+    "csv",
+    "urdf",
+    "cmap",
+    "meta",
+    "archive",
+    "settings",
+    "serve",
 )
 SECRET_VAR = "LOGCAL_FUZZ_SECRET"
 SECRET = "s3cr3t-4a7f-never-in-outputs"
 # On a terminal: every C0 control but newline, DEL, C1, bidi and line-separator controls.
-_TERMINAL = re.compile(r"[\x00-\x09\x0b-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f"
-                       r"\u202a-\u202e\u2066-\u2069]")
+_TERMINAL = re.compile(
+    r"[\x00-\x09\x0b-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f"
+    r"\u202a-\u202e\u2066-\u2069]"
+)
 # In a written text file or an HTTP answer: the same, tab, newline and CR allowed.
-_IN_FILE = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f"
-                      r"\u202a-\u202e\u2066-\u2069]")
+_IN_FILE = re.compile(
+    r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f"
+    r"\u202a-\u202e\u2066-\u2069]"
+)
 _MEMORY = re.compile(r"MemoryError|NoMemError|Cannot allocate memory|out of memory")
 _TEXT_SUFFIXES = {".html", ".json", ".jsonl", ".txt", ".csv", ".md", ".toml"}
 
@@ -114,46 +129,106 @@ _URDF = """<?xml version="1.0"?>
     <origin xyz="0 0 {len2}"/><axis xyz="0 1 0"/><limit effort="10" velocity="5"/></joint>
 </robot>
 """
-_URDF_VALUES = ("1", "0", "-1", "nan", "inf", "-inf", "1e308", "1e-320", "x", "", "1 2",
-                "0x10", "1e999", "\x1b[2J", "\u202e1")
+_URDF_VALUES = (
+    "1",
+    "0",
+    "-1",
+    "nan",
+    "inf",
+    "-inf",
+    "1e308",
+    "1e-320",
+    "x",
+    "",
+    "1 2",
+    "0x10",
+    "1e999",
+    "\x1b[2J",
+    "\u202e1",
+)
 
 
 def build_urdf(rng: random.Random, folder: Path) -> tuple[Path, tuple[str, ...] | None, int]:
     """A hostile URDF file (or a link/FIFO/folder named like one); the joint names and count
     the arm log would ask for."""
-    op = rng.choice(("values", "values", "laughs", "external", "deep", "many_links", "cycle",
-                     "names", "mesh", "bytes", "truncate", "empty", "special", "model_name",
-                     "big"))
-    fields = {"robot": "arm", "c1": "0.1", "m1": "1", "i": "0.01", "m2": "0.5", "j1": "j1",
-              "t1": "revolute", "p1": "base", "axis": "0 1 0", "vel": "5", "c2": "l2",
-              "len2": "0.3", "mesh": "package://arm/l1.stl"}
+    op = rng.choice(
+        (
+            "values",
+            "values",
+            "laughs",
+            "external",
+            "deep",
+            "many_links",
+            "cycle",
+            "names",
+            "mesh",
+            "bytes",
+            "truncate",
+            "empty",
+            "special",
+            "model_name",
+            "big",
+        )
+    )
+    fields = {
+        "robot": "arm",
+        "c1": "0.1",
+        "m1": "1",
+        "i": "0.01",
+        "m2": "0.5",
+        "j1": "j1",
+        "t1": "revolute",
+        "p1": "base",
+        "axis": "0 1 0",
+        "vel": "5",
+        "c2": "l2",
+        "len2": "0.3",
+        "mesh": "package://arm/l1.stl",
+    }
     path = folder / rng.choice(("arm.urdf", "arm.xml", "arm"))
     text: str | None = None
     if op == "values":
         for key in rng.sample(sorted(fields), rng.randint(1, 4)):
             fields[key] = rng.choice(_URDF_VALUES)
     elif op == "cycle":
-        fields.update(rng.choice(({"p1": "l1"}, {"c2": "base"}, {"p1": "l2"}, {"c2": "l1"},
-                                  {"p1": "nowhere"})))
+        fields.update(
+            rng.choice(
+                ({"p1": "l1"}, {"c2": "base"}, {"p1": "l2"}, {"c2": "l1"}, {"p1": "nowhere"})
+            )
+        )
     elif op == "names":
         fields[rng.choice(("robot", "j1"))] = rng.choice(
-            ("\x1b]0;owned\x07", "\u202ej1", "j1\nfailed: forged", "<x>", "j2", "名前", "%s"))
+            ("\x1b]0;owned\x07", "\u202ej1", "j1\nfailed: forged", "<x>", "j2", "名前", "%s")
+        )
     elif op == "mesh":
-        fields["mesh"] = rng.choice(("/etc/passwd", "file:///proc/self/environ", "/dev/zero",
-                                     "../../../../etc/shadow", "http://evil/x.stl"))
+        fields["mesh"] = rng.choice(
+            (
+                "/etc/passwd",
+                "file:///proc/self/environ",
+                "/dev/zero",
+                "../../../../etc/shadow",
+                "http://evil/x.stl",
+            )
+        )
     if op not in ("special", "model_name"):
         text = _URDF.format(**fields)
     if op == "laughs":
         depth = rng.choice((3, 6, 9))
         ents = ['<!ENTITY l0 "lol">'] + [
-            f'<!ENTITY l{k} "{("&l" + str(k - 1) + ";") * 10}">' for k in range(1, depth + 1)]
-        text = (f'<?xml version="1.0"?>\n<!DOCTYPE robot [{"".join(ents)}]>\n'
-                f'<robot name="&l{depth};"><link name="base"/></robot>\n')
+            f'<!ENTITY l{k} "{("&l" + str(k - 1) + ";") * 10}">' for k in range(1, depth + 1)
+        ]
+        text = (
+            f'<?xml version="1.0"?>\n<!DOCTYPE robot [{"".join(ents)}]>\n'
+            f'<robot name="&l{depth};"><link name="base"/></robot>\n'
+        )
     elif op == "external":
-        target = rng.choice(("/etc/passwd", "/proc/self/environ", "/dev/zero",
-                             "http://127.0.0.1:9/x"))
-        text = (f'<?xml version="1.0"?>\n<!DOCTYPE robot [<!ENTITY x SYSTEM "{target}">]>\n'
-                + _URDF.format(**fields).split("\n", 1)[1].replace('name="arm"', 'name="&x;"'))
+        target = rng.choice(
+            ("/etc/passwd", "/proc/self/environ", "/dev/zero", "http://127.0.0.1:9/x")
+        )
+        text = (
+            f'<?xml version="1.0"?>\n<!DOCTYPE robot [<!ENTITY x SYSTEM "{target}">]>\n'
+            + _URDF.format(**fields).split("\n", 1)[1].replace('name="arm"', 'name="&x;"')
+        )
     elif op == "deep":
         d = rng.choice((100, 5000, 200_000))
         text = '<robot name="a"><link name="base">' + "<x>" * d + "</x>" * d + "</link></robot>"
@@ -161,9 +236,11 @@ def build_urdf(rng: random.Random, folder: Path) -> tuple[Path, tuple[str, ...] 
         n = rng.choice((50, 2000, 20_000))
         parts = ['<robot name="a"><link name="l0"/>']
         for k in range(1, n):
-            parts.append(f'<link name="l{k}"/><joint name="j{k}" type="revolute">'
-                         f'<parent link="l{k - 1 if rng.random() < 0.9 else 0}"/>'
-                         f'<child link="l{k}"/><axis xyz="0 0 1"/></joint>')
+            parts.append(
+                f'<link name="l{k}"/><joint name="j{k}" type="revolute">'
+                f'<parent link="l{k - 1 if rng.random() < 0.9 else 0}"/>'
+                f'<child link="l{k}"/><axis xyz="0 0 1"/></joint>'
+            )
         text = "".join(parts) + "</robot>"
     elif op == "big":
         text = _URDF.format(**fields) + "<!--" + "x" * rng.choice((10**6, 40 * 10**6)) + "-->"
@@ -176,8 +253,15 @@ def build_urdf(rng: random.Random, folder: Path) -> tuple[Path, tuple[str, ...] 
         elif op == "truncate":
             data = data[: rng.randrange(len(data))]
         elif op == "empty":
-            data = rng.choice((b"", b"\xef\xbb\xbf", b"\xff\xfe<\x00r\x00", b"<robot/>",
-                               b"<?xml version='1.0' encoding='ebcdic'?><robot/>"))
+            data = rng.choice(
+                (
+                    b"",
+                    b"\xef\xbb\xbf",
+                    b"\xff\xfe<\x00r\x00",
+                    b"<robot/>",
+                    b"<?xml version='1.0' encoding='ebcdic'?><robot/>",
+                )
+            )
         path.write_bytes(data)
     elif op == "special":
         kind = rng.choice(("fifo", "dir", "zero", "environ", "dangling", "loop"))
@@ -186,25 +270,50 @@ def build_urdf(rng: random.Random, folder: Path) -> tuple[Path, tuple[str, ...] 
         elif kind == "dir":
             path.mkdir()
         else:
-            target = {"zero": "/dev/zero", "environ": "/proc/self/environ",
-                      "dangling": "/nonexistent.urdf", "loop": path.name}[kind]
+            target = {
+                "zero": "/dev/zero",
+                "environ": "/proc/self/environ",
+                "dangling": "/nonexistent.urdf",
+                "loop": path.name,
+            }[kind]
             path.symlink_to(target)
     else:
-        name = rng.choice(("panda", "../../etc/passwd", "\x1b[2Jpanda", "x" * 5000, "ur5",
-                           "nope", "", " ", "\u202epanda", "%n%n", "panda\x00"))
+        name = rng.choice(
+            (
+                "panda",
+                "../../etc/passwd",
+                "\x1b[2Jpanda",
+                "x" * 5000,
+                "ur5",
+                "nope",
+                "",
+                " ",
+                "\u202epanda",
+                "%n%n",
+                "panda\x00",
+            )
+        )
         return Path(name), None, rng.randint(1, 7)
     names = rng.choice((None, ("j1", "j2"), ("j2", "j1"), ("jx",), ("j1", "j1")))
     return path, names, rng.choice((1, 2, 2, 3, 7)) if names is None else len(names)
 
 
-def build_reader(kind: str, rng: random.Random, seeds: Seeds, folder: Path
-                 ) -> tuple[Path, Path | None]:
+def build_reader(
+    kind: str, rng: random.Random, seeds: Seeds, folder: Path
+) -> tuple[Path, Path | None]:
     """A hostile log of a reader class (and the channel map it comes with)."""
     from fuzz_logs import mutate_bytes, mutate_csv  # type: ignore[import-not-found]
     from fuzz_parsers import build  # type: ignore[import-not-found]
 
-    mapping = {"ros1": "ros1", "bag2_meta": "bag2_meta", "bag2_db3": "bag2_db3",
-               "bag2_zstd": "bag2_zstd", "mcap_json": "json", "cmap": "cmap", "meta": "meta"}
+    mapping = {
+        "ros1": "ros1",
+        "bag2_meta": "bag2_meta",
+        "bag2_db3": "bag2_db3",
+        "bag2_zstd": "bag2_zstd",
+        "mcap_json": "json",
+        "cmap": "cmap",
+        "meta": "meta",
+    }
     if kind in mapping:
         path, cmap = build(mapping[kind], rng, seeds.paths, folder)
         return Path(path), Path(cmap) if cmap else None
@@ -232,10 +341,28 @@ def hostile_settings(rng: random.Random, arch: Path) -> None:
     from logtools.batch.settings import accepted_keys
 
     keys = accepted_keys()
-    values = ('"../../outside.csv"', '"/etc/passwd"', '"~/.ssh/id_rsa"', '"panda"',
-              '"\\u001b[2J"', '"\\u202e"', "-1", "0", "nan", "inf", "1e400", "true", "[1, 2]",
-              "{a = 1}", '""', '"x\\nfailed: forged"', '"a.urdf"', '"sub/../../x.urdf"',
-              '"link.urdf"', "9999999999999999999999")
+    values = (
+        '"../../outside.csv"',
+        '"/etc/passwd"',
+        '"~/.ssh/id_rsa"',
+        '"panda"',
+        '"\\u001b[2J"',
+        '"\\u202e"',
+        "-1",
+        "0",
+        "nan",
+        "inf",
+        "1e400",
+        "true",
+        "[1, 2]",
+        "{a = 1}",
+        '""',
+        '"x\\nfailed: forged"',
+        '"a.urdf"',
+        '"sub/../../x.urdf"',
+        '"link.urdf"',
+        "9999999999999999999999",
+    )
     folders = [arch, *[Path(d) for d, _, _ in os.walk(arch) if Path(d) != arch][:5]]
     target = rng.choice(folders) / "logcal.toml"
     if os.path.lexists(target):
@@ -246,8 +373,9 @@ def hostile_settings(rng: random.Random, arch: Path) -> None:
     target.write_text("\n".join(lines) + "\n")
     (target.parent / "a.urdf").write_text("<robot name='a'><link name='b'/></robot>")
     with contextlib.suppress(OSError):
-        (target.parent / "link.urdf").symlink_to(rng.choice(("/etc/passwd", "/dev/zero",
-                                                             "../outside.csv")))
+        (target.parent / "link.urdf").symlink_to(
+            rng.choice(("/etc/passwd", "/dev/zero", "../outside.csv"))
+        )
 
 
 # ----------------------------------------------------------------------------- checks
@@ -265,7 +393,7 @@ def _bad(text: str, pattern: re.Pattern[str]) -> str:
     m = pattern.search(text)
     if m is None:
         return ""
-    return f"{m.group()!r} at {m.start()}: {text[max(0, m.start() - 60):m.start() + 20]!r}"
+    return f"{m.group()!r} at {m.start()}: {text[max(0, m.start() - 60) : m.start() + 20]!r}"
 
 
 def _listing(root: Path) -> set[str]:
@@ -336,7 +464,8 @@ def run_archive(rng: random.Random, case: Path, settings: bool) -> tuple[str, st
         return outcome, detail
     if _listing(built["archive"]) != before:
         return "escape", "the archive changed: " + repr(
-            sorted(_listing(built["archive"]) ^ before)[:3])
+            sorted(_listing(built["archive"]) ^ before)[:3]
+        )
     bad = _scan_written(built["out"])
     if bad:
         return "escape", bad
@@ -376,7 +505,7 @@ def run_serve(rng: random.Random, base: Path) -> tuple[str, str]:
     with socket.create_connection(("127.0.0.1", port), timeout=0.5 if idle else 20) as s:
         try:
             with contextlib.suppress(ConnectionError, OSError):  # the server may answer and
-                if data:                                         # close before all is sent
+                if data:  # close before all is sent
                     s.sendall(data)
                 if kind not in ("idle", "half"):
                     s.shutdown(socket.SHUT_WR)
@@ -397,12 +526,14 @@ def run_serve(rng: random.Random, base: Path) -> tuple[str, str]:
     if not got.startswith(b"HTTP/") and kind not in ("idle", "half", "garbage"):
         return "traceback", f"{kind}: closed without an answer"
     head, _, body = got.partition(b"\r\n\r\n")
-    bad = _bad(head.decode("latin-1"), _IN_FILE) or _bad(body.decode("utf-8", "replace"),
-                                                         _IN_FILE)
+    bad = _bad(head.decode("latin-1"), _IN_FILE) or _bad(body.decode("utf-8", "replace"), _IN_FILE)
     if bad:
         return "escape", f"{kind}: answer holds {bad}"
-    return ("ok" if got.startswith(b"HTTP/1.0 200") or got.startswith(b"HTTP/1.1 200")
-            else "clean_error"), kind
+    return (
+        "ok"
+        if got.startswith(b"HTTP/1.0 200") or got.startswith(b"HTTP/1.1 200")
+        else "clean_error"
+    ), kind
 
 
 PHASE = ["build"]  # what the worker is doing: a builder's failure is the harness's, not logcal's
@@ -432,16 +563,22 @@ def _clean_dir(d: Path) -> None:
     d.mkdir(parents=True, exist_ok=True)
 
 
-def worker(tasks: Any, results: Any, base: str, mem_gib: float, timeout_s: int,
-           wall_s: int) -> None:
+def worker(
+    tasks: Any, results: Any, base: str, mem_gib: float, timeout_s: int, wall_s: int
+) -> None:
     root = Path(base)
     allowed = {root / "case", root / "seeds", root / "serve_root", root / "out.txt"}
     watched = [root / "cwd", root / "home", root / "tmp"]
     for d in watched:
         d.mkdir(parents=True, exist_ok=True)
     os.chdir(root / "cwd")
-    os.environ.update(HOME=str(root / "home"), TMPDIR=str(root / "tmp"), TMP=str(root / "tmp"),
-                      TEMP=str(root / "tmp"), **{SECRET_VAR: SECRET})
+    os.environ.update(
+        HOME=str(root / "home"),
+        TMPDIR=str(root / "tmp"),
+        TMP=str(root / "tmp"),
+        TEMP=str(root / "tmp"),
+        **{SECRET_VAR: SECRET},
+    )
     tempfile.tempdir = str(root / "tmp")
     limit = int(mem_gib * 2**30)
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
@@ -540,9 +677,17 @@ class Job:
         self.base.mkdir(parents=True)
         self.tasks = self.ctx.Queue()
         self.results = self.ctx.Queue()
-        self.proc = self.ctx.Process(target=worker, args=(
-            self.tasks, self.results, str(self.base), self.args.mem_gib, self.args.timeout_s,
-            self.args.wall_s))
+        self.proc = self.ctx.Process(
+            target=worker,
+            args=(
+                self.tasks,
+                self.results,
+                str(self.base),
+                self.args.mem_gib,
+                self.args.timeout_s,
+                self.args.wall_s,
+            ),
+        )
         self.proc.start()
 
     def run(self, i: int, cls: str) -> tuple[str, str, float]:
@@ -563,8 +708,11 @@ class Job:
                         return "harness", f"worker died before the input ({code})", 0.0
                     if code == -signal.SIGKILL:
                         return "blowup", "worker killed (SIGKILL)", 0.0
-                    return ("crash" if code is not None and code < 0 else "traceback",
-                            f"worker exit {code}", 0.0)
+                    return (
+                        "crash" if code is not None and code < 0 else "traceback",
+                        f"worker exit {code}",
+                        0.0,
+                    )
                 if time.monotonic() > deadline:
                     self.start()
                     return "hang", "no answer from the worker", 0.0
@@ -587,8 +735,9 @@ class Job:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--inputs", type=int, default=500, help="total inputs over all classes")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--jobs", type=int, default=1, help="worker processes")
@@ -596,14 +745,23 @@ def main() -> int:
     ap.add_argument("--only", type=int, default=None, help="run input I alone (replay)")
     ap.add_argument("--mem-gib", type=float, default=3.0)
     ap.add_argument("--timeout-s", type=int, default=30, help="CPU seconds per input")
-    ap.add_argument("--wall-s", type=int, default=120,
-                    help="wall-clock seconds per input (a wait on a FIFO, a socket)")
+    ap.add_argument(
+        "--wall-s",
+        type=int,
+        default=120,
+        help="wall-clock seconds per input (a wait on a FIFO, a socket)",
+    )
     ap.add_argument("--save", type=Path, default=Path("/tmp/logcal_fuzz_all"))
     ap.add_argument("--json", type=Path, default=None)
-    ap.add_argument("--recycle", type=int, default=2000,
-                    help="start a fresh worker every N inputs (0: never)")
-    ap.add_argument("--minutes", type=float, default=None,
-                    help="take no new input after this long (the table counts what ran)")
+    ap.add_argument(
+        "--recycle", type=int, default=2000, help="start a fresh worker every N inputs (0: never)"
+    )
+    ap.add_argument(
+        "--minutes",
+        type=float,
+        default=None,
+        help="take no new input after this long (the table counts what ran)",
+    )
     args = ap.parse_args()
     classes = args.classes.split(",")
     unknown = set(classes) - set(CLASSES)
@@ -642,14 +800,18 @@ def main() -> int:
                     args.save.mkdir(parents=True, exist_ok=True)
                     (args.save / f"{i:06d}_{cls}_{outcome}.txt").write_text(
                         f"replay: python bench/fuzz_all.py --seed {args.seed} --only {i} "
-                        f"--classes {args.classes}\n{detail}\n")
+                        f"--classes {args.classes}\n{detail}\n"
+                    )
                     print(f"  input {i} ({cls}): {outcome}: {detail[:300]!r}", flush=True)
                 if done % step == 0:
                     rate = done / (time.perf_counter() - t0)
                     bad = sum(c[k] for c in counts.values() for k in BAD)
                     vm = ", ".join(f"{j.vm / 2**30:.2f}" for j in jobs)
-                    print(f"  {done}/{len(indices)} inputs, {rate:.2f} inputs/s, failures {bad}, "
-                          f"worker address space {vm} GiB", flush=True)
+                    print(
+                        f"  {done}/{len(indices)} inputs, {rate:.2f} inputs/s, failures {bad}, "
+                        f"worker address space {vm} GiB",
+                        flush=True,
+                    )
 
     threads = [threading.Thread(target=drive, args=(job,)) for job in jobs]
     for t in threads:
@@ -661,26 +823,44 @@ def main() -> int:
     elapsed = time.perf_counter() - t0
     shutil.rmtree(work, ignore_errors=True)
     cols = ("inputs", "ok", "clean_error", *BAD, "not_built", "harness", "mean_s", "slowest_s")
-    print(f"\nseed {args.seed}, {args.jobs} job(s), cap {args.mem_gib} GiB, bound "
-          f"{args.timeout_s} s of CPU and {args.wall_s} s per input")
+    print(
+        f"\nseed {args.seed}, {args.jobs} job(s), cap {args.mem_gib} GiB, bound "
+        f"{args.timeout_s} s of CPU and {args.wall_s} s per input"
+    )
     print(f"{'class':10s} " + " ".join(f"{c:>11s}" for c in cols))
     total: Counter[str] = Counter()
     for cls in classes:
         c = counts[cls]
         total.update(c)
         row = [sum(c.values()), *(c[k] for k in cols[1:-2])]
-        print(f"{cls:10s} " + " ".join(f"{v:>11d}" for v in row)
-              + f" {spent[cls] / max(1, row[0]):>11.3f} {slowest[cls]:>11.2f}")
+        print(
+            f"{cls:10s} "
+            + " ".join(f"{v:>11d}" for v in row)
+            + f" {spent[cls] / max(1, row[0]):>11.3f} {slowest[cls]:>11.2f}"
+        )
     row = [sum(total.values()), *(total[k] for k in cols[1:-2])]
-    print(f"{'TOTAL':10s} " + " ".join(f"{v:>11d}" for v in row)
-          + f" {sum(spent.values()) / max(1, row[0]):>11.3f} {max(slowest.values()):>11.2f}")
-    print(f"{sum(total.values())} inputs in {elapsed:.0f} s: {sum(total.values()) / elapsed:.2f} "
-          f"inputs/s; failures (tracebacks, hangs, crashes, blow-ups, escapes): "
-          f"{sum(total[k] for k in BAD)}")
+    print(
+        f"{'TOTAL':10s} "
+        + " ".join(f"{v:>11d}" for v in row)
+        + f" {sum(spent.values()) / max(1, row[0]):>11.3f} {max(slowest.values()):>11.2f}"
+    )
+    print(
+        f"{sum(total.values())} inputs in {elapsed:.0f} s: {sum(total.values()) / elapsed:.2f} "
+        f"inputs/s; failures (tracebacks, hangs, crashes, blow-ups, escapes): "
+        f"{sum(total[k] for k in BAD)}"
+    )
     if args.json is not None:
-        args.json.write_text(json.dumps({"seed": args.seed, "elapsed_s": elapsed,
-                                         "per_class": {k: dict(v) for k, v in counts.items()},
-                                         "slowest_s": slowest}, indent=1))
+        args.json.write_text(
+            json.dumps(
+                {
+                    "seed": args.seed,
+                    "elapsed_s": elapsed,
+                    "per_class": {k: dict(v) for k, v in counts.items()},
+                    "slowest_s": slowest,
+                },
+                indent=1,
+            )
+        )
     return 1 if any(total[k] for k in BAD) else 0
 
 

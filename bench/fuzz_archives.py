@@ -63,13 +63,32 @@ from typing import Any
 SECRET_VAR = "LOGCAL_FUZZ_SECRET"
 SECRET = "s3cr3t-4a7f-never-in-outputs"
 TINY = "t,cmd_v,cmd_kappa\n0.0,1.0,0.0\n0.1,1.0,0.0\n0.2,1.0,0.0\n"
-_BAD_TERMINAL = re.compile(r"[\x00-\x09\x0b-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f"
-                           r"\u202a-\u202e\u2066-\u2069\ud800-\udfff]")
+_BAD_TERMINAL = re.compile(
+    r"[\x00-\x09\x0b-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f"
+    r"\u202a-\u202e\u2066-\u2069\ud800-\udfff]"
+)
 
 HOSTILE_PARTS = [
-    "\x1b[2J", "\x1b]0;owned\x07", "\x1b]8;;http://evil/\x1b\\x", "\x07", "\r", "\n",
-    "\nfailed: forged.csv: ok", "\u202e", "\u2066", "\u200f", "\x7f", "\x9b",
-    "<script>alert(1)</script>", "&amp;", "'\"", "%00", "..", "名前", " ", "\t",
+    "\x1b[2J",
+    "\x1b]0;owned\x07",
+    "\x1b]8;;http://evil/\x1b\\x",
+    "\x07",
+    "\r",
+    "\n",
+    "\nfailed: forged.csv: ok",
+    "\u202e",
+    "\u2066",
+    "\u200f",
+    "\x7f",
+    "\x9b",
+    "<script>alert(1)</script>",
+    "&amp;",
+    "'\"",
+    "%00",
+    "..",
+    "名前",
+    " ",
+    "\t",
 ]
 UNDECODABLE = [b"\xff", b"\xfe", b"\xc3", b"\xed\xa0\x80", b"\x80\x80"]
 
@@ -130,12 +149,35 @@ def build_case(rng: random.Random, root: Path) -> dict[str, Any]:
         v.write_text(text)
     kinds = []
     for _ in range(rng.randint(1, 6)):
-        kind = rng.choice([
-            "csv", "csv", "pair", "link_environ", "link_pagemap", "link_mem", "link_zero",
-            "link_outside", "link_inside", "link_dir", "link_dangling", "link_loop", "fifo",
-            "socket", "bag_fifo", "bag_garbage", "toml_outside", "toml_abs", "toml_home",
-            "toml_glob", "toml_garbage", "toml_fifo", "toml_link", "toml_urdf", "deep",
-        ])
+        kind = rng.choice(
+            [
+                "csv",
+                "csv",
+                "pair",
+                "link_environ",
+                "link_pagemap",
+                "link_mem",
+                "link_zero",
+                "link_outside",
+                "link_inside",
+                "link_dir",
+                "link_dangling",
+                "link_loop",
+                "fifo",
+                "socket",
+                "bag_fifo",
+                "bag_garbage",
+                "toml_outside",
+                "toml_abs",
+                "toml_home",
+                "toml_glob",
+                "toml_garbage",
+                "toml_fifo",
+                "toml_link",
+                "toml_urdf",
+                "deep",
+            ]
+        )
         kinds.append(kind)
         sub = os.path.join(arch, _name(rng, "")) if rng.random() < 0.4 else arch
         os.makedirs(sub, exist_ok=True)
@@ -148,10 +190,14 @@ def build_case(rng: random.Random, root: Path) -> dict[str, Any]:
                 _write(os.path.join(sub, b"p\xfe.csv"), TINY)
             elif kind.startswith("link_"):
                 target = {
-                    "link_environ": "/proc/self/environ", "link_pagemap": "/proc/self/pagemap",
-                    "link_mem": "/proc/self/mem", "link_zero": "/dev/zero",
-                    "link_outside": str(outside), "link_inside": "../../x.csv",
-                    "link_dir": str(root), "link_dangling": "/nonexistent/x.csv",
+                    "link_environ": "/proc/self/environ",
+                    "link_pagemap": "/proc/self/pagemap",
+                    "link_mem": "/proc/self/mem",
+                    "link_zero": "/dev/zero",
+                    "link_outside": str(outside),
+                    "link_inside": "../../x.csv",
+                    "link_dir": str(root),
+                    "link_dangling": "/nonexistent/x.csv",
                     "link_loop": os.fsdecode(os.path.basename(name)),
                 }[kind]
                 os.symlink(target, name)
@@ -162,9 +208,12 @@ def build_case(rng: random.Random, root: Path) -> dict[str, Any]:
             elif kind.startswith("bag_"):
                 bag = os.path.join(sub, _name(rng, ""))
                 os.makedirs(bag, exist_ok=True)
-                _write(os.path.join(bag, b"metadata.yaml"),
-                       "rosbag2_bagfile_information:\n  relative_file_paths: [bag_0.db3]\n"
-                       if kind == "bag_fifo" else bytes(rng.randbytes(64)))
+                _write(
+                    os.path.join(bag, b"metadata.yaml"),
+                    "rosbag2_bagfile_information:\n  relative_file_paths: [bag_0.db3]\n"
+                    if kind == "bag_fifo"
+                    else bytes(rng.randbytes(64)),
+                )
                 if kind == "bag_fifo":
                     os.mkfifo(os.path.join(bag, b"bag_0.db3"))
             elif kind.startswith("toml_"):
@@ -176,9 +225,13 @@ def build_case(rng: random.Random, root: Path) -> dict[str, Any]:
                 elif kind == "toml_link":
                     os.symlink(str(outside), toml)
                 else:
-                    value = {"toml_outside": "../../outside.csv", "toml_abs": str(outside),
-                             "toml_home": "~/.bashrc", "toml_glob": "../*",
-                             "toml_urdf": "../../../etc/passwd"}.get(kind)
+                    value = {
+                        "toml_outside": "../../outside.csv",
+                        "toml_abs": str(outside),
+                        "toml_home": "~/.bashrc",
+                        "toml_glob": "../*",
+                        "toml_urdf": "../../../etc/passwd",
+                    }.get(kind)
                     if kind == "toml_garbage":
                         _write(toml, rng.randbytes(rng.randint(1, 200)))
                     elif kind == "toml_urdf":
@@ -199,21 +252,31 @@ def _craft_out(rng: random.Random, out: Path, root: Path) -> None:
     ids = ["gone-0123456789", "../../victim", "/abs-0123456789", "x" * 80, "a/b-0123456789"]
     entries = {}
     for ident in rng.sample(ids, rng.randint(1, len(ids))):
-        entries[ident] = {"id": ident, "log": "gone\x1b[2J.csv", "status": "failed",
-                          "record": rng.choice(["../victim.json", str(root / "victim.json"),
-                                                f"logs/{ident}.json"]),
-                          "views": rng.choice([{".rrd": "../victim.rrd"}, {"../x": "y"}, {}]),
-                          "error": "\x1b]0;owned\x07"}
+        entries[ident] = {
+            "id": ident,
+            "log": "gone\x1b[2J.csv",
+            "status": "failed",
+            "record": rng.choice(
+                ["../victim.json", str(root / "victim.json"), f"logs/{ident}.json"]
+            ),
+            "views": rng.choice([{".rrd": "../victim.rrd"}, {"../x": "y"}, {}]),
+            "error": "\x1b]0;owned\x07",
+        }
     fmt = rng.choice(["logcal-batch/1", "logcal-batch/2"])
     (out / "manifest.json").write_text(json.dumps({"format": fmt, "logs": entries}))
     if rng.random() < 0.5:
         (out / "journal.jsonl").write_text(
-            "\n".join(json.dumps({"id": i, "entry": e}) for i, e in entries.items()) + "\n{torn")
+            "\n".join(json.dumps({"id": i, "entry": e}) for i, e in entries.items()) + "\n{torn"
+        )
     if rng.random() < 0.3:
-        (out / "logs" / "gone-0123456789.json").write_text(json.dumps(
-            {"id": "../../evil", "log": "<script>", "views": {".rrd": "../../victim.rrd"}}))
-    for name in rng.sample(["index.html", "fleet.json", "fleet.parquet", "manifest.json"],
-                           rng.randint(0, 2)):
+        (out / "logs" / "gone-0123456789.json").write_text(
+            json.dumps(
+                {"id": "../../evil", "log": "<script>", "views": {".rrd": "../../victim.rrd"}}
+            )
+        )
+    for name in rng.sample(
+        ["index.html", "fleet.json", "fleet.parquet", "manifest.json"], rng.randint(0, 2)
+    ):
         with contextlib.suppress(FileNotFoundError):
             (out / name).unlink()
         (out / name).symlink_to(root / "victim.json")
@@ -233,8 +296,20 @@ def check_case(case: dict[str, Any]) -> tuple[str, str]:
     runner.run_jobs = _serial_jobs  # type: ignore[assignment]
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        code = main(["batch", str(case["archive"]), "--out", str(case["out"]), "--workers",
-                     "1", "--no-views", "--no-discovery", "--repeats", "1"])
+        code = main(
+            [
+                "batch",
+                str(case["archive"]),
+                "--out",
+                str(case["out"]),
+                "--workers",
+                "1",
+                "--no-views",
+                "--no-discovery",
+                "--repeats",
+                "1",
+            ]
+        )
     text = err.getvalue()
     if "_AlarmError" in text:  # the alarm went off inside the command, which reported it
         return "hang", text[-2000:]
@@ -266,8 +341,9 @@ def _alarm(*_: object) -> None:
     raise _AlarmError
 
 
-def archive_worker(seed: int, n: int, timeout_s: int, mem_gib: float, save: Path,
-                   results: Any) -> None:
+def archive_worker(
+    seed: int, n: int, timeout_s: int, mem_gib: float, save: Path, results: Any
+) -> None:
     resource.setrlimit(resource.RLIMIT_AS, (int(mem_gib * 2**30), int(mem_gib * 2**30)))
     os.environ[SECRET_VAR] = SECRET
     signal.signal(signal.SIGALRM, _alarm)
@@ -306,10 +382,30 @@ def archive_worker(seed: int, n: int, timeout_s: int, mem_gib: float, save: Path
 
 # --- serve ---------------------------------------------------------------------------------
 
+
 def _request(rng: random.Random) -> tuple[bytes, str]:
-    kind = rng.choice(["nul", "control", "long_line", "long_rrd", "headers", "long_header",
-                       "method", "version", "traversal", "absolute", "garbage", "ok", "rrd",
-                       "host", "idle", "half", "unicode", "keepalive"])
+    kind = rng.choice(
+        [
+            "nul",
+            "control",
+            "long_line",
+            "long_rrd",
+            "headers",
+            "long_header",
+            "method",
+            "version",
+            "traversal",
+            "absolute",
+            "garbage",
+            "ok",
+            "rrd",
+            "host",
+            "idle",
+            "half",
+            "unicode",
+            "keepalive",
+        ]
+    )
     path = "/" + rng.choice(["index.html", "views/x.rrd", "pages/", "", "rerun/open?rrd="])
     if kind == "nul":
         path += "%00" * rng.randint(1, 3)
@@ -320,8 +416,14 @@ def _request(rng: random.Random) -> tuple[bytes, str]:
     elif kind == "long_rrd":
         path = "/rerun/open?rrd=" + "v/" * rng.randint(1, 50_000) + ".rrd"
     elif kind == "traversal":
-        path = rng.choice(["/../../etc/passwd", "/rerun/open?rrd=../../etc/passwd.rrd",
-                           "/%2e%2e/%2e%2e/etc/passwd", "/views/..%2f..%2fetc%2fpasswd"])
+        path = rng.choice(
+            [
+                "/../../etc/passwd",
+                "/rerun/open?rrd=../../etc/passwd.rrd",
+                "/%2e%2e/%2e%2e/etc/passwd",
+                "/views/..%2f..%2fetc%2fpasswd",
+            ]
+        )
     elif kind == "absolute":
         path = "http://evil.example/index.html"
     elif kind == "rrd":
@@ -416,8 +518,10 @@ def run_serve(n: int, seed: int, concurrency: int) -> None:
         for t in threads:
             t.join()
         elapsed = time.perf_counter() - t0
-        print(f"serve: {n} requests ({concurrency} clients, {elapsed:.1f} s): {dict(counts)}",
-              flush=True)
+        print(
+            f"serve: {n} requests ({concurrency} clients, {elapsed:.1f} s): {dict(counts)}",
+            flush=True,
+        )
         idle = []
         flood = "1000 idle connections"
         for _ in range(1000):  # a flood of idle connections, then close under that load
@@ -442,8 +546,10 @@ def run_serve(n: int, seed: int, concurrency: int) -> None:
             s.close()
         errors = list(getattr(server.httpd, "errors", [])) + base_errors
     print(f"handler errors (tracebacks): {len(errors)} {errors[:3]}")
-    print(f"most threads alive: {max_threads} (client threads included: {concurrency}); "
-          f"with {flood}: {flood_threads}; close under that load: {close_s:.2f} s")
+    print(
+        f"most threads alive: {max_threads} (client threads included: {concurrency}); "
+        f"with {flood}: {flood_threads}; close under that load: {close_s:.2f} s"
+    )
     print("by kind:", dict(sorted(by_kind.items())))
 
 
@@ -465,10 +571,13 @@ def main() -> None:
     results = ctx.Queue()
     per = [args.n // args.workers + (j < args.n % args.workers) for j in range(args.workers)]
     t0 = time.perf_counter()
-    procs = [ctx.Process(target=archive_worker, args=(args.seed * 1000 + j, per[j],
-                                                      args.timeout_s, args.mem_gib, args.save,
-                                                      results))
-             for j in range(args.workers)]
+    procs = [
+        ctx.Process(
+            target=archive_worker,
+            args=(args.seed * 1000 + j, per[j], args.timeout_s, args.mem_gib, args.save, results),
+        )
+        for j in range(args.workers)
+    ]
     for p in procs:
         p.start()
     counts: Counter[str] = Counter()
@@ -483,8 +592,10 @@ def main() -> None:
         p.join()
         if p.exitcode != 0:
             counts["worker_died"] += 1
-    print(f"archives: {args.n} inputs (seed {args.seed}, {args.workers} workers, "
-          f"{time.perf_counter() - t0:.0f} s): {dict(counts)}; slowest {slowest:.1f} s")
+    print(
+        f"archives: {args.n} inputs (seed {args.seed}, {args.workers} workers, "
+        f"{time.perf_counter() - t0:.0f} s): {dict(counts)}; slowest {slowest:.1f} s"
+    )
     print("entries built:", dict(sorted(kinds.items())))
 
 

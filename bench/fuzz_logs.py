@@ -80,15 +80,16 @@ def _huge_length(rng: random.Random, buf: bytearray) -> None:
         return
     at = rng.randrange(0, len(buf) - 8)
     value = rng.choice([2**31, 2**32 - 1, 2**63, 2**64 - 1, rng.getrandbits(64)])
-    buf[at:at + 8] = value.to_bytes(8, "little")
+    buf[at : at + 8] = value.to_bytes(8, "little")
 
 
 def mutate_bytes(rng: random.Random, data: bytes, other: bytes) -> bytes:
     """One to three random byte-level mutations of ``data``."""
     buf = bytearray(data)
     for _ in range(rng.randint(1, 3)):
-        op = rng.choice(("flip", "overwrite", "truncate", "insert", "dup", "zero", "length",
-                         "concat", "header"))
+        op = rng.choice(
+            ("flip", "overwrite", "truncate", "insert", "dup", "zero", "length", "concat", "header")
+        )
         n = len(buf)
         if n == 0:
             break
@@ -97,17 +98,17 @@ def mutate_bytes(rng: random.Random, data: bytes, other: bytes) -> bytes:
             buf[at] ^= 1 << rng.randrange(8)
         elif op == "overwrite":
             k = rng.randint(1, 16)
-            buf[at:at + k] = rng.randbytes(k)
+            buf[at : at + k] = rng.randbytes(k)
         elif op == "truncate":
             del buf[at:]
         elif op == "insert":
             buf[at:at] = rng.randbytes(rng.randint(1, 64))
         elif op == "dup":
             k = rng.randint(1, 4096)
-            buf[at:at] = buf[at:at + k]
+            buf[at:at] = buf[at : at + k]
         elif op == "zero":
             k = rng.randint(1, 8192)
-            buf[at:at + k] = bytes(min(k, n - at))
+            buf[at : at + k] = bytes(min(k, n - at))
         elif op == "length":
             _huge_length(rng, buf)
         elif op == "concat":
@@ -203,8 +204,11 @@ def write_value_log(rng: random.Random, gen: object, folder: Path) -> Path:
     from indgen.writers import write_csv, write_mcap_json, write_mcap_ros2
 
     kind, write, suffix = rng.choice(
-        (("json", write_mcap_json, ".mcap"), ("ros2", write_mcap_ros2, ".mcap"),
-         ("csv", write_csv, ".csv"))
+        (
+            ("json", write_mcap_json, ".mcap"),
+            ("ros2", write_mcap_ros2, ".mcap"),
+            ("csv", write_csv, ".csv"),
+        )
     )
     path = folder / f"value_{kind}{suffix}"
     write(path, gen)
@@ -247,8 +251,9 @@ def _on_alarm(signum: int, frame: object) -> None:
     raise _AlarmError
 
 
-def worker(tasks: mp.Queue, results: mp.Queue, mem_gib: float, timeout_s: int,
-           analyze: bool) -> None:
+def worker(
+    tasks: mp.Queue, results: mp.Queue, mem_gib: float, timeout_s: int, analyze: bool
+) -> None:
     limit = int(mem_gib * 2**30)
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
     signal.signal(signal.SIGALRM, _on_alarm)
@@ -282,8 +287,11 @@ def main() -> int:
     ap.add_argument("--n", type=int, default=2000, help="inputs to try")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--analyze", action="store_true", help="run the whole analyze")
-    ap.add_argument("--values", action="store_true",
-                    help="valid logs with hostile values, through the whole analyze")
+    ap.add_argument(
+        "--values",
+        action="store_true",
+        help="valid logs with hostile values, through the whole analyze",
+    )
     ap.add_argument("--workers", type=int, default=1, help="harnesses run side by side")
     ap.add_argument("--json", type=Path, default=None, help="write the counts here")
     ap.add_argument("--mem-gib", type=float, default=3.0, help="address-space cap per worker")
@@ -305,8 +313,9 @@ def main() -> int:
     results: mp.Queue = ctx.Queue()
 
     def start() -> mp.process.BaseProcess:
-        p = ctx.Process(target=worker,
-                        args=(tasks, results, args.mem_gib, args.timeout_s, args.analyze))
+        p = ctx.Process(
+            target=worker, args=(tasks, results, args.mem_gib, args.timeout_s, args.analyze)
+        )
         p.start()
         return p
 
@@ -355,8 +364,10 @@ def main() -> int:
             print(f"  {i + 1}/{args.n}  {dict(counts)}  {rate:.0f} inputs/s", flush=True)
     tasks.put(None)
     proc.join(timeout=5)
-    print(f"\ninputs: {args.n} ({'analyze' if args.analyze else 'read + load'}), "
-          f"seed {args.seed}, cap {args.mem_gib} GiB, bound {args.timeout_s} s")
+    print(
+        f"\ninputs: {args.n} ({'analyze' if args.analyze else 'read + load'}), "
+        f"seed {args.seed}, cap {args.mem_gib} GiB, bound {args.timeout_s} s"
+    )
     print(f"outcomes: {dict(counts)}; slowest input {slowest:.2f} s")
     for kind in VALUE_OPS if args.values else KINDS:
         row = {o: c for (k, o), c in per_kind.items() if k == kind}
@@ -365,10 +376,18 @@ def main() -> int:
         print(f"analyses that reported outliers, per change: {dict(outlier_notes)}")
     bad = counts["traceback"] + counts["hang"] + counts["memory"]
     if args.json is not None:
-        args.json.write_text(json.dumps({
-            "n": args.n, "seed": args.seed, "counts": dict(counts), "slowest_s": slowest,
-            "per_kind": {f"{k}:{o}": c for (k, o), c in per_kind.items()},
-            "outlier_reports": dict(outlier_notes)}))
+        args.json.write_text(
+            json.dumps(
+                {
+                    "n": args.n,
+                    "seed": args.seed,
+                    "counts": dict(counts),
+                    "slowest_s": slowest,
+                    "per_kind": {f"{k}:{o}": c for (k, o), c in per_kind.items()},
+                    "outlier_reports": dict(outlier_notes),
+                }
+            )
+        )
     print(f"failures saved under {args.save}" if bad else "no tracebacks, hangs or blow-ups")
     return 1 if bad else 0
 
@@ -381,9 +400,22 @@ def run_parallel(args: argparse.Namespace) -> int:
     procs = []
     for j in range(args.workers):
         n = args.n // args.workers + (1 if j < args.n % args.workers else 0)
-        cmd = [sys.executable, __file__, "--n", str(n), "--seed", str(args.seed * 1000 + j),
-               "--mem-gib", str(args.mem_gib), "--timeout-s", str(args.timeout_s),
-               "--save", str(args.save / f"w{j}"), "--json", str(out / f"w{j}.json")]
+        cmd = [
+            sys.executable,
+            __file__,
+            "--n",
+            str(n),
+            "--seed",
+            str(args.seed * 1000 + j),
+            "--mem-gib",
+            str(args.mem_gib),
+            "--timeout-s",
+            str(args.timeout_s),
+            "--save",
+            str(args.save / f"w{j}"),
+            "--json",
+            str(out / f"w{j}.json"),
+        ]
         cmd += ["--values"] if args.values else ["--analyze"] if args.analyze else []
         procs.append(subprocess.Popen(cmd))
     from fuzz_workers import merge_workers

@@ -94,10 +94,14 @@ def build_ros1(rng: random.Random, seed: Path, out: Path) -> Path:
     else:
         data = raw
     size = len(raw) + rng.choice((0, 0, 1, -1, 2**31, -len(raw)))
-    fields = {**fields, "compression": kind.encode(),
-              "size": struct.pack("<I", max(0, size) % 2**32)}
-    header = b"".join(struct.pack("<I", len(k) + 1 + len(v)) + k.encode() + b"=" + v
-                      for k, v in fields.items())
+    fields = {
+        **fields,
+        "compression": kind.encode(),
+        "size": struct.pack("<I", max(0, size) % 2**32),
+    }
+    header = b"".join(
+        struct.pack("<I", len(k) + 1 + len(v)) + k.encode() + b"=" + v for k, v in fields.items()
+    )
     new = struct.pack("<I", len(header)) + header + struct.pack("<I", len(data)) + data
     delta = len(new) - (at + dlen - pos)
     buf[pos : at + dlen] = new
@@ -112,9 +116,24 @@ def build_ros1(rng: random.Random, seed: Path, out: Path) -> Path:
     return out
 
 
-_YAML_VALUES = ("[]", "{}", "[1, 2]", "{a: 1}", "null", "''", "-1", "99999999999999999999999",
-                "1.5", "true", "x", "'12'", "!!binary aGVsbG8=", "[[[[[[[[]]]]]]]]",
-                "&a [1]", "*nope")
+_YAML_VALUES = (
+    "[]",
+    "{}",
+    "[1, 2]",
+    "{a: 1}",
+    "null",
+    "''",
+    "-1",
+    "99999999999999999999999",
+    "1.5",
+    "true",
+    "x",
+    "'12'",
+    "!!binary aGVsbG8=",
+    "[[[[[[[[]]]]]]]]",
+    "&a [1]",
+    "*nope",
+)
 
 
 def _alias_bomb(depth: int, width: int) -> str:
@@ -139,8 +158,11 @@ def build_bag2_meta(rng: random.Random, seed: Path, out: Path) -> Path:
             lines.insert(i, lines[i])
         elif op == "bomb":
             depth, width = rng.choice(((3, 3), (6, 6), (9, 9), (12, 10)))
-            lines = [*_alias_bomb(depth, width).splitlines(), *lines,
-                     f"  custom_data:\n    k: *l{depth - 1}"]
+            lines = [
+                *_alias_bomb(depth, width).splitlines(),
+                *lines,
+                f"  custom_data:\n    k: *l{depth - 1}",
+            ]
         elif op == "custom":
             lines.append(f"  custom_data: {rng.choice(_YAML_VALUES)}")
         elif op == "truncate":
@@ -181,8 +203,9 @@ def build_bag2_db3(rng: random.Random, seed: Path, out: Path) -> Path:
         return out
     con = sqlite3.connect(db)
     for _ in range(rng.randint(1, 3)):
-        sql = rng.choice(_SQL).format(big=rng.choice((3_000_000_000, 2**62, 7)),
-                                      k=rng.choice((1, 2, 50)))
+        sql = rng.choice(_SQL).format(
+            big=rng.choice((3_000_000_000, 2**62, 7)), k=rng.choice((1, 2, 50))
+        )
         with contextlib.suppress(sqlite3.Error):
             con.execute(sql)
     con.commit()
@@ -232,8 +255,10 @@ def build_bag2_zstd(rng: random.Random, seed: Path, out: Path) -> Path:
         con.close()
         mode = "MESSAGE"
     fmt = rng.choice(("zstd", "zstd", "zstd", "lz4", ""))
-    text = text.replace("compression_format: ''\n  compression_mode: ''",
-                        f"compression_format: {fmt!r}\n  compression_mode: {mode}")
+    text = text.replace(
+        "compression_format: ''\n  compression_mode: ''",
+        f"compression_format: {fmt!r}\n  compression_mode: {mode}",
+    )
     meta.write_text(text)
     return out
 
@@ -243,8 +268,10 @@ def _json_value(rng: random.Random, depth: int) -> object:
     if depth > 3 or r < 0.4:
         return rng.choice((1, 2.5, -3, "s", None, True, "1e3", 10**30))
     if r < 0.7:
-        return {f"k{rng.randrange(100000)}": _json_value(rng, depth + 1)
-                for _ in range(rng.randint(1, 8))}
+        return {
+            f"k{rng.randrange(100000)}": _json_value(rng, depth + 1)
+            for _ in range(rng.randint(1, 8))
+        }
     return [_json_value(rng, depth + 1) for _ in range(rng.randint(0, 12))]
 
 
@@ -254,14 +281,16 @@ def build_json(rng: random.Random, out: Path) -> Path:
     op = rng.choice(("distinct", "array_objects", "dotted", "deep", "random", "strings"))
     n = rng.choice((10, 200, 3000))
     if op in ("deep", "array_objects"):  # the shape is the point: 3000 such messages only
-        n = min(n, 200)                  # multiply the run time
+        n = min(n, 200)  # multiply the run time
     msgs: list[bytes] = []
     for i in range(n):
         if op == "distinct":
             obj: object = {"v": i, f"x{rng.randrange(10**6)}": 1}
         elif op == "array_objects":
-            obj = {"v": i, "arr": [{f"k{rng.randrange(10**6)}": j}
-                                   for j in range(rng.choice((1, 10, 2000)))]}
+            obj = {
+                "v": i,
+                "arr": [{f"k{rng.randrange(10**6)}": j} for j in range(rng.choice((1, 10, 2000)))],
+            }
         elif op == "dotted":
             obj = {"a.b": i, "a": {"b": -i}, "c": rng.choice((1, "x"))}
         elif op == "deep":
@@ -303,8 +332,22 @@ def build_csv(rng: random.Random, out: Path) -> Path:
     return out
 
 
-_TOML_VALUES = ('["deg"]', "{x = 1}", "1", "-0.0", "nan", "inf", "true", '"deg"', '"rad/s"',
-                '""', '"yaw_from_quaternion"', '"header"', "[1, [2]]", '"\\u0000"')
+_TOML_VALUES = (
+    '["deg"]',
+    "{x = 1}",
+    "1",
+    "-0.0",
+    "nan",
+    "inf",
+    "true",
+    '"deg"',
+    '"rad/s"',
+    '""',
+    '"yaw_from_quaternion"',
+    '"header"',
+    "[1, [2]]",
+    '"\\u0000"',
+)
 
 
 def build_cmap(rng: random.Random, out: Path) -> Path:
@@ -312,22 +355,30 @@ def build_cmap(rng: random.Random, out: Path) -> Path:
     op = rng.choice(("types", "formula", "deep", "robot"))
     if op == "types":
         parts += ['topic = "csv"', 'field = "omega"']
-        for key in rng.sample(("unit", "transform", "stamp", "frame", "scale", "offset", "off"),
-                              rng.randint(1, 3)):
+        for key in rng.sample(
+            ("unit", "transform", "stamp", "frame", "scale", "offset", "off"), rng.randint(1, 3)
+        ):
             parts.append(f"{key} = {rng.choice(_TOML_VALUES)}")
     elif op == "formula":
         depth = rng.choice((3, 100, 400, 998, 5000))
         kind = rng.choice(("paren", "unary", "sum", "call", "junk"))
-        text = {"paren": "(" * depth + "v" + ")" * depth, "unary": "-" * depth + "v",
-                "sum": "+".join(["v"] * depth), "call": "sin(" * depth + "v" + ")" * depth,
-                "junk": rng.choice(("__import__('os')", "v.real", "v**2", "[v]", "lambda: 1"))}
+        text = {
+            "paren": "(" * depth + "v" + ")" * depth,
+            "unary": "-" * depth + "v",
+            "sum": "+".join(["v"] * depth),
+            "call": "sin(" * depth + "v" + ")" * depth,
+            "junk": rng.choice(("__import__('os')", "v.real", "v**2", "[v]", "lambda: 1")),
+        }
         parts.append(f'formula = "{text[kind]}"')
     elif op == "deep":
         d = rng.choice((10, 1000, 100_000))
         parts = ["x = " + "[" * d + "]" * d]
     else:
-        parts = ["[robot]", f"wheelbase = {rng.choice(_TOML_VALUES)}",
-                 f"type = {rng.choice(_TOML_VALUES)}"]
+        parts = [
+            "[robot]",
+            f"wheelbase = {rng.choice(_TOML_VALUES)}",
+            f"type = {rng.choice(_TOML_VALUES)}",
+        ]
     out.write_text("\n".join(parts) + "\n")
     return out
 
@@ -342,15 +393,35 @@ def build_meta(rng: random.Random, out: Path) -> Path:
         sid = w.register_schema("s", "jsonschema", b"{}")
         cid = w.register_channel("/cmd", "json", sid)
         for i in range(50):
-            w.add_message(cid, log_time=10**9 + i * 10**8,
-                          data=json.dumps({"v": 0.3, "omega": 0.1 * (i % 7)}).encode(),
-                          publish_time=0)
+            w.add_message(
+                cid,
+                log_time=10**9 + i * 10**8,
+                data=json.dumps({"v": 0.3, "omega": 0.1 * (i % 7)}).encode(),
+                publish_time=0,
+            )
         robot = rng.choice(("diff_drive", "manipulator_2link", "tractor_trailer", "x"))
-        w.add_metadata("logcal", {"robot": robot, "nominal.m1": rng.choice(values),
-                                  "l1": rng.choice(values), "wheelbase": rng.choice(values)})
-        w.add_metadata("logcal.nominal", {k: rng.choice(values) for k in
-                                          ("track_width", "wheel_radius_left",
-                                           "wheel_radius_right", "l_a", "square_side")})
+        w.add_metadata(
+            "logcal",
+            {
+                "robot": robot,
+                "nominal.m1": rng.choice(values),
+                "l1": rng.choice(values),
+                "wheelbase": rng.choice(values),
+            },
+        )
+        w.add_metadata(
+            "logcal.nominal",
+            {
+                k: rng.choice(values)
+                for k in (
+                    "track_width",
+                    "wheel_radius_left",
+                    "wheel_radius_right",
+                    "l_a",
+                    "square_side",
+                )
+            },
+        )
         w.finish()
     return out
 
@@ -403,7 +474,7 @@ def _run_one(path: Path, cmap: Path | None) -> None:
     from logtools.errors import LogcalError
 
     with contextlib.suppress(LogcalError, CalibError):  # the read gave data: a missing signal
-        load_log(path)                                   # is the analysis's clean refusal
+        load_log(path)  # is the analysis's clean refusal
 
 
 def worker(tasks: mp.Queue, results: mp.Queue, mem_gib: float, timeout_s: int) -> None:
@@ -500,14 +571,22 @@ def main() -> int:
             print(f"  {i + 1}/{args.n}  {dict(counts)}  {rate:.1f} inputs/s", flush=True)
     tasks.put(None)
     proc.join(timeout=5)
-    print(f"\ninputs: {args.n}, seed {args.seed}, cap {args.mem_gib} GiB, bound "
-          f"{args.timeout_s} s\noutcomes: {dict(counts)}; slowest {slowest:.2f} s")
+    print(
+        f"\ninputs: {args.n}, seed {args.seed}, cap {args.mem_gib} GiB, bound "
+        f"{args.timeout_s} s\noutcomes: {dict(counts)}; slowest {slowest:.2f} s"
+    )
     for kind in kinds:
-        print(f"  {kind:10s} {({o: c for (k, o), c in per_kind.items() if k == kind})}")
+        print(f"  {kind:10s} { ({o: c for (k, o), c in per_kind.items() if k == kind}) }")
     if args.json is not None:
-        args.json.write_text(json.dumps({
-            "counts": dict(counts), "slowest_s": slowest,
-            "per_kind": {f"{k}:{o}": c for (k, o), c in per_kind.items()}}))
+        args.json.write_text(
+            json.dumps(
+                {
+                    "counts": dict(counts),
+                    "slowest_s": slowest,
+                    "per_kind": {f"{k}:{o}": c for (k, o), c in per_kind.items()},
+                }
+            )
+        )
     bad = counts["traceback"] + counts["hang"] + counts["memory"]
     print(f"failures saved under {args.save}" if bad else "no tracebacks, hangs or blow-ups")
     shutil.rmtree(work, ignore_errors=True)
@@ -521,10 +600,24 @@ def run_parallel(args: argparse.Namespace) -> int:
     procs = []
     for j in range(args.workers):
         n = args.n // args.workers + (1 if j < args.n % args.workers else 0)
-        cmd = [sys.executable, __file__, "--n", str(n), "--seed", str(args.seed * 1000 + j),
-               "--mem-gib", str(args.mem_gib), "--timeout-s", str(args.timeout_s),
-               "--kinds", args.kinds, "--save", str(args.save / f"w{j}"),
-               "--json", str(out / f"w{j}.json")]
+        cmd = [
+            sys.executable,
+            __file__,
+            "--n",
+            str(n),
+            "--seed",
+            str(args.seed * 1000 + j),
+            "--mem-gib",
+            str(args.mem_gib),
+            "--timeout-s",
+            str(args.timeout_s),
+            "--kinds",
+            args.kinds,
+            "--save",
+            str(args.save / f"w{j}"),
+            "--json",
+            str(out / f"w{j}.json"),
+        ]
         procs.append(subprocess.Popen(cmd))
     from fuzz_workers import merge_workers
 

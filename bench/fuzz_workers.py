@@ -21,11 +21,14 @@ def merge_workers(procs: list[subprocess.Popen[bytes]], out: Path, json_out: Pat
         total.update(rec["counts"])
         per.update(rec["per_kind"])
         slowest = max(slowest, rec["slowest_s"])
-    print(f"\nALL {len(procs)} workers: inputs {sum(total.values())}, outcomes {dict(total)}, "
-          f"slowest input {slowest:.2f} s")
+    print(
+        f"\nALL {len(procs)} workers: inputs {sum(total.values())}, outcomes {dict(total)}, "
+        f"slowest input {slowest:.2f} s"
+    )
     for key in sorted(per):
         print(f"  {key:28s} {per[key]}")
     if json_out is not None:
-        json_out.write_text(json.dumps({"counts": dict(total), "per_kind": dict(per),
-                                        "slowest_s": slowest}))
+        json_out.write_text(
+            json.dumps({"counts": dict(total), "per_kind": dict(per), "slowest_s": slowest})
+        )
     return max(codes)

@@ -63,12 +63,17 @@ def one(i: int, seed: int) -> dict[str, Any]:
     gen = indgen.generate(scn, seed=int(rng.integers(2**31)))
     fmt = str(rng.choice(["json", "ros2", "csv"]))
     cfg = AnalysisConfig(repeats=1, discovery=False, per_segment=False)
-    row: dict[str, Any] = {"i": i, "format": fmt, "cells": _scenario_cells(scn),
-                           "truth": {"L1": scn.L1, "L2": scn.L2, "sum_L1_L2": scn.L1 + scn.L2}}
+    row: dict[str, Any] = {
+        "i": i,
+        "format": fmt,
+        "cells": _scenario_cells(scn),
+        "truth": {"L1": scn.L1, "L2": scn.L2, "sum_L1_L2": scn.L1 + scn.L2},
+    }
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / ("log.csv" if fmt == "csv" else "log.mcap")
-        {"json": indgen.write_mcap_json, "ros2": indgen.write_mcap_ros2,
-         "csv": indgen.write_csv}[fmt](path, gen)
+        {"json": indgen.write_mcap_json, "ros2": indgen.write_mcap_ros2, "csv": indgen.write_csv}[
+            fmt
+        ](path, gen)
         t0 = time.perf_counter()
         try:
             _, res = analyze_log(path, config=cfg)
@@ -122,8 +127,13 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
                     acc[2] += 1
     out["coverage"] = {
         q: {
-            cell: {"determined": n, "covered": k, "not_determined": nd,
-                   "coverage": k / n if n else None, "wilson95": wilson(k, n)}
+            cell: {
+                "determined": n,
+                "covered": k,
+                "not_determined": nd,
+                "coverage": k / n if n else None,
+                "wilson95": wilson(k, n),
+            }
             for cell, (n, k, nd) in sorted(cells.items())
         }
         for q, cells in table.items()
@@ -134,8 +144,10 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def print_summary(s: dict[str, Any]) -> None:
-    print(f"logs: {s['logs']}  errors: {len(s['errors'])}  no estimate: {s['no_estimate']}  "
-          f"median analysis time: {s['seconds_median']}")
+    print(
+        f"logs: {s['logs']}  errors: {len(s['errors'])}  no estimate: {s['no_estimate']}  "
+        f"median analysis time: {s['seconds_median']}"
+    )
     for e in s["errors"][:10]:
         print("  error:", e["i"], e["error"][:200])
     for q, cells in s["coverage"].items():
@@ -144,8 +156,10 @@ def print_summary(s: dict[str, Any]) -> None:
             cov = "-" if c["coverage"] is None else f"{c['coverage']:.3f}"
             lo, hi = c["wilson95"]
             band = "" if c["coverage"] is None else f"[{lo:.3f}, {hi:.3f}]"
-            print(f"  {cell:28s} {c['determined']:5d} {c['covered']:5d}  {cov:>6s} {band:16s}"
-                  f" {c['not_determined']:5d}")
+            print(
+                f"  {cell:28s} {c['determined']:5d} {c['covered']:5d}  {cov:>6s} {band:16s}"
+                f" {c['not_determined']:5d}"
+            )
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -44,8 +44,7 @@ def _pieces(rng: np.random.Generator, k: int, tau: float) -> tuple[np.ndarray, n
     covs[:, 0, 0] = sd[:, 0] ** 2
     covs[:, 1, 1] = sd[:, 1] ** 2
     covs[:, 0, 1] = covs[:, 1, 0] = rho * sd[:, 0] * sd[:, 1]
-    u = rng.multivariate_normal(np.zeros(2), tau**2 * PSI, size=k) if tau > 0 else np.zeros(
-        (k, 2))
+    u = rng.multivariate_normal(np.zeros(2), tau**2 * PSI, size=k) if tau > 0 else np.zeros((k, 2))
     vals = np.array([rng.multivariate_normal(u[i], covs[i]) for i in range(k)])
     return vals, covs
 
@@ -71,8 +70,10 @@ def coverage(reps: int, *, k: int, tau: float, seed: int) -> dict[str, dict[str,
         for j in range(2):
             uni = pool_univariate(vals[:, j], np.sqrt(covs[:, j, j]))
             per_param[j] += abs(uni.value[0]) <= Z * np.sqrt(uni.cov[0, 0])
-    out = {m: dict(zip(("p0", "p1", "joint"), (h / reps).tolist(), strict=True))
-           for m, h in hits.items()}
+    out = {
+        m: dict(zip(("p0", "p1", "joint"), (h / reps).tolist(), strict=True))
+        for m, h in hits.items()
+    }
     out["per_parameter"] = {"p0": float(per_param[0] / reps), "p1": float(per_param[1] / reps)}
     return out
 
@@ -84,8 +85,10 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     se = 100 * np.sqrt(0.95 * 0.05 / args.reps)
-    print(f"95 % coverage over {args.reps} replicates each (binomial std {se:.2f} points at "
-          "95 %); p0, p1 per parameter, joint: the 95 % ellipse")
+    print(
+        f"95 % coverage over {args.reps} replicates each (binomial std {se:.2f} points at "
+        "95 %); p0, p1 per parameter, joint: the 95 % ellipse"
+    )
     print(f"{'k':>3} {'tau':>4}  {'method':<14} {'p0':>6} {'p1':>6} {'joint':>6}")
     n = 0
     for k in (3, 6, 12):
@@ -94,8 +97,9 @@ def main(argv: list[str] | None = None) -> None:
             n += 1
             for m, c in res.items():
                 joint = f"{100 * c['joint']:6.1f}" if "joint" in c else f"{'-':>6}"
-                print(f"{k:>3} {tau:>4.1f}  {m:<14} {100 * c['p0']:6.1f} {100 * c['p1']:6.1f} "
-                      f"{joint}")
+                print(
+                    f"{k:>3} {tau:>4.1f}  {m:<14} {100 * c['p0']:6.1f} {100 * c['p1']:6.1f} {joint}"
+                )
     print(f"({time.perf_counter() - t0:.0f} s)")
 
 

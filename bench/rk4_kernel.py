@@ -92,30 +92,45 @@ def main() -> None:
             kk = np.interp(t, th, k)
             return vv * (kk * (1.0 + r * np.cos(y)) - np.sin(y) * il2)
 
-        sol = solve_ivp(f, (0.0, tg[-1]), [0.0], method="RK45", t_eval=tg, first_step=dt,
-                        max_step=dt, rtol=1e-3, atol=1e-3)
+        sol = solve_ivp(
+            f,
+            (0.0, tg[-1]),
+            [0.0],
+            method="RK45",
+            t_eval=tg,
+            first_step=dt,
+            max_step=dt,
+            rtol=1e-3,
+            atol=1e-3,
+        )
         return sol.y[0]
 
     print(f"hitch ODE, {n - 1} steps of {dt} s; median of {REPEATS} repeats", flush=True)
     same = np.array_equal(one(), rk4_hitch(h, U, V, 1.0, r, il2, 0.0, reference=True))
     gap = float(np.max(np.abs(sets(False) - sets(True))))
-    print(f"compiled == numpy reference, bit for bit, one set: {same}; "
-          f"{M_SETS} sets: max |difference| {gap:.1e} rad")
+    print(
+        f"compiled == numpy reference, bit for bit, one set: {same}; "
+        f"{M_SETS} sets: max |difference| {gap:.1e} rad"
+    )
     psi = one()[:, 0, 0]
     rows = [
         ("compiled, one trajectory", _median_time(one)),
         (f"compiled, {M_SETS} sets, per set", _median_time(lambda: sets(False)) / M_SETS),
         (f"numpy reference, {M_SETS} sets, per set", _median_time(lambda: sets(True)) / M_SETS),
-        ("Python float loop, one trajectory",
-         _median_time(lambda: _python_loop(v.tolist(), k.tolist(), dt))),
+        (
+            "Python float loop, one trajectory",
+            _median_time(lambda: _python_loop(v.tolist(), k.tolist(), dt)),
+        ),
         ("solve_ivp RK45 at the same step", _median_time(ivp)),
     ]
     base = rows[0][1]
     for name, t in rows:
         print(f"{name:42s} {t * 1e3:9.3f} ms   {t / base:8.1f}x the compiled loop")
     ref = ivp()
-    print(f"max |psi_rk4 - psi_ivp| = {np.max(np.abs(psi - ref)):.2e} rad "
-          "(solve_ivp interpolates the inputs; RK4 takes them at the nodes)")
+    print(
+        f"max |psi_rk4 - psi_ivp| = {np.max(np.abs(psi - ref)):.2e} rad "
+        "(solve_ivp interpolates the inputs; RK4 takes them at the nodes)"
+    )
 
 
 if __name__ == "__main__":

@@ -133,8 +133,9 @@ def piece_precision(value: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.
     return prec, y, int(use.sum()) - null.shape[1]
 
 
-def _fixed(precs: Sequence[np.ndarray], ys: Sequence[np.ndarray]
-           ) -> tuple[np.ndarray, np.ndarray, int]:
+def _fixed(
+    precs: Sequence[np.ndarray], ys: Sequence[np.ndarray]
+) -> tuple[np.ndarray, np.ndarray, int]:
     """GLS value and covariance from the pieces' precisions, and the rank of their sum."""
     p = precs[0].shape[0]
     a = np.sum(precs, axis=0)
@@ -158,8 +159,9 @@ def _fixed(precs: Sequence[np.ndarray], ys: Sequence[np.ndarray]
     return value, cov, int(informed.sum()) - null.shape[1]
 
 
-def _between_moments(ws: Sequence[np.ndarray], ys: Sequence[np.ndarray], mean: np.ndarray
-                     ) -> np.ndarray:
+def _between_moments(
+    ws: Sequence[np.ndarray], ys: Sequence[np.ndarray], mean: np.ndarray
+) -> np.ndarray:
     """The between-piece covariance Ψ by the matrix method of moments (Jackson, White and
     Riley 2013; DerSimonian-Laird for one parameter): with W_i the pieces' precisions,
     A = Σ W_i and Q = Σ W_i (y_i - θ)(y_i - θ)ᵀ, E[Q] = (k - 1) I + (A - Σ W_i A⁻¹ W_i) Ψ,
@@ -192,8 +194,10 @@ def pool_gls(
     vals = np.asarray(values, dtype=float)
     cvs = np.asarray(covs, dtype=float)
     if vals.ndim != 2 or vals.shape[0] == 0 or cvs.shape != (*vals.shape, vals.shape[1]):
-        raise ValueError(f"pool_gls: values (k, p) and covariances (k, p, p) expected, got "
-                         f"{vals.shape} and {cvs.shape}")
+        raise ValueError(
+            f"pool_gls: values (k, p) and covariances (k, p, p) expected, got "
+            f"{vals.shape} and {cvs.shape}"
+        )
     p = vals.shape[1]
     pieces = [piece_precision(v, c) for v, c in zip(vals, cvs, strict=True)]
     precs = [pr for pr, _, _ in pieces]
@@ -218,8 +222,8 @@ def pool_gls(
     idx = np.ix_(informed, informed)
     taking = [i for i, (pr, _, r) in enumerate(pieces) if r > 0]
     complete = df > 0 and all(
-        pieces[i][2] == ni and bool(np.all(np.diag(pieces[i][0])[informed] > 0))
-        for i in taking)
+        pieces[i][2] == ni and bool(np.all(np.diag(pieces[i][0])[informed] > 0)) for i in taking
+    )
     if complete:
         ws = [precs[i][idx] for i in taking]
         yv = [ys[i][informed] for i in taking]
@@ -231,26 +235,44 @@ def pool_gls(
         elif apply:
             prec_re = [np.linalg.inv(np.linalg.inv(w) + between) for w in ws]
             sub_cov = np.linalg.inv(np.sum(prec_re, axis=0))
-            sub_val = sub_cov @ np.sum([w @ y for w, y in zip(prec_re, yv, strict=True)],
-                                       axis=0)
+            sub_val = sub_cov @ np.sum([w @ y for w, y in zip(prec_re, yv, strict=True)], axis=0)
             value = fixed_value.copy()
             cov = fixed_cov.copy()
             value[informed] = sub_val
             cov[idx] = sub_cov
             inflation = float(np.max(np.diag(sub_cov) / np.diag(fixed_cov[idx])))
-            method = ("random effects (DerSimonian-Laird)" if p == 1 else
-                      "generalised least squares, random effects (multivariate "
-                      "DerSimonian-Laird between-piece covariance)")
+            method = (
+                "random effects (DerSimonian-Laird)"
+                if p == 1
+                else "generalised least squares, random effects (multivariate "
+                "DerSimonian-Laird between-piece covariance)"
+            )
     elif apply:
         inflation = max(1.0, q / df)
         cov = fixed_cov * inflation
         method = f"generalised least squares, random effects (covariance x Q/df = {inflation:.3g})"
-    return Pooled(value, cov, fixed_value, fixed_cov, n_informing, q, int(df), pval,
-                  heterogeneous, bool(apply), inflation, tau2, between_full, method)
+    return Pooled(
+        value,
+        cov,
+        fixed_value,
+        fixed_cov,
+        n_informing,
+        q,
+        int(df),
+        pval,
+        heterogeneous,
+        bool(apply),
+        inflation,
+        tau2,
+        between_full,
+        method,
+    )
 
 
 def pool_univariate(
-    values: Sequence[float] | np.ndarray, stds: Sequence[float] | np.ndarray, *,
+    values: Sequence[float] | np.ndarray,
+    stds: Sequence[float] | np.ndarray,
+    *,
     alpha: float = 0.05,
     random: RandomEffects = "always",
 ) -> Pooled:

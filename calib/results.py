@@ -130,8 +130,9 @@ def as_matrix(m: Any) -> Matrix:
     """
     rows = tuple(tuple(float(x) for x in row) for row in m)
     if any(len(r) != len(rows) for r in rows):
-        raise ValueError(f"a covariance must be square; got rows of lengths "
-                         f"{[len(r) for r in rows]}")
+        raise ValueError(
+            f"a covariance must be square; got rows of lengths {[len(r) for r in rows]}"
+        )
     return rows
 
 
@@ -140,8 +141,9 @@ def correlations_of(cov: Matrix) -> Matrix:
     [-1, 1]. An entry whose variances are not finite and positive is NaN (a parameter the data
     do not determine has no correlation); the diagonal is exactly 1 where the variance is
     finite and positive."""
-    sd = [math.sqrt(c[i]) if math.isfinite(c[i]) and c[i] > 0 else math.nan
-          for i, c in enumerate(cov)]
+    sd = [
+        math.sqrt(c[i]) if math.isfinite(c[i]) and c[i] > 0 else math.nan for i, c in enumerate(cov)
+    ]
     out = []
     for i, row in enumerate(cov):
         r = []
@@ -155,10 +157,22 @@ def correlations_of(cov: Matrix) -> Matrix:
     return tuple(out)
 
 
-_RESULT_KEYS = frozenset({
-    "method", "verdict", "identifiable", "parameter_names", "derived_names", "covariance",
-    "correlations", "converged", "aic", "bic", "details", "assumptions",
-})
+_RESULT_KEYS = frozenset(
+    {
+        "method",
+        "verdict",
+        "identifiable",
+        "parameter_names",
+        "derived_names",
+        "covariance",
+        "correlations",
+        "converged",
+        "aic",
+        "bic",
+        "details",
+        "assumptions",
+    }
+)
 """The JSON keys of a CalibrationResult that are not a parameter or a derived quantity."""
 
 
@@ -197,16 +211,20 @@ class CalibrationResult:
 
     def __post_init__(self) -> None:
         clash = (set(self.parameters) & set(self.derived)) | (
-            (set(self.parameters) | set(self.derived)) & _RESULT_KEYS)
+            (set(self.parameters) | set(self.derived)) & _RESULT_KEYS
+        )
         if clash:
-            raise ValueError(f"CalibrationResult {self.method!r}: names {sorted(clash)} clash "
-                             "(a parameter, a derived quantity and the JSON keys must differ)")
+            raise ValueError(
+                f"CalibrationResult {self.method!r}: names {sorted(clash)} clash "
+                "(a parameter, a derived quantity and the JSON keys must differ)"
+            )
         if self.covariance is not None:
             cov = as_matrix(self.covariance)
             if len(cov) != len(self.parameters):
                 raise ValueError(
                     f"CalibrationResult {self.method!r}: covariance is {len(cov)} x {len(cov)} "
-                    f"but there are {len(self.parameters)} parameters")
+                    f"but there are {len(self.parameters)} parameters"
+                )
             object.__setattr__(self, "covariance", cov)
 
     @property
@@ -261,7 +279,6 @@ class StageStatus(JsonRecord):
     reason: str = ""
 
 
-
 @dataclass(frozen=True)
 class AnalysisResult:
     """Everything ``logcal analyze`` found in one log; ``to_dict()`` is the ``--json`` document.
@@ -313,7 +330,8 @@ class AnalysisResult:
                 "estimate": None if self.estimate is None else self.estimate.to_dict(),
                 "adequacy": (
                     {"verdict": "not assessed", "reason": "this analysis did not judge its model"}
-                    if self.adequacy is None else self.adequacy.to_dict()
+                    if self.adequacy is None
+                    else self.adequacy.to_dict()
                 ),
                 "discovery": None if self.discovery is None else self.discovery.to_dict(),
                 "truth": dict(self.truth),

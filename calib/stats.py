@@ -126,8 +126,7 @@ def long_run_variance_ratio(x: np.ndarray) -> float:
     if v0 <= 0:
         return 1.0
     lag = max(1, round(n ** (1 / 3)))
-    lrv = v0 + 2 * sum((1 - k / (lag + 1)) * float(x[k:] @ x[:-k]) / n
-                       for k in range(1, lag + 1))
+    lrv = v0 + 2 * sum((1 - k / (lag + 1)) * float(x[k:] @ x[:-k]) / n for k in range(1, lag + 1))
     return lrv / v0
 
 

@@ -48,8 +48,10 @@ class AnalysisConfig:
     def __post_init__(self) -> None:
         for name, opts in self.robot_options.items():
             if not isinstance(opts, RobotOptions):
-                raise TypeError(f"robot_options[{name!r}]: expected a RobotOptions instance, "
-                                f"got {type(opts).__name__}")
+                raise TypeError(
+                    f"robot_options[{name!r}]: expected a RobotOptions instance, "
+                    f"got {type(opts).__name__}"
+                )
 
     def options(self, cls: type[T]) -> T:
         """The options of class ``cls`` given for this analysis, else ``cls()`` (defaults)."""

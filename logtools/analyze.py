@@ -115,8 +115,9 @@ def _window_plan(
     from logtools.windows import plan_windows
 
     req = channel_map if isinstance(channel_map, LoadRequest) else None
-    return plan_windows(path, cfg.window_s, start_s=req.start_s if req else None,
-                        end_s=req.end_s if req else None)
+    return plan_windows(
+        path, cfg.window_s, start_s=req.start_s if req else None, end_s=req.end_s if req else None
+    )
 
 
 def _analyze_windows(
@@ -132,8 +133,9 @@ def _analyze_windows(
     from logtools.load import LoadRequest
     from logtools.windows import pool_windows, release_memory, window_result
 
-    base = channel_map if isinstance(channel_map, ChannelMap) else ChannelMap(
-        dict(channel_map or {}))
+    base = (
+        channel_map if isinstance(channel_map, ChannelMap) else ChannelMap(dict(channel_map or {}))
+    )
     user_end = channel_map.end_s if isinstance(channel_map, LoadRequest) else None
     truth = channel_map.ground_truth if isinstance(channel_map, LoadRequest) else None
 
@@ -141,8 +143,9 @@ def _analyze_windows(
         a, b = plan.spans_s[k]
         # a window ends 1 ns before the next one starts: no sample is in two windows
         end = user_end if k == len(plan.spans_s) - 1 else b - 1e-9
-        return LoadRequest.of(base, ground_truth=truth, start_s=a, end_s=end,
-                              origin_ns=plan.origin_ns)
+        return LoadRequest.of(
+            base, ground_truth=truth, start_s=a, end_s=end, origin_ns=plan.origin_ns
+        )
 
     results: list[AnalysisResult] = []
     errors: list[str] = []
@@ -150,6 +153,7 @@ def _analyze_windows(
     last: LoadedLog | None = None
     last_ok = -1
     n = len(plan.spans_s)
+
     def one(k: int) -> LoadedLog:
         # its own frame: a window's frames and analysis are released when it returns
         loaded = load_log(path, request(k))
@@ -201,12 +205,12 @@ def _pooled_adequacy(pooled: AnalysisResult) -> AnalysisResult:
 
     names = [str(r.source.get("path", f"run {i}")) for i, r in enumerate(pooled.runs, 1)]
     model = pooled.estimate.method if pooled.estimate is not None else "each run's model"
-    adequacy = combine_runs(list(zip(names, [r.adequacy for r in pooled.runs], strict=True)),
-                            model)
+    adequacy = combine_runs(list(zip(names, [r.adequacy for r in pooled.runs], strict=True)), model)
     estimate = pooled.estimate
     if estimate is not None and adequacy.channels and not adequacy.explains:
         estimate = replace(
-            estimate, parameters=under_misfit_all(estimate.parameters, adequacy),
+            estimate,
+            parameters=under_misfit_all(estimate.parameters, adequacy),
             derived=under_misfit_all(estimate.derived, adequacy),
             verdict=estimate.verdict + " " + adequacy.summary,
         )
@@ -234,8 +238,7 @@ def analyze_logs(
     progress = progress or _noop
     cfg = config or AnalysisConfig()
     if len(paths) == 1:
-        loaded, res = analyze_log(paths[0], channel_map=channel_map, config=cfg,
-                                  progress=progress)
+        loaded, res = analyze_log(paths[0], channel_map=channel_map, config=cfg, progress=progress)
         return [loaded], res
     runs: list[tuple[LoadedLog, AnalysisResult]] = []
     errors: list[LogcalInputError] = []
@@ -273,10 +276,14 @@ def analyze_logs(
             pooled = plugin.pool(runs, cfg, progress)
     else:
         pooled = AnalysisResult(
-            robot=runs[0][1].robot, segments=[], methods=[], estimate=None,
+            robot=runs[0][1].robot,
+            segments=[],
+            methods=[],
+            estimate=None,
             source={"runs": [r.source.get("path", "") for _, r in runs]},
-            warnings=[f"the {plugin.title} has no pooled analysis: each run is reported "
-                      "on its own"],
+            warnings=[
+                f"the {plugin.title} has no pooled analysis: each run is reported on its own"
+            ],
             runs=[r for _, r in runs],
         )
     pooled = _pooled_adequacy(pooled)

@@ -94,9 +94,15 @@ class LoadRequest(ChannelMap):
             return channel_map
         base = channel_map if channel_map is not None else ChannelMap()
         return cls(
-            dict(base.signals), base.off, base.robot, base.tf_frame, base.path,
+            dict(base.signals),
+            base.off,
+            base.robot,
+            base.tf_frame,
+            base.path,
             ground_truth=os.fspath(ground_truth) if ground_truth is not None else None,
-            start_s=start_s, end_s=end_s, origin_ns=origin_ns,
+            start_s=start_s,
+            end_s=end_s,
+            origin_ns=origin_ns,
         )
 
 
@@ -231,8 +237,9 @@ def crop_log(
     lo = 0.0 if start_s is None else float(start_s)
     hi = math.inf if end_s is None else float(end_s)
     if not math.isfinite(lo) or lo < 0 or math.isnan(hi):
-        raise LogcalInputError(f"{log.path}: --start {lo:g} s: expected seconds >= 0 from the "
-                               "log's start")
+        raise LogcalInputError(
+            f"{log.path}: --start {lo:g} s: expected seconds >= 0 from the log's start"
+        )
     if hi <= lo:
         raise LogcalInputError(f"{log.path}: --end {hi:g} s is not after --start {lo:g} s")
     if origin_ns is None and lo >= duration:
@@ -264,13 +271,13 @@ def read_input(
     span = None
     if isinstance(channel_map, LoadRequest) and channel_map.origin_ns is not None:
         o = channel_map.origin_ns
-        span = (o + round((channel_map.start_s or 0.0) * 1e9),
-                o + round(channel_map.end_s * 1e9) if channel_map.end_s is not None
-                else 2**63 - 1)
+        span = (
+            o + round((channel_map.start_s or 0.0) * 1e9),
+            o + round(channel_map.end_s * 1e9) if channel_map.end_s is not None else 2**63 - 1,
+        )
     log = read_log(path, decoders=decoders, keep=keep, span_ns=span)
     if isinstance(channel_map, LoadRequest):
-        log = crop_log(log, channel_map.start_s, channel_map.end_s,
-                       origin_ns=channel_map.origin_ns)
+        log = crop_log(log, channel_map.start_s, channel_map.end_s, origin_ns=channel_map.origin_ns)
     return log
 
 
@@ -388,8 +395,10 @@ def load_log(
     """
     if ground_truth is not None or start_s is not None or end_s is not None:
         req = channel_map if isinstance(channel_map, LoadRequest) else LoadRequest()
-        base = channel_map if isinstance(channel_map, ChannelMap) else ChannelMap(
-            dict(channel_map or {})
+        base = (
+            channel_map
+            if isinstance(channel_map, ChannelMap)
+            else ChannelMap(dict(channel_map or {}))
         )
         channel_map = LoadRequest.of(
             base,

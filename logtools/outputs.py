@@ -24,8 +24,14 @@ from typing import TypeVar
 
 from logtools.errors import LogcalInputError
 
-__all__ = ["PARTIAL_MARK", "OutputPathError", "check_output", "special_devices",
-           "special_filesystem", "write_atomically"]
+__all__ = [
+    "PARTIAL_MARK",
+    "OutputPathError",
+    "check_output",
+    "special_devices",
+    "special_filesystem",
+    "write_atomically",
+]
 
 T = TypeVar("T")
 
@@ -114,8 +120,12 @@ def check_output(
         raise OutputPathError(option, path, f"the directory {parent} does not exist.")
     special = special_filesystem(path)
     if special is not None:
-        raise OutputPathError(option, path, f"is on the kernel file system {special}, where "
-                              "logcal writes nothing; choose a folder on disk.")
+        raise OutputPathError(
+            option,
+            path,
+            f"is on the kernel file system {special}, where "
+            "logcal writes nothing; choose a folder on disk.",
+        )
     if not os.access(parent, os.W_OK):
         raise OutputPathError(option, path, f"the directory {parent} is not writable.")
     target = path.resolve()
@@ -123,8 +133,10 @@ def check_output(
         src = Path(given).resolve()
         if target == src or _same_file(target, src) or src in target.parents:
             raise OutputPathError(
-                option, path, f"is the input log {given} (or inside it); logcal never "
-                "overwrites an input. Choose another name."
+                option,
+                path,
+                f"is the input log {given} (or inside it); logcal never "
+                "overwrites an input. Choose another name.",
             )
     return path
 
@@ -140,8 +152,9 @@ def write_atomically(path: Path, write: Callable[[Path], T]) -> T:
     exclusively by :func:`tempfile.mkstemp` with the permissions a new file would get, then
     rename it over ``path``; the temporary file is removed when ``write`` fails."""
     parent = path.parent if str(path.parent) else Path(".")
-    fd, name = tempfile.mkstemp(prefix=f".{path.name[:80]}{PARTIAL_MARK}", suffix=path.suffix,
-                                dir=parent)
+    fd, name = tempfile.mkstemp(
+        prefix=f".{path.name[:80]}{PARTIAL_MARK}", suffix=path.suffix, dir=parent
+    )
     tmp = Path(name)
     try:
         os.fchmod(fd, 0o666 & ~_umask())

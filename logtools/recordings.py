@@ -82,9 +82,7 @@ def _fingerprint(path: Path, channel_map: Mapping[str, SignalSource] | None) -> 
         return None  # the analysis reads it again and reports why it cannot
     if not resolved.signals:
         return None
-    sig = {
-        n: (f["t_ns"].to_numpy(), f["value"].to_numpy()) for n, f in resolved.signals.items()
-    }
+    sig = {n: (f["t_ns"].to_numpy(), f["value"].to_numpy()) for n, f in resolved.signals.items()}
     return _Print(
         min(int(t[0]) for t, _ in sig.values()), max(int(t[-1]) for t, _ in sig.values()), sig
     )
@@ -115,8 +113,10 @@ def _same(a: _Print, b: _Print) -> str | None:
     if not same_stamps and abs(da - db) > tol:
         return None
     shift_a, shift_b = (0, 0) if same_stamps else (a.start_ns, b.start_ns)
-    common = sorted(set(a.signals) & set(b.signals),
-                    key=lambda n: (_PREFERRED.index(n) if n in _PREFERRED else 99, n))
+    common = sorted(
+        set(a.signals) & set(b.signals),
+        key=lambda n: (_PREFERRED.index(n) if n in _PREFERRED else 99, n),
+    )
     varying = [n for n in common if np.ptp(a.signals[n][1]) > 0]
     measured = [n for n in varying if n not in COMMAND_SIGNALS]
     if not measured:
@@ -136,8 +136,11 @@ def _same(a: _Print, b: _Print) -> str | None:
             scale = max(float(np.max(np.abs(va))), 1e-12)
         if np.max(np.abs(diff)) > _VALUE_RTOL * scale:
             return None
-    span = ("same start and end stamps" if same_stamps
-            else f"same duration ({da * 1e-9:.3f} s; one clock starts at 0)")
+    span = (
+        "same start and end stamps"
+        if same_stamps
+        else f"same duration ({da * 1e-9:.3f} s; one clock starts at 0)"
+    )
     more = f" and {len(varying) - 1} other signals" if len(varying) > 1 else ""
     return f"{span}, the same values of {measured[0]}{more} at the same times"
 
@@ -156,8 +159,9 @@ def distinct_recordings(
     tol = round(_SPAN_TOL_S * 1e9)
     prints = [
         _fingerprint(Path(p), channel_map)
-        if d is None or any(j != i and e is not None and abs(d - e) <= tol
-                            for j, e in enumerate(durations)) else None
+        if d is None
+        or any(j != i and e is not None and abs(d - e) <= tol for j, e in enumerate(durations))
+        else None
         for i, (p, d) in enumerate(zip(runs, durations, strict=True))
     ]  # only logs with a twin of the same length are read whole
     kept: list[int] = []
@@ -198,8 +202,14 @@ def merge_recordings(parts: Sequence[Path], out: Path) -> Path:
         return out
     cmd = [sys.executable, "-m", "rerun", "rrd", "merge", "-o", str(out), *map(str, parts)]
     try:
-        done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False,
-                              env={**os.environ, "RUST_LOG": "warn"})
+        done = subprocess.run(
+            cmd,
+            capture_output=True,
+            text=True,
+            timeout=600,
+            check=False,
+            env={**os.environ, "RUST_LOG": "warn"},
+        )
     except (OSError, subprocess.TimeoutExpired) as err:
         raise LogcalInputError(f"{out}: the runs' recordings could not be merged ({err})") from err
     if done.returncode != 0 or not out.is_file():

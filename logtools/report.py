@@ -53,7 +53,7 @@ def _runs_table(result: AnalysisResult) -> Table:
     names: list[str] = []
     units: dict[str, str] = {}
     for r in result.runs:
-        for name, e in (r.estimate.parameters.items() if r.estimate else ()):
+        for name, e in r.estimate.parameters.items() if r.estimate else ():
             if name not in names:
                 names.append(name)
             units.setdefault(name, e.unit)
@@ -61,7 +61,8 @@ def _runs_table(result: AnalysisResult) -> Table:
     one_method = len(methods) == 1
     piece = "window" if "windows" in result.source else "run"
     title = f"Each {piece} on its own (95 % intervals" + (
-        f"; {printable(next(iter(methods)))})" if one_method else ")")
+        f"; {printable(next(iter(methods)))})" if one_method else ")"
+    )
     table = Table(title=Text(title), title_justify="left")
     table.add_column(piece, no_wrap=True)
     if not one_method:
@@ -81,8 +82,7 @@ def _runs_table(result: AnalysisResult) -> Table:
             notes.append(f"{run_name}: stages not run: {', '.join(skipped)}")
         table.add_row(
             Text(printable(run_name)),
-            *([] if one_method else [Text(printable(r.estimate.method if r.estimate
-                                                     else "none"))]),
+            *([] if one_method else [Text(printable(r.estimate.method if r.estimate else "none"))]),
             *(Text(_cell(params[n]) if n in params else "-") for n in names),
         )
     caption = ["* not determined (the run's own report says why)"]
@@ -102,11 +102,15 @@ def _answer(result: AnalysisResult, parts: list[RenderableType], title: str) -> 
         body.append("\n  " + PM_MEANING, style="dim")
         parts.append(Panel(body, title=title, expand=False))
     elif result.runs and any(r.estimate is not None for r in result.runs):
-        parts.append(Text("No pooled estimate: each run's own estimate is in the table above.",
-                          style="yellow"))
+        parts.append(
+            Text(
+                "No pooled estimate: each run's own estimate is in the table above.", style="yellow"
+            )
+        )
     else:
-        parts.append(Text("No estimate: no calibration stage could run (see below).",
-                          style="bold red"))
+        parts.append(
+            Text("No estimate: no calibration stage could run (see below).", style="bold red")
+        )
     if result.adequacy is not None:
         parts.append(adequacy_text(result.adequacy))
 
@@ -117,9 +121,7 @@ def _tail(result: AnalysisResult, parts: list[RenderableType], detail: str) -> N
         parts.append(
             Text(
                 "Stages that did not run:\n"
-                + "\n".join(
-                    f"- {s.stage}: {s.status} ({printable(s.reason)})" for s in not_ok
-                ),
+                + "\n".join(f"- {s.stage}: {s.status} ({printable(s.reason)})" for s in not_ok),
                 style="yellow",
             )
         )
@@ -132,8 +134,9 @@ def _tail(result: AnalysisResult, parts: list[RenderableType], detail: str) -> N
             text = "\n".join([*lines[:SHORT_DISCOVERY], "... (all of it: --methods)"])
         parts.append(Panel(Text(printable_lines(text)), title="Model mismatch", expand=False))
     if result.warnings:
-        parts.append(Text("Notes:\n" + "\n".join(f"- {printable(w)}" for w in result.warnings),
-                          style="dim"))
+        parts.append(
+            Text("Notes:\n" + "\n".join(f"- {printable(w)}" for w in result.warnings), style="dim")
+        )
 
 
 def render_analysis(result: AnalysisResult, detail: str = "methods") -> RenderableType:
@@ -169,16 +172,25 @@ def _render_pooled(result: AnalysisResult, detail: str) -> RenderableType:
     windows = result.source.get("windows")
     parts: list[RenderableType] = [
         Text.assemble(
-            (f"{printable(str(result.source.get('path', '')))}: {len(result.runs)} windows of "
-             f"{windows['window_s']:g} s" if isinstance(windows, dict)
-             else f"{len(result.runs)} runs", "bold"),
+            (
+                f"{printable(str(result.source.get('path', '')))}: {len(result.runs)} windows of "
+                f"{windows['window_s']:g} s"
+                if isinstance(windows, dict)
+                else f"{len(result.runs)} runs",
+                "bold",
+            ),
             f"  robot: {result.robot}",
             f"  pooled: {result.source['runs_pooled']}" if "runs_pooled" in result.source else "",
         ),
         _runs_table(result),
     ]
-    _answer(result, parts, "Recommended estimate (all windows pooled)" if windows
-            else "Recommended estimate (all runs pooled)")
+    _answer(
+        result,
+        parts,
+        "Recommended estimate (all windows pooled)"
+        if windows
+        else "Recommended estimate (all runs pooled)",
+    )
     if detail == "quiet":
         return Group(*parts[1:]) if len(parts) > 1 else Group(*parts)
     plugin = plugin_for(result.robot)

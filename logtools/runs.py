@@ -34,9 +34,11 @@ def _walk(folder: Path) -> list[Path]:
     Raises:
         LogcalInputError: a folder below it cannot be listed.
     """
+
     def _fail(err: OSError) -> None:
-        raise LogcalInputError(f"{err.filename}: cannot list this folder "
-                               f"({err.strerror or err})") from err
+        raise LogcalInputError(
+            f"{err.filename}: cannot list this folder ({err.strerror or err})"
+        ) from err
 
     try:
         return _walk_unchecked(folder, _fail)
@@ -57,8 +59,12 @@ def _walk_unchecked(folder: Path, fail: Callable[[OSError], None]) -> list[Path]
                 found.append(base / d)
         for f in files:
             q = base / f
-            if (q.suffix.lower() in log_suffixes() and q.is_file() and not _is_rosbag2(base)
-                    and not skipped(q)):
+            if (
+                q.suffix.lower() in log_suffixes()
+                and q.is_file()
+                and not _is_rosbag2(base)
+                and not skipped(q)
+            ):
                 found.append(q)
     return found
 

@@ -40,8 +40,10 @@ def write_sample_logs(out_dir: str | os.PathLike[str]) -> list[Path]:
             continue
         for path in load_samples(plugin.samples)(out):
             if path in written_by:
-                raise ValueError(f"{path}: sample log of both the {written_by[path]} and the "
-                                 f"{plugin.name} robot; give each robot's samples their own names")
+                raise ValueError(
+                    f"{path}: sample log of both the {written_by[path]} and the "
+                    f"{plugin.name} robot; give each robot's samples their own names"
+                )
             written_by[path] = plugin.name
             paths.append(path)
     return paths

@@ -87,8 +87,7 @@ def write_views(
     written_png: Path | None = None
     if rrd is not None:
         if plugin.views is None:
-            messages.append(("note", f"the {plugin.title} has no rerun recording yet; "
-                                     "not written"))
+            messages.append(("note", f"the {plugin.title} has no rerun recording yet; not written"))
         else:
             out = check_output(rrd, option="--rrd", suffixes=(".rrd",), inputs=inputs)
             draw = load_views(plugin.views)
@@ -109,20 +108,23 @@ def write_views(
             except Exception as err:
                 if on_error == "raise":
                     raise
-                messages.append(("note", f"rerun recording not drawn: {type(err).__name__}: "
-                                         f"{err}"))
+                messages.append(("note", f"rerun recording not drawn: {type(err).__name__}: {err}"))
             else:
-                runs_note = (f" ({len(per_run)} runs, one recording each)"
-                             if len(per_run) > 1 else "")
+                runs_note = (
+                    f" ({len(per_run)} runs, one recording each)" if len(per_run) > 1 else ""
+                )
                 messages.append(("saved", f"rerun recording saved: {out}{runs_note}"))
                 written_rrd = out
-    png_path = png if png is not None else (
-        rrd.with_suffix(".png") if rrd is not None and implicit_png else None
+    png_path = (
+        png
+        if png is not None
+        else (rrd.with_suffix(".png") if rrd is not None and implicit_png else None)
     )
     if png_path is not None:
         if len(per_run) > 1:
-            messages.append(("note", f"no report image: {png_path} would show one run of "
-                                     f"{len(per_run)}"))
+            messages.append(
+                ("note", f"no report image: {png_path} would show one run of {len(per_run)}")
+            )
         elif plugin.png is None:
             messages.append(("note", f"the {plugin.title} has no report image yet; not written"))
         else:
@@ -133,10 +135,8 @@ def write_views(
             except Exception as err:
                 if on_error == "raise":
                     raise
-                messages.append(("note", f"report image not drawn: {type(err).__name__}: "
-                                         f"{err}"))
+                messages.append(("note", f"report image not drawn: {type(err).__name__}: {err}"))
             else:
                 messages.append(("saved", f"report image saved: {out}"))
                 written_png = out
     return WrittenViews(written_rrd, written_png, messages)
-

@@ -105,9 +105,12 @@ class WindowPlan:
 
     def describe(self) -> str:
         """``analysed in 24 windows of 3600 s (automatic: ...)``."""
-        why = (f" (automatic: {self.extent.duration_s / 3600:.3g} h at "
-               f"{self.extent.rate_hz:.3g} Hz; --window 0 analyses it whole)"
-               if self.automatic else "")
+        why = (
+            f" (automatic: {self.extent.duration_s / 3600:.3g} h at "
+            f"{self.extent.rate_hz:.3g} Hz; --window 0 analyses it whole)"
+            if self.automatic
+            else ""
+        )
         return f"analysed in {len(self.spans_s)} windows of {self.window_s:g} s{why}"
 
 
@@ -116,11 +119,13 @@ def check_window(value: float | None, *, where: str = "--window") -> None:
     if value is None:
         return
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise LogcalInputError(f"{where} {value!r}: expected seconds (a number >= 0; 0: the "
-                               "whole log at once)")
+        raise LogcalInputError(
+            f"{where} {value!r}: expected seconds (a number >= 0; 0: the whole log at once)"
+        )
     if not math.isfinite(value) or value < 0:
-        raise LogcalInputError(f"{where} {value:g}: expected seconds >= 0 (0: the whole log at "
-                               "once)")
+        raise LogcalInputError(
+            f"{where} {value:g}: expected seconds >= 0 (0: the whole log at once)"
+        )
 
 
 def _extent_by_reading(path: str | os.PathLike[str]) -> LogExtent | None:
@@ -130,8 +135,11 @@ def _extent_by_reading(path: str | os.PathLike[str]) -> LogExtent | None:
     lasts = [i.last_ns for i in log.info.values() if i.last_ns is not None]
     if not firsts or not lasts:
         return None
-    return LogExtent(min(firsts), max(lasts),
-                     {t: i.message_count for t, i in log.info.items() if i.message_count})
+    return LogExtent(
+        min(firsts),
+        max(lasts),
+        {t: i.message_count for t, i in log.info.items() if i.message_count},
+    )
 
 
 def plan_windows(
@@ -181,8 +189,14 @@ def plan_windows(
     if hi - edges[-1] < 0.5 * window_s and len(edges) > 1:
         edges.pop()  # a short remainder joins the last window
     spans = tuple((a, b) for a, b in zip(edges, [*edges[1:], hi], strict=True))
-    return WindowPlan(extent.first_ns, spans, float(window_s), automatic, extent,
-                      whole=start_s is None and end_s is None)
+    return WindowPlan(
+        extent.first_ns,
+        spans,
+        float(window_s),
+        automatic,
+        extent,
+        whole=start_s is None and end_s is None,
+    )
 
 
 class Reduced:
@@ -217,8 +231,9 @@ def release_memory() -> None:
     trim(0)
 
 
-def window_result(result: AnalysisResult, index: int, span_s: tuple[float, float]
-                  ) -> AnalysisResult:
+def window_result(
+    result: AnalysisResult, index: int, span_s: tuple[float, float]
+) -> AnalysisResult:
     """One window's result as the pooled result keeps it: no artifacts (the per-sample arrays
     views and pooled fits use), its sections and discovery reduced to their JSON and report
     text (:class:`Reduced`; the JSON is unchanged), its window in ``source["window"]``."""
@@ -227,8 +242,10 @@ def window_result(result: AnalysisResult, index: int, span_s: tuple[float, float
         artifacts={},
         sections={k: Reduced(v) for k, v in result.sections.items()},
         discovery=None if result.discovery is None else Reduced(result.discovery),
-        source={**result.source, "window": {"index": index, "start_s": span_s[0],
-                                            "end_s": span_s[1]}},
+        source={
+            **result.source,
+            "window": {"index": index, "start_s": span_s[0], "end_s": span_s[1]},
+        },
     )
 
 
@@ -247,7 +264,9 @@ their keys."""
 
 
 def _pooled_estimates(
-    windows: Sequence[AnalysisResult], kind: str, what: str = "windows",
+    windows: Sequence[AnalysisResult],
+    kind: str,
+    what: str = "windows",
 ) -> tuple[dict[str, Estimate], dict[str, dict[str, Any]], list[str]]:
     """Each parameter (``kind`` "parameters") or derived quantity ("derived") pooled on its own
     over the windows (``what``: "windows" or "runs"): the estimates, the meta-analysis per
@@ -264,35 +283,50 @@ def _pooled_estimates(
     stats: dict[str, dict[str, Any]] = {}
     warnings: list[str] = []
     for n in names:
-        ests = [getattr(r.estimate, kind, {}).get(n) if r.estimate is not None else None
-                for r in windows]
+        ests = [
+            getattr(r.estimate, kind, {}).get(n) if r.estimate is not None else None
+            for r in windows
+        ]
         first = next(e for e in ests if e is not None)
         unit = first.unit
         # every window with a finite std takes part, a not determined one with the wide
         # interval its own analysis gave it (so it weighs little); whether the pooled value
         # is determined follows the windows that determine it
-        pe = pool_estimates(n, unit, labels, [e.value if e else None for e in ests],
-                            [e.std if e else None for e in ests], [True] * len(ests))
+        pe = pool_estimates(
+            n,
+            unit,
+            labels,
+            [e.value if e else None for e in ests],
+            [e.std if e else None for e in ests],
+            [True] * len(ests),
+        )
         determined = [e for e in ests if e is not None and e.identifiable]
         k = pe.n_logs
         if k == 0:
             note = f"no {what[:-1]} determines it"
         elif pe.heterogeneous:
-            note = (f"the {k} {what} disagree beyond their errors (Cochran's Q p = "
-                    f"{pe.p_heterogeneity:.2g}, I2 = {100 * (pe.i2 or 0):.0f} %, between-"
-                    f"{what[:-1]} std {pe.tau:.3g} {unit}): random-effects interval, which "
-                    "includes the spread")
-            warnings.append(f"{n} differs between the windows of the log beyond their errors "
-                            f"(Cochran's Q p = {pe.p_heterogeneity:.2g}): a part that changed "
-                            "or wore, or physics the model leaves out; each window's own "
-                            "estimate is in runs")
+            note = (
+                f"the {k} {what} disagree beyond their errors (Cochran's Q p = "
+                f"{pe.p_heterogeneity:.2g}, I2 = {100 * (pe.i2 or 0):.0f} %, between-"
+                f"{what[:-1]} std {pe.tau:.3g} {unit}): random-effects interval, which "
+                "includes the spread"
+            )
+            warnings.append(
+                f"{n} differs between the windows of the log beyond their errors "
+                f"(Cochran's Q p = {pe.p_heterogeneity:.2g}): a part that changed "
+                "or wore, or physics the model leaves out; each window's own "
+                "estimate is in runs"
+            )
         else:
-            note = (f"{k} {what} agree within their errors"
-                    + (f" (Cochran's Q p = {pe.p_heterogeneity:.2g})"
-                       if pe.p_heterogeneity is not None else ""))
+            note = f"{k} {what} agree within their errors" + (
+                f" (Cochran's Q p = {pe.p_heterogeneity:.2g})"
+                if pe.p_heterogeneity is not None
+                else ""
+            )
         e = pe.estimate
-        out[n] = Estimate(first.name, e.value, e.std, e.ci95, bool(determined) and k > 0, unit,
-                          note)
+        out[n] = Estimate(
+            first.name, e.value, e.std, e.ci95, bool(determined) and k > 0, unit, note
+        )
         stats[n] = pe.to_dict()
     return out, stats, warnings
 
@@ -303,8 +337,9 @@ def _piece_covariance(est: CalibrationResult, names: Sequence[str]) -> np.ndarra
     own = list(est.parameters)
     corr = np.array(correlations_of(as_matrix(est.covariance or ())), dtype=float)
     p = len(names)
-    sd = np.array([est.parameters[n].std if n in est.parameters else math.nan for n in names],
-                  dtype=float)
+    sd = np.array(
+        [est.parameters[n].std if n in est.parameters else math.nan for n in names], dtype=float
+    )
     cov = np.full((p, p), math.nan)
     for a, na in enumerate(names):
         for b, nb in enumerate(names):
@@ -316,7 +351,9 @@ def _piece_covariance(est: CalibrationResult, names: Sequence[str]) -> np.ndarra
 
 
 def _joint_pooled(
-    pieces: Sequence[AnalysisResult], names: Sequence[str], what: str,
+    pieces: Sequence[AnalysisResult],
+    names: Sequence[str],
+    what: str,
 ) -> tuple[dict[str, Estimate], np.ndarray, dict[str, dict[str, Any]], list[str]]:
     """The parameters ``names`` pooled jointly over ``pieces`` (each with an estimate and a
     covariance) by :func:`calib.pooling.pool_gls`: the estimates, the pooled covariance, the
@@ -325,15 +362,20 @@ def _joint_pooled(
 
     ests = [r.estimate for r in pieces if r.estimate is not None]
     labels = [window_label(r) for r in pieces if r.estimate is not None]
-    vals = np.array([[e.parameters[n].value if n in e.parameters else math.nan for n in names]
-                     for e in ests], dtype=float)
+    vals = np.array(
+        [[e.parameters[n].value if n in e.parameters else math.nan for n in names] for e in ests],
+        dtype=float,
+    )
     covs = np.array([_piece_covariance(e, names) for e in ests])
     pooled = pool_gls(vals, covs)
     one = what[:-1]
     het = pooled.heterogeneous
     i2 = max(0.0, (pooled.q - pooled.df) / pooled.q) if pooled.q > 0 else 0.0
-    test = (f"generalised Cochran's Q over {', '.join(names)} p = {pooled.p_value:.2g}, "
-            f"df {pooled.df}" if pooled.df > 0 else "")
+    test = (
+        f"generalised Cochran's Q over {', '.join(names)} p = {pooled.p_value:.2g}, df {pooled.df}"
+        if pooled.df > 0
+        else ""
+    )
     out: dict[str, Estimate] = {}
     stats: dict[str, dict[str, Any]] = {}
     warnings: list[str] = []
@@ -341,8 +383,11 @@ def _joint_pooled(
     for j, n in enumerate(names):
         own = [e.parameters.get(n) for e in ests]
         first = next(e for e in own if e is not None)
-        informing = [i for i in range(len(ests)) if math.isfinite(covs[i, j, j])
-                     and covs[i, j, j] > 0 and math.isfinite(vals[i, j])]
+        informing = [
+            i
+            for i in range(len(ests))
+            if math.isfinite(covs[i, j, j]) and covs[i, j, j] > 0 and math.isfinite(vals[i, j])
+        ]
         k = int(pooled.pieces[j])
         sd = pooled.cov[j, j] ** 0.5 if math.isfinite(pooled.cov[j, j]) else math.nan
         value = float(pooled.value[j])
@@ -352,47 +397,75 @@ def _joint_pooled(
         if k == 0 or not math.isfinite(sd):
             note = f"no {one} determines it"
         elif het:
-            note = (f"the {len(ests)} {what} disagree beyond their errors ({test}, I2 = "
-                    f"{100 * i2:.0f} %): {pooled.method}, an interval that includes the spread")
+            note = (
+                f"the {len(ests)} {what} disagree beyond their errors ({test}, I2 = "
+                f"{100 * i2:.0f} %): {pooled.method}, an interval that includes the spread"
+            )
         elif pooled.df > 0 and pooled.inflation > 1.0:
-            note = (f"{k} {what} agree within their errors ({test}); {pooled.method}: the "
-                    f"spread between them widens the variances up to x{pooled.inflation:.3g}")
+            note = (
+                f"{k} {what} agree within their errors ({test}); {pooled.method}: the "
+                f"spread between them widens the variances up to x{pooled.inflation:.3g}"
+            )
         elif pooled.df > 0:
             note = f"{k} {what} agree within their errors ({test}); {pooled.method}"
         else:
             note = f"one {one}"
         determined = any(e is not None and e.identifiable for e in own)
         half = 1.959963984540054 * sd
-        out[n] = Estimate(first.name, value, sd, (value - half, value + half),
-                          determined and k > 0 and math.isfinite(sd), first.unit, note)
-        stats[n] = json_safe({
-            "estimate": out[n].to_dict(), "method": pooled.method, "n_logs": k,
-            "left_out": [f"{lab}: not determined by this {one}"
-                         for i, lab in enumerate(labels) if i not in informing],
-            "joint": list(names), "q": pooled.q, "df": pooled.df,
-            "p_heterogeneity": pooled.p_value, "i2": i2, "heterogeneous": het,
-            "inflation": pooled.inflation, "parameter_q": marginal.q,
-            "parameter_p_heterogeneity": marginal.p_value,
-        })
+        out[n] = Estimate(
+            first.name,
+            value,
+            sd,
+            (value - half, value + half),
+            determined and k > 0 and math.isfinite(sd),
+            first.unit,
+            note,
+        )
+        stats[n] = json_safe(
+            {
+                "estimate": out[n].to_dict(),
+                "method": pooled.method,
+                "n_logs": k,
+                "left_out": [
+                    f"{lab}: not determined by this {one}"
+                    for i, lab in enumerate(labels)
+                    if i not in informing
+                ],
+                "joint": list(names),
+                "q": pooled.q,
+                "df": pooled.df,
+                "p_heterogeneity": pooled.p_value,
+                "i2": i2,
+                "heterogeneous": het,
+                "inflation": pooled.inflation,
+                "parameter_q": marginal.q,
+                "parameter_p_heterogeneity": marginal.p_value,
+            }
+        )
     among = "the windows of the log" if what == "windows" else f"the {what}"
     if het:
         for n in marginal_bad:
             p_n = stats[n]["parameter_p_heterogeneity"]
-            warnings.append(f"{n} differs between {among} beyond their errors (Cochran's Q "
-                            f"p = {p_n:.2g}): a part that changed or wore, or physics the "
-                            f"model leaves out; each {one}'s own estimate is in runs")
+            warnings.append(
+                f"{n} differs between {among} beyond their errors (Cochran's Q "
+                f"p = {p_n:.2g}): a part that changed or wore, or physics the "
+                f"model leaves out; each {one}'s own estimate is in runs"
+            )
         if not marginal_bad:
-            warnings.append(f"{', '.join(names)} differ jointly between {among} beyond "
-                            f"their errors ({test}), though none does on its own: a part that "
-                            f"changed or wore, or physics the model leaves out; each {one}'s "
-                            "own estimate is in runs")
+            warnings.append(
+                f"{', '.join(names)} differ jointly between {among} beyond "
+                f"their errors ({test}), though none does on its own: a part that "
+                f"changed or wore, or physics the model leaves out; each {one}'s "
+                "own estimate is in runs"
+            )
     return out, pooled.cov, stats, warnings
 
 
 def _pool_pieces(
-    pieces: Sequence[AnalysisResult], what: str, derive: DeriveFn | None,
-) -> tuple[dict[str, Estimate], dict[str, Estimate], np.ndarray | None, dict[str, Any],
-           list[str]]:
+    pieces: Sequence[AnalysisResult],
+    what: str,
+    derive: DeriveFn | None,
+) -> tuple[dict[str, Estimate], dict[str, Estimate], np.ndarray | None, dict[str, Any], list[str]]:
     """The parameters and derived quantities of ``pieces`` (each with an estimate) pooled:
     jointly with the pooled covariance when every piece has a covariance, the derived ones then
     recomputed by ``derive`` (the robot's; without it, pooled on their own); else each on its
@@ -402,9 +475,16 @@ def _pool_pieces(
     if len(ests) == 1:  # nothing to pool: the piece's own estimates, intervals as it gave them
         one = ests[0]
         cov = None if one.covariance is None else np.asarray(one.covariance, dtype=float)
-        return dict(one.parameters), dict(one.derived), cov, {
-            n: {"method": f"the only {what[:-1]}'s own estimate"}
-            for n in (*one.parameters, *one.derived)}, []
+        return (
+            dict(one.parameters),
+            dict(one.derived),
+            cov,
+            {
+                n: {"method": f"the only {what[:-1]}'s own estimate"}
+                for n in (*one.parameters, *one.derived)
+            },
+            [],
+        )
     names: list[str] = []
     for e in ests:
         names += [n for n in e.parameters if n not in names]
@@ -416,12 +496,17 @@ def _pool_pieces(
     if derive is None:
         derived, dstats, dwarns = _pooled_estimates(pieces, "derived", what)
         return params, derived, cov, {**stats, **dstats}, warns + dwarns
-    base = CalibrationResult(method="pooled", parameters=params, verdict="",
-                             covariance=as_matrix(cov))
+    base = CalibrationResult(
+        method="pooled", parameters=params, verdict="", covariance=as_matrix(cov)
+    )
     derived = dict(derive(base, ests))
     for n, d in derived.items():
-        stats[n] = json_safe({"estimate": d.to_dict(), "method": "computed by the robot from "
-                              "the pooled parameters and their covariance"})
+        stats[n] = json_safe(
+            {
+                "estimate": d.to_dict(),
+                "method": "computed by the robot from the pooled parameters and their covariance",
+            }
+        )
     return params, derived, cov, stats, warns
 
 
@@ -432,11 +517,14 @@ def _change(windows: Sequence[AnalysisResult], names: Sequence[str]) -> Any:
         if r.estimate is None or not isinstance(w, Mapping):
             continue
         ps = r.estimate.parameters
-        pieces.append(PieceFit(
-            float(w["start_s"]), float(w["end_s"]),
-            {n: ps[n].value for n in names if n in ps and ps[n].identifiable},
-            {n: ps[n].std for n in names if n in ps and ps[n].identifiable},
-        ))
+        pieces.append(
+            PieceFit(
+                float(w["start_s"]),
+                float(w["end_s"]),
+                {n: ps[n].value for n in names if n in ps and ps[n].identifiable},
+                {n: ps[n].std for n in names if n in ps and ps[n].identifiable},
+            )
+        )
     return parameter_change(pieces, list(names)) if names else None
 
 
@@ -466,9 +554,11 @@ def pool_windows(
     warnings += [f"{path}: {e}" for e in errors]
     if plan.whole and dict(counts) != {t: n for t, n in plan.extent.messages.items() if n}:
         read, listed = sum(counts.values()), sum(plan.extent.messages.values())
-        warnings.append(f"{path}: the windows read {read} messages and the file's summary "
-                        f"lists {listed}: a message outside the chunks its index lists, or a "
-                        "summary that disagrees with the file")
+        warnings.append(
+            f"{path}: the windows read {read} messages and the file's summary "
+            f"lists {listed}: a message outside the chunks its index lists, or a "
+            "summary that disagrees with the file"
+        )
     estimate = None
     change = None
     stats: dict[str, Any] = {}
@@ -485,12 +575,17 @@ def pool_windows(
         if change is not None:
             warnings.append(f"{path}: {change.note} (between windows)")
             adequacy = replace(
-                adequacy, verdict=NOT_EXPLAINED, changes=(*adequacy.changes, change),
-                notes=(*adequacy.notes, f"one parameter set does not hold over the windows: "
-                       f"{change.note}"),
+                adequacy,
+                verdict=NOT_EXPLAINED,
+                changes=(*adequacy.changes, change),
+                notes=(
+                    *adequacy.notes,
+                    f"one parameter set does not hold over the windows: {change.note}",
+                ),
             )
-        estimate = _pooled_estimate(params, derived, cov, with_estimate, len(windows), adequacy,
-                                    model, "window")
+        estimate = _pooled_estimate(
+            params, derived, cov, with_estimate, len(windows), adequacy, model, "window"
+        )
     truths = [dict(r.truth) for r in windows]
     source = {
         "path": path,
@@ -509,14 +604,21 @@ def pool_windows(
         "runs_pooled": len(with_estimate),
     }
     return AnalysisResult(
-        robot=robot, segments=[], methods=[], estimate=estimate, adequacy=adequacy,
+        robot=robot,
+        segments=[],
+        methods=[],
+        estimate=estimate,
+        adequacy=adequacy,
         truth=truths[0] if all(t == truths[0] for t in truths) else {},
-        source=source, warnings=warnings, runs=list(windows),
+        source=source,
+        warnings=warnings,
+        runs=list(windows),
     )
 
 
-def _not_determined(estimates: Mapping[str, Estimate], adequacy: Adequacy,
-                    pieces: Sequence[Mapping[str, Estimate]]) -> dict[str, Estimate]:
+def _not_determined(
+    estimates: Mapping[str, Estimate], adequacy: Adequacy, pieces: Sequence[Mapping[str, Estimate]]
+) -> dict[str, Estimate]:
     """The pooled estimates when the model does not explain the pieces: not determined, widened
     as a whole log's are (:func:`calib.adequacy.under_misfit`: the standard error by the
     misfit factor, combined with the spread of the pieces' own values). Pooling divides the
@@ -532,15 +634,20 @@ def _not_determined(estimates: Mapping[str, Estimate], adequacy: Adequacy,
 def _how(cov: np.ndarray | None, what: str) -> str:
     """How the pooled estimate was obtained, for its verdict."""
     if cov is None:
-        return (f"each parameter by inverse-variance weighting (random effects where the {what} "
-                "disagree); correlations between parameters are not pooled (some "
-                f"{what[:-1]} has no covariance).")
-    return ("all parameters jointly by generalised least squares over their covariances "
-            f"(random effects where the {what} disagree).")
+        return (
+            f"each parameter by inverse-variance weighting (random effects where the {what} "
+            "disagree); correlations between parameters are not pooled (some "
+            f"{what[:-1]} has no covariance)."
+        )
+    return (
+        "all parameters jointly by generalised least squares over their covariances "
+        f"(random effects where the {what} disagree)."
+    )
 
 
-def pool_runs(results: Sequence[AnalysisResult], *, derive: DeriveFn | None = None
-              ) -> AnalysisResult:
+def pool_runs(
+    results: Sequence[AnalysisResult], *, derive: DeriveFn | None = None
+) -> AnalysisResult:
     """Several runs pooled by their estimates (the pooling of :func:`pool_windows`, without the
     test for a change in time): what ``analyze_logs`` uses when a run was analysed by windows,
     whose samples the robot's own pooled fit would need. ``derive``: the robot's derived
@@ -548,8 +655,10 @@ def pool_runs(results: Sequence[AnalysisResult], *, derive: DeriveFn | None = No
     labels = [str(r.source.get("path", "")) for r in results]
     labelled = list(zip(labels, [r.adequacy for r in results], strict=True))
     with_estimate = [r for r in results if r.estimate is not None]
-    warnings = ["runs analysed by windows: the runs are pooled by their estimates and "
-                "covariances, not by the robot's joint fit"]
+    warnings = [
+        "runs analysed by windows: the runs are pooled by their estimates and "
+        "covariances, not by the robot's joint fit"
+    ]
     estimate = None
     stats: dict[str, Any] = {}
     if not with_estimate:
@@ -559,14 +668,20 @@ def pool_runs(results: Sequence[AnalysisResult], *, derive: DeriveFn | None = No
         warnings += [w.replace("the windows of the log", "the runs") for w in more]
         model = _one_method(with_estimate, "each run's method")
         adequacy = combine_runs(labelled, model)
-        estimate = _pooled_estimate(params, derived, cov, with_estimate, len(results), adequacy,
-                                    model, "run")
+        estimate = _pooled_estimate(
+            params, derived, cov, with_estimate, len(results), adequacy, model, "run"
+        )
     truths = [dict(r.truth) for r in results]
     return AnalysisResult(
-        robot=results[0].robot, segments=[], methods=[], estimate=estimate, adequacy=adequacy,
+        robot=results[0].robot,
+        segments=[],
+        methods=[],
+        estimate=estimate,
+        adequacy=adequacy,
         truth=truths[0] if all(t == truths[0] for t in truths) else {},
         source={"runs": labels, "runs_pooled": len(with_estimate), "pooling": stats},
-        warnings=warnings, runs=list(results),
+        warnings=warnings,
+        runs=list(results),
     )
 
 
@@ -577,15 +692,23 @@ def _one_method(pieces: Sequence[AnalysisResult], several: str) -> str:
 
 
 def _pooled_estimate(
-    params: dict[str, Estimate], derived: dict[str, Estimate], cov: np.ndarray | None,
-    pieces: Sequence[AnalysisResult], n_total: int, adequacy: Adequacy, model: str, what: str,
+    params: dict[str, Estimate],
+    derived: dict[str, Estimate],
+    cov: np.ndarray | None,
+    pieces: Sequence[AnalysisResult],
+    n_total: int,
+    adequacy: Adequacy,
+    model: str,
+    what: str,
 ) -> CalibrationResult:
     """The pooled estimate of ``pieces`` (of ``n_total`` windows or runs, ``what``): not
     determined where the pooled model does not explain them, with the assumptions every
     piece's intervals make."""
-    verdict = (f"{len(pieces)} of {n_total} {what}s pooled, " + _how(cov, f"{what}s")
-               if len(pieces) > 1 else
-               f"1 of {n_total} {what}s with an estimate: its own estimate, not pooled.")
+    verdict = (
+        f"{len(pieces)} of {n_total} {what}s pooled, " + _how(cov, f"{what}s")
+        if len(pieces) > 1
+        else f"1 of {n_total} {what}s with an estimate: its own estimate, not pooled."
+    )
     if adequacy.channels and not adequacy.explains:
         ests = [r.estimate for r in pieces if r.estimate is not None]
         params = _not_determined(params, adequacy, [e.parameters for e in ests])
@@ -595,9 +718,13 @@ def _pooled_estimate(
     if any(e.identifiable for e in params.values()):
         verdict = _assuming(verdict, assumed, what)
     return CalibrationResult(
-        method=f"{model} pooled over {len(pieces)} {what}s", parameters=params, derived=derived,
-        verdict=verdict, covariance=None if cov is None else as_matrix(cov),
-        assumptions=assumed)
+        method=f"{model} pooled over {len(pieces)} {what}s",
+        parameters=params,
+        derived=derived,
+        verdict=verdict,
+        covariance=None if cov is None else as_matrix(cov),
+        assumptions=assumed,
+    )
 
 
 def _shared_assumptions(pieces: Sequence[CalibrationResult]) -> tuple[str, ...]:

@@ -46,9 +46,20 @@ def _one(name: str, log: Path, extra: list[str], ready: tuple[str, ...], out: Pa
         rrd = Path(tmp) / f"{name}.rrd"
         print(f"[{name}] analysing {log} ...", flush=True)
         subprocess.run(
-            [sys.executable, "-m", "logtools.cli.main", "analyze", str(log), "--rrd", str(rrd),
-             "--repeats", "10", *extra],
-            check=True, stdout=subprocess.DEVNULL,
+            [
+                sys.executable,
+                "-m",
+                "logtools.cli.main",
+                "analyze",
+                str(log),
+                "--rrd",
+                str(rrd),
+                "--repeats",
+                "10",
+                *extra,
+            ],
+            check=True,
+            stdout=subprocess.DEVNULL,
         )
         png = rrd.with_suffix(".png")
         if png.exists():
@@ -58,8 +69,9 @@ def _one(name: str, log: Path, extra: list[str], ready: tuple[str, ...], out: Pa
         else:
             print(f"[{name}] this robot has no report image", flush=True)
         print(f"[{name}] screenshot of the viewer (1600 x 900) ...", flush=True)
-        shot = screenshot_rrd(rrd, out / f"{name}_viewer.png", width=1600, height=900,
-                              ready_colors=ready)
+        shot = screenshot_rrd(
+            rrd, out / f"{name}_viewer.png", width=1600, height=900, ready_colors=ready
+        )
         _shrink(shot)
     print(f"[{name}] done in {time.monotonic() - t0:.0f} s: {shot}", flush=True)
 

@@ -20,7 +20,11 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     try:
         out = screenshot_rrd(
-            args.rrd, args.out, width=args.width, height=args.height, timeout_s=args.timeout,
+            args.rrd,
+            args.out,
+            width=args.width,
+            height=args.height,
+            timeout_s=args.timeout,
             progress=lambda line: print(line, file=sys.stderr, flush=True),
         )
     except ViewerScreenshotError as err:

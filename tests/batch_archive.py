@@ -23,18 +23,27 @@ HOSTILE_ROBOT_ID = '<b onmouseover="alert(2)">robot</b>'
 FAST = AnalysisOptions(repeats=2, discovery=False, views=False)
 
 
-def sim_log(path: Path, *, L1: float = 1.25, seed: int = 0, day: int = 0,
-            duration_s: float = 63.0, hostile_topics: bool = False) -> Path:
+def sim_log(
+    path: Path,
+    *,
+    L1: float = 1.25,
+    seed: int = 0,
+    day: int = 0,
+    duration_s: float = 63.0,
+    hostile_topics: bool = False,
+) -> Path:
     """A 63 s harmonic drive at 20 Hz (JSON MCAP) starting ``day`` days after T0."""
     cfg = preset("harmonic", L1=L1, duration_s=duration_s, rate_hz=20.0)
     cfg = dataclasses.replace(cfg, start_time_ns=T0_NS + day * DAY_NS)
     run = simulate_tractor_trailer(cfg, seed=seed)
     path.parent.mkdir(parents=True, exist_ok=True)
     if hostile_topics:
-        bindings = tuple(dataclasses.replace(b, topic=HOSTILE_TOPIC + b.topic)
-                         for b in JSON_BINDINGS)
-        write_frames_mcap(path, run_frames(run), bindings, JsonEncoder(),
-                          metadata=run_metadata(run))
+        bindings = tuple(
+            dataclasses.replace(b, topic=HOSTILE_TOPIC + b.topic) for b in JSON_BINDINGS
+        )
+        write_frames_mcap(
+            path, run_frames(run), bindings, JsonEncoder(), metadata=run_metadata(run)
+        )
     else:
         write_run(path, run, metadata=run_metadata(run))
     return path

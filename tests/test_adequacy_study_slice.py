@@ -53,9 +53,19 @@ def test_slice_runs_end_to_end(records: list[dict[str, Any]], study: ModuleType)
     assert len(records) == 5
     for r in records:
         assert r["error"] is None, r.get("traceback")
-        for key in ("verdict", "located", "changes", "is_located", "named", "params",
-                    "effect_size", "refit_effect_size", "heldout_effect_size", "held_out",
-                    "seconds"):
+        for key in (
+            "verdict",
+            "located",
+            "changes",
+            "is_located",
+            "named",
+            "params",
+            "effect_size",
+            "refit_effect_size",
+            "heldout_effect_size",
+            "held_out",
+            "seconds",
+        ):
             assert key in r
         assert r["verdict"] in ("explains", "does not explain", "not assessed")
         assert not r["held_out"]
@@ -69,8 +79,8 @@ def test_slice_runs_end_to_end(records: list[dict[str, Any]], study: ModuleType)
             assert r["heldout_effect_size"] >= 0.0
         for p in r["params"]:
             assert p["confident_wrong"] == (
-                p["identifiable"] and not any(p["ci95"][0] <= t <= p["ci95"][1]
-                                              for t in p["truth"]))
+                p["identifiable"] and not any(p["ci95"][0] <= t <= p["ci95"][1] for t in p["truth"])
+            )
     s = study.summarise(records)
     assert s["n_logs"] == 5
     big = [r for r in records if r["kind"] and r["heldout_effect_size"] > study.EFFECT_THRESHOLD]
@@ -99,7 +109,9 @@ def test_truth_of_estimates_maps_every_robot(study: ModuleType) -> None:
     assert len(study._truths(dd, side)) == 2
     tt = generate_log("tractor_trailer", 1, "trailer_swap", 0.2, duration_s=30.0).truth
     assert study._truths(tt, "sum_L1_L2") == [
-        pytest.approx(tt["L1"] + tt["L2"]), pytest.approx(tt["L1"] + tt["L2_after"])]
+        pytest.approx(tt["L1"] + tt["L2"]),
+        pytest.approx(tt["L1"] + tt["L2_after"]),
+    ]
 
 
 def test_wilson() -> None:

@@ -73,12 +73,16 @@ def test_clean_log_has_zero_effect_and_is_deterministic(robot: str) -> None:
             assert np.array_equal(v, b.streams[topic].fields[f])
 
 
-@pytest.mark.parametrize(("gen", "param", "rel", "raw_min"), [
-    (tractor_log, "L2", 0.01, 0.5), (tractor_log, "L2", 0.1, 5.0),
-    (diff_drive_log, "r_R", 0.01, 50.0), (arm_log, "m2", 0.05, 5.0),
-])
-def test_refit_absorbs_a_pure_parameter_change(gen, param: str, rel: float,
-                                               raw_min: float) -> None:
+@pytest.mark.parametrize(
+    ("gen", "param", "rel", "raw_min"),
+    [
+        (tractor_log, "L2", 0.01, 0.5),
+        (tractor_log, "L2", 0.1, 5.0),
+        (diff_drive_log, "r_R", 0.01, 50.0),
+        (arm_log, "m2", 0.05, 5.0),
+    ],
+)
+def test_refit_absorbs_a_pure_parameter_change(gen, param: str, rel: float, raw_min: float) -> None:
     """A 'physics' that is only the robot's own parameter changed (the clean recording with
     L2 / r_R / m2 scaled) changes the recording a lot, but a refit takes all of it."""
     seed = 1
@@ -114,13 +118,22 @@ def test_backlash_operator() -> None:
 
 
 def _energy(p: ArmParams, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-    M = np.stack([rigid_torque(p, q, np.zeros_like(q), np.tile(e, (len(q), 1)))
-                  - rigid_torque(p, q, np.zeros_like(q), np.zeros_like(q))
-                  for e in np.eye(2)], axis=-1)
+    M = np.stack(
+        [
+            rigid_torque(p, q, np.zeros_like(q), np.tile(e, (len(q), 1)))
+            - rigid_torque(p, q, np.zeros_like(q), np.zeros_like(q))
+            for e in np.eye(2)
+        ],
+        axis=-1,
+    )
     kin = 0.5 * np.einsum("ni,nij,nj->n", qd, M, qd)
     q12 = q[:, 0] + q[:, 1]
-    pot = p.g * ((p.m1 * p.cx1 + p.m2 * p.l1) * np.sin(q[:, 0]) + p.m1 * p.cy1 * np.cos(q[:, 0])
-                 + p.m2 * p.cx2 * np.sin(q12) + p.m2 * p.cy2 * np.cos(q12))
+    pot = p.g * (
+        (p.m1 * p.cx1 + p.m2 * p.l1) * np.sin(q[:, 0])
+        + p.m1 * p.cy1 * np.cos(q[:, 0])
+        + p.m2 * p.cx2 * np.sin(q12)
+        + p.m2 * p.cy2 * np.cos(q12)
+    )
     return kin + pot
 
 
@@ -131,8 +144,9 @@ def test_arm_dynamics_conserve_energy_and_invert() -> None:
         a = forward_dynamics(p, s[None, :2], s[None, 2:], np.zeros((1, 2)))[0]
         return np.concatenate([s[2:], a])
 
-    sol = solve_ivp(rhs, (0, 3), [0.3, -0.5, 0.0, 1.0], rtol=1e-11, atol=1e-12,
-                    t_eval=np.linspace(0, 3, 50))
+    sol = solve_ivp(
+        rhs, (0, 3), [0.3, -0.5, 0.0, 1.0], rtol=1e-11, atol=1e-12, t_eval=np.linspace(0, 3, 50)
+    )
     e = _energy(ArmParams(cy1=0.01, cy2=-0.02), sol.y[:2].T, sol.y[2:].T)
     assert np.ptp(e) < 1e-6 * max(1.0, np.abs(e).max())
     rng = np.random.default_rng(0)
@@ -170,8 +184,9 @@ def test_diff_drive_truth_recovered_from_its_own_log() -> None:
     ds = np.diff(x) * np.cos(mid) + np.diff(y) * np.sin(mid)
     A = np.column_stack([dr, dl]) / 2
     rr, rl = np.linalg.lstsq(A, ds, rcond=None)[0]
-    ab = np.linalg.lstsq(np.column_stack([dr * rr, -dl * rl]).sum(1, keepdims=True),
-                         np.diff(yaw), rcond=None)[0][0]
+    ab = np.linalg.lstsq(
+        np.column_stack([dr * rr, -dl * rl]).sum(1, keepdims=True), np.diff(yaw), rcond=None
+    )[0][0]
     t = log.truth
     assert rr == pytest.approx(t["r_R"], rel=0.01)
     assert rl == pytest.approx(t["r_L"], rel=0.01)

@@ -21,8 +21,19 @@ __all__ = ["MAX_COLUMNS", "log_raw_signals"]
 MAX_COLUMNS = 400
 MAX_ITEMS = 16
 _ITEM = re.compile(r"\.(\d+)$")
-_NUMERIC = (pl.Float32, pl.Float64, pl.Int8, pl.Int16, pl.Int32, pl.Int64, pl.UInt8, pl.UInt16,
-            pl.UInt32, pl.UInt64, pl.Boolean)
+_NUMERIC = (
+    pl.Float32,
+    pl.Float64,
+    pl.Int8,
+    pl.Int16,
+    pl.Int32,
+    pl.Int64,
+    pl.UInt8,
+    pl.UInt16,
+    pl.UInt32,
+    pl.UInt64,
+    pl.Boolean,
+)
 
 
 def _wanted(name: str) -> bool:
@@ -34,8 +45,9 @@ def _wanted(name: str) -> bool:
 
 def _path(topic: str, field: str) -> str:
     parts = [p for p in topic.split("/") if p] or ["topic"]
-    return "/".join(["raw", *map(rr.escape_entity_path_part, parts),
-                     rr.escape_entity_path_part(field)])
+    return "/".join(
+        ["raw", *map(rr.escape_entity_path_part, parts), rr.escape_entity_path_part(field)]
+    )
 
 
 def log_raw_signals(
@@ -68,7 +80,8 @@ def log_raw_signals(
             values = frame[name].cast(pl.Float64).to_numpy()
             if not np.isfinite(values).any():
                 continue
-            rec.send_columns(_path(topic, name), indexes=index,
-                             columns=rr.Scalars.columns(scalars=values))
+            rec.send_columns(
+                _path(topic, name), indexes=index, columns=rr.Scalars.columns(scalars=values)
+            )
             count += 1
     return left

@@ -181,7 +181,11 @@ def browser_pids(profile: str | Path) -> list[int]:
 
 
 def _capture_when_ready(
-    page: Page, deadline: float, min_pixels: int, settle_s: float, ready: Sequence[str],
+    page: Page,
+    deadline: float,
+    min_pixels: int,
+    settle_s: float,
+    ready: Sequence[str],
     progress: Callable[[str], None],
 ) -> bytes:
     """Screenshots every second until each ready colour covers ``min_pixels``; then wait
@@ -303,9 +307,7 @@ def screenshot_rrd(
                     pids += browser_pids(profile)
                 page = context.pages[0] if context.pages else context.new_page()
                 page.goto(url, timeout=max(deadline - time.monotonic(), 1.0) * 1e3)
-                png = _capture_when_ready(
-                    page, deadline, min_pixels, settle_s, ready_colors, say
-                )
+                png = _capture_when_ready(page, deadline, min_pixels, settle_s, ready_colors, say)
                 say("captured")
             except PlaywrightError as err:
                 raise ViewerScreenshotError(f"the viewer page failed: {err.message}") from err

@@ -70,9 +70,14 @@ def parameter_change(
     ``scale``: per name, a size below which the relative gate would be unfair (a value near
     zero)."""
     use = [
-        p for p in pieces
-        if all(math.isfinite(p.values.get(n, math.nan)) and p.std.get(n, 0.0) > 0
-               and math.isfinite(p.std.get(n, math.nan)) for n in names)
+        p
+        for p in pieces
+        if all(
+            math.isfinite(p.values.get(n, math.nan))
+            and p.std.get(n, 0.0) > 0
+            and math.isfinite(p.std.get(n, math.nan))
+            for n in names
+        )
     ]
     if len(use) < MIN_PIECES:
         return None
@@ -101,8 +106,9 @@ def parameter_change(
     w = 1.0 / var
     before = (w[:at] * vals[:at]).sum(axis=0) / w[:at].sum(axis=0)
     after = (w[at:] * vals[at:]).sum(axis=0) / w[at:].sum(axis=0)
-    size = np.array([max(abs(b), (scale or {}).get(n, 0.0)) for n, b in
-                     zip(names, before, strict=True)])
+    size = np.array(
+        [max(abs(b), (scale or {}).get(n, 0.0)) for n, b in zip(names, before, strict=True)]
+    )
     if not np.any(np.abs(after - before) >= min_relative * size):
         return None
     t = 0.5 * (use[at - 1].t1_s + use[at].t0_s)
@@ -111,8 +117,11 @@ def parameter_change(
         f"{n} {b:.4g} -> {a:.4g}" for n, b, a in zip(names_t, before, after, strict=True)
     )
     return ParameterChange(
-        t, (use[at - 1].t0_s, use[at].t1_s), names_t,
+        t,
+        (use[at - 1].t0_s, use[at].t1_s),
+        names_t,
         dict(zip(names_t, map(float, before), strict=True)),
-        dict(zip(names_t, map(float, after), strict=True)), float(null - best),
+        dict(zip(names_t, map(float, after), strict=True)),
+        float(null - best),
         f"the parameters change near t = {t:.1f} s ({desc})",
     )

@@ -23,11 +23,16 @@ def combine_runs(runs: Sequence[tuple[str, Adequacy | None]], model: str) -> Ade
     if not bad:
         if unjudged:
             return not_assessed(model, notes[0])
-        return Adequacy(EXPLAINS, model, tuple(c for _, a in judged for c in a.channels),
-                        notes=(f"explains each of the {len(judged)} runs",))
+        return Adequacy(
+            EXPLAINS,
+            model,
+            tuple(c for _, a in judged for c in a.channels),
+            notes=(f"explains each of the {len(judged)} runs",),
+        )
     notes.insert(0, "does not explain run(s) " + ", ".join(name for name, _ in bad))
     return Adequacy(
-        NOT_EXPLAINED, model,
+        NOT_EXPLAINED,
+        model,
         tuple(c for _, a in bad for c in a.channels),
         tuple(loc for _, a in bad for loc in a.located),
         tuple(ch for _, a in bad for ch in a.changes),

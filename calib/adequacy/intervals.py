@@ -54,11 +54,13 @@ def under_misfit(
     std = math.hypot(est.std * k, spread) if math.isfinite(est.std) else math.nan
     note = f"{reason}; interval widened x{k:.2g} for the misfit, not a calibrated 95 %"
     if not math.isfinite(std):
-        return Estimate(est.name, est.value, math.nan, (-math.inf, math.inf), False, est.unit,
-                        reason)
+        return Estimate(
+            est.name, est.value, math.nan, (-math.inf, math.inf), False, est.unit, reason
+        )
     half = Z95 * std
-    return Estimate(est.name, est.value, std, (est.value - half, est.value + half), False,
-                    est.unit, note)
+    return Estimate(
+        est.name, est.value, std, (est.value - half, est.value + half), False, est.unit, note
+    )
 
 
 def under_misfit_all(
@@ -77,8 +79,13 @@ def under_misfit_all(
     }
 
 
-def span(estimates: Sequence[Estimate], labels: Sequence[str], *, rel_tol: float = 0.05,
-         scale: float = 0.0) -> Estimate:
+def span(
+    estimates: Sequence[Estimate],
+    labels: Sequence[str],
+    *,
+    rel_tol: float = 0.05,
+    scale: float = 0.0,
+) -> Estimate:
     """One estimate spanning explanations the log cannot tell apart (each of ``estimates`` is
     the same parameter under the explanation named in ``labels``): the first's value, the union
     of the intervals, determined only while that union is within ``rel_tol`` of the value
@@ -88,8 +95,18 @@ def span(estimates: Sequence[Estimate], labels: Sequence[str], *, rel_tol: float
     hi = max(e.ci95[1] for e in estimates)
     vals = ", ".join(f"{e.value:.4g} ({lab})" for e, lab in zip(estimates, labels, strict=True))
     half = max(hi - first.value, first.value - lo)
-    ok = all(e.identifiable for e in estimates) and math.isfinite(half) and (
-        half <= rel_tol * max(abs(first.value), scale))
+    ok = (
+        all(e.identifiable for e in estimates)
+        and math.isfinite(half)
+        and (half <= rel_tol * max(abs(first.value), scale))
+    )
     note = f"the log cannot tell apart explanations that give {vals}; the interval spans them"
-    return Estimate(first.name, first.value, half / Z95 if math.isfinite(half) else math.nan,
-                    (lo, hi), ok, first.unit, note)
+    return Estimate(
+        first.name,
+        first.value,
+        half / Z95 if math.isfinite(half) else math.nan,
+        (lo, hi),
+        ok,
+        first.unit,
+        note,
+    )

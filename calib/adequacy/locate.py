@@ -109,14 +109,20 @@ def locate(ch: ResidualChannel, floor: float, ratio: float) -> list[Location]:
     n_win = int(min(10, max(2, ok.sum() // 50)))
     edges = np.linspace(t0, t1, n_win + 1)
     tb = [
-        (f"t {_fmt(a)}-{_fmt(b)} s", float(a), float(b),
-         ok & (t >= a) & ((t <= b) if i == n_win - 1 else (t < b)))
+        (
+            f"t {_fmt(a)}-{_fmt(b)} s",
+            float(a),
+            float(b),
+            ok & (t >= a) & ((t <= b) if i == n_win - 1 else (t < b)),
+        )
         for i, (a, b) in enumerate(itertools.pairwise(edges))
     ]
     found += _axis_locations(ch, "time", tb, r2, floor, ratio)
     if ch.segments:
-        sb = [(f"{lab} {_fmt(a)}-{_fmt(b)} s", a, b, ok & (t >= a) & (t < b))
-              for lab, a, b in ch.segments]
+        sb = [
+            (f"{lab} {_fmt(a)}-{_fmt(b)} s", a, b, ok & (t >= a) & (t < b))
+            for lab, a, b in ch.segments
+        ]
         found += _axis_locations(ch, "segment", sb, r2, floor, ratio)
     for name, values in ch.covariates.items():
         v = np.asarray(values, dtype=float)
@@ -124,7 +130,6 @@ def locate(ch: ResidualChannel, floor: float, ratio: float) -> list[Location]:
         found += _axis_locations(ch, name, cb, r2, floor, ratio)
     if not found:
         rms = math.sqrt(float(r2[ok].mean()))
-        return [Location(ch.name, "time", "throughout the log", t0, t1, rms, rms / floor, 1.0,
-                         1.0)]
+        return [Location(ch.name, "time", "throughout the log", t0, t1, rms, rms / floor, 1.0, 1.0)]
     found.sort(key=lambda loc: loc.share - loc.samples, reverse=True)
     return found[:MAX_LOCATIONS]

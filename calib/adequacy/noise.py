@@ -70,9 +70,7 @@ def hf_noise_std_t(t: FloatArray, x: FloatArray) -> float:
 def _decimated_hf(t: FloatArray, r: FloatArray, step: int) -> float:
     """Median over the ``step`` phases of the local-line noise estimate of every step-th
     sample (for white noise: the same sigma at every step)."""
-    vals = [
-        hf_noise_std_t(t[k::step], r[k::step]) for k in range(step) if r[k::step].size >= 8
-    ]
+    vals = [hf_noise_std_t(t[k::step], r[k::step]) for k in range(step) if r[k::step].size >= 8]
     return float(np.median(vals)) if vals else 0.0
 
 
@@ -127,5 +125,12 @@ def noise_floor(
         source = "high-frequency content"
     if input_std > sensor:
         source += " + noise carried in by the model's inputs"
-    return NoiseFloor(float(std), float(white), float(scale), float(q), float(input_std),
-                      float(timescale_s), source)
+    return NoiseFloor(
+        float(std),
+        float(white),
+        float(scale),
+        float(q),
+        float(input_std),
+        float(timescale_s),
+        source,
+    )

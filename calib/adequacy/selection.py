@@ -116,14 +116,21 @@ class Confound:
     @property
     def note(self) -> str:
         moved = ", ".join(f"{k} {a:.4g} vs {b:.4g}" for k, (a, b) in self.parameters.items())
-        return (f"{self.reported} and {self.alternative} fit this log equally well "
-                f"(BIC {self.delta_bic:+.1f}) but imply different parameters ({moved})")
+        return (
+            f"{self.reported} and {self.alternative} fit this log equally well "
+            f"(BIC {self.delta_bic:+.1f}) but imply different parameters ({moved})"
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        return json_safe({"reported": self.reported, "alternative": self.alternative,
-                          "delta_bic": self.delta_bic,
-                          "parameters": {k: list(v) for k, v in self.parameters.items()},
-                          "note": self.note})
+        return json_safe(
+            {
+                "reported": self.reported,
+                "alternative": self.alternative,
+                "delta_bic": self.delta_bic,
+                "parameters": {k: list(v) for k, v in self.parameters.items()},
+                "note": self.note,
+            }
+        )
 
 
 @dataclass(frozen=True)
@@ -141,18 +148,20 @@ class Selection:
         return self.final.effects
 
     def to_dict(self) -> dict[str, Any]:
-        return json_safe({
-            "model": self.final.label,
-            "accepted": list(self.final.keys),
-            "effects": {
-                key: {n: e.to_dict() for n, e in pars.items()}
-                for key, pars in self.final.effect_parameters.items()
-            },
-            "heldout_sse_before": self.base.heldout_sse,
-            "heldout_sse_after": self.final.heldout_sse,
-            "tried": [t.__dict__ for t in self.tried],
-            "confounds": [c.to_dict() for c in self.confounds],
-        })
+        return json_safe(
+            {
+                "model": self.final.label,
+                "accepted": list(self.final.keys),
+                "effects": {
+                    key: {n: e.to_dict() for n, e in pars.items()}
+                    for key, pars in self.final.effect_parameters.items()
+                },
+                "heldout_sse_before": self.base.heldout_sse,
+                "heldout_sse_after": self.final.heldout_sse,
+                "tried": [t.__dict__ for t in self.tried],
+                "confounds": [c.to_dict() for c in self.confounds],
+            }
+        )
 
 
 def _excludes_null(fit: ModelFit, spec: EffectSpec) -> bool:
@@ -228,8 +237,9 @@ def select_effects(
         good = [s for s in scored if s[5]]
         best = min(good, key=lambda s: s[2]) if good else None
         for spec, _, dbic, gain, excl, _ok in scored:
-            tried.append(Tried(rnd, spec.key, dbic, gain, excl,
-                               best is not None and spec.key == best[0].key))
+            tried.append(
+                Tried(rnd, spec.key, dbic, gain, excl, best is not None and spec.key == best[0].key)
+            )
         if best is None:
             break
         for spec, cand, *_ in good:
@@ -238,7 +248,8 @@ def select_effects(
             if cand.bic - best[1].bic < BIC_MARGIN:
                 moved = _moves(best[1], cand)
                 if moved:
-                    confounds.append(Confound(best[0].key, spec.key, cand.bic - best[1].bic,
-                                              moved, cand))
+                    confounds.append(
+                        Confound(best[0].key, spec.key, cand.bic - best[1].bic, moved, cand)
+                    )
         current = best[1]
     return Selection(base, current, tuple(tried), tuple(confounds))

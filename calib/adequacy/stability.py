@@ -51,9 +51,14 @@ def piece_stability(pieces: Sequence[PieceFit], names: Sequence[str]) -> dict[st
     value and positive standard error for it are left out; fewer than two: not judged)."""
     out: dict[str, PieceStability] = {}
     for n in names:
-        vals = [(p.values[n], p.std[n]) for p in pieces
-                if n in p.values and math.isfinite(p.values[n])
-                and math.isfinite(p.std.get(n, math.nan)) and p.std.get(n, 0.0) > 0]
+        vals = [
+            (p.values[n], p.std[n])
+            for p in pieces
+            if n in p.values
+            and math.isfinite(p.values[n])
+            and math.isfinite(p.std.get(n, math.nan))
+            and p.std.get(n, 0.0) > 0
+        ]
         if len(vals) < 2:
             continue
         w = [1.0 / s**2 for _, s in vals]
@@ -63,10 +68,15 @@ def piece_stability(pieces: Sequence[PieceFit], names: Sequence[str]) -> dict[st
         p = float(chdtrc(dof, chi2))
         # precision-weighted spread: a piece that barely determines the parameter (a piece
         # that hardly turns) does not dominate it
-        spread = math.sqrt(sum(wi * (v - mean) ** 2 for wi, (v, _) in zip(w, vals, strict=True))
-                           / sum(w) * len(vals) / dof)
-        out[n] = PieceStability(n, len(vals), chi2, dof, p, max(1.0, math.sqrt(chi2 / dof)),
-                                spread, p < P_UNSTABLE)
+        spread = math.sqrt(
+            sum(wi * (v - mean) ** 2 for wi, (v, _) in zip(w, vals, strict=True))
+            / sum(w)
+            * len(vals)
+            / dof
+        )
+        out[n] = PieceStability(
+            n, len(vals), chi2, dof, p, max(1.0, math.sqrt(chi2 / dof)), spread, p < P_UNSTABLE
+        )
     return out
 
 
@@ -90,9 +100,18 @@ def widen_unstable(
         half = Z95 * std
         size = max(abs(e.value), (scale or {}).get(name, 0.0))
         ok = e.identifiable and half <= rel_tol * size
-        why = (f"{name} differs between pieces of the log beyond its errors (chi2 "
-               f"{st.chi2:.3g} on {st.dof} dof): physics the model leaves out moves it; "
-               f"interval widened x{std / e.std:.2g}")
-        out[name] = Estimate(e.name, e.value, std, (e.value - half, e.value + half), ok, e.unit,
-                             (e.note + "; " if e.note else "") + why)
+        why = (
+            f"{name} differs between pieces of the log beyond its errors (chi2 "
+            f"{st.chi2:.3g} on {st.dof} dof): physics the model leaves out moves it; "
+            f"interval widened x{std / e.std:.2g}"
+        )
+        out[name] = Estimate(
+            e.name,
+            e.value,
+            std,
+            (e.value - half, e.value + half),
+            ok,
+            e.unit,
+            (e.note + "; " if e.note else "") + why,
+        )
     return out

@@ -143,15 +143,18 @@ class Adequacy:
     @property
     def summary(self) -> str:
         if self.verdict == NOT_ASSESSED:
-            return f"Model adequacy not assessed: {self.reason}" if self.reason else (
-                "Model adequacy not assessed")
+            return (
+                f"Model adequacy not assessed: {self.reason}"
+                if self.reason
+                else ("Model adequacy not assessed")
+            )
         worst = max(self.channels, key=lambda c: c.judged_ratio)
         held = " held out" if worst.heldout_ratio is not None else ""
         head = (
             f"The model ({self.model}) explains the log: the{held} residual of "
             f"{worst.channel} is {worst.judged_ratio:.2g}x its noise floor"
-            if self.explains else
-            f"The model ({self.model}) does not explain the log: the{held} residual of "
+            if self.explains
+            else f"The model ({self.model}) does not explain the log: the{held} residual of "
             f"{worst.channel} is {worst.judged_ratio:.2g}x its noise floor "
             f"({worst.noise_floor:.3g} {worst.unit}, from {worst.noise.source})"
         )
@@ -173,9 +176,7 @@ class Adequacy:
             "model": self.model,
             "summary": self.summary,
             "misfit_factor": self.misfit_factor if self.channels else None,
-            "channels": [
-                {**c.to_dict(), "judged_ratio": c.judged_ratio} for c in self.channels
-            ],
+            "channels": [{**c.to_dict(), "judged_ratio": c.judged_ratio} for c in self.channels],
             "located": [loc.to_dict() for loc in self.located],
             "changes": [c.to_dict() for c in self.changes],
             "unexplained": self.unexplained,
@@ -200,8 +201,14 @@ def _rms(x: np.ndarray) -> float:
 def _channel(ch: ResidualChannel, ratio_limit: float) -> ChannelAdequacy:
     t = np.asarray(ch.t_s, dtype=float)
     r = np.asarray(ch.residual, dtype=float)
-    floor = noise_floor(t, r, measured=ch.measured, quantum=ch.quantum,
-                        timescale_s=ch.timescale_s, input_std=ch.input_std)
+    floor = noise_floor(
+        t,
+        r,
+        measured=ch.measured,
+        quantum=ch.quantum,
+        timescale_s=ch.timescale_s,
+        input_std=ch.input_std,
+    )
     rms = _rms(r)
     f = floor.std if floor.std > 0 else math.nan
     held_rms = held_ratio = None
@@ -215,15 +222,27 @@ def _channel(ch: ResidualChannel, ratio_limit: float) -> ChannelAdequacy:
         step = max(1, round(ch.timescale_s / dt)) if dt > 0 else 1
         white_p = ljung_box(r[ok][::step], 20)[1] if ok.sum() // step >= 40 else None
     judged = held_ratio if held_ratio is not None else rms / f
-    n_eff = effective_samples(ch.heldout if held_ratio is not None and ch.heldout is not None
-                              else r)
+    n_eff = effective_samples(
+        ch.heldout if held_ratio is not None and ch.heldout is not None else r
+    )
     z = (judged**2 - 1.0) * math.sqrt(n_eff / 2.0) if math.isfinite(judged) else math.inf
     significant = judged > SIGNIFICANT_RATIO and z > SIGNIFICANT_Z
     explains = bool(math.isfinite(judged) and judged <= ratio_limit and not significant)
     if floor.std <= 0 and rms == 0:
         explains = True
-    return ChannelAdequacy(ch.name, ch.unit, int(ok.sum()), rms, floor.std, floor, rms / f,
-                           held_rms, held_ratio, white_p, explains)
+    return ChannelAdequacy(
+        ch.name,
+        ch.unit,
+        int(ok.sum()),
+        rms,
+        floor.std,
+        floor,
+        rms / f,
+        held_rms,
+        held_ratio,
+        white_p,
+        explains,
+    )
 
 
 def describe_misfit(channels: Sequence[ChannelAdequacy], located: Sequence[Location]) -> str:
@@ -235,8 +254,10 @@ def describe_misfit(channels: Sequence[ChannelAdequacy], located: Sequence[Locat
         if c.explains:
             continue
         where = list(dict.fromkeys(loc.label for loc in located if loc.channel == c.channel))
-        parts.append(f"{c.channel} keeps {c.judged_ratio:.2g}x its noise floor"
-                     + (f", concentrated at {', '.join(where[:3])}" if where else ""))
+        parts.append(
+            f"{c.channel} keeps {c.judged_ratio:.2g}x its noise floor"
+            + (f", concentrated at {', '.join(where[:3])}" if where else "")
+        )
     return "; ".join(parts)
 
 
@@ -254,8 +275,9 @@ def assess(
     """Judge ``model`` by its residual ``channels``: per channel the noise floor, ratios,
     whiteness; located misfit; the verdict. A parameter change mid-log makes the verdict
     "does not explain" (one set of parameters does not describe the log)."""
-    usable = [c for c in channels if np.isfinite(np.asarray(c.residual, float)).sum()
-              >= min_samples]
+    usable = [
+        c for c in channels if np.isfinite(np.asarray(c.residual, float)).sum() >= min_samples
+    ]
     if not usable:
         return not_assessed(model, f"fewer than {min_samples} residual samples")
     judged = [_channel(c, ratio_limit) for c in usable]
@@ -269,6 +291,13 @@ def assess(
         unexplained = describe_misfit(judged, located) or None
         by_robot = False
     return Adequacy(
-        EXPLAINS if explains else NOT_EXPLAINED, model, tuple(judged), tuple(located),
-        tuple(changes), unexplained, before, notes=tuple(notes), described_by_robot=by_robot,
+        EXPLAINS if explains else NOT_EXPLAINED,
+        model,
+        tuple(judged),
+        tuple(located),
+        tuple(changes),
+        unexplained,
+        before,
+        notes=tuple(notes),
+        described_by_robot=by_robot,
     )

@@ -108,9 +108,7 @@ def _windows(run: DriveRun, window_s: float) -> list[tuple[int, int]]:
     return [(int(a), int(b)) for a, b in itertools.pairwise(idx) if b > a]
 
 
-def _run_prediction(
-    run: DriveRun, p: DiffDriveParams
-) -> tuple[Array, NDArray[np.complex128]]:
+def _run_prediction(run: DriveRun, p: DiffDriveParams) -> tuple[Array, NDArray[np.complex128]]:
     """Model heading (from 0) and cumulative unit-less arc displacement per sample, in the
     model's own heading frame."""
     dr, dl = np.diff(run.wheel_right), np.diff(run.wheel_left)
@@ -143,8 +141,9 @@ def _window_residuals(
 ) -> _Windows:
     """Residuals per window; ``params[f]`` predicts the windows of fold f (one entry: all)."""
     offs = _run_offsets(runs)
-    cols: dict[str, list[float]] = {k: [] for k in (
-        "t", "heading", "along", "fold", "speed", "turn", "wheel_diff", "yaw")}
+    cols: dict[str, list[float]] = {
+        k: [] for k in ("t", "heading", "along", "fold", "speed", "turn", "wheel_diff", "yaw")
+    }
     segs = []
     for k, run in enumerate(runs):
         preds = [_run_prediction(run, p) for p in params]
@@ -158,7 +157,8 @@ def _window_residuals(
             dyaw = run.yaw[b] - run.yaw[a]
             disp = complex(run.x[b] - run.x[a], run.y[b] - run.y[a])
             pred = np.exp(1j * (run.yaw[a] - h[a])) * (cum[b] - cum[a]) + offset * (
-                np.exp(1j * run.yaw[b]) - np.exp(1j * run.yaw[a]))
+                np.exp(1j * run.yaw[b]) - np.exp(1j * run.yaw[a])
+            )
             u = np.exp(1j * 0.5 * (run.yaw[a] + run.yaw[b]))
             wr = (run.wheel_right[b] - run.wheel_right[a]) * p.r_R
             wl = (run.wheel_left[b] - run.wheel_left[a]) * p.r_L
@@ -173,13 +173,22 @@ def _window_residuals(
         if run.n:
             segs.append((run.name, float(run.t[0] + offs[k]), float(run.t[-1] + offs[k])))
     arr = {k: np.asarray(v, dtype=float) for k, v in cols.items()}
-    return _Windows(arr["t"], arr["heading"], arr["along"], arr["fold"].astype(np.intp),
-                    arr["speed"], arr["turn"], arr["wheel_diff"], arr["yaw"],
-                    tuple(segs) if len(segs) > 1 else ())
+    return _Windows(
+        arr["t"],
+        arr["heading"],
+        arr["along"],
+        arr["fold"].astype(np.intp),
+        arr["speed"],
+        arr["turn"],
+        arr["wheel_diff"],
+        arr["yaw"],
+        tuple(segs) if len(segs) > 1 else (),
+    )
 
 
-def _fold_params(runs: Sequence[DriveRun], segment_s: float
-                 ) -> tuple[DiffDriveParams, DiffDriveParams] | None:
+def _fold_params(
+    runs: Sequence[DriveRun], segment_s: float
+) -> tuple[DiffDriveParams, DiffDriveParams] | None:
     """Parameters fitted on each fold's segments (alternating ``FOLD_S`` blocks): entry f is
     fitted on the *other* fold, so that it predicts fold f held out."""
     try:
@@ -187,8 +196,9 @@ def _fold_params(runs: Sequence[DriveRun], segment_s: float
     except InsufficientDataError:
         return None
     offs = _run_offsets(runs)
-    t_mid = np.array([0.5 * (runs[s.run].t[s.start] + runs[s.run].t[s.stop]) + offs[s.run]
-                      for s in d.segments])
+    t_mid = np.array(
+        [0.5 * (runs[s.run].t[s.start] + runs[s.run].t[s.stop]) + offs[s.run] for s in d.segments]
+    )
     fold = ((t_mid // FOLD_S) % 2).astype(int)
     out = []
     for f in (0, 1):
@@ -221,13 +231,32 @@ def residual_channels(
         if fp is not None:
             wh = _window_residuals(runs, list(fp), off, WINDOW_S, excluded)
             held_h, held_a = wh.heading, wh.along
-    cov = {"speed (m/s)": w.speed, "|turn rate| (rad/s)": w.turn,
-           "wheel speed difference (m/s)": w.wheel_diff}
+    cov = {
+        "speed (m/s)": w.speed,
+        "|turn rate| (rad/s)": w.turn,
+        "wheel speed difference (m/s)": w.wheel_diff,
+    }
     return [
-        ResidualChannel("heading increment", "rad", w.t, w.heading, held_h,
-                        timescale_s=WINDOW_S, covariates=cov, segments=w.segments),
-        ResidualChannel("along-track displacement", "m", w.t, w.along, held_a,
-                        timescale_s=WINDOW_S, covariates=cov, segments=w.segments),
+        ResidualChannel(
+            "heading increment",
+            "rad",
+            w.t,
+            w.heading,
+            held_h,
+            timescale_s=WINDOW_S,
+            covariates=cov,
+            segments=w.segments,
+        ),
+        ResidualChannel(
+            "along-track displacement",
+            "m",
+            w.t,
+            w.along,
+            held_a,
+            timescale_s=WINDOW_S,
+            covariates=cov,
+            segments=w.segments,
+        ),
     ]
 
 
@@ -276,28 +305,41 @@ def find_stuck_spans(
                 while j < n and zero[j]:
                     j += 1
                 if int(flag[i:j].sum()) >= need:
-                    pred = (params.r_R * (run.wheel_right[j] - run.wheel_right[i])
-                            - params.r_L * (run.wheel_left[j] - run.wheel_left[i])) / params.b
+                    pred = (
+                        params.r_R * (run.wheel_right[j] - run.wheel_right[i])
+                        - params.r_L * (run.wheel_left[j] - run.wheel_left[i])
+                    ) / params.b
                     miss = float(run.yaw[j] - run.yaw[i] - pred)
                     n_win = max(1.0, (run.t[j] - run.t[i]) / WINDOW_S)
                     if abs(miss) > max(STUCK_MIN_RAD, 5 * heading_floor * math.sqrt(n_win)):
-                        out.append(StuckSpan(k, wheel, i, j, float(run.t[i] + offs[k]),
-                                             float(run.t[j] + offs[k]), miss))
+                        out.append(
+                            StuckSpan(
+                                k,
+                                wheel,
+                                i,
+                                j,
+                                float(run.t[i] + offs[k]),
+                                float(run.t[j] + offs[k]),
+                                miss,
+                            )
+                        )
                 i = j
     return sorted(out, key=lambda s: s.t0_s)
 
 
-def exclusion_masks(runs: Sequence[DriveRun], spans: Sequence[StuckSpan]
-                    ) -> list[NDArray[np.bool_]]:
+def exclusion_masks(
+    runs: Sequence[DriveRun], spans: Sequence[StuckSpan]
+) -> list[NDArray[np.bool_]]:
     """Per run, the increments (index i: sample i to i+1) inside ``spans``."""
     masks = [np.zeros(max(r.n, 1), dtype=bool) for r in runs]
     for s in spans:
-        masks[s.run][s.i0:s.i1] = True
+        masks[s.run][s.i0 : s.i1] = True
     return masks
 
 
-def _split_excluded(runs: Sequence[DriveRun], excluded: Sequence[NDArray[np.bool_]] | None
-                    ) -> list[DriveRun]:
+def _split_excluded(
+    runs: Sequence[DriveRun], excluded: Sequence[NDArray[np.bool_]] | None
+) -> list[DriveRun]:
     if excluded is None:
         return list(runs)
     out = []
@@ -320,8 +362,15 @@ def _split_excluded(runs: Sequence[DriveRun], excluded: Sequence[NDArray[np.bool
 
 def _sub(run: DriveRun, a: int, b: int) -> DriveRun:
     sl = slice(a, b + 1)
-    return DriveRun(run.t[sl], run.wheel_right[sl], run.wheel_left[sl], run.x[sl], run.y[sl],
-                    run.yaw[sl], name=run.name)
+    return DriveRun(
+        run.t[sl],
+        run.wheel_right[sl],
+        run.wheel_left[sl],
+        run.x[sl],
+        run.y[sl],
+        run.yaw[sl],
+        name=run.name,
+    )
 
 
 def exclude_spans(runs: Sequence[DriveRun], spans: Sequence[StuckSpan]) -> list[DriveRun]:
@@ -351,8 +400,9 @@ def piece_length(runs: Sequence[DriveRun]) -> float:
     return float(min(PIECE_S, max(PIECE_MIN_S, total / PIECES_WANTED)))
 
 
-def _segment_rows(run: DriveRun, p: DiffDriveParams, offset: complex, seg: float
-                  ) -> tuple[Array, Array, Array, Array, Array]:
+def _segment_rows(
+    run: DriveRun, p: DiffDriveParams, offset: complex, seg: float
+) -> tuple[Array, Array, Array, Array, Array]:
     """Per segment of ``seg`` seconds of ``run``: mid time, heading residual, along-track
     residual of ``p``, and the rows of their derivatives with respect to (r_R, r_L)."""
     h, cum = _run_prediction(run, p)
@@ -365,12 +415,18 @@ def _segment_rows(run: DriveRun, p: DiffDriveParams, offset: complex, seg: float
     e_h = dyaw - (h[ib] - h[ia])
     disp = (run.x[ib] - run.x[ia]) + 1j * (run.y[ib] - run.y[ia])
     pred = np.exp(1j * (run.yaw[ia] - h[ia])) * (cum[ib] - cum[ia]) + offset * (
-        np.exp(1j * run.yaw[ib]) - np.exp(1j * run.yaw[ia]))
+        np.exp(1j * run.yaw[ib]) - np.exp(1j * run.yaw[ia])
+    )
     u = np.exp(1j * 0.5 * (run.yaw[ia] + run.yaw[ib]))
     e_p = ((disp - pred) * np.conj(u)).real
     t = 0.5 * (run.t[ia] + run.t[ib])
-    return (t, e_h, e_p, np.column_stack([dr / p.b, -dl / p.b]),
-            np.column_stack([0.5 * dr, 0.5 * dl]))
+    return (
+        t,
+        e_h,
+        e_p,
+        np.column_stack([dr / p.b, -dl / p.b]),
+        np.column_stack([0.5 * dr, 0.5 * dl]),
+    )
 
 
 LRV_FLOOR = 0.2
@@ -389,8 +445,13 @@ def _lrv_ratio(x: Array) -> float:
     return float(min(4.0, max(LRV_FLOOR, long_run_variance_ratio(x - x.mean()))))
 
 
-def piece_fits(runs: Sequence[DriveRun], params: DiffDriveParams, piece_s: float | None = None,
-               segment_s: float | None = None, offset: complex | None = None) -> list[PieceFit]:
+def piece_fits(
+    runs: Sequence[DriveRun],
+    params: DiffDriveParams,
+    piece_s: float | None = None,
+    segment_s: float | None = None,
+    offset: complex | None = None,
+) -> list[PieceFit]:
     """The mean wheel radius and the radius difference per piece of ``piece_s`` seconds
     (None: :func:`piece_length`), as corrections to ``params`` fitted on the segments
     (``segment_s``, None: a sixth of a piece, 0.5-2 s) of that piece: the heading residual
@@ -414,8 +475,9 @@ def piece_fits(runs: Sequence[DriveRun], params: DiffDriveParams, piece_s: float
                 t1 = float(run.t[-1])
             m = (t >= t0) & (t < t1) if t1 < run.t[-1] else t >= t0
             if m.sum() >= 3:
-                raw.append((float(t0 + offs[k]), float(t1 + offs[k]), e_h[m], e_p[m], A_h[m],
-                            A_p[m]))
+                raw.append(
+                    (float(t0 + offs[k]), float(t1 + offs[k]), e_h[m], e_p[m], A_h[m], A_p[m])
+                )
             if t1 >= run.t[-1]:
                 break
     if len(raw) < 2:
@@ -448,20 +510,28 @@ def piece_fits(runs: Sequence[DriveRun], params: DiffDriveParams, piece_s: float
         cov = T @ np.linalg.inv(A.T @ A) @ T.T
         val = T @ coef + T @ np.array([params.r_R, params.r_L])
         sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        out.append(PieceFit(t0, t1, {PIECE_NAMES[0]: float(val[0]), PIECE_NAMES[1]: float(val[1])},
-                            {PIECE_NAMES[0]: float(sd[0]), PIECE_NAMES[1]: float(sd[1])}))
+        out.append(
+            PieceFit(
+                t0,
+                t1,
+                {PIECE_NAMES[0]: float(val[0]), PIECE_NAMES[1]: float(val[1])},
+                {PIECE_NAMES[0]: float(sd[0]), PIECE_NAMES[1]: float(sd[1])},
+            )
+        )
     return out
 
 
-def radius_change(runs: Sequence[DriveRun], params: DiffDriveParams,
-                  offset: complex | None = None) -> ParameterChange | None:
+def radius_change(
+    runs: Sequence[DriveRun], params: DiffDriveParams, offset: complex | None = None
+) -> ParameterChange | None:
     """A change of the wheel radii mid-log (:func:`calib.adequacy.parameter_change` over
     :func:`piece_fits`: the mean radius and the radius difference, tested together), reported
     as each wheel's radius before and after; None when one set describes the log."""
     pieces = piece_fits(runs, params, offset=offset)
     r = 0.5 * (params.r_R + params.r_L)
-    ch = parameter_change(pieces, PIECE_NAMES, min_relative=0.002,
-                          scale={PIECE_NAMES[0]: r, PIECE_NAMES[1]: r})
+    ch = parameter_change(
+        pieces, PIECE_NAMES, min_relative=0.002, scale={PIECE_NAMES[0]: r, PIECE_NAMES[1]: r}
+    )
     if ch is None:
         return None
 
@@ -471,5 +541,12 @@ def radius_change(runs: Sequence[DriveRun], params: DiffDriveParams,
 
     before, after = wheels(ch.before), wheels(ch.after)
     desc = ", ".join(f"{n} {before[n]:.4g} -> {after[n]:.4g} m" for n in before)
-    return ParameterChange(ch.t_s, ch.t_range_s, tuple(before), before, after, ch.statistic,
-                           f"the wheel radii change near t = {ch.t_s:.1f} s ({desc})")
+    return ParameterChange(
+        ch.t_s,
+        ch.t_range_s,
+        tuple(before),
+        before,
+        after,
+        ch.statistic,
+        f"the wheel radii change near t = {ch.t_s:.1f} s ({desc})",
+    )

@@ -252,9 +252,7 @@ def discover(
     )
     p = fit.params
     findings = []
-    asym = _relative(
-        ASYMMETRY.id, fit.ratio_boot - 1, p.r_R / p.r_L - 1, "r_R / r_L - 1", fit
-    )
+    asym = _relative(ASYMMETRY.id, fit.ratio_boot - 1, p.r_R / p.r_L - 1, "r_R / r_L - 1", fit)
     excl, lo, hi = _excludes_null(asym, q_test)
     named = bool(excl and gain_asym > 0)
     findings.append(

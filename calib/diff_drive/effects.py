@@ -73,6 +73,7 @@ Array = NDArray[np.float64]
 Z95 = 1.959963984540054
 CV_BLOCK = 5
 
+
 class DriveEffectModel(Protocol):
     """How one effect changes the differential drive's model: the hook of its
     :class:`~calib.adequacy.EffectSpec`. ``values`` holds the effect's own parameters by
@@ -82,8 +83,15 @@ class DriveEffectModel(Protocol):
         """The radii and track with the effect, from those without it."""
         ...
 
-    def increments(self, run: int, data: DriveRun, dr: Array, dl: Array,
-                   values: Mapping[str, float], p: DiffDriveParams) -> tuple[Array, Array]:
+    def increments(
+        self,
+        run: int,
+        data: DriveRun,
+        dr: Array,
+        dl: Array,
+        values: Mapping[str, float],
+        p: DiffDriveParams,
+    ) -> tuple[Array, Array]:
         """Run ``run``'s wheel increments (rad; right, left) as the model rolls them, from the
         logged ones (or from what earlier effects made of them); ``p``: the radii and track
         with every parameter-level effect. Never modifies ``dr`` or ``dl`` in place."""
@@ -102,8 +110,15 @@ class DriveEffect:
     def params(self, p: DiffDriveParams, values: Mapping[str, float]) -> DiffDriveParams:
         return p
 
-    def increments(self, run: int, data: DriveRun, dr: Array, dl: Array,
-                   values: Mapping[str, float], p: DiffDriveParams) -> tuple[Array, Array]:
+    def increments(
+        self,
+        run: int,
+        data: DriveRun,
+        dr: Array,
+        dl: Array,
+        values: Mapping[str, float],
+        p: DiffDriveParams,
+    ) -> tuple[Array, Array]:
         return dr, dl
 
     def local_segments(self, segments: Sequence[SegmentIndex]) -> set[int] | None:
@@ -129,8 +144,15 @@ class _EffectiveTrack(DriveEffect):
 class _WheelSlip(DriveEffect):
     """Each wheel's travel scaled by (1 - k |wheel ground speed|)."""
 
-    def increments(self, run: int, data: DriveRun, dr: Array, dl: Array,
-                   values: Mapping[str, float], p: DiffDriveParams) -> tuple[Array, Array]:
+    def increments(
+        self,
+        run: int,
+        data: DriveRun,
+        dr: Array,
+        dl: Array,
+        values: Mapping[str, float],
+        p: DiffDriveParams,
+    ) -> tuple[Array, Array]:
         k = values["k"]
         if not k:
             return dr, dl
@@ -145,52 +167,77 @@ class _Stuck(DriveEffect):
 
     span: StuckSpan
 
-    def increments(self, run: int, data: DriveRun, dr: Array, dl: Array,
-                   values: Mapping[str, float], p: DiffDriveParams) -> tuple[Array, Array]:
+    def increments(
+        self,
+        run: int,
+        data: DriveRun,
+        dr: Array,
+        dl: Array,
+        values: Mapping[str, float],
+        p: DiffDriveParams,
+    ) -> tuple[Array, Array]:
         sp = self.span
         if sp.run != run:
             return dr, dl
         n = max(1, sp.i1 - sp.i0)
         if sp.wheel == "wheel_right":
             dr = dr.copy()
-            dr[sp.i0:sp.i1] = values["missed_turn"] / n
+            dr[sp.i0 : sp.i1] = values["missed_turn"] / n
         else:
             dl = dl.copy()
-            dl[sp.i0:sp.i1] = values["missed_turn"] / n
+            dl[sp.i0 : sp.i1] = values["missed_turn"] / n
         return dr, dl
 
     def local_segments(self, segments: Sequence[SegmentIndex]) -> set[int] | None:
         sp = self.span
-        return {i for i, s in enumerate(segments)
-                if s.run == sp.run and s.start < sp.i1 and s.stop > sp.i0}
+        return {
+            i
+            for i, s in enumerate(segments)
+            if s.run == sp.run and s.start < sp.i1 and s.stop > sp.i0
+        }
 
 
 ASYMMETRY: EffectSpec[DriveEffectModel] = EffectSpec(
-    "wheel_radius_asymmetry", "wheels", EffectKind.DYNAMICS,
+    "wheel_radius_asymmetry",
+    "wheels",
+    EffectKind.DYNAMICS,
     (EffectParam("ratio_minus_1", "1", 0.0, -0.3, 0.3, 0.0),),
     "the right and left wheels roll on different radii: the robot curves when both turn alike",
-    sim_switch="asymmetry", truth_key="wheel_radius_right", model=_Asymmetry(),
+    sim_switch="asymmetry",
+    truth_key="wheel_radius_right",
+    model=_Asymmetry(),
 )
 EFFECTIVE_TRACK: EffectSpec[DriveEffectModel] = EffectSpec(
-    "effective_track", "track", EffectKind.DYNAMICS,
+    "effective_track",
+    "track",
+    EffectKind.DYNAMICS,
     (EffectParam("track_ratio_minus_1", "1", 0.0, -0.5, 3.0, 0.0),),
     "the robot turns as if its track were other than nominal (a skid steer's wheels slide "
     "sideways: effective track wider than the geometric one)",
-    confounded_with=("wheel_slip(wheels)",), sim_switch="skid", truth_key="track_width",
+    confounded_with=("wheel_slip(wheels)",),
+    sim_switch="skid",
+    truth_key="track_width",
     model=_EffectiveTrack(),
 )
 WHEEL_SLIP: EffectSpec[DriveEffectModel] = EffectSpec(
-    "wheel_slip", "wheels", EffectKind.DYNAMICS,
+    "wheel_slip",
+    "wheels",
+    EffectKind.DYNAMICS,
     (EffectParam("k", "s/m", 0.0, -2.0, 2.0, 0.0),),
-    "longitudinal slip growing with speed: each wheel covers (1 - k |speed|) of its rolling "
-    "travel",
-    confounded_with=("effective_track(track)",), sim_switch="slip_per_speed", model=_WheelSlip(),
+    "longitudinal slip growing with speed: each wheel covers (1 - k |speed|) of its rolling travel",
+    confounded_with=("effective_track(track)",),
+    sim_switch="slip_per_speed",
+    model=_WheelSlip(),
 )
 
 _REGISTERED: list[EffectSpec[DriveEffectModel]] = []
 
-_CHAIN_ORDER = {EffectKind.SENSOR: 0, EffectKind.CLOCK: 0, EffectKind.ACTUATOR: 1,
-                EffectKind.DYNAMICS: 2}
+_CHAIN_ORDER = {
+    EffectKind.SENSOR: 0,
+    EffectKind.CLOCK: 0,
+    EffectKind.ACTUATOR: 1,
+    EffectKind.DYNAMICS: 2,
+}
 """The order in which wheel-level hooks apply: what the reading got wrong is undone first, then
 what the wheels did on the ground."""
 
@@ -217,7 +264,9 @@ def registered_effects() -> tuple[EffectSpec[DriveEffectModel], ...]:
 def stuck_spec(span: StuckSpan) -> EffectSpec[DriveEffectModel]:
     """The catalogue entry of one stuck-encoder span."""
     return EffectSpec(
-        "encoder_stuck", span.label, EffectKind.SENSOR,
+        "encoder_stuck",
+        span.label,
+        EffectKind.SENSOR,
         (EffectParam("missed_turn", "rad", 0.0, -1e3, 1e3, 0.0),),
         f"the {span.wheel.replace('_', ' ')} encoder's reading stood still from "
         f"{span.t0_s:.1f} to {span.t1_s:.1f} s while the other wheel and the ground truth "
@@ -226,9 +275,11 @@ def stuck_spec(span: StuckSpan) -> EffectSpec[DriveEffectModel]:
     )
 
 
-def catalogue(has_nominal_track: bool, spans: Sequence[StuckSpan] = (),
-              extra: Sequence[EffectSpec[DriveEffectModel]] = ()
-              ) -> list[EffectSpec[DriveEffectModel]]:
+def catalogue(
+    has_nominal_track: bool,
+    spans: Sequence[StuckSpan] = (),
+    extra: Sequence[EffectSpec[DriveEffectModel]] = (),
+) -> list[EffectSpec[DriveEffectModel]]:
     """The effects tested on one log: the built-in ones, the registered ones
     (:func:`register_effect`), then ``extra``."""
     out = [ASYMMETRY]
@@ -271,8 +322,7 @@ class _Problem:
         """An effect's own parameters, by their names, from the full vector's values."""
         return {p.name: v[f"{e.key}:{p.name}"] for p in e.params}
 
-    def params_of(self, v: Mapping[str, float], effects: Sequence[EffectSpec]
-                  ) -> DiffDriveParams:
+    def params_of(self, v: Mapping[str, float], effects: Sequence[EffectSpec]) -> DiffDriveParams:
         """The radii and track: one radius ``r``, the nominal (or fitted) track, then each
         effect's parameter-level hook."""
         b = v["b"] if "b" in v else float(self.b_nominal or 1.0)
@@ -281,8 +331,13 @@ class _Problem:
             p = _hook(e).params(p, self.own(e, v))
         return p
 
-    def residuals(self, theta: Array, names: Sequence[str], rows: NDArray[np.intp],
-                  effects: Sequence[EffectSpec]) -> Array:
+    def residuals(
+        self,
+        theta: Array,
+        names: Sequence[str],
+        rows: NDArray[np.intp],
+        effects: Sequence[EffectSpec],
+    ) -> Array:
         v = self.unpack(theta, names)
         p = self.params_of(v, effects)
         chain = sorted(effects, key=lambda e: _CHAIN_ORDER.get(e.kind, 2))
@@ -298,8 +353,12 @@ class _Problem:
                 dr, dl = _hook(e).increments(r, run, dr, dl, self.own(e, v), p)
             dth = (p.r_R * dr - p.r_L * dl) / p.b
             h = np.concatenate([[0.0], np.cumsum(dth)])
-            step = 0.5 * (p.r_R * dr + p.r_L * dl) * np.sinc(dth / (2 * np.pi)) * np.exp(
-                1j * (h[:-1] + 0.5 * dth))
+            step = (
+                0.5
+                * (p.r_R * dr + p.r_L * dl)
+                * np.sinc(dth / (2 * np.pi))
+                * np.exp(1j * (h[:-1] + 0.5 * dth))
+            )
             cum = np.concatenate([[0.0], np.cumsum(step)])
             for i in idx:
                 s = self.segments[i]
@@ -307,10 +366,14 @@ class _Problem:
                 dyaw = run.yaw[b] - run.yaw[a]
                 disp = complex(run.x[b] - run.x[a], run.y[b] - run.y[a])
                 pred = np.exp(1j * (run.yaw[a] - h[a])) * (cum[b] - cum[a]) + off * (
-                    np.exp(1j * run.yaw[b]) - np.exp(1j * run.yaw[a]))
+                    np.exp(1j * run.yaw[b]) - np.exp(1j * run.yaw[a])
+                )
                 e = disp - pred
-                out[i] = [(dyaw - (h[b] - h[a])) / self.sigma_h, e.real / self.sigma_p,
-                          e.imag / self.sigma_p]
+                out[i] = [
+                    (dyaw - (h[b] - h[a])) / self.sigma_h,
+                    e.real / self.sigma_p,
+                    e.imag / self.sigma_p,
+                ]
         return out[rows].ravel()
 
 
@@ -352,8 +415,10 @@ class _Fitter:
         self.heldout = heldout
         n = len(prob.segments)
         block = (np.arange(n) // CV_BLOCK) % 2
-        self.folds = (np.flatnonzero(block == 0).astype(np.intp),
-                      np.flatnonzero(block == 1).astype(np.intp))
+        self.folds = (
+            np.flatnonzero(block == 0).astype(np.intp),
+            np.flatnonzero(block == 1).astype(np.intp),
+        )
 
     def _x0(self, names: Sequence[str], effects: Sequence[EffectSpec]) -> tuple[Array, ...]:
         lo, hi, x0 = _bounds(names, effects)
@@ -364,8 +429,14 @@ class _Fitter:
                 x0[i] = self.prob.b_nominal or 0.3
         return lo, hi, x0
 
-    def _solve(self, names: list[str], effects: Sequence[EffectSpec], rows: NDArray[np.intp],
-               x0: Array, free: NDArray[np.bool_] | None = None) -> Any:
+    def _solve(
+        self,
+        names: list[str],
+        effects: Sequence[EffectSpec],
+        rows: NDArray[np.intp],
+        x0: Array,
+        free: NDArray[np.bool_] | None = None,
+    ) -> Any:
         lo, hi, _ = self._x0(names, effects)
         fr = np.ones(len(names), bool) if free is None else free
 
@@ -374,8 +445,13 @@ class _Fitter:
             th[fr] = z
             return self.prob.residuals(th, names, rows, effects)
 
-        return least_squares(f, np.clip(x0[fr], lo[fr] + 1e-12, hi[fr] - 1e-12),
-                             bounds=(lo[fr], hi[fr]), x_scale="jac", method="trf")
+        return least_squares(
+            f,
+            np.clip(x0[fr], lo[fr] + 1e-12, hi[fr] - 1e-12),
+            bounds=(lo[fr], hi[fr]),
+            x_scale="jac",
+            method="trf",
+        )
 
     def __call__(self, effects: tuple[EffectSpec, ...]) -> ModelFit | None:
         prob = self.prob
@@ -400,15 +476,35 @@ class _Fitter:
             for p in e.params:
                 i = names.index(f"{e.key}:{p.name}")
                 eff.setdefault(e.key, {})[p.name] = Estimate(
-                    p.name, float(theta[i]), float(std[i]),
+                    p.name,
+                    float(theta[i]),
+                    float(std[i]),
                     (float(theta[i] - Z95 * std[i]), float(theta[i] + Z95 * std[i])),
-                    bool(std[i] > 0), p.unit, "Newey-West over segments")
-        return ModelFit(effects, pars, eff, float(res @ res), held, res.size, len(names),
-                        payload={"params": params, "values": v})
+                    bool(std[i] > 0),
+                    p.unit,
+                    "Newey-West over segments",
+                )
+        return ModelFit(
+            effects,
+            pars,
+            eff,
+            float(res @ res),
+            held,
+            res.size,
+            len(names),
+            payload={"params": params, "values": v},
+        )
 
-    def _robot_estimates(self, names: Sequence[str], effects: Sequence[EffectSpec],
-                         theta: Array, cov: Array, p: DiffDriveParams) -> dict[str, Estimate]:
+    def _robot_estimates(
+        self,
+        names: Sequence[str],
+        effects: Sequence[EffectSpec],
+        theta: Array,
+        cov: Array,
+        p: DiffDriveParams,
+    ) -> dict[str, Estimate]:
         """r_R, r_L, b with delta-method standard errors (numerical gradient)."""
+
         def f(th: Array) -> Array:
             q = self.prob.params_of(self.prob.unpack(th, names), effects)
             return np.array([q.r_R, q.r_L, q.b])
@@ -422,10 +518,12 @@ class _Fitter:
             G[:, i] = (f(tp) - base) / h
         sd = np.sqrt(np.maximum(np.diag(G @ cov @ G.T), 0.0))
         out = {}
-        for name, val, s in zip(("wheel_radius_right", "wheel_radius_left", "track_width"),
-                                base, sd, strict=True):
-            out[name] = Estimate(name, float(val), float(s),
-                                 (float(val - Z95 * s), float(val + Z95 * s)), True, "m")
+        for name, val, s in zip(
+            ("wheel_radius_right", "wheel_radius_left", "track_width"), base, sd, strict=True
+        ):
+            out[name] = Estimate(
+                name, float(val), float(s), (float(val - Z95 * s), float(val + Z95 * s)), True, "m"
+            )
         return out
 
     def _heldout(self, names: list[str], effects: Sequence[EffectSpec], theta: Array) -> float:
@@ -434,15 +532,16 @@ class _Fitter:
         fixed."""
         touched: dict[str, set[int] | None] = {
             f"{e.key}:{p.name}": _hook(e).local_segments(self.prob.segments)
-            for e in effects for p in e.params}
+            for e in effects
+            for p in e.params
+        }
         local = np.array([touched.get(n) is not None for n in names])
         total = 0.0
         for train, test in (self.folds, self.folds[::-1]):
             if train.size < 6 or test.size == 0:
                 return math.nan
             in_train = set(train.tolist())
-            free = ~local | np.array([bool((touched.get(n) or set()) & in_train)
-                                      for n in names])
+            free = ~local | np.array([bool((touched.get(n) or set()) & in_train) for n in names])
             try:
                 sol = self._solve(names, effects, train, theta.copy(), free=free)
                 th = theta.copy()
@@ -479,26 +578,32 @@ class DiffDriveSelection:
         return () if self.selection is None else self.selection.accepted
 
     def to_dict(self) -> dict[str, Any]:
-        return json_safe({
-            "engine": "calib.adequacy.select_effects",
-            "named": self.named,
-            "catalogue": [{"key": e.key, "kind": str(e.kind), "physics": e.physics}
-                          for e in self.catalogue],
-            "selection": None if self.selection is None else self.selection.to_dict(),
-            "notes": list(self.notes),
-        })
+        return json_safe(
+            {
+                "engine": "calib.adequacy.select_effects",
+                "named": self.named,
+                "catalogue": [
+                    {"key": e.key, "kind": str(e.kind), "physics": e.physics}
+                    for e in self.catalogue
+                ],
+                "selection": None if self.selection is None else self.selection.to_dict(),
+                "notes": list(self.notes),
+            }
+        )
 
     def report(self) -> list[str]:
         sel = self.selection
         if sel is None:
             return ["Discovery: nothing tested. " + " ".join(self.notes)]
-        head = ("Discovery: " + ", ".join(e.key for e in sel.accepted) if sel.accepted else
-                "Discovery: no catalogued effect improves the held-out fit")
+        head = (
+            "Discovery: " + ", ".join(e.key for e in sel.accepted)
+            if sel.accepted
+            else "Discovery: no catalogued effect improves the held-out fit"
+        )
         lines = [head]
         for e in sel.accepted:
             pars = sel.final.effect_parameters.get(e.key, {})
-            vals = ", ".join(f"{n} = {p.value:.4g} ± {p.std:.2g} {p.unit}"
-                             for n, p in pars.items())
+            vals = ", ".join(f"{n} = {p.value:.4g} ± {p.std:.2g} {p.unit}" for n, p in pars.items())
             lines.append(f"  {e.key}: {vals}; {e.physics}")
         b, a = sel.base.heldout_sse, sel.final.heldout_sse
         if sel.accepted and math.isfinite(b) and math.isfinite(a):
@@ -541,14 +646,17 @@ def _raw_residuals(prob: _Problem, p: DiffDriveParams, marker: complex) -> Array
     return prob.residuals(theta, names, np.arange(len(prob.segments), dtype=np.intp), effects)
 
 
-def noise_scales(prob: _Problem, calibrated: DiffDriveParams, marker: complex
-                 ) -> tuple[float, float]:
+def noise_scales(
+    prob: _Problem, calibrated: DiffDriveParams, marker: complex
+) -> tuple[float, float]:
     """Heading and position noise scales per segment: the robust (MAD) spread of what the
     calibrated model leaves, inflated by the residuals' long-run variance ratio."""
     raw = _raw_residuals(prob, calibrated, marker).reshape(-1, 3)
     sigma_h = max(_mad(raw[:, 0]) * math.sqrt(_lrv_ratio(raw[:, 0])), 1e-9)
-    sigma_p = max(_mad(raw[:, 1:].ravel()) * math.sqrt(
-        max(_lrv_ratio(raw[:, 1]), _lrv_ratio(raw[:, 2]))), 1e-9)
+    sigma_p = max(
+        _mad(raw[:, 1:].ravel()) * math.sqrt(max(_lrv_ratio(raw[:, 1]), _lrv_ratio(raw[:, 2]))),
+        1e-9,
+    )
     return sigma_h, sigma_p
 
 
@@ -573,14 +681,31 @@ def discover_effects(
     segments = cut_segments(runs, segment_s)
     cat = catalogue(nominal is not None, spans, extra)
     if len(segments) < 4 * CV_BLOCK:
-        return DiffDriveSelection(None, tuple(cat), [
-            f"only {len(segments)} moving segments of {segment_s:g} s: discovery needs "
-            f"{4 * CV_BLOCK}"])
+        return DiffDriveSelection(
+            None,
+            tuple(cat),
+            [
+                f"only {len(segments)} moving segments of {segment_s:g} s: discovery needs "
+                f"{4 * CV_BLOCK}"
+            ],
+        )
     turned = sum(abs(runs[s.run].yaw[s.stop] - runs[s.run].yaw[s.start]) for s in segments)
-    prob = _Problem(runs, segments, None if nominal is None else nominal.b,
-                    0.5 * (calibrated.r_R + calibrated.r_L), turned >= math.pi / 2, 1.0, 1.0)
+    prob = _Problem(
+        runs,
+        segments,
+        None if nominal is None else nominal.b,
+        0.5 * (calibrated.r_R + calibrated.r_L),
+        turned >= math.pi / 2,
+        1.0,
+        1.0,
+    )
     prob.sigma_h, prob.sigma_p = noise_scales(prob, calibrated, marker or 0j)
     sel = select_effects(_Fitter(prob), cat, max_effects=2 + len(spans))
-    notes = [] if nominal is not None else [
-        "no nominal track in the log: the effective track is not tested (the track is fitted)"]
+    notes = (
+        []
+        if nominal is not None
+        else [
+            "no nominal track in the log: the effective track is not tested (the track is fitted)"
+        ]
+    )
     return DiffDriveSelection(sel, tuple(cat), notes)

@@ -62,13 +62,13 @@ MIN_TURN_RAD_S = 0.05
 N_BOOT = 500
 
 
-
 class GainEffectModel(Protocol):
     """How one effect changes the yaw-rate gain: the hook of its
     :class:`~calib.adequacy.EffectSpec` (``values``: its own parameters by name)."""
 
-    def gain(self, values: Mapping[str, float], w: _Windows, rows: NDArray[np.intp]
-             ) -> tuple[float | Array, float | Array]:
+    def gain(
+        self, values: Mapping[str, float], w: _Windows, rows: NDArray[np.intp]
+    ) -> tuple[float | Array, float | Array]:
         """What it adds to G's constant part and to its growth part on windows ``rows``."""
         ...
 
@@ -77,8 +77,9 @@ class GainEffectModel(Protocol):
 class _Constant:
     param: str
 
-    def gain(self, values: Mapping[str, float], w: _Windows, rows: NDArray[np.intp]
-             ) -> tuple[float | Array, float | Array]:
+    def gain(
+        self, values: Mapping[str, float], w: _Windows, rows: NDArray[np.intp]
+    ) -> tuple[float | Array, float | Array]:
         return values[self.param], 0.0
 
 
@@ -88,30 +89,40 @@ class _Growth:
     covariate: str
     """The :class:`_Windows` field the gain grows with."""
 
-    def gain(self, values: Mapping[str, float], w: _Windows, rows: NDArray[np.intp]
-             ) -> tuple[float | Array, float | Array]:
+    def gain(
+        self, values: Mapping[str, float], w: _Windows, rows: NDArray[np.intp]
+    ) -> tuple[float | Array, float | Array]:
         x: Array = getattr(w, self.covariate)[rows]
         return 0.0, values[self.param] * x
 
 
 TURN_SLIP: EffectSpec[GainEffectModel] = EffectSpec(
-    "turn_slip", "track", EffectKind.DYNAMICS,
+    "turn_slip",
+    "track",
+    EffectKind.DYNAMICS,
     (EffectParam("per_rad_s", "s/rad", 0.0, -0.9, 20.0, 0.0),),
     "the wheels slide more the faster the robot turns: the yaw-rate gain grows with |turn "
     "rate| (G = G0 (1 + s |omega|))",
-    confounded_with=("speed_slip(track)",), model=_Growth("per_rad_s", "rate"),
+    confounded_with=("speed_slip(track)",),
+    model=_Growth("per_rad_s", "rate"),
 )
 SPEED_SLIP: EffectSpec[GainEffectModel] = EffectSpec(
-    "speed_slip", "track", EffectKind.DYNAMICS,
+    "speed_slip",
+    "track",
+    EffectKind.DYNAMICS,
     (EffectParam("per_m_s", "s/m", 0.0, -0.9, 20.0, 0.0),),
     "the yaw-rate gain grows with speed (G = G0 (1 + s |v|))",
-    confounded_with=("turn_slip(track)",), model=_Growth("per_m_s", "speed"),
+    confounded_with=("turn_slip(track)",),
+    model=_Growth("per_m_s", "speed"),
 )
 GAIN: EffectSpec[GainEffectModel] = EffectSpec(
-    "effective_track", "track", EffectKind.DYNAMICS,
+    "effective_track",
+    "track",
+    EffectKind.DYNAMICS,
     (EffectParam("gain_minus_1", "1", 0.0, -0.9, 20.0, 0.0),),
     "the robot turns slower than its wheel odometry says (skid steer: effective track = "
-    "geometric track x gain)", model=_Constant("gain_minus_1"),
+    "geometric track x gain)",
+    model=_Constant("gain_minus_1"),
 )
 
 
@@ -138,7 +149,7 @@ def _lag(t: Array, odo: Array, gyro: Array) -> float:
     a, b = odo - odo.mean(), gyro - gyro.mean()
     cs = []
     for k in range(-m, m + 1):
-        x, y = a[max(0, -k): a.size - max(0, k)], b[max(0, k): b.size - max(0, -k)]
+        x, y = a[max(0, -k) : a.size - max(0, k)], b[max(0, k) : b.size - max(0, -k)]
         cs.append(float(np.dot(x, y)) / math.sqrt(float(np.dot(x, x) * np.dot(y, y)) or 1.0))
     at = int(np.argmax(cs))
     if at in (0, len(cs) - 1) or cs[at] - cs[m] < 0.01:
@@ -153,8 +164,14 @@ def _windows(t: Array, odo: Array, gyro: Array, speed: Array) -> _Windows:
     a, b = edges[:-1], edges[1:]
     io, ig, iv = _integrate(t, odo), _integrate(t, gyro), _integrate(t, np.abs(speed))
     dt = t[b] - t[a]
-    return _Windows(0.5 * (t[a] + t[b]), io[b] - io[a], ig[b] - ig[a], dt,
-                    np.abs(io[b] - io[a]) / dt, (iv[b] - iv[a]) / dt)
+    return _Windows(
+        0.5 * (t[a] + t[b]),
+        io[b] - io[a],
+        ig[b] - ig[a],
+        dt,
+        np.abs(io[b] - io[a]) / dt,
+        (iv[b] - iv[a]) / dt,
+    )
 
 
 @dataclass(frozen=True)
@@ -180,21 +197,25 @@ class OdomImuResult:
         return [] if self.selection is None else [e.id for e in self.selection.accepted]
 
     def to_dict(self) -> dict[str, Any]:
-        return json_safe({
-            "gain": self.gain.to_dict(),
-            "gyro_bias": self.bias.to_dict(),
-            "lag_s": self.lag_s,
-            "effective_track": None if self.effective_track is None else
-            self.effective_track.to_dict(),
-            "gain_by_turn_rate": self.by_turn_rate,
-            "gain_by_speed": self.by_speed,
-            "distance_scale_gps": None if self.distance_scale is None else
-            self.distance_scale.to_dict(),
-            "windows": self.n_windows,
-            "named": self.named,
-            "selection": None if self.selection is None else self.selection.to_dict(),
-            "notes": self.notes,
-        })
+        return json_safe(
+            {
+                "gain": self.gain.to_dict(),
+                "gyro_bias": self.bias.to_dict(),
+                "lag_s": self.lag_s,
+                "effective_track": None
+                if self.effective_track is None
+                else self.effective_track.to_dict(),
+                "gain_by_turn_rate": self.by_turn_rate,
+                "gain_by_speed": self.by_speed,
+                "distance_scale_gps": None
+                if self.distance_scale is None
+                else self.distance_scale.to_dict(),
+                "windows": self.n_windows,
+                "named": self.named,
+                "selection": None if self.selection is None else self.selection.to_dict(),
+                "notes": self.notes,
+            }
+        )
 
     def summary_lines(self) -> list[str]:
         """The gain, its dependence on turn rate, the GPS scale: the robot's report part."""
@@ -204,19 +225,28 @@ class OdomImuResult:
             "determined):",
             f"  yaw-rate gain (odometry / gyro) {g.value:.4f} ± {g.std:.2g} "
             f"[95 %: {g.ci95[0]:.4f}, {g.ci95[1]:.4f}] over {self.n_windows} windows of "
-            f"{WINDOW_S:g} s" + ("" if g.identifiable else " (not determined)")
+            f"{WINDOW_S:g} s"
+            + ("" if g.identifiable else " (not determined)")
             + f"; gyro bias {self.bias.value:+.4f} rad/s; lag {self.lag_s:+.3f} s",
         ]
         if self.effective_track is not None:
             lines.append("  " + self.effective_track.report())
         if self.by_turn_rate:
-            lines.append("  gain by |turn rate|: " + ", ".join(
-                f"{b['lo']:.2g}-{b['hi']:.2g} rad/s: {b['gain']:.3g} ± {b['std']:.2g}"
-                for b in self.by_turn_rate))
+            lines.append(
+                "  gain by |turn rate|: "
+                + ", ".join(
+                    f"{b['lo']:.2g}-{b['hi']:.2g} rad/s: {b['gain']:.3g} ± {b['std']:.2g}"
+                    for b in self.by_turn_rate
+                )
+            )
         if self.by_speed:
-            lines.append("  gain by speed: " + ", ".join(
-                f"{b['lo']:.2g}-{b['hi']:.2g} m/s: {b['gain']:.3g} ± {b['std']:.2g}"
-                for b in self.by_speed))
+            lines.append(
+                "  gain by speed: "
+                + ", ".join(
+                    f"{b['lo']:.2g}-{b['hi']:.2g} m/s: {b['gain']:.3g} ± {b['std']:.2g}"
+                    for b in self.by_speed
+                )
+            )
         if self.distance_scale is not None:
             lines.append("  " + self.distance_scale.report())
         lines += [f"  {n}" for n in self.notes]
@@ -227,12 +257,17 @@ class OdomImuResult:
         if self.selection is None:
             return ["Discovery: nothing tested."]
         acc = self.selection.accepted
-        lines = ["Discovery: " + (", ".join(e.key for e in acc) if acc else
-                                  "no catalogued effect improves the held-out fit")]
+        lines = [
+            "Discovery: "
+            + (
+                ", ".join(e.key for e in acc)
+                if acc
+                else "no catalogued effect improves the held-out fit"
+            )
+        ]
         for e in acc:
             for n, p in self.selection.final.effect_parameters.get(e.key, {}).items():
-                lines.append(f"  {e.key} {n} = {p.value:.4g} ± {p.std:.2g} {p.unit}: "
-                             f"{e.physics}")
+                lines.append(f"  {e.key} {n} = {p.value:.4g} ± {p.std:.2g} {p.unit}: {e.physics}")
         b, a = self.selection.base.heldout_sse, self.selection.final.heldout_sse
         if acc and math.isfinite(b) and math.isfinite(a):
             lines.append(f"  held-out sum of squares (noise units) {b:.4g} -> {a:.4g}")
@@ -247,8 +282,7 @@ def _fit_gain(w: _Windows, rows: NDArray[np.intp]) -> tuple[float, float]:
     return (1.0 / a if a != 0 else math.nan), float(bias)
 
 
-def _gain_under_misfit(gain: Estimate, adequacy: Adequacy, pieces: Sequence[float]
-                       ) -> Estimate:
+def _gain_under_misfit(gain: Estimate, adequacy: Adequacy, pieces: Sequence[float]) -> Estimate:
     """:func:`calib.adequacy.under_misfit` of the yaw-rate gain G = 1 / a taken on a, the
     slope the regression fits (gyro = a odometry + bias): a piece that barely turns gives an a
     near its error and a G that blows up, so the pieces' spread is taken on a (well behaved,
@@ -257,24 +291,37 @@ def _gain_under_misfit(gain: Estimate, adequacy: Adequacy, pieces: Sequence[floa
     if not (math.isfinite(gain.value) and gain.value != 0 and math.isfinite(gain.std)):
         return under_misfit(gain, adequacy)
     a = 1.0 / gain.value
-    a_est = Estimate("odometry_to_gyro_slope", a, gain.std * a * a,
-                     (a - Z95 * gain.std * a * a, a + Z95 * gain.std * a * a), gain.identifiable,
-                     "1")
+    a_est = Estimate(
+        "odometry_to_gyro_slope",
+        a,
+        gain.std * a * a,
+        (a - Z95 * gain.std * a * a, a + Z95 * gain.std * a * a),
+        gain.identifiable,
+        "1",
+    )
     a_pieces = [1.0 / g for g in pieces if math.isfinite(g) and g != 0]
     wa = under_misfit(a_est, adequacy, pieces=a_pieces)
     if wa is a_est:
         return gain
     lo_a, hi_a = wa.ci95
     if not (math.isfinite(lo_a) and math.isfinite(hi_a)):
-        return Estimate(gain.name, gain.value, math.nan, (-math.inf, math.inf), False,
-                        gain.unit, wa.note)
+        return Estimate(
+            gain.name, gain.value, math.nan, (-math.inf, math.inf), False, gain.unit, wa.note
+        )
     if lo_a * hi_a <= 0:  # the interval of a reaches zero: G unbounded on one side
         ci = (1.0 / hi_a, math.inf) if a > 0 else (-math.inf, 1.0 / lo_a)
     else:
         ci = (min(1.0 / lo_a, 1.0 / hi_a), max(1.0 / lo_a, 1.0 / hi_a))
     std = wa.std / (a * a)
-    return Estimate(gain.name, gain.value, std, ci, False, gain.unit,
-                    wa.note + "; spread taken on the slope 1 / G and mapped")
+    return Estimate(
+        gain.name,
+        gain.value,
+        std,
+        ci,
+        False,
+        gain.unit,
+        wa.note + "; spread taken on the slope 1 / G and mapped",
+    )
 
 
 def _block_boot(n: int, rng: np.random.Generator, reps: int) -> list[NDArray[np.intp]]:
@@ -286,8 +333,9 @@ def _block_boot(n: int, rng: np.random.Generator, reps: int) -> list[NDArray[np.
     return out
 
 
-def _interval(name: str, value: float, boot: Array, dof: int, unit: str, note: str,
-              ok: bool = True) -> Estimate:
+def _interval(
+    name: str, value: float, boot: Array, dof: int, unit: str, note: str, ok: bool = True
+) -> Estimate:
     boot = boot[np.isfinite(boot)]
     std = float(np.std(boot, ddof=1)) if boot.size > 1 else math.nan
     q = float(student_t.ppf(0.975, max(1, dof)))
@@ -295,8 +343,13 @@ def _interval(name: str, value: float, boot: Array, dof: int, unit: str, note: s
     return Estimate(name, value, std, ci, ok and math.isfinite(std), unit, note)
 
 
-def _binned(w: _Windows, key: Array, edges: Sequence[float], use: NDArray[np.bool_],
-            rng: np.random.Generator) -> list[dict[str, float]]:
+def _binned(
+    w: _Windows,
+    key: Array,
+    edges: Sequence[float],
+    use: NDArray[np.bool_],
+    rng: np.random.Generator,
+) -> list[dict[str, float]]:
     out = []
     for lo, hi in itertools.pairwise(edges):
         rows = np.flatnonzero(use & (key >= lo) & (key < hi)).astype(np.intp)
@@ -307,8 +360,15 @@ def _binned(w: _Windows, key: Array, edges: Sequence[float], use: NDArray[np.boo
         for _ in range(200):
             r = rng.choice(rows, rows.size)
             boot.append(_fit_gain(w, r)[0])
-        out.append({"lo": float(lo), "hi": float(hi), "gain": g,
-                    "std": float(np.nanstd(boot, ddof=1)), "windows": int(rows.size)})
+        out.append(
+            {
+                "lo": float(lo),
+                "hi": float(hi),
+                "gain": g,
+                "std": float(np.nanstd(boot, ddof=1)),
+                "windows": int(rows.size),
+            }
+        )
     return out
 
 
@@ -316,8 +376,13 @@ class _GainFitter:
     """Nominal: the odometry's yaw rate is the true one (G = 1) up to a gyro bias; effects:
     a constant gain, its growth with |turn rate| and with speed."""
 
-    def __init__(self, w: _Windows, use: NDArray[np.intp], sigma: float,
-                 catalogue: Sequence[EffectSpec[GainEffectModel]] = ()) -> None:
+    def __init__(
+        self,
+        w: _Windows,
+        use: NDArray[np.intp],
+        sigma: float,
+        catalogue: Sequence[EffectSpec[GainEffectModel]] = (),
+    ) -> None:
         self.w, self.use, self.sigma = w, use, sigma
         blocks = ((w.t[use] - w.t[0]) // FOLD_S).astype(int) % 2
         self.folds = (use[blocks == 0], use[blocks == 1])
@@ -325,8 +390,13 @@ class _GainFitter:
         """The catalogue's order, in which the parts of the gain are summed (whatever order
         the selection added the effects in)."""
 
-    def _res(self, th: Array, names: Sequence[str], rows: NDArray[np.intp],
-             effects: Sequence[EffectSpec[GainEffectModel]]) -> Array:
+    def _res(
+        self,
+        th: Array,
+        names: Sequence[str],
+        rows: NDArray[np.intp],
+        effects: Sequence[EffectSpec[GainEffectModel]],
+    ) -> Array:
         v = dict(zip(names, th, strict=True))
         w = self.w
         const: float | Array = 0.0
@@ -340,14 +410,14 @@ class _GainFitter:
         pred = w.odo[rows] / np.maximum(g, 1e-3) + v["bias"] * w.dt[rows]
         return np.asarray((w.gyro[rows] - pred) / self.sigma, dtype=float)
 
-    def _solve(self, names: list[str], effects: Sequence[EffectSpec], rows: NDArray[np.intp]
-               ) -> Any:
+    def _solve(
+        self, names: list[str], effects: Sequence[EffectSpec], rows: NDArray[np.intp]
+    ) -> Any:
         spec = {f"{e.key}:{p.name}": p for e in effects for p in e.params}
         lo = np.array([spec[n].lower if n in spec else -np.inf for n in names])
         hi = np.array([spec[n].upper if n in spec else np.inf for n in names])
         x0 = np.zeros(len(names))
-        return least_squares(lambda th: self._res(th, names, rows, effects), x0,
-                             bounds=(lo, hi))
+        return least_squares(lambda th: self._res(th, names, rows, effects), x0, bounds=(lo, hi))
 
     def __call__(self, effects: tuple[EffectSpec, ...]) -> ModelFit | None:
         names = ["bias"] + [f"{e.key}:{p.name}" for e in effects for p in e.params]
@@ -379,17 +449,39 @@ class _GainFitter:
                 i = names.index(f"{e.key}:{p.name}")
                 x, s = float(sol.x[i]), float(std[i])
                 eff.setdefault(e.key, {})[p.name] = Estimate(
-                    p.name, x, s, (x - 1.96 * s, x + 1.96 * s), s > 0, p.unit,
-                    "Newey-West over windows")
-        pars = {"gyro_bias": Estimate("gyro_bias", float(sol.x[0]), float(std[0]),
-                                      (float(sol.x[0] - 1.96 * std[0]),
-                                       float(sol.x[0] + 1.96 * std[0])), True, "rad/s")}
-        return ModelFit(effects, pars, eff, float(r @ r), held, r.size, len(names),
-                        payload=dict(zip(names, map(float, sol.x), strict=True)))
+                    p.name,
+                    x,
+                    s,
+                    (x - 1.96 * s, x + 1.96 * s),
+                    s > 0,
+                    p.unit,
+                    "Newey-West over windows",
+                )
+        pars = {
+            "gyro_bias": Estimate(
+                "gyro_bias",
+                float(sol.x[0]),
+                float(std[0]),
+                (float(sol.x[0] - 1.96 * std[0]), float(sol.x[0] + 1.96 * std[0])),
+                True,
+                "rad/s",
+            )
+        }
+        return ModelFit(
+            effects,
+            pars,
+            eff,
+            float(r @ r),
+            held,
+            r.size,
+            len(names),
+            payload=dict(zip(names, map(float, sol.x), strict=True)),
+        )
 
 
-def _gps_scale(t: Array, v: Array, lat: Array, lon: Array, rng: np.random.Generator
-               ) -> Estimate | None:
+def _gps_scale(
+    t: Array, v: Array, lat: Array, lon: Array, rng: np.random.Generator
+) -> Estimate | None:
     ok = np.isfinite(lat) & np.isfinite(lon) & np.isfinite(v)
     if ok.sum() < 20:
         return None
@@ -407,12 +499,21 @@ def _gps_scale(t: Array, v: Array, lat: Array, lon: Array, rng: np.random.Genera
         return None
     rows = np.flatnonzero(use).astype(np.intp)
     value = float(np.sum(d_gps[rows]) / np.sum(d_odo[rows]))
-    boot = np.array([float(np.sum(d_gps[rows[i]]) / np.sum(d_odo[rows[i]]))
-                     for i in _block_boot(rows.size, rng, N_BOOT)])
-    return _interval("distance_scale_gps", value, boot, max(1, rows.size // max(
-        1, round(rows.size ** (1 / 3))) - 1), "1",
+    boot = np.array(
+        [
+            float(np.sum(d_gps[rows[i]]) / np.sum(d_odo[rows[i]]))
+            for i in _block_boot(rows.size, rng, N_BOOT)
+        ]
+    )
+    return _interval(
+        "distance_scale_gps",
+        value,
+        boot,
+        max(1, rows.size // max(1, round(rows.size ** (1 / 3))) - 1),
+        "1",
         f"GPS distance / odometry distance over {rows.size} windows of {GPS_WINDOW_S:g} s "
-        "(chord of the GPS track: slightly short on curves)")
+        "(chord of the GPS track: slightly short on curves)",
+    )
 
 
 def analyze_odom_imu(
@@ -446,23 +547,33 @@ def analyze_odom_imu(
     turned = float(np.sum(np.abs(w.odo[use])))
     if use.size < 10 or turned < math.pi / 2:
         raise InsufficientDataError(
-            f"the robot turns only {turned:.2f} rad in all: the yaw-rate gain is not determined")
+            f"the robot turns only {turned:.2f} rad in all: the yaw-rate gain is not determined"
+        )
     rng = np.random.default_rng(seed)
     g, bias = _fit_gain(w, use)
     boots = [_fit_gain(w, use[i]) for i in _block_boot(use.size, rng, N_BOOT)]
     blk = max(1, round(use.size ** (1 / 3)))
     dof = max(1, int(np.ceil(use.size / blk)) - 1)
-    note = (f"gyro yaw change = odometry's / G + bias x duration on {use.size} windows of "
-            f"{WINDOW_S:g} s that turn; moving-block bootstrap (blocks of {blk}), t on {dof} "
-            "degrees of freedom")
+    note = (
+        f"gyro yaw change = odometry's / G + bias x duration on {use.size} windows of "
+        f"{WINDOW_S:g} s that turn; moving-block bootstrap (blocks of {blk}), t on {dof} "
+        "degrees of freedom"
+    )
     gain = _interval("yaw_rate_gain", g, np.array([b[0] for b in boots]), dof, "1", note)
-    bias_e = _interval("gyro_bias", bias, np.array([b[1] for b in boots]), dof, "rad/s",
-                       "fitted with the gain")
+    bias_e = _interval(
+        "gyro_bias", bias, np.array([b[1] for b in boots]), dof, "rad/s", "fitted with the gain"
+    )
     eff = None
     if geometric_track is not None and math.isfinite(gain.std):
-        eff = Estimate("effective_track", geometric_track * g, geometric_track * gain.std,
-                       (geometric_track * gain.ci95[0], geometric_track * gain.ci95[1]), True,
-                       "m", f"geometric track {geometric_track:g} m x yaw-rate gain")
+        eff = Estimate(
+            "effective_track",
+            geometric_track * g,
+            geometric_track * gain.std,
+            (geometric_track * gain.ci95[0], geometric_track * gain.ci95[1]),
+            True,
+            "m",
+            f"geometric track {geometric_track:g} m x yaw-rate gain",
+        )
     hi_rate = float(np.max(w.rate[use]))
     edges = [MIN_TURN_RAD_S, *np.linspace(0.0, hi_rate, 5)[1:-1].tolist(), hi_rate + 1e-9]
     edges = sorted(set(edges))
@@ -486,8 +597,14 @@ def analyze_odom_imu(
             test = blocks == f
             held[test] = w.gyro[test] - (w.odo[test] / gf + bf * w.dt[test])
     chan = ResidualChannel(
-        "gyro yaw change", "rad", w.t - w.t[0], resid, held, timescale_s=WINDOW_S,
-        covariates={"|turn rate| (rad/s)": w.rate, "speed (m/s)": w.speed})
+        "gyro yaw change",
+        "rad",
+        w.t - w.t[0],
+        resid,
+        held,
+        timescale_s=WINDOW_S,
+        covariates={"|turn rate| (rad/s)": w.rate, "speed (m/s)": w.speed},
+    )
     model = "constant yaw-rate gain + gyro bias"
     try:
         adequacy = assess([chan], model=model)
@@ -501,18 +618,21 @@ def analyze_odom_imu(
                 pieces.append(_fit_gain(w, rows.astype(np.intp))[0])
         gain = _gain_under_misfit(gain, adequacy, pieces)
         if eff is not None and geometric_track is not None:
-            eff = Estimate("effective_track", geometric_track * gain.value,
-                           geometric_track * gain.std, (geometric_track * gain.ci95[0],
-                                                        geometric_track * gain.ci95[1]),
-                           False, "m", gain.note)
-    sigma = (adequacy.channels[0].noise_floor if adequacy.channels else 0.0) or float(
-        np.std(resid))
+            eff = Estimate(
+                "effective_track",
+                geometric_track * gain.value,
+                geometric_track * gain.std,
+                (geometric_track * gain.ci95[0], geometric_track * gain.ci95[1]),
+                False,
+                "m",
+                gain.note,
+            )
+    sigma = (adequacy.channels[0].noise_floor if adequacy.channels else 0.0) or float(np.std(resid))
     notes: list[str] = []
     selection = None
     try:
         cat = [GAIN, TURN_SLIP, SPEED_SLIP] if odom_v is not None else [GAIN, TURN_SLIP]
-        selection = select_effects(_GainFitter(w, use, max(sigma, 1e-9), cat), cat,
-                                   max_effects=3)
+        selection = select_effects(_GainFitter(w, use, max(sigma, 1e-9), cat), cat, max_effects=3)
     except (ValueError, np.linalg.LinAlgError) as err:
         notes.append(f"discovery did not run: {err}")
     if lag:
@@ -523,5 +643,6 @@ def analyze_odom_imu(
         dist = _gps_scale(t, vv, lat, lon, rng)
     elif gps is None:
         notes.append("no GPS: the distance scale (wheel radius) is not determined")
-    return OdomImuResult(gain, bias_e, lag, eff, by_turn, by_speed, dist, adequacy, selection,
-                         int(use.size), notes)
+    return OdomImuResult(
+        gain, bias_e, lag, eff, by_turn, by_speed, dist, adequacy, selection, int(use.size), notes
+    )

@@ -37,12 +37,17 @@ class Provenance:
     note: str
 
     def to_dict(self) -> dict[str, object]:
-        return {"dead_reckoning": self.dead_reckoning, "heading_residual_rms_rad":
-                self.heading_rms, "heading_excursion_rad": self.excursion, "note": self.note}
+        return {
+            "dead_reckoning": self.dead_reckoning,
+            "heading_residual_rms_rad": self.heading_rms,
+            "heading_excursion_rad": self.excursion,
+            "note": self.note,
+        }
 
 
-def pose_provenance(wheel_right: ArrayLike, wheel_left: ArrayLike, yaw: ArrayLike,
-                    source: str = "the pose") -> Provenance:
+def pose_provenance(
+    wheel_right: ArrayLike, wheel_left: ArrayLike, yaw: ArrayLike, source: str = "the pose"
+) -> Provenance:
     """Test whether ``yaw`` is dead reckoning of the wheel angles (see the module docstring)."""
     pr, pl, th = (np.asarray(a, dtype=float) for a in (wheel_right, wheel_left, yaw))
     ok = np.isfinite(pr) & np.isfinite(pl) & np.isfinite(th)
@@ -59,8 +64,8 @@ def pose_provenance(wheel_right: ArrayLike, wheel_left: ArrayLike, yaw: ArrayLik
         f"{source} is not ground truth: its heading is the wheel encoders' dead reckoning "
         f"(reproduced to {rms:.2g} rad RMS over the whole log, far below any sensor's noise); "
         "it cannot calibrate the wheels it was computed from"
-        if dr else
-        f"{source} is independent of the wheel encoders (whole-log heading residual "
+        if dr
+        else f"{source} is independent of the wheel encoders (whole-log heading residual "
         f"{rms:.2g} rad RMS)"
     )
     return Provenance(bool(dr), rms, exc, note)

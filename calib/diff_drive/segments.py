@@ -54,8 +54,9 @@ def cut_segments(runs: Sequence[DriveRun], segment_s: float) -> list[SegmentInde
     return out
 
 
-def segment_length(runs: Sequence[DriveRun], want: int = 30, longest: float = 4.0,
-                   shortest: float = 1.0) -> float:
+def segment_length(
+    runs: Sequence[DriveRun], want: int = 30, longest: float = 4.0, shortest: float = 1.0
+) -> float:
     """A segment length (s) that cuts ``runs`` into about ``want`` segments: ``longest`` for a
     long log, down to ``shortest`` for a short one (a 30 s log still gives the joint fits and
     the two-fold check a few dozen segments)."""

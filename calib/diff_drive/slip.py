@@ -80,11 +80,15 @@ class SlipFit(JsonRecord):
     def note(self) -> str:
         k = self.k
         if self.significant:
-            return (f"the wheels slip more the faster they turn (k = {k.value:.3g} ± "
-                    f"{k.std:.2g} s/m, {abs(self.z):.1f} standard errors from zero): radii "
-                    "are the rolling radii at zero speed")
-        return (f"speed-dependent slip not shown (k = {k.value:.3g} ± {k.std:.2g} s/m): the "
-                "interval spans a constant radius and a radius with slip")
+            return (
+                f"the wheels slip more the faster they turn (k = {k.value:.3g} ± "
+                f"{k.std:.2g} s/m, {abs(self.z):.1f} standard errors from zero): radii "
+                "are the rolling radii at zero speed"
+            )
+        return (
+            f"speed-dependent slip not shown (k = {k.value:.3g} ± {k.std:.2g} s/m): the "
+            "interval spans a constant radius and a radius with slip"
+        )
 
 
 def fit_slip(
@@ -104,8 +108,15 @@ def fit_slip(
     if len(segments) < MIN_SEGMENTS:
         return None
     turned = sum(abs(runs[s.run].yaw[s.stop] - runs[s.run].yaw[s.start]) for s in segments)
-    prob = _Problem(runs, segments, None, 0.5 * (calibrated.r_R + calibrated.r_L),
-                    turned >= math.pi / 2, 1.0, 1.0)
+    prob = _Problem(
+        runs,
+        segments,
+        None,
+        0.5 * (calibrated.r_R + calibrated.r_L),
+        turned >= math.pi / 2,
+        1.0,
+        1.0,
+    )
     prob.sigma_h, prob.sigma_p = noise_scales(prob, calibrated, marker or 0j)
     fitter = _Fitter(prob, heldout=False)
     without = fitter((ASYMMETRY,))
@@ -118,23 +129,36 @@ def fit_slip(
     z = k.value / k.std if k.std > 0 else 0.0
     params = with_slip.payload["params"]
     v = with_slip.payload["values"]
-    return SlipFit(_t_intervals(with_slip.parameters, q), _t_intervals(without.parameters, q),
-                   _t_intervals({"k": k}, q)["k"], float(z), bool(abs(z) > SLIP_Z), seg,
-                   len(segments), params, complex(v.get("lx", 0.0), v.get("ly", 0.0)))
+    return SlipFit(
+        _t_intervals(with_slip.parameters, q),
+        _t_intervals(without.parameters, q),
+        _t_intervals({"k": k}, q)["k"],
+        float(z),
+        bool(abs(z) > SLIP_Z),
+        seg,
+        len(segments),
+        params,
+        complex(v.get("lx", 0.0), v.get("ly", 0.0)),
+    )
 
 
 def _t_intervals(est: Mapping[str, Estimate], q: float) -> dict[str, Estimate]:
     out = {}
     for n, e in est.items():
         half = q * e.std
-        out[n] = Estimate(e.name, e.value, e.std, (e.value - half, e.value + half),
-                          e.identifiable and math.isfinite(e.std), e.unit,
-                          f"joint least squares over segments, Newey-West errors, t {q:.2f}")
+        out[n] = Estimate(
+            e.name,
+            e.value,
+            e.std,
+            (e.value - half, e.value + half),
+            e.identifiable and math.isfinite(e.std),
+            e.unit,
+            f"joint least squares over segments, Newey-West errors, t {q:.2f}",
+        )
     return out
 
 
-def slip_corrected(runs: Sequence[DriveRun], params: DiffDriveParams, k: float
-                   ) -> list[DriveRun]:
+def slip_corrected(runs: Sequence[DriveRun], params: DiffDriveParams, k: float) -> list[DriveRun]:
     """``runs`` with each wheel's angle replaced by its ground travel over its zero-speed
     radius: increments scaled by (1 - k r |wheel ground speed|), so that the constant-radius
     model with ``params`` describes a log that slips with coefficient ``k``."""
@@ -147,14 +171,23 @@ def slip_corrected(runs: Sequence[DriveRun], params: DiffDriveParams, k: float
         dr, dl = np.diff(run.wheel_right), np.diff(run.wheel_left)
         dr = dr * (1 - k * params.r_R * np.abs(dr) / dt)
         dl = dl * (1 - k * params.r_L * np.abs(dl) / dt)
-        out.append(DriveRun(run.t, run.wheel_right[0] + np.concatenate([[0.0], np.cumsum(dr)]),
-                            run.wheel_left[0] + np.concatenate([[0.0], np.cumsum(dl)]),
-                            run.x, run.y, run.yaw, name=run.name))
+        out.append(
+            DriveRun(
+                run.t,
+                run.wheel_right[0] + np.concatenate([[0.0], np.cumsum(dr)]),
+                run.wheel_left[0] + np.concatenate([[0.0], np.cumsum(dl)]),
+                run.x,
+                run.y,
+                run.yaw,
+                name=run.name,
+            )
+        )
     return out
 
 
-def spanned(estimates: Mapping[str, Estimate], slip: SlipFit, *, rel_tol: float = 0.05
-            ) -> dict[str, Estimate]:
+def spanned(
+    estimates: Mapping[str, Estimate], slip: SlipFit, *, rel_tol: float = 0.05
+) -> dict[str, Estimate]:
     """The radii and track of ``estimates`` (the constant-radius fit) spanning the slip
     model's (:func:`calib.adequacy.span`) where the slip model's interval reaches beyond
     theirs, once the fitted slip leans away from zero (|z| > ``SPAN_Z``); other estimates
@@ -169,6 +202,13 @@ def spanned(estimates: Mapping[str, Estimate], slip: SlipFit, *, rel_tol: float 
         if s.ci95[0] >= e.ci95[0] and s.ci95[1] <= e.ci95[1]:
             continue
         sp = span([e, s], ["constant radius", "speed-dependent slip"], rel_tol=rel_tol)
-        out[n] = Estimate(e.name, e.value, sp.std, sp.ci95, sp.identifiable, e.unit,
-                          (e.note + "; " if e.note else "") + slip.note)
+        out[n] = Estimate(
+            e.name,
+            e.value,
+            sp.std,
+            sp.ci95,
+            sp.identifiable,
+            e.unit,
+            (e.note + "; " if e.note else "") + slip.note,
+        )
     return out

@@ -139,8 +139,9 @@ def umbmark(
     r_R, r_L = 2 * rbar * Ed / (1 + Ed), 2 * rbar / (1 + Ed)
     dr = 2 * rbar / (1 + Ed) ** 2 * Ed_std  # both radii move by this (opposite signs)
     # Jacobian of (r_R, r_L, b) in (alpha, beta)
-    jac = np.vstack([2 * rbar / (1 + Ed) ** 2 * g_Ed, -2 * rbar / (1 + Ed) ** 2 * g_Ed,
-                     [nominal.b * dEb, 0.0]])
+    jac = np.vstack(
+        [2 * rbar / (1 + Ed) ** 2 * g_Ed, -2 * rbar / (1 + Ed) ** 2 * g_Ed, [nominal.b * dEb, 0.0]]
+    )
     return UmbmarkResult(
         side=L,
         errors_cw=e_cw,

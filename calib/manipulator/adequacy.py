@@ -122,11 +122,19 @@ def arm_channels(fitter: ArmFitter, whole: ArmFit, train: ArmFit) -> list[Residu
     units = [effort_unit(k) for k in kinds()] if callable(kinds) else ["N·m"] * fitter.n
     for j in range(fitter.n):
         held = np.where(train.train, np.nan, train.residual[:, j])
-        out.append(ResidualChannel(
-            f"tau{j + 1}", units[j], t, whole.residual[:, j], heldout=held,
-            measured=fitter.tau_st[:, j], input_std=float(carried[j]), timescale_s=ts,
-            covariates=cov,
-        ))
+        out.append(
+            ResidualChannel(
+                f"tau{j + 1}",
+                units[j],
+                t,
+                whole.residual[:, j],
+                heldout=held,
+                measured=fitter.tau_st[:, j],
+                input_std=float(carried[j]),
+                timescale_s=ts,
+                covariates=cov,
+            )
+        )
     return out
 
 
@@ -151,8 +159,14 @@ def assess_arm(
     train = fitter.fit_arm(tuple(effects), 0, fitter.cut)
     if whole is None or train is None:
         return None
-    adq = assess(arm_channels(fitter, whole, train), model=model_label(fitter, effects),
-                 before=before, changes=changes, unexplained=unexplained, notes=notes)
+    adq = assess(
+        arm_channels(fitter, whole, train),
+        model=model_label(fitter, effects),
+        before=before,
+        changes=changes,
+        unexplained=unexplained,
+        notes=notes,
+    )
     return ArmAdequacy(adq, whole, train)
 
 
@@ -168,9 +182,14 @@ def piece_fits(fitter: ArmFitter, duration_s: float | None = None) -> list[Piece
         if f is None:
             continue
         est = f.estimates()
-        out.append(PieceFit(float(t[a]), float(t[b - 1]),
-                            {n: e.value for n, e in est.items()},
-                            {n: e.std if e.identifiable else math.nan for n, e in est.items()}))
+        out.append(
+            PieceFit(
+                float(t[a]),
+                float(t[b - 1]),
+                {n: e.value for n, e in est.items()},
+                {n: e.std if e.identifiable else math.nan for n, e in est.items()},
+            )
+        )
     return out
 
 
@@ -179,9 +198,12 @@ def find_change(fitter: ArmFitter, pieces: Sequence[PieceFit]) -> Split | None:
     piece), and the log split there with an estimate per side; None when none is found."""
     if not pieces:
         return None
-    names = [n for n in pieces[0].values
-             if all(math.isfinite(p.std.get(n, math.nan)) and p.std.get(n, 0.0) > 0
-                    for p in pieces) and not n.startswith(("Fc", "Fv", "Fcs", "tau0"))]
+    names = [
+        n
+        for n in pieces[0].values
+        if all(math.isfinite(p.std.get(n, math.nan)) and p.std.get(n, 0.0) > 0 for p in pieces)
+        and not n.startswith(("Fc", "Fv", "Fcs", "tau0"))
+    ]
     if not names:
         return None
     change = parameter_change(pieces, names)
@@ -240,8 +262,9 @@ def spanned(
     return out
 
 
-def with_shifts(estimates: Mapping[str, Estimate], shifts: Mapping[str, float]
-                ) -> dict[str, Estimate]:
+def with_shifts(
+    estimates: Mapping[str, Estimate], shifts: Mapping[str, float]
+) -> dict[str, Estimate]:
     """Each estimate with its processing shift (:meth:`ArmFitter.processing_shifts`,
     :func:`calib.manipulator.identify.cutoff_shifts`) added to its standard error in
     quadrature: the interval includes what the log cannot settle about the friction's shape at
@@ -253,15 +276,25 @@ def with_shifts(estimates: Mapping[str, Estimate], shifts: Mapping[str, float]
             continue
         std = math.hypot(e.std, d)
         half = Z95 * std
-        note = (f"interval includes {d:.2g} {e.unit} the estimate moves by under the friction's "
-                "shape at reversals and the encoder's noise")
-        out[name] = Estimate(e.name, e.value, std, (e.value - half, e.value + half),
-                             e.identifiable, e.unit, (e.note + "; " if e.note else "") + note)
+        note = (
+            f"interval includes {d:.2g} {e.unit} the estimate moves by under the friction's "
+            "shape at reversals and the encoder's noise"
+        )
+        out[name] = Estimate(
+            e.name,
+            e.value,
+            std,
+            (e.value - half, e.value + half),
+            e.identifiable,
+            e.unit,
+            (e.note + "; " if e.note else "") + note,
+        )
     return out
 
 
-def effect_spread(fitter: ArmFitter, accepted: Sequence[EffectSpec],
-                  catalogue: Sequence[EffectSpec]) -> dict[str, float]:
+def effect_spread(
+    fitter: ArmFitter, accepted: Sequence[EffectSpec], catalogue: Sequence[EffectSpec]
+) -> dict[str, float]:
     """Per parameter, what the log cannot exclude about the catalogue's other effects: the
     final model (baseline + ``accepted``) refitted on the whole log with each further effect of
     ``catalogue`` in turn (extensions only: not an alternative to a term the model holds, not
@@ -314,8 +347,9 @@ def pooled_dispersion(pieces: Sequence[PieceFit], names: Sequence[str]) -> tuple
     return (math.sqrt(chi2 / dof) if dof else 1.0), dof
 
 
-def scaled_by_pieces(estimates: Mapping[str, Estimate], pieces: Sequence[PieceFit]
-                     ) -> dict[str, Estimate]:
+def scaled_by_pieces(
+    estimates: Mapping[str, Estimate], pieces: Sequence[PieceFit]
+) -> dict[str, Estimate]:
     """Every determined estimate's standard error scaled by :func:`pooled_dispersion` when it
     is above one (unchanged otherwise): the errors the log's own pieces show."""
     names = [n for n, e in estimates.items() if e.identifiable]
@@ -327,14 +361,22 @@ def scaled_by_pieces(estimates: Mapping[str, Estimate], pieces: Sequence[PieceFi
         e = estimates[n]
         std = e.std * k
         half = Z95 * std
-        out[n] = Estimate(e.name, e.value, std, (e.value - half, e.value + half), True, e.unit,
-                          (e.note + "; " if e.note else "") + f"standard error x{k:.2g}: the "
-                          f"scatter of the estimates over pieces of the log ({dof} dof)")
+        out[n] = Estimate(
+            e.name,
+            e.value,
+            std,
+            (e.value - half, e.value + half),
+            True,
+            e.unit,
+            (e.note + "; " if e.note else "") + f"standard error x{k:.2g}: the "
+            f"scatter of the estimates over pieces of the log ({dof} dof)",
+        )
     return out
 
 
-def stabilised(estimates: Mapping[str, Estimate], pieces: Sequence[PieceFit]
-               ) -> dict[str, Estimate]:
+def stabilised(
+    estimates: Mapping[str, Estimate], pieces: Sequence[PieceFit]
+) -> dict[str, Estimate]:
     """The specification test by pieces (:func:`calib.adequacy.piece_stability`): each
     parameter whose piece estimates scatter beyond their errors gets its interval widened by the
     overdispersion and the spread, and stays determined only while that interval is narrow

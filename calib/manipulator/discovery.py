@@ -244,9 +244,13 @@ class _TermColumn(ColumnEffect):
         col = np.zeros((fitter.N, fitter.n, 1))
         col[:, j, 0] = np.broadcast_to(term_column(self.term, fitter.sig.qd[:, j]), (fitter.N,))
         alt = ALTERNATIVES.get(self.term)
-        return Column(np.zeros_like(col), col, col,
-                      None if alt is None else term_name(alt, self.joint),
-                      None if alt is None else (frozenset((self.term, alt)), self.joint))
+        return Column(
+            np.zeros_like(col),
+            col,
+            col,
+            None if alt is None else term_name(alt, self.joint),
+            None if alt is None else (frozenset((self.term, alt)), self.joint),
+        )
 
 
 class _Payload(ColumnEffect):
@@ -262,9 +266,11 @@ class _Payload(ColumnEffect):
         def cols() -> tuple[Array, Array, Array]:
             inc = fitter.model.payload_increment()
             s = fitter.sig
-            return ((fitter.model.momentum(s.q, s.qd) @ inc)[:, :, None],
-                    (fitter.model.rest(s.q, s.qd) @ inc)[:, :, None],
-                    (fitter.model.regressor(s.q, s.qd, s.qdd) @ inc)[:, :, None])
+            return (
+                (fitter.model.momentum(s.q, s.qd) @ inc)[:, :, None],
+                (fitter.model.rest(s.q, s.qd) @ inc)[:, :, None],
+                (fitter.model.regressor(s.q, s.qd, s.qdd) @ inc)[:, :, None],
+            )
 
         cp, cr, cc = fitter.cached("payload", cols)
         return Column(cp, cr, cc)
@@ -278,8 +284,9 @@ class _Delay(InputEffect):
 
     def acting(self, fitter: ArmFitter, p: float) -> Array:
         s = fitter.sig
-        return np.stack([np.interp(s.t_s - p, s.t_s, s.tau_f[:, j]) for j in range(fitter.n)],
-                        axis=1)
+        return np.stack(
+            [np.interp(s.t_s - p, s.t_s, s.tau_f[:, j]) for j in range(fitter.n)], axis=1
+        )
 
     def logged(self, fitter: ArmFitter, p: float, pred: Array) -> Array:
         t = fitter.sig.t_s
@@ -331,8 +338,9 @@ _State: TypeAlias = tuple[tuple[EffectSpec, float], ...]
 def register_effect(spec: EffectSpec[ArmEffectModel]) -> EffectSpec[ArmEffectModel]:
     """Add ``spec`` (with its hook) to every arm catalogue built from now on; returns it."""
     if not isinstance(spec.model, ColumnEffect | InputEffect | StateEffect):
-        raise ValueError(f"effect {spec.key}: no model hook (a ColumnEffect, InputEffect or "
-                         "StateEffect)")
+        raise ValueError(
+            f"effect {spec.key}: no model hook (a ColumnEffect, InputEffect or StateEffect)"
+        )
     if all(e.key != spec.key for e in _REGISTERED):
         _REGISTERED.append(spec)
     return spec
@@ -356,7 +364,10 @@ def hook(e: EffectSpec[ArmEffectModel]) -> ArmEffectModel:
 
 
 def arm_catalogue(
-    joints: Sequence[str], baseline: Sequence[Term] = (), *, nominal: bool = False,
+    joints: Sequence[str],
+    baseline: Sequence[Term] = (),
+    *,
+    nominal: bool = False,
     extra: Sequence[EffectSpec[ArmEffectModel]] = (),
 ) -> tuple[EffectSpec[ArmEffectModel], ...]:
     """The arm's catalogue for these joints, leaving out the terms the baseline already has
@@ -370,41 +381,74 @@ def arm_catalogue(
         conf = (f"{ALTERNATIVES[term]}",) if term in ALTERNATIVES else ()
         for j in joints:
             name = term_name(term, j)
-            out.append(EffectSpec(
-                str(term), j, EffectKind.SENSOR if term is Term.OFFSET else EffectKind.DYNAMICS,
-                (EffectParam(name, term_unit(term), 0.0, -math.inf, math.inf, 0.0),),
-                _TERM_PHYSICS[term], tuple(f"{c}({j})" for c in conf),
-                sim_switch="friction", truth_key=name, model=_TermColumn(term, j),
-            ))
+            out.append(
+                EffectSpec(
+                    str(term),
+                    j,
+                    EffectKind.SENSOR if term is Term.OFFSET else EffectKind.DYNAMICS,
+                    (EffectParam(name, term_unit(term), 0.0, -math.inf, math.inf, 0.0),),
+                    _TERM_PHYSICS[term],
+                    tuple(f"{c}({j})" for c in conf),
+                    sim_switch="friction",
+                    truth_key=name,
+                    model=_TermColumn(term, j),
+                )
+            )
     if nominal:
-        out.append(EffectSpec(
-            str(Term.PAYLOAD), TOOL_TARGET, EffectKind.DYNAMICS,
-            (EffectParam("payload", "kg", 0.0, -math.inf, math.inf, 0.0),),
-            "a point mass held at the tool point",
-            tuple(f"{COMPLIANCE}({j})" for j in joints), sim_switch="payload",
-            truth_key="payload", model=_Payload(),
-        ))
-    out.append(EffectSpec(
-        DELAY, TORQUE_TARGET, EffectKind.ACTUATOR,
-        (EffectParam("d", "s", 0.0, *DELAY_BOUNDS, 0.0),),
-        "the torque acts d seconds after it is logged", (f"{LAG}({TORQUE_TARGET})",),
-        sim_switch="delay_s", truth_key="delay_s", model=_Delay(),
-    ))
-    out.append(EffectSpec(
-        LAG, TORQUE_TARGET, EffectKind.ACTUATOR,
-        (EffectParam("T", "s", 0.0, *LAG_BOUNDS, 0.0),),
-        "the torque acts through a first-order lag of time constant T",
-        (f"{DELAY}({TORQUE_TARGET})",), sim_switch="lag_s", truth_key="lag_s", model=_Lag(),
-    ))
+        out.append(
+            EffectSpec(
+                str(Term.PAYLOAD),
+                TOOL_TARGET,
+                EffectKind.DYNAMICS,
+                (EffectParam("payload", "kg", 0.0, -math.inf, math.inf, 0.0),),
+                "a point mass held at the tool point",
+                tuple(f"{COMPLIANCE}({j})" for j in joints),
+                sim_switch="payload",
+                truth_key="payload",
+                model=_Payload(),
+            )
+        )
+    out.append(
+        EffectSpec(
+            DELAY,
+            TORQUE_TARGET,
+            EffectKind.ACTUATOR,
+            (EffectParam("d", "s", 0.0, *DELAY_BOUNDS, 0.0),),
+            "the torque acts d seconds after it is logged",
+            (f"{LAG}({TORQUE_TARGET})",),
+            sim_switch="delay_s",
+            truth_key="delay_s",
+            model=_Delay(),
+        )
+    )
+    out.append(
+        EffectSpec(
+            LAG,
+            TORQUE_TARGET,
+            EffectKind.ACTUATOR,
+            (EffectParam("T", "s", 0.0, *LAG_BOUNDS, 0.0),),
+            "the torque acts through a first-order lag of time constant T",
+            (f"{DELAY}({TORQUE_TARGET})",),
+            sim_switch="lag_s",
+            truth_key="lag_s",
+            model=_Lag(),
+        )
+    )
     if len(joints) <= MAX_COMPLIANCE_JOINTS:
         for j in joints:
-            out.append(EffectSpec(
-                COMPLIANCE, j, EffectKind.DYNAMICS,
-                (EffectParam(f"c[{j}]", "rad/(N*m)", 0.0, -math.inf, math.inf, 0.0),),
-                "an elastic joint: the encoder reads the motor side, the link is at q - c tau",
-                (f"{Term.PAYLOAD}({TOOL_TARGET})",), sim_switch="compliance",
-                truth_key=f"c[{j}]", model=_Compliance(j),
-            ))
+            out.append(
+                EffectSpec(
+                    COMPLIANCE,
+                    j,
+                    EffectKind.DYNAMICS,
+                    (EffectParam(f"c[{j}]", "rad/(N*m)", 0.0, -math.inf, math.inf, 0.0),),
+                    "an elastic joint: the encoder reads the motor side, the link is at q - c tau",
+                    (f"{Term.PAYLOAD}({TOOL_TARGET})",),
+                    sim_switch="compliance",
+                    truth_key=f"c[{j}]",
+                    model=_Compliance(j),
+                )
+            )
     out += [*_REGISTERED, *extra]
     return tuple(out)
 
@@ -433,9 +477,15 @@ class ArmFit:
             ok = bool(self.identifiable[k]) and math.isfinite(float(self.std[k]))
             v, s = float(self.theta[k]), float(self.std[k]) if ok else math.nan
             ci = (v - 1.96 * s, v + 1.96 * s) if ok else (math.nan, math.nan)
-            out[name] = Estimate(name, v, s, ci, ok, self.units[k],
-                                 "" if ok else "regressor column nearly a combination of "
-                                 "the others on this log")
+            out[name] = Estimate(
+                name,
+                v,
+                s,
+                ci,
+                ok,
+                self.units[k],
+                "" if ok else "regressor column nearly a combination of the others on this log",
+            )
         return out
 
     def heldout_rms(self) -> Array:
@@ -549,8 +599,11 @@ class ArmFitter:
         k = np.asarray(keep, dtype=np.intp)
         sel_names = [names[i] for i in keep] + extra_names
         sel_units = [units[i] for i in keep] + extra_units
-        slices = {e.key: [len(keep) + at[e.key] + i for i in range(len(e.params))]
-                  for e in effects if e.key in at}
+        slices = {
+            e.key: [len(keep) + at[e.key] + i for i in range(len(e.params))]
+            for e in effects
+            if e.key in at
+        }
         reg = Regressors(
             self.sig,
             np.concatenate([r0.Xc[:, :, k], *extra_c], axis=2),
@@ -571,8 +624,9 @@ class ArmFitter:
         return out
 
     # ------------------------------------------------------------------ state effects
-    def _shifted(self, state: _State, extra: tuple[EffectSpec, float] | None = None
-                 ) -> JointSignals:
+    def _shifted(
+        self, state: _State, extra: tuple[EffectSpec, float] | None = None
+    ) -> JointSignals:
         """The signals moved by each state effect of ``state`` at its value, then by
         ``extra`` (an effect, a value) on top."""
         s = self.sig
@@ -602,13 +656,15 @@ class ArmFitter:
 
     def _trim(self) -> None:
         """Keep the state effects' caches small (each holds regressors along the whole log)."""
-        keys = [k for k in self._cache if isinstance(k, tuple) and k[0] in ("state", "compsig",
-                                                                             "comp")]
+        keys = [
+            k for k in self._cache if isinstance(k, tuple) and k[0] in ("state", "compsig", "comp")
+        ]
         for k in keys[: max(0, len(keys) - 24)]:
             del self._cache[k]
 
-    def _state_column(self, e: EffectSpec, start: int, stop: int, state: _State
-                      ) -> tuple[Array, Array, Array, Array]:
+    def _state_column(
+        self, e: EffectSpec, start: int, stop: int, state: _State
+    ) -> tuple[Array, Array, Array, Array]:
         """d/dh of (window X, window known) and (classic X, classic known) as ``e``'s
         parameter moves by -h about the state ``state``, for the baseline columns."""
         sk = self._state_key(state)
@@ -621,8 +677,10 @@ class ArmFitter:
             h_ = hook(e)
             assert isinstance(h_, StateEffect)
             h = h_.step(self)
-            regs = [compute_regressors(self.design, self._shifted(state, (e, -(sgn * h))))
-                    for sgn in (1.0, -1.0)]
+            regs = [
+                compute_regressors(self.design, self._shifted(state, (e, -(sgn * h))))
+                for sgn in (1.0, -1.0)
+            ]
             self._trim()
             self._cache[skey] = (regs, h)
         (rp, rm), h = self._cache[skey]
@@ -645,8 +703,9 @@ class ArmFitter:
         res = b - (A / norms) @ th
         return th / norms, float(res @ res)
 
-    def fit_arm(self, effects: Sequence[EffectSpec], start: int = 0,
-                stop: int | None = None) -> ArmFit | None:
+    def fit_arm(
+        self, effects: Sequence[EffectSpec], start: int = 0, stop: int | None = None
+    ) -> ArmFit | None:
         """Fit the baseline plus ``effects`` on grid samples [start, stop) (default: the whole
         log); None when the set is not a model (two alternatives) or the fit fails."""
         stop = self.N if stop is None else stop
@@ -666,8 +725,9 @@ class ArmFitter:
             fit = self._fit_at(effects, start, stop, state)
             if fit is None or not states:
                 return fit
-            new = tuple((e, float(fit.effect_parameters[e.key][e.params[0].name].value))
-                        for e in states)
+            new = tuple(
+                (e, float(fit.effect_parameters[e.key][e.params[0].name].value)) for e in states
+            )
             if not all(math.isfinite(c) for _, c in new):
                 return None
             moved = max(abs(c - c0) for (_, c), (_, c0) in zip(new, state, strict=True))
@@ -677,8 +737,9 @@ class ArmFitter:
                 break
         return fit
 
-    def _fit_at(self, effects: tuple[EffectSpec, ...], start: int, stop: int,
-                state: _State) -> ArmFit | None:
+    def _fit_at(
+        self, effects: tuple[EffectSpec, ...], start: int, stop: int, state: _State
+    ) -> ArmFit | None:
         st = tuple(x for x in state if x[1] != 0.0)
         asm = self._assemble(effects, self._state_reg(st))
         if asm is None:
@@ -726,8 +787,12 @@ class ArmFitter:
         p_star = 0.0
         if spec_in is not None:
             lo, hi = spec_in.params[0].lower, spec_in.params[0].upper
-            res = minimize_scalar(lambda p: solve(float(p))[1], bounds=(lo, hi),
-                                  method="bounded", options={"xatol": 2e-4})
+            res = minimize_scalar(
+                lambda p: solve(float(p))[1],
+                bounds=(lo, hi),
+                method="bounded",
+                options={"xatol": 2e-4},
+            )
             p_star = float(res.x)
         _, _, C = solve(p_star)
         u = u_of(p_star)
@@ -747,8 +812,13 @@ class ArmFitter:
             sigma = np.sqrt(np.mean(u**2, axis=0))
         else:
             w = batch_wls(Xa, u)
-            theta, std, ident, cond, sigma = (w.theta, w.std, w.identifiable,
-                                              w.condition_number, w.sigma)
+            theta, std, ident, cond, sigma = (
+                w.theta,
+                w.std,
+                w.identifiable,
+                w.condition_number,
+                w.sigma,
+            )
         if self.weights is None and not effects:
             self.weights = 1.0 / np.where(sigma > 0, sigma, 1.0)
         P = X0.shape[2]
@@ -760,8 +830,11 @@ class ArmFitter:
             _, _, dxc, dkc = self._state_column(e, start, stop, st)
             c = float(np.nan_to_num(theta[P + i]))
             pred = pred - c * (dxc @ theta0_full(tr) + dkc)
-            effect_pars[e.key] = {e.params[0].name: _est(
-                e.params[0], c_at[e.key] + theta[P + i], std[P + i], ident[P + i])}
+            effect_pars[e.key] = {
+                e.params[0].name: _est(
+                    e.params[0], c_at[e.key] + theta[P + i], std[P + i], ident[P + i]
+                )
+            }
         if spec_in is not None and inp is not None:
             k = P + len(comps)
             par = spec_in.params[0]
@@ -770,17 +843,30 @@ class ArmFitter:
             effect_pars[spec_in.key] = {par.name: _est(par, p_final, std[k], ident[k])}
             if p_star != 0.0:
                 pred = inp.logged(self, p_star, pred)
-        at = np.stack([np.interp(self.t_st, self.sig.t_s, pred[:, j]) for j in range(self.n)],
-                      axis=1)
+        at = np.stack(
+            [np.interp(self.t_st, self.sig.t_s, pred[:, j]) for j in range(self.n)], axis=1
+        )
         resid = self.tau_st - at
         t0, t1 = self.sig.t_s[start], self.sig.t_s[stop - 1]
         train = (self.t_st >= t0) & (self.t_st <= t1)
         for key, idx in asm.slices.items():
             spec = next(e for e in effects if e.key == key)
-            effect_pars[key] = {p.name: _est(p, theta[i], std[i], ident[i])
-                                for p, i in zip(spec.params, idx, strict=True)}
-        return ArmFit(tuple(asm.names), tuple(asm.units), theta[:P], std[:P], ident[:P],
-                      effect_pars, self.t_st, resid, train, cond)
+            effect_pars[key] = {
+                p.name: _est(p, theta[i], std[i], ident[i])
+                for p, i in zip(spec.params, idx, strict=True)
+            }
+        return ArmFit(
+            tuple(asm.names),
+            tuple(asm.units),
+            theta[:P],
+            std[:P],
+            ident[:P],
+            effect_pars,
+            self.t_st,
+            resid,
+            train,
+            cond,
+        )
 
     # ------------------------------------------------------------------ input noise
     def input_noise(self, fit: ArmFit | None = None) -> Array:
@@ -816,9 +902,11 @@ class ArmFitter:
         """The regressors with each Coulomb column sharpened to ``tanh(qd / 0.001)`` (None: the
         model holds no Coulomb term)."""
         names = self.design.names
-        sharp = [(j, names.index(term_name(Term.COULOMB, jn)))
-                 for j, jn in enumerate(self.model.joint_names)
-                 if term_name(Term.COULOMB, jn) in names]
+        sharp = [
+            (j, names.index(term_name(Term.COULOMB, jn)))
+            for j, jn in enumerate(self.model.joint_names)
+            if term_name(Term.COULOMB, jn) in names
+        ]
         if not sharp:
             return None
         if "sharp" not in self._cache:
@@ -881,8 +969,11 @@ class ArmFitter:
                 variants.append(sharp)
             if s.noise is not None:
                 dq, dqd, dqdd = s.noise
-                variants.append(compute_regressors(
-                    self.design, replace(s, q=s.q + dq, qd=s.qd + dqd, qdd=s.qdd + dqdd)))
+                variants.append(
+                    compute_regressors(
+                        self.design, replace(s, q=s.q + dq, qd=s.qd + dqd, qdd=s.qdd + dqdd)
+                    )
+                )
             sq = np.zeros(len(names))
             for reg in variants:
                 Xv, uv, _ = reg.momentum_windows(0, self.N, w)
@@ -896,8 +987,7 @@ class ArmFitter:
         return out
 
     # ------------------------------------------------------------------ the engine's fitter
-    def _implied_rigid(self, fit: ArmFit, effects: Sequence[EffectSpec]
-                       ) -> dict[str, Estimate]:
+    def _implied_rigid(self, fit: ArmFit, effects: Sequence[EffectSpec]) -> dict[str, Estimate]:
         """Against a nominal rigid body: the base parameters it implies (nominal plus what
         the fitted effects change of the body, a payload), so that explanations implying
         different bodies can be compared."""
@@ -953,8 +1043,11 @@ class ArmFitter:
         held = math.nan
         if (~tr).any():
             held = float(np.sum(z[~tr] ** 2)) * tr.sum() / (~tr).sum()
-        params = fit.estimates() if self.nominal is None else (
-            fit.estimates() | self._implied_rigid(fit, effects))
+        params = (
+            fit.estimates()
+            if self.nominal is None
+            else (fit.estimates() | self._implied_rigid(fit, effects))
+        )
         k = len(fit.theta) + sum(len(v) for v in fit.effect_parameters.values())
         return ModelFit(effects, params, fit.effect_parameters, sse, held, n, k, payload=fit)
 
@@ -974,8 +1067,9 @@ def _est(p: EffectParam, v: float, s: float, ok: bool) -> Estimate:
     v, s = float(v), float(s)
     good = bool(ok) and math.isfinite(s)
     s = s if good else math.nan
-    return Estimate(p.name, v, s, (v - 1.96 * s, v + 1.96 * s) if good else (math.nan, math.nan),
-                    good, p.unit)
+    return Estimate(
+        p.name, v, s, (v - 1.96 * s, v + 1.96 * s) if good else (math.nan, math.nan), good, p.unit
+    )
 
 
 def joint_floors(fit: ArmFit, cutoff_hz: float) -> Array:
@@ -1049,8 +1143,9 @@ class ArmDiscovery:
             "named_keys": [f.key for f in self.named],
             "findings": [f.to_dict() for f in self.named],
             "trials": [f.to_dict() for f in self.trials],
-            "confounds": [] if self.selection is None else [
-                c.to_dict() for c in self.selection.confounds],
+            "confounds": []
+            if self.selection is None
+            else [c.to_dict() for c in self.selection.confounds],
             "selection": None if self.selection is None else self.selection.to_dict(),
             "untestable": list(self.untestable),
         }
@@ -1099,10 +1194,17 @@ def discovery_from_selection(
         return None if e is None else hook(e).replaces(baseline)
 
     trials = [
-        EffectFinding(by_key[t.key].id if t.key in by_key else t.key.split("(")[0],
-                      list(sel.final.effect_parameters.get(t.key, {}).values()),
-                      before, math.nan, t.excludes_null, t.accepted,
-                      replaces(t.key), t.delta_bic, t.key)
+        EffectFinding(
+            by_key[t.key].id if t.key in by_key else t.key.split("(")[0],
+            list(sel.final.effect_parameters.get(t.key, {}).values()),
+            before,
+            math.nan,
+            t.excludes_null,
+            t.accepted,
+            replaces(t.key),
+            t.delta_bic,
+            t.key,
+        )
         for t in sel.tried
     ]
     named: list[EffectFinding] = []
@@ -1113,13 +1215,24 @@ def discovery_from_selection(
         fit = sel.final if i == len(keys) - 1 else fit
         after = _pooled(fit) if fit is not None else math.nan
         dbic = next((t.delta_bic for t in sel.tried if t.key == key and t.accepted), math.nan)
-        named.append(EffectFinding(by_key[key].id,
-                                   list(sel.final.effect_parameters.get(key, {}).values()),
-                                   prev, after, True, True, replaces(key), dbic, key))
+        named.append(
+            EffectFinding(
+                by_key[key].id,
+                list(sel.final.effect_parameters.get(key, {}).values()),
+                prev,
+                after,
+                True,
+                True,
+                replaces(key),
+                dbic,
+                key,
+            )
+        )
         prev = after
     notes = [c.note for c in sel.confounds]
-    return ArmDiscovery(tuple(str(t) for t in baseline), nominal, named, trials, untestable,
-                        sel, notes)
+    return ArmDiscovery(
+        tuple(str(t) for t in baseline), nominal, named, trials, untestable, sel, notes
+    )
 
 
 def run_discovery(
@@ -1143,15 +1256,17 @@ def run_discovery(
             "(each joint's column needs the regressor along the whole log twice)"
         )
     cat = arm_catalogue(joints, fitter.baseline, nominal=fitter.nominal is not None)
-    sel = select_effects(fitter, cat, max_effects=max_effects, explained=fitter.explained,
-                         progress=progress)
+    sel = select_effects(
+        fitter, cat, max_effects=max_effects, explained=fitter.explained, progress=progress
+    )
     if sel is None:
         raise CalibError("discovery: the baseline model could not be fitted")
     effects = sel.final.effects
     path: list[ModelFit | None] = [fitter(effects[: i + 1]) for i in range(len(effects) - 1)]
     path.append(sel.final)
-    return discovery_from_selection(sel, fitter.baseline, fitter.nominal is not None, untestable,
-                                    path, cat)
+    return discovery_from_selection(
+        sel, fitter.baseline, fitter.nominal is not None, untestable, path, cat
+    )
 
 
 def discover_arm(

@@ -188,10 +188,15 @@ def cutoff_shifts(
     sq = np.zeros(len(design.names))
     for factor in CUTOFF_FACTORS:
         try:
-            sig = prepare_signals(t_s, q, tau, cutoff_hz=factor * config.cutoff_hz,
-                                  max_rate_hz=config.max_rate_hz, qd=qd)
-            X, u, _ = compute_regressors(design, sig).momentum_windows(0, len(sig),
-                                                                       config.window_s)
+            sig = prepare_signals(
+                t_s,
+                q,
+                tau,
+                cutoff_hz=factor * config.cutoff_hz,
+                max_rate_hz=config.max_rate_hz,
+                qd=qd,
+            )
+            X, u, _ = compute_regressors(design, sig).momentum_windows(0, len(sig), config.window_s)
             th = batch_wls(X, u).theta
         except (InsufficientDataError, np.linalg.LinAlgError, ValueError):
             continue

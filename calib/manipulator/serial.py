@@ -44,8 +44,15 @@ from numpy.typing import NDArray
 from calib.manipulator.model import ArmModelError, ParameterInfo
 from calib.results import JsonRecord
 
-__all__ = ["SerialArm", "Transmission", "example_robot_urdf", "load_serial_arm",
-           "movable_joints", "read_transmissions", "urdf_path"]
+__all__ = [
+    "SerialArm",
+    "Transmission",
+    "example_robot_urdf",
+    "load_serial_arm",
+    "movable_joints",
+    "read_transmissions",
+    "urdf_path",
+]
 
 Array = NDArray[np.float64]
 
@@ -135,16 +142,21 @@ def _chain_depth(text: str) -> int:
 def _check_budget(path: Path, text: str) -> None:
     declared = _DOCTYPE.search(text)
     if declared:
-        raise ArmModelError(f"{path}: declares a {declared.group(1).upper()}; a URDF logcal "
-                            "reads has no document type or entities (they are never resolved)")
+        raise ArmModelError(
+            f"{path}: declares a {declared.group(1).upper()}; a URDF logcal "
+            "reads has no document type or entities (they are never resolved)"
+        )
     links = len(re.findall(r"<link\b", text))
     if links > MAX_URDF_LINKS:
-        raise ArmModelError(f"{path}: {links} links; a URDF logcal reads has at most "
-                            f"{MAX_URDF_LINKS}")
+        raise ArmModelError(
+            f"{path}: {links} links; a URDF logcal reads has at most {MAX_URDF_LINKS}"
+        )
     depth = _chain_depth(text)
     if depth > MAX_CHAIN_DEPTH:
-        raise ArmModelError(f"{path}: a chain of {depth} joints; a URDF logcal reads has chains "
-                            f"of at most {MAX_CHAIN_DEPTH}")
+        raise ArmModelError(
+            f"{path}: a chain of {depth} joints; a URDF logcal reads has chains "
+            f"of at most {MAX_CHAIN_DEPTH}"
+        )
 
 
 @contextmanager
@@ -179,8 +191,9 @@ def _read_urdf(path: Path) -> str:
     except OSError as err:
         raise ArmModelError(f"{path}: cannot read this URDF ({err.strerror or err})") from err
     if size > MAX_URDF_BYTES:
-        raise ArmModelError(f"{path}: {size} bytes; a URDF logcal reads is at most "
-                            f"{MAX_URDF_BYTES} bytes")
+        raise ArmModelError(
+            f"{path}: {size} bytes; a URDF logcal reads is at most {MAX_URDF_BYTES} bytes"
+        )
     try:
         text = path.read_text(encoding="utf-8", errors="replace")
     except OSError as err:
@@ -214,8 +227,10 @@ def _build(path: Path) -> tuple[Any, list[str]]:
             failure = None
     echoed = _escaped(said[0]) if said and said[0].strip() else ""
     if failure is not None:
-        raise ArmModelError(f"{path}: pinocchio cannot read this URDF ({_escaped(str(failure))})"
-                            + (f"; the parser said: {echoed[:300]}" if echoed else ""))
+        raise ArmModelError(
+            f"{path}: pinocchio cannot read this URDF ({_escaped(str(failure))})"
+            + (f"; the parser said: {echoed[:300]}" if echoed else "")
+        )
     if echoed:
         notes.append(f"{path.name}: the URDF parser said: {echoed[:300]}")
     return model, notes
@@ -277,14 +292,17 @@ class Transmission(JsonRecord):
     @property
     def simple(self) -> bool:
         """One actuator drives one joint through one reduction."""
-        return (self.kind == "SimpleTransmission" and len(self.joints) == 1
-                and len(self.actuators) <= 1)
+        return (
+            self.kind == "SimpleTransmission" and len(self.joints) == 1 and len(self.actuators) <= 1
+        )
 
     def describe(self) -> str:
         """One line for people: name, type, joint(s), actuator(s), reduction."""
         red = f", mechanical reduction {self.reduction:g}" if self.reduction is not None else ""
-        return (f"{self.name} ({self.kind or 'no type'}): joint {', '.join(self.joints) or '-'}"
-                f" <- actuator {', '.join(self.actuators) or '-'}{red}")
+        return (
+            f"{self.name} ({self.kind or 'no type'}): joint {', '.join(self.joints) or '-'}"
+            f" <- actuator {', '.join(self.actuators) or '-'}{red}"
+        )
 
 
 _REDUCTION_TAGS = ("mechanicalReduction", "mechanical_reduction")
@@ -303,19 +321,28 @@ class _TransmissionReader:
         self.at = 0  # depth of the open <transmission>
 
     def refuse(self, *_: Any) -> Any:
-        raise ArmModelError(f"{self.path}: declares a DOCTYPE or an entity; a URDF logcal reads "
-                            "has no document type or entities (they are never resolved)")
+        raise ArmModelError(
+            f"{self.path}: declares a DOCTYPE or an entity; a URDF logcal reads "
+            "has no document type or entities (they are never resolved)"
+        )
 
     def start(self, tag: str, attrs: dict[str, str]) -> None:
         self.stack.append(tag)
         if len(self.stack) > MAX_XML_DEPTH:
-            raise ArmModelError(f"{self.path}: elements nested more than {MAX_XML_DEPTH} deep; "
-                                f"a URDF logcal reads nests at most {MAX_XML_DEPTH}")
+            raise ArmModelError(
+                f"{self.path}: elements nested more than {MAX_XML_DEPTH} deep; "
+                f"a URDF logcal reads nests at most {MAX_XML_DEPTH}"
+            )
         self.text = []
         depth = len(self.stack)
         if tag == "transmission" and self.current is None:
-            self.current = {"name": attrs.get("name", ""), "type": attrs.get("type", ""),
-                            "joints": [], "actuators": [], "red": {}}
+            self.current = {
+                "name": attrs.get("name", ""),
+                "type": attrs.get("type", ""),
+                "joints": [],
+                "actuators": [],
+                "red": {},
+            }
             self.at = depth
         elif self.current is not None and depth == self.at + 1 and tag in ("joint", "actuator"):
             self.current[tag + "s"].append(attrs.get("name", ""))
@@ -346,8 +373,10 @@ class _TransmissionReader:
         except ValueError:
             value = math.nan
         if not math.isfinite(value) or value == 0:
-            raise ArmModelError(f"{self.path}: transmission {name!r}: mechanicalReduction "
-                                f"{text[:40]!r} is not a nonzero finite number")
+            raise ArmModelError(
+                f"{self.path}: transmission {name!r}: mechanicalReduction "
+                f"{text[:40]!r} is not a nonzero finite number"
+            )
         return value
 
     @staticmethod
@@ -356,8 +385,13 @@ class _TransmissionReader:
         red = cur["red"]
         reduction = red.get("actuator", red.get("transmission", red.get("joint")))
         simple = kind == "SimpleTransmission"
-        return Transmission(cur["name"], kind, tuple(cur["joints"]), tuple(cur["actuators"]),
-                            reduction if simple else None)
+        return Transmission(
+            cur["name"],
+            kind,
+            tuple(cur["joints"]),
+            tuple(cur["actuators"]),
+            reduction if simple else None,
+        )
 
 
 def read_transmissions(urdf: str | Path) -> tuple[Transmission, ...]:

@@ -78,8 +78,11 @@ class JointSignals:
             self.raw_t_s,
             self.raw_tau,
             self.q_noise,
-            None if self.noise is None else tuple(  # type: ignore[arg-type]
-                x[start:stop] for x in self.noise),
+            None
+            if self.noise is None
+            else tuple(  # type: ignore[arg-type]
+                x[start:stop] for x in self.noise
+            ),
         )
 
     def every(self, step: int) -> JointSignals:
@@ -96,8 +99,11 @@ class JointSignals:
             self.raw_t_s,
             self.raw_tau,
             self.q_noise,
-            None if self.noise is None else tuple(  # type: ignore[arg-type]
-                x[::step] for x in self.noise),
+            None
+            if self.noise is None
+            else tuple(  # type: ignore[arg-type]
+                x[::step] for x in self.noise
+            ),
         )
 
     def __len__(self) -> int:

@@ -35,8 +35,16 @@ from calib.results import JsonRecord
 if TYPE_CHECKING:
     from calib.manipulator.serial import Transmission
 
-__all__ = ["FACTOR_LIMIT", "EffortScale", "EffortScaling", "JointScaling", "actuator_scaling",
-           "effort_scale", "effort_unit", "joint_scaling"]
+__all__ = [
+    "FACTOR_LIMIT",
+    "EffortScale",
+    "EffortScaling",
+    "JointScaling",
+    "actuator_scaling",
+    "effort_scale",
+    "effort_unit",
+    "joint_scaling",
+]
 
 FACTOR_LIMIT = 3.0
 MIN_SHARE = 0.2
@@ -115,19 +123,23 @@ def actuator_scaling(
                 f"{urdf}: joint {name} has no <transmission>, so its actuator-side effort "
                 "cannot be converted (--effort actuator): add its transmission with a "
                 "mechanicalReduction to the URDF, or analyse with --effort joint (each joint's "
-                "unit then set by the channel map's scale)")
+                "unit then set by the channel map's scale)"
+            )
         t = found[0]
         if not t.simple or t.reduction is None:
-            why = ("gives no mechanicalReduction" if t.simple else
-                   f"is a {t.kind or 'transmission without a type'} (joints "
-                   f"{', '.join(t.joints)}, actuators {', '.join(t.actuators) or '-'})")
+            why = (
+                "gives no mechanicalReduction"
+                if t.simple
+                else f"is a {t.kind or 'transmission without a type'} (joints "
+                f"{', '.join(t.joints)}, actuators {', '.join(t.actuators) or '-'})"
+            )
             raise ArmModelError(
                 f"{urdf}: joint {name}: its transmission {t.name} {why}; logcal converts an "
                 "actuator-side effort through a SimpleTransmission with a mechanicalReduction "
-                "only (one actuator, one joint)")
+                "only (one actuator, one joint)"
+            )
         kt = kts.get(name)
-        out[name] = JointScaling(t.reduction * (1.0 if kt is None else kt), t.reduction, kt,
-                                 t.name)
+        out[name] = JointScaling(t.reduction * (1.0 if kt is None else kt), t.reduction, kt, t.name)
     return EffortScaling("actuator", out, urdf)
 
 
@@ -136,7 +148,11 @@ def _plausible(s: float) -> bool:
 
 
 def effort_scale(
-    model: ArmModel, q: Array, qd: Array, qdd: Array, tau: Array,
+    model: ArmModel,
+    q: Array,
+    qd: Array,
+    qdd: Array,
+    tau: Array,
     reductions: Mapping[str, float] | None = None,
 ) -> EffortScale | None:
     """The check of the module docstring; None when the model has no nominal parameters.
@@ -152,8 +168,9 @@ def effort_scale(
     rms = np.sqrt(np.mean(pred * pred, axis=0))
     kinds_of = getattr(model, "joint_kinds", None)
     kinds = list(kinds_of()) if callable(kinds_of) else ["revolute"] * rms.size
-    top = {k: max(float(r) for r, kk in zip(rms, kinds, strict=True) if kk == k)
-           for k in set(kinds)}  # forces and torques compared within their own unit
+    top = {
+        k: max(float(r) for r, kk in zip(rms, kinds, strict=True) if kk == k) for k in set(kinds)
+    }  # forces and torques compared within their own unit
     factors: dict[str, float | None] = {}
     suspect: list[str] = []
     for j, name in enumerate(model.joint_names):
@@ -176,12 +193,20 @@ def effort_scale(
             "masses are not this robot's"
         )
         red = reductions or {}
-        explained = [n for n in suspect if factors[n] is not None and red.get(n, 1.0) != 1.0
-                     and _plausible(float(factors[n] or 0.0) * red[n])]
+        explained = [
+            n
+            for n in suspect
+            if factors[n] is not None
+            and red.get(n, 1.0) != 1.0
+            and _plausible(float(factors[n] or 0.0) * red[n])
+        ]
         if explained:
-            shown = ", ".join(f"{n} x{red[n]:g} -> x{(factors[n] or 0.0) * red[n]:.3g}"
-                              for n in explained)
-            note += (f"; the URDF's transmissions would explain it: times their mechanical "
-                     f"reduction ({shown}) the effort fits the masses - if it is logged on the "
-                     "actuator side, analyse with --effort actuator")
+            shown = ", ".join(
+                f"{n} x{red[n]:g} -> x{(factors[n] or 0.0) * red[n]:.3g}" for n in explained
+            )
+            note += (
+                f"; the URDF's transmissions would explain it: times their mechanical "
+                f"reduction ({shown}) the effort fits the masses - if it is logged on the "
+                "actuator side, analyse with --effort actuator"
+            )
     return EffortScale(factors, tuple(suspect), note)

@@ -50,12 +50,27 @@ def pooled_derived(
     value = pooled.parameters["L1"].value + pooled.parameters["L2"].value
     std = math.sqrt(var) if math.isfinite(var) and var >= 0 else math.nan
     ok = math.isfinite(std) and any(
-        (s := link_sum(p)) is not None and s.identifiable for p in pieces)
+        (s := link_sum(p)) is not None and s.identifiable for p in pieces
+    )
     if not math.isfinite(std):
-        total = Estimate("L1+L2", value, math.nan, (-math.inf, math.inf), False, "m",
-                         "not determined by the pooled L1 and L2")
+        total = Estimate(
+            "L1+L2",
+            value,
+            math.nan,
+            (-math.inf, math.inf),
+            False,
+            "m",
+            "not determined by the pooled L1 and L2",
+        )
     else:
         half = 1.959963984540054 * std
-        total = Estimate("L1+L2", value, std, (value - half, value + half), ok, "m",
-                         "from the pooled L1, L2 and their covariance")
+        total = Estimate(
+            "L1+L2",
+            value,
+            std,
+            (value - half, value + half),
+            ok,
+            "m",
+            "from the pooled L1, L2 and their covariance",
+        )
     return derived_sum(total, pooled.derived)

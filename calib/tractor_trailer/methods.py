@@ -101,30 +101,30 @@ _EM1, _EM2, _EM3 = ExactModel.EM1, ExactModel.EM2, ExactModel.EM3
 #: Patent Table 3, one row per CLS method: name, PM step (solver, model), EM step (solver,
 #: model; None is TLS(EM1,2,3)). M1–M12 use PM2, M13–M24 PM1.
 CLS_ROWS: tuple[tuple[str, str, PredictionModel, str, ExactModel | None], ...] = (
-    ("M1",  "OLS1", _PM2, "OLS1", _EM1),
-    ("M2",  "OLS1", _PM2, "OLS1", _EM2),
-    ("M3",  "OLS1", _PM2, "OLS1", _EM3),
-    ("M4",  "OLS1", _PM2, "TLS",  None),
-    ("M5",  "OLS2", _PM2, "OLS1", _EM1),
-    ("M6",  "OLS2", _PM2, "OLS1", _EM2),
-    ("M7",  "OLS2", _PM2, "OLS1", _EM3),
-    ("M8",  "OLS2", _PM2, "TLS",  None),
-    ("M9",  "TLS",  _PM2, "OLS1", _EM1),
-    ("M10", "TLS",  _PM2, "OLS1", _EM2),
-    ("M11", "TLS",  _PM2, "OLS1", _EM3),
-    ("M12", "TLS",  _PM2, "TLS",  None),
+    ("M1", "OLS1", _PM2, "OLS1", _EM1),
+    ("M2", "OLS1", _PM2, "OLS1", _EM2),
+    ("M3", "OLS1", _PM2, "OLS1", _EM3),
+    ("M4", "OLS1", _PM2, "TLS", None),
+    ("M5", "OLS2", _PM2, "OLS1", _EM1),
+    ("M6", "OLS2", _PM2, "OLS1", _EM2),
+    ("M7", "OLS2", _PM2, "OLS1", _EM3),
+    ("M8", "OLS2", _PM2, "TLS", None),
+    ("M9", "TLS", _PM2, "OLS1", _EM1),
+    ("M10", "TLS", _PM2, "OLS1", _EM2),
+    ("M11", "TLS", _PM2, "OLS1", _EM3),
+    ("M12", "TLS", _PM2, "TLS", None),
     ("M13", "OLS1", _PM1, "OLS1", _EM1),
     ("M14", "OLS1", _PM1, "OLS1", _EM2),
     ("M15", "OLS1", _PM1, "OLS1", _EM3),
-    ("M16", "OLS1", _PM1, "TLS",  None),
+    ("M16", "OLS1", _PM1, "TLS", None),
     ("M17", "OLS2", _PM1, "OLS1", _EM1),
     ("M18", "OLS2", _PM1, "OLS1", _EM2),
     ("M19", "OLS2", _PM1, "OLS1", _EM3),
-    ("M20", "OLS2", _PM1, "TLS",  None),
-    ("M21", "TLS",  _PM1, "OLS1", _EM1),
-    ("M22", "TLS",  _PM1, "OLS1", _EM2),
-    ("M23", "TLS",  _PM1, "OLS1", _EM3),
-    ("M24", "TLS",  _PM1, "TLS",  None),
+    ("M20", "OLS2", _PM1, "TLS", None),
+    ("M21", "TLS", _PM1, "OLS1", _EM1),
+    ("M22", "TLS", _PM1, "OLS1", _EM2),
+    ("M23", "TLS", _PM1, "OLS1", _EM3),
+    ("M24", "TLS", _PM1, "TLS", None),
 )
 
 CLS_TABLE: dict[str, MethodSpec] = {
@@ -254,13 +254,16 @@ class _Evaluator:
             if not (math.isfinite(a) and a != 0.0 and math.isfinite(b)):
                 raise SolverError(f"{solver}({pm}): slope a = {a} cannot predict curvature")
             # κm half: [sin Ψp, κm cos Ψp, κm] with Ψp = a κm + b
-            first = predicted_rows_factor(
-                self.kappa, a, b, self.weights, kappa_max=self.kappa_max
-            )
+            first = predicted_rows_factor(self.kappa, a, b, self.weights, kappa_max=self.kappa_max)
             # Ψm half: B columns [sin Ψ, Ψ cos Ψ, cos Ψ, Ψ, 1] times T
             T = np.array(
-                [[1.0, 0.0, 0.0], [0.0, 1 / a, 0.0], [0.0, -b / a, 0.0],
-                 [0.0, 0.0, 1 / a], [0.0, 0.0, -b / a]]
+                [
+                    [1.0, 0.0, 0.0],
+                    [0.0, 1 / a, 0.0],
+                    [0.0, -b / a, 0.0],
+                    [0.0, 0.0, 1 / a],
+                    [0.0, 0.0, -b / a],
+                ]
             )
             second = self.base_factor()[:, [0, 5, 6, 4, 3]] @ T
             factor = triangular_factor(np.vstack([first, second]))
@@ -348,9 +351,9 @@ class ResampledData:
         first = per_chunk[:, 0]
         uniform = np.all(per_chunk == first[:, None], axis=1)
         whole = np.flatnonzero(uniform & (first > 0))
-        stacked = self._chunk_factors[whole] * np.sqrt(first[whole].astype(np.float64))[
-            :, None, None
-        ]
+        stacked = (
+            self._chunk_factors[whole] * np.sqrt(first[whole].astype(np.float64))[:, None, None]
+        )
         mixed = np.flatnonzero(~uniform)
         idx = (mixed[:, None] * _CHUNK + np.arange(_CHUNK)).ravel()
         idx = idx[idx < self.size]
@@ -437,7 +440,5 @@ def _evaluate_all(ev: _Evaluator, names: Iterable[str] | None) -> dict[str, Meth
         try:
             out[spec.name] = _evaluate_one(ev, spec)
         except SolverError:
-            out[spec.name] = MethodEstimate(
-                spec.name, spec.family, _NAN, _NAN, _NAN, failed=True
-            )
+            out[spec.name] = MethodEstimate(spec.name, spec.family, _NAN, _NAN, _NAN, failed=True)
     return out

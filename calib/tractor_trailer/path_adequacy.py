@@ -58,8 +58,12 @@ def input_std(fit: PathTransientFit | None) -> float:
 
 
 def heldout_residual(
-    model: JointPathModel, effects: tuple[EffectSpec, ...], x: np.ndarray,
-    *, folds: int = FOLDS, blocks_per_fold: int = BLOCKS_PER_FOLD,
+    model: JointPathModel,
+    effects: tuple[EffectSpec, ...],
+    x: np.ndarray,
+    *,
+    folds: int = FOLDS,
+    blocks_per_fold: int = BLOCKS_PER_FOLD,
 ) -> np.ndarray:
     """Each sample's residual when its fold was left out of the fit (started from ``x``)."""
     t = model.t
@@ -100,19 +104,31 @@ def psi_floor(
     model: JointPathModel, residual: np.ndarray, *, quantum: float, input_std_rad: float
 ) -> NoiseFloor:
     """The joint angle's noise floor from the residual's own high-frequency content."""
-    return noise_floor(model.t, residual, measured=model.p, quantum=quantum,
-                       input_std=input_std_rad)
+    return noise_floor(
+        model.t, residual, measured=model.p, quantum=quantum, input_std=input_std_rad
+    )
 
 
 def psi_channel(
-    model: JointPathModel, sol: JointSolution, heldout: np.ndarray | None, *,
-    quantum: float, input_std_rad: float,
+    model: JointPathModel,
+    sol: JointSolution,
+    heldout: np.ndarray | None,
+    *,
+    quantum: float,
+    input_std_rad: float,
     segments: Sequence[tuple[str, float, float]] = (),
 ) -> ResidualChannel:
     """The joint-angle residual channel of one joint fit."""
     return ResidualChannel(
-        "psi", "rad", model.t, sol.residual, heldout=heldout, measured=model.p,
-        quantum=quantum, input_std=input_std_rad, covariates=covariates(model),
+        "psi",
+        "rad",
+        model.t,
+        sol.residual,
+        heldout=heldout,
+        measured=model.p,
+        quantum=quantum,
+        input_std=input_std_rad,
+        covariates=covariates(model),
         segments=tuple(segments),
     )
 
@@ -125,13 +141,13 @@ def unexplained_text(adequacy: Adequacy) -> str | None:
     where = [loc.label for loc in adequacy.located[:3]]
     return (
         f"the joint angle's residual stays {worst.judged_ratio:.2g}x its noise floor with "
-        f"{adequacy.model}"
-        + (f", concentrated at {'; '.join(where)}" if where else "")
+        f"{adequacy.model}" + (f", concentrated at {'; '.join(where)}" if where else "")
     )
 
 
 def estimate_under_misfit(
-    estimate: CalibrationResult, adequacy: Adequacy,
+    estimate: CalibrationResult,
+    adequacy: Adequacy,
     pieces: Mapping[str, Sequence[float]] | None = None,
 ) -> CalibrationResult:
     """``estimate`` (a path fit) as a misfit allows: L1, L2 and L1 + L2 through
@@ -142,8 +158,10 @@ def estimate_under_misfit(
     if adequacy.explains or not adequacy.channels:
         return estimate
     pieces = pieces or {}
-    params = {k: under_misfit(e, adequacy, pieces=pieces.get(k, ()))
-              for k, e in estimate.parameters.items()}
+    params = {
+        k: under_misfit(e, adequacy, pieces=pieces.get(k, ()))
+        for k, e in estimate.parameters.items()
+    }
     total = link_sum(estimate)
     if total is not None:
         total = under_misfit(total, adequacy, pieces=pieces.get("L1+L2", ()))
@@ -153,14 +171,22 @@ def estimate_under_misfit(
     verdict = (
         f"Not determined: the model ({adequacy.model}) does not explain this log (the joint "
         f"angle's residual is {worst.judged_ratio:.2g}x its noise floor"
-        + (f"; {where}" if where else "") + "), so an interval conditional on that model "
+        + (f"; {where}" if where else "")
+        + "), so an interval conditional on that model "
         f"means nothing. The fit says {fitted}"
         + (f", L1 + L2 = {total.value:.3f} m" if total is not None else "")
         + f"; the intervals shown are widened x{adequacy.misfit_factor:.2g}"
         + (" and by the spread over parts of the log" if pieces else "")
         + ", not a calibrated 95 %."
     )
-    return replace(estimate, parameters=params, derived=derived_sum(total, estimate.derived),
-                   verdict=verdict,
-                   details={**estimate.details, "adequacy_verdict": adequacy.verdict,
-                            "misfit_factor": adequacy.misfit_factor})
+    return replace(
+        estimate,
+        parameters=params,
+        derived=derived_sum(total, estimate.derived),
+        verdict=verdict,
+        details={
+            **estimate.details,
+            "adequacy_verdict": adequacy.verdict,
+            "misfit_factor": adequacy.misfit_factor,
+        },
+    )

@@ -124,7 +124,8 @@ class PathDiscovery:
     change: ParameterChange | None = None
     piece_fits: list[PieceFit] = field(default_factory=list)
     split: list[tuple[float, float, CalibrationResult, Adequacy | None]] = field(
-        default_factory=list)
+        default_factory=list
+    )
     thirds: dict[str, list[float]] = field(default_factory=dict)
     stability: dict[str, PieceStability] = field(default_factory=dict)
     estimate: CalibrationResult | None = None
@@ -146,16 +147,23 @@ class PathDiscovery:
         out: dict[str, Any] = {"engine": "path", "status": self.status, "reason": self.reason}
         if self.selection is not None:
             out |= self.selection.to_dict()
-        out["nominal_adequacy"] = None if self.nominal is None else {
-            "verdict": self.nominal.verdict, "summary": self.nominal.summary}
+        out["nominal_adequacy"] = (
+            None
+            if self.nominal is None
+            else {"verdict": self.nominal.verdict, "summary": self.nominal.summary}
+        )
         out["change"] = None if self.change is None else self.change.to_dict()
         out["pieces"] = [
             {"t0_s": p.t0_s, "t1_s": p.t1_s, "values": dict(p.values), "std": dict(p.std)}
             for p in self.piece_fits
         ]
         out["split"] = [
-            {"t0_s": a, "t1_s": b, "estimate": est.to_dict(),
-             "adequacy": None if ad is None else ad.to_dict()}
+            {
+                "t0_s": a,
+                "t1_s": b,
+                "estimate": est.to_dict(),
+                "adequacy": None if ad is None else ad.to_dict(),
+            }
             for a, b, est, ad in self.split
         ]
         out["alternatives"] = [k for k, _ in self.alternatives]
@@ -177,7 +185,8 @@ class PathDiscovery:
                 for key, pars in acc.effect_parameters.items():
                     txt = ", ".join(
                         f"{n} = {e.value:.4g} {e.unit} [{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
-                        for n, e in pars.items())
+                        for n, e in pars.items()
+                    )
                     lines.append(f"  named: {key}: {txt}")
             else:
                 lines.append("  no catalogued effect improves the held-out fit")
@@ -192,8 +201,10 @@ class PathDiscovery:
             lines.append(f"  unexplained: {self.adequacy.unexplained}")
         for st in self.stability.values():
             if st.unstable:
-                lines.append(f"  unstable: {st.name} differs between {st.pieces} pieces of the "
-                             f"log beyond their errors (chi2 {st.chi2:.3g} on {st.dof} dof)")
+                lines.append(
+                    f"  unstable: {st.name} differs between {st.pieces} pieces of the "
+                    f"log beyond their errors (chi2 {st.chi2:.3g} on {st.dof} dof)"
+                )
         lines += [f"  note: {n}" for n in self.notes]
         lines += [f"  assumes: {detail}" for _short, detail in self.assumptions]
         return lines
@@ -219,7 +230,7 @@ class _Fitter:
         else:
             xp, done = self.x[()], 0
         vals = list(xp[2 : 2 + done]) + [e.params[0].init for e in effects[done:]]
-        return np.concatenate([xp[:2], vals, xp[2 + done:]])
+        return np.concatenate([xp[:2], vals, xp[2 + done :]])
 
     def __call__(self, effects: tuple[EffectSpec, ...]) -> ModelFit | None:
         keys = tuple(e.key for e in effects)
@@ -249,10 +260,15 @@ class _Fitter:
             eff[e.key] = {p.name: _est(p.name, sol.x[2 + i], cov[2 + i, 2 + i], p.unit)}
         ok = np.isfinite(held)
         fit = ModelFit(
-            effects, params, eff, float(np.sum(sol.residual**2) / f2),
-            float(np.sum(held[ok] ** 2) / f2 * held.size / ok.sum()) if ok.sum() >= 10
+            effects,
+            params,
+            eff,
+            float(np.sum(sol.residual**2) / f2),
+            float(np.sum(held[ok] ** 2) / f2 * held.size / ok.sum())
+            if ok.sum() >= 10
             else math.nan,
-            int(sol.residual.size), 2 + len(effects) + self.model.n_pieces,
+            int(sol.residual.size),
+            2 + len(effects) + self.model.n_pieces,
             payload=(sol, held),
         )
         self.cache[keys] = fit
@@ -262,12 +278,12 @@ class _Fitter:
 def _est(name: str, value: float, var: float, unit: str) -> Estimate:
     sd = math.sqrt(var) if var >= 0 and math.isfinite(var) else math.nan
     half = Z95 * sd
-    return Estimate(name, float(value), sd, (value - half, value + half), math.isfinite(sd),
-                    unit)
+    return Estimate(name, float(value), sd, (value - half, value + half), math.isfinite(sd), unit)
 
 
-def _path_fit(path: DrivePath, t: np.ndarray, psi: np.ndarray,
-              gaps: Sequence[tuple[float, float]], **kw: Any) -> PathTransientFit | None:
+def _path_fit(
+    path: DrivePath, t: np.ndarray, psi: np.ndarray, gaps: Sequence[tuple[float, float]], **kw: Any
+) -> PathTransientFit | None:
     try:
         return PathTransientFit(**kw).fit(path, t, psi, gaps=list(gaps))
     except (CalibError, ValueError, FloatingPointError, np.linalg.LinAlgError):
@@ -275,8 +291,14 @@ def _path_fit(path: DrivePath, t: np.ndarray, psi: np.ndarray,
 
 
 def _pieces(
-    path: DrivePath, t: np.ndarray, psi: np.ndarray, gaps: Sequence[tuple[float, float]],
-    n_pieces: int, *, fit_psi_offset: bool = False, checks: bool = False,
+    path: DrivePath,
+    t: np.ndarray,
+    psi: np.ndarray,
+    gaps: Sequence[tuple[float, float]],
+    n_pieces: int,
+    *,
+    fit_psi_offset: bool = False,
+    checks: bool = False,
 ) -> list[tuple[float, float, PathTransientFit]]:
     """The path fit on ``n_pieces`` consecutive pieces of the log (informative ones only).
     ``checks``: with the path's resolution and integrated rate noise in each piece's
@@ -288,8 +310,15 @@ def _pieces(
         m = (t >= a) & (t <= b)
         if m.sum() < 30:
             continue
-        f = _path_fit(path, t[m], psi[m], gaps, resolution_check=checks,
-                      rate_noise_check=checks, fit_psi_offset=fit_psi_offset)
+        f = _path_fit(
+            path,
+            t[m],
+            psi[m],
+            gaps,
+            resolution_check=checks,
+            rate_noise_check=checks,
+            fit_psi_offset=fit_psi_offset,
+        )
         if f is not None and f.sound_ and _informative(f):
             out.append((float(a), float(b), f))
     return out
@@ -305,9 +334,16 @@ def _informative(f: PathTransientFit) -> bool:
 
 def _piece_fit(a: float, b: float, f: PathTransientFit) -> PieceFit:
     c = f.cov_
-    return PieceFit(a, b, {"L1+L2": f.L1_ + f.L2_, "L2": f.L2_, "L1": f.L1_},
-                    {"L1+L2": math.sqrt(max(c[0, 0] + c[1, 1] + 2 * c[0, 1], 0.0)),
-                     "L2": math.sqrt(max(c[1, 1], 0.0)), "L1": math.sqrt(max(c[0, 0], 0.0))})
+    return PieceFit(
+        a,
+        b,
+        {"L1+L2": f.L1_ + f.L2_, "L2": f.L2_, "L1": f.L1_},
+        {
+            "L1+L2": math.sqrt(max(c[0, 0] + c[1, 1] + 2 * c[0, 1], 0.0)),
+            "L2": math.sqrt(max(c[1, 1], 0.0)),
+            "L1": math.sqrt(max(c[0, 0], 0.0)),
+        },
+    )
 
 
 STABILITY_NAMES = ("L1", "L2", "L1+L2")
@@ -318,7 +354,8 @@ def _thirds(
 ) -> tuple[dict[str, list[float]], dict[str, PieceStability]]:
     """L1, L2, L1 + L2 on thirds of the log, and whether each agrees across them."""
     values = {
-        "L1": [f.L1_ for *_, f in fits], "L2": [f.L2_ for *_, f in fits],
+        "L1": [f.L1_ for *_, f in fits],
+        "L2": [f.L2_ for *_, f in fits],
         "L1+L2": [f.L1_ + f.L2_ for *_, f in fits],
     }
     return values, piece_stability([_piece_fit(a, b, f) for a, b, f in fits], STABILITY_NAMES)
@@ -365,14 +402,19 @@ def discover_along_path(
     t = np.asarray(t_psi, dtype=float)
     dur = float(np.nanmax(t) - np.nanmin(t)) if t.size else 0.0
     if dur < MIN_DURATION_S:
-        return PathDiscovery("not_run", f"the log is {dur:.3g} s long; discovery along the "
-                             f"path needs {MIN_DURATION_S:g} s")
+        return PathDiscovery(
+            "not_run",
+            f"the log is {dur:.3g} s long; discovery along the path needs {MIN_DURATION_S:g} s",
+        )
     model = JointPathModel(path, t, np.asarray(psi, dtype=float), gaps)
     quantum = float(getattr(nominal_fit, "quantum_", 0.0))
     in_std = input_std(nominal_fit)
-    x0 = np.concatenate([[nominal_fit._x_raw[0], nominal_fit._x_raw[1]],
-                         nominal_fit.psi0_ if model.n_pieces == nominal_fit.n_pieces_
-                         else model.psi0_guess])
+    x0 = np.concatenate(
+        [
+            [nominal_fit._x_raw[0], nominal_fit._x_raw[1]],
+            nominal_fit.psi0_ if model.n_pieces == nominal_fit.n_pieces_ else model.psi0_guess,
+        ]
+    )
     say("path discovery: nominal model")
     first = model.fit((), x0)
     floor = psi_floor(model, first.residual, quantum=quantum, input_std_rad=in_std)
@@ -383,8 +425,9 @@ def discover_along_path(
 
     def channel(fit: ModelFit) -> Any:
         sol, held = fit.payload
-        return psi_channel(model, sol, held, quantum=quantum, input_std_rad=in_std,
-                           segments=segments)
+        return psi_channel(
+            model, sol, held, quantum=quantum, input_std_rad=in_std, segments=segments
+        )
 
     nominal = assess([channel(base)], model=NOMINAL)
     n_pieces = 6 if dur < 120.0 else 8
@@ -399,23 +442,29 @@ def discover_along_path(
         # residual above EXPLAINS_RATIO x the floor (backlash, a clock drift)
         return bool(f.effects) and explained(f)
 
-
-    selection = select_effects(fitter, effects, max_effects=max_effects, explained=stop,
-                               progress=lambda s: say(f"path discovery: {s}"))
+    selection = select_effects(
+        fitter,
+        effects,
+        max_effects=max_effects,
+        explained=stop,
+        progress=lambda s: say(f"path discovery: {s}"),
+    )
     if selection is None:  # pragma: no cover - the base fit succeeded above
         return PathDiscovery("not_run", "the nominal joint fit failed")
     dropped = ""
     if selection.accepted and explained(base) and not _moves(base, selection.final):
         # the nominal model explained the log and the effects do not move the link lengths:
         # one explanation fewer (not reported)
-        dropped = (f"{selection.final.label} lowers the held-out residual slightly, but the "
-                   "nominal model already explains the log and the link lengths do not move "
-                   "with it: not reported")
-        selection = Selection(base, base, tuple(replace(t, accepted=False)
-                                                for t in selection.tried), ())
+        dropped = (
+            f"{selection.final.label} lowers the held-out residual slightly, but the "
+            "nominal model already explains the log and the link lengths do not move "
+            "with it: not reported"
+        )
+        selection = Selection(
+            base, base, tuple(replace(t, accepted=False) for t in selection.tried), ()
+        )
     final_sol, _ = selection.final.payload
-    out = PathDiscovery("ok", selection=selection, nominal=nominal, solution=final_sol,
-                        context=ctx)
+    out = PathDiscovery("ok", selection=selection, nominal=nominal, solution=final_sol, context=ctx)
     if dropped:
         out.notes.append(dropped)
     t_c, psi_c = model.corrected(final_sol) if selection.accepted else (model.t, model.p)
@@ -425,13 +474,14 @@ def discover_along_path(
         # the effects leave the log unexplained, on the recorded angle with a fitted offset
         # (an effect fitted over a change can mimic neither side)
         say("path discovery: link lengths on pieces of the log")
-        pieces = [_piece_fit(a, b, f) for a, b, f in _pieces(path, t_c, psi_c, gaps,
-                                                                n_pieces)]
+        pieces = [_piece_fit(a, b, f) for a, b, f in _pieces(path, t_c, psi_c, gaps, n_pieces)]
         out.piece_fits = pieces
         change = parameter_change(pieces, ("L1+L2", "L2"))
         if change is None and selection.accepted and not explained(selection.final):
-            raw = [_piece_fit(a, b, f) for a, b, f in _pieces(
-                path, model.t, model.p, gaps, n_pieces, fit_psi_offset=True)]
+            raw = [
+                _piece_fit(a, b, f)
+                for a, b, f in _pieces(path, model.t, model.p, gaps, n_pieces, fit_psi_offset=True)
+            ]
             change = parameter_change(raw, ("L1+L2", "L2"))
             pieces = raw if change is not None else pieces
         if change is not None:
@@ -439,10 +489,14 @@ def discover_along_path(
     out.thirds, out.stability = _thirds(_pieces(path, t_c, psi_c, gaps, 3, checks=True))
     for e in effects:
         if e.model is not None and e.model.tolerated is not None and e not in selection.accepted:
-            tol = e.model.tolerated if gain_tolerance is None else replace(
-                e.model.tolerated, within=gain_tolerance)
-            out.alternatives += _tolerated_alternatives(ctx, selection, e, tol, out.notes,
-                                                        out.assumptions)
+            tol = (
+                e.model.tolerated
+                if gain_tolerance is None
+                else replace(e.model.tolerated, within=gain_tolerance)
+            )
+            out.alternatives += _tolerated_alternatives(
+                ctx, selection, e, tol, out.notes, out.assumptions
+            )
     for c in selection.confounds:
         if {"L1", "L2"} & set(c.parameters):
             out.alternatives.append((c.alternative, c.alternative_fit.parameters))
@@ -459,9 +513,13 @@ def discover_along_path(
         out.notes.append(
             f"{selection.final.label} lowers the held-out residual and moves the link lengths, "
             "but the nominal model already explains the log: the intervals span both "
-            f"(nominal L1 {plain['L1'].value:.3g} m, L2 {plain['L2'].value:.3g} m)")
-    adequacy = assess([channel(selection.final)], model=nominal_label(selection.accepted),
-                      before=nominal if selection.accepted else None)
+            f"(nominal L1 {plain['L1'].value:.3g} m, L2 {plain['L2'].value:.3g} m)"
+        )
+    adequacy = assess(
+        [channel(selection.final)],
+        model=nominal_label(selection.accepted),
+        before=nominal if selection.accepted else None,
+    )
     if not adequacy.explains:
         adequacy = adequacy.with_(unexplained=unexplained_text(adequacy))
     out.adequacy = adequacy
@@ -484,33 +542,49 @@ class _Context:
 
 
 def _split(
-    ctx: _Context, change: ParameterChange, pieces: list[PieceFit],
+    ctx: _Context,
+    change: ParameterChange,
+    pieces: list[PieceFit],
     progress: Callable[[str], None] | None,
 ) -> PathDiscovery:
     """A log whose link lengths change: each side estimated (with its own discovery when it is
     long enough), the whole log judged "does not explain"."""
     model = ctx.model
-    out = PathDiscovery("ok", nominal=ctx.nominal, change=change, piece_fits=pieces,
-                        context=ctx)
-    out.adequacy = assess([ctx.channel(ctx.fitter(()))], model=NOMINAL,  # type: ignore[arg-type]
-                          changes=[change])
+    out = PathDiscovery("ok", nominal=ctx.nominal, change=change, piece_fits=pieces, context=ctx)
+    out.adequacy = assess(
+        [ctx.channel(ctx.fitter(()))],  # type: ignore[arg-type]
+        model=NOMINAL,
+        changes=[change],
+    )
     for a, b in ((float(model.t[0]), change.t_s), (change.t_s, float(model.t[-1]))):
         m = (model.t >= a) & (model.t <= b)
         f = _path_fit(ctx.path, model.t[m], model.p[m], ctx.gaps)
         if f is None:
             out.notes.append(f"the part {a:.1f}-{b:.1f} s could not be fitted on its own")
             continue
-        side = discover_along_path(ctx.path, model.t[m], model.p[m], ctx.gaps, f,
-                                   segments=ctx.segments, check_change=False,
-                                   max_effects=1, progress=progress)
+        side = discover_along_path(
+            ctx.path,
+            model.t[m],
+            model.p[m],
+            ctx.gaps,
+            f,
+            segments=ctx.segments,
+            check_change=False,
+            max_effects=1,
+            progress=progress,
+        )
         est = recommended(f.result_, side)
         out.split.append((a, b, est, side.adequacy))
     return out
 
 
 def _tolerated_alternatives(
-    ctx: _Context, selection: Selection, spec: EffectSpec[PathEffectModel], tol: Tolerance,
-    notes: list[str], assumptions: list[tuple[str, str]],
+    ctx: _Context,
+    selection: Selection,
+    spec: EffectSpec[PathEffectModel],
+    tol: Tolerance,
+    notes: list[str],
+    assumptions: list[tuple[str, str]],
 ) -> list[tuple[str, Any]]:
     """The link lengths under the values of ``spec`` (e.g. the joint-angle gain) within
     ``tol.within`` of its null that the log cannot exclude (refits with the effect at each end
@@ -528,12 +602,19 @@ def _tolerated_alternatives(
         # the log bounds the effect within the tolerance; the intervals are those at its null
         free = "; ".join(
             f"{k} = {e.value:.4g} {e.unit} [{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
-            for k, e in alt.parameters.items() if k in ("L1", "L2") and math.isfinite(e.std))
+            for k, e in alt.parameters.items()
+            if k in ("L1", "L2") and math.isfinite(e.std)
+        )
         short = f"{tol.quantity} is {null:g}"
-        assumptions.append((short,
-            f"{short} (the log bounds it only to "
-            f"[{g.value - half:.4g}, {g.value + half:.4g}], 95 %"
-            + (f"; left free: {free}" if free else "") + ")"))
+        assumptions.append(
+            (
+                short,
+                f"{short} (the log bounds it only to "
+                f"[{g.value - half:.4g}, {g.value + half:.4g}], 95 %"
+                + (f"; left free: {free}" if free else "")
+                + ")",
+            )
+        )
         return []
     lo, hi = max(null - tolerance, g.value - half), min(null + tolerance, g.value + half)
     if not lo < null < hi:
@@ -546,22 +627,31 @@ def _tolerated_alternatives(
             f = ctx.model.fit(sol.effects, sol.x, data=data)
         except (CalibError, ValueError, FloatingPointError, np.linalg.LinAlgError):
             continue
-        out.append((f"{spec.key} = {s:.3g}", {
-            "L1": _est("L1", f.x[0], f.cov[0, 0], "m"), "L2": _est("L2", f.x[1], f.cov[1, 1], "m"),
-        }))
+        out.append(
+            (
+                f"{spec.key} = {s:.3g}",
+                {
+                    "L1": _est("L1", f.x[0], f.cov[0, 0], "m"),
+                    "L2": _est("L2", f.x[1], f.cov[1, 1], "m"),
+                },
+            )
+        )
     if out:
         notes.append(
             f"the log bounds {tol.quantity} only to [{g.value - half:.3g}, "
             f"{g.value + half:.3g}] (95 %): {tol.error} within {tolerance:.0%} cannot be told "
             "from the link lengths ("
-            + "; ".join(f"{k}: L1 {a['L1'].value:.3g} m, L2 {a['L2'].value:.3g} m"
-                        for k, a in out)
-            + "), so their intervals span those explanations")
+            + "; ".join(f"{k}: L1 {a['L1'].value:.3g} m, L2 {a['L2'].value:.3g} m" for k, a in out)
+            + "), so their intervals span those explanations"
+        )
     return out
 
 
 def _with_effects(
-    ctx: _Context, effects: Sequence[EffectSpec], sol: JointSolution, notes: list[str],
+    ctx: _Context,
+    effects: Sequence[EffectSpec],
+    sol: JointSolution,
+    notes: list[str],
 ) -> CalibrationResult | None:
     """The path fit on the joint angle with ``effects`` (fitted in ``sol``) undone, its
     covariance inflated by what fitting them costs."""
@@ -569,16 +659,25 @@ def _with_effects(
     t_c, psi_c = ctx.model.corrected(sol, drop_holds=True)
     fit = _path_fit(ctx.path, t_c, psi_c, ctx.gaps, extra_covariance=inflation)
     if fit is None or not fit.sound_:
-        notes.append("the path fit on the joint angle with the named effects undone failed; "
-                     "the nominal fit stands")
+        notes.append(
+            "the path fit on the joint angle with the named effects undone failed; "
+            "the nominal fit stands"
+        )
         return None
     label = " + ".join(e.key for e in effects)
     res = fit.result_
     method = f"{res.method} + {label}"
-    return replace(res, method=method, details={
-        **res.details, "model": method, "effects_included": [e.key for e in effects],
-        "effects_engine": "path discovery",
-        "effect_covariance_inflation": inflation.tolist()})
+    return replace(
+        res,
+        method=method,
+        details={
+            **res.details,
+            "model": method,
+            "effects_included": [e.key for e in effects],
+            "effects_engine": "path discovery",
+            "effect_covariance_inflation": inflation.tolist(),
+        },
+    )
 
 
 def with_effects(disc: PathDiscovery, keys: Sequence[str]) -> CalibrationResult | None:
@@ -595,30 +694,38 @@ def with_effects(disc: PathDiscovery, keys: Sequence[str]) -> CalibrationResult 
     return _with_effects(ctx, specs, sol, disc.notes)
 
 
-def _spanned(est: CalibrationResult, alternatives: Sequence[tuple[str, Any]],
-             rel_tol: float = 0.1) -> CalibrationResult:
+def _spanned(
+    est: CalibrationResult, alternatives: Sequence[tuple[str, Any]], rel_tol: float = 0.1
+) -> CalibrationResult:
     if not alternatives:
         return est
     params = dict(est.parameters)
     scale = 0.5 * (abs(params["L1"].value) + abs(params["L2"].value))
     labels = [est.method] + [k for k, _ in alternatives]
     for name in ("L1", "L2"):
-        params[name] = span([params[name]] + [a[name] for _, a in alternatives], labels,
-                            scale=scale, rel_tol=rel_tol)
+        params[name] = span(
+            [params[name]] + [a[name] for _, a in alternatives],
+            labels,
+            scale=scale,
+            rel_tol=rel_tol,
+        )
     total = link_sum(est)
     if total is not None:
-        alts = [_est("L1 + L2", a["L1"].value + a["L2"].value,
-                     a["L1"].std**2 + a["L2"].std**2, "m") for _, a in alternatives]
+        alts = [
+            _est("L1 + L2", a["L1"].value + a["L2"].value, a["L1"].std ** 2 + a["L2"].std ** 2, "m")
+            for _, a in alternatives
+        ]
         total = span([total, *alts], labels, scale=scale, rel_tol=rel_tol)
     if all(e.identifiable for e in params.values()) and (total is None or total.identifiable):
         return replace(est, parameters=params, derived=derived_sum(total, est.derived))
     why = "; ".join(f"{k}" for k, _ in alternatives)
-    verdict = (f"Not determined: the log cannot tell these link lengths from other explanations "
-               f"({why}), which imply different ones; the intervals span them. The fit "
-               f"alone says L1 = {est.parameters['L1'].value:.3f} m, L2 = "
-               f"{est.parameters['L2'].value:.3f} m.")
-    return replace(est, parameters=params, derived=derived_sum(total, est.derived),
-                   verdict=verdict)
+    verdict = (
+        f"Not determined: the log cannot tell these link lengths from other explanations "
+        f"({why}), which imply different ones; the intervals span them. The fit "
+        f"alone says L1 = {est.parameters['L1'].value:.3f} m, L2 = "
+        f"{est.parameters['L2'].value:.3f} m."
+    )
+    return replace(est, parameters=params, derived=derived_sum(total, est.derived), verdict=verdict)
 
 
 def recommended(estimate: CalibrationResult, disc: PathDiscovery) -> CalibrationResult:
@@ -630,31 +737,42 @@ def recommended(estimate: CalibrationResult, disc: PathDiscovery) -> Calibration
         return estimate
     est = disc.estimate or estimate
     if disc.change is not None:
-        short = (f"the link lengths change mid-log near t = {disc.change.t_s:.1f} s; see the "
-                 "estimates of each part")
+        short = (
+            f"the link lengths change mid-log near t = {disc.change.t_s:.1f} s; see the "
+            "estimates of each part"
+        )
         params = {k: undetermined(e, short) for k, e in est.parameters.items()}
         sides = "; ".join(
             f"{a:.1f}-{b:.1f} s: L1 = {e.parameters['L1'].value:.3f} m, L2 = "
-            f"{e.parameters['L2'].value:.3f} m" for a, b, e, _ in disc.split)
+            f"{e.parameters['L2'].value:.3f} m"
+            for a, b, e, _ in disc.split
+        )
         return replace(
-            est, parameters=params,
+            est,
+            parameters=params,
             derived={k: undetermined(e, short) for k, e in est.derived.items()},
             verdict=f"Not determined for the whole log: {disc.change.note}. Each part on its "
             f"own: {sides or 'not fitted'}.",
-            details={**est.details, "change": disc.change.to_dict()})
+            details={**est.details, "change": disc.change.to_dict()},
+        )
     est = _spanned(est, disc.alternatives)
     est = estimate_under_misfit(est, disc.adequacy, disc.thirds)
     est = _widened_unstable(est, disc.stability)
     if disc.assumptions and any(e.identifiable for e in est.parameters.values()):
         est = replace(
-            est, verdict=f"{est.verdict} These intervals assume "
-            + "; ".join(detail for _short, detail in disc.assumptions) + ".",
-            assumptions=(*est.assumptions, *(short for short, _detail in disc.assumptions)))
+            est,
+            verdict=f"{est.verdict} These intervals assume "
+            + "; ".join(detail for _short, detail in disc.assumptions)
+            + ".",
+            assumptions=(*est.assumptions, *(short for short, _detail in disc.assumptions)),
+        )
     return est
 
 
 def _widened_unstable(
-    est: CalibrationResult, stability: dict[str, PieceStability], rel_tol: float = 0.1,
+    est: CalibrationResult,
+    stability: dict[str, PieceStability],
+    rel_tol: float = 0.1,
 ) -> CalibrationResult:
     """``est`` with the link lengths that differ between pieces of the log beyond their errors
     widened (``calib.adequacy.widen_unstable``): physics the model leaves out moves them even
@@ -672,19 +790,28 @@ def _widened_unstable(
     params = {k: wide[k] for k in est.parameters}
     total = wide.get("L1+L2") if total is not None else None
     lost = [k for k, e in wide.items() if not e.identifiable and named[k].identifiable]
-    moved = ", ".join(f"{k} ({stability[k].chi2:.3g} on {stability[k].dof} dof)"
-                      for k in STABILITY_NAMES if k in stability and stability[k].unstable)
+    moved = ", ".join(
+        f"{k} ({stability[k].chi2:.3g} on {stability[k].dof} dof)"
+        for k in STABILITY_NAMES
+        if k in stability and stability[k].unstable
+    )
     verdict = est.verdict
     if lost:
-        verdict = (f"Not determined: fitted on separate thirds of the log the link lengths "
-                   f"disagree beyond their errors (chi-square {moved}), so physics the model "
-                   f"leaves out moves them; the intervals are widened by that disagreement. "
-                   f"The fit says " + ", ".join(f"{k} = {e.value:.3f} m"
-                                                  for k, e in est.parameters.items()) + ".")
-    return replace(est, parameters=params, derived=derived_sum(total, est.derived),
-                   verdict=verdict,
-                   details={**est.details, "piece_stability": {
-                       k: v.to_dict() for k, v in stability.items()}})
+        verdict = (
+            f"Not determined: fitted on separate thirds of the log the link lengths "
+            f"disagree beyond their errors (chi-square {moved}), so physics the model "
+            f"leaves out moves them; the intervals are widened by that disagreement. "
+            f"The fit says "
+            + ", ".join(f"{k} = {e.value:.3f} m" for k, e in est.parameters.items())
+            + "."
+        )
+    return replace(
+        est,
+        parameters=params,
+        derived=derived_sum(total, est.derived),
+        verdict=verdict,
+        details={**est.details, "piece_stability": {k: v.to_dict() for k, v in stability.items()}},
+    )
 
 
 def adopt_effects(disc: PathDiscovery, keys: Sequence[str]) -> None:
@@ -697,8 +824,9 @@ def adopt_effects(disc: PathDiscovery, keys: Sequence[str]) -> None:
     specs = tuple(effect_by_key(k) for k in keys)
     fit = ctx.fitter(specs)
     if fit is None:
-        disc.notes.append(f"the joint fit with {', '.join(keys)} failed; kept "
-                          f"{nominal_label(disc.accepted)}")
+        disc.notes.append(
+            f"the joint fit with {', '.join(keys)} failed; kept {nominal_label(disc.accepted)}"
+        )
         return
     sol, _ = fit.payload
     est = _with_effects(ctx, specs, sol, disc.notes)
@@ -708,8 +836,9 @@ def adopt_effects(disc: PathDiscovery, keys: Sequence[str]) -> None:
     if not adequacy.explains:
         adequacy = adequacy.with_(unexplained=unexplained_text(adequacy))
     disc.adequacy, disc.estimate, disc.solution = adequacy, est, sol
-    disc.notes.append(f"the recommended estimate includes {', '.join(keys)} (accepted by "
-                      "either discovery engine)")
+    disc.notes.append(
+        f"the recommended estimate includes {', '.join(keys)} (accepted by either discovery engine)"
+    )
 
 
 def judge_path_fit(
@@ -727,13 +856,18 @@ def judge_path_fit(
     model = JointPathModel(path, np.asarray(t_psi, float), np.asarray(psi, float), gaps)
     quantum = float(getattr(nominal_fit, "quantum_", 0.0))
     in_std = input_std(nominal_fit)
-    x0 = np.concatenate([[nominal_fit._x_raw[0], nominal_fit._x_raw[1]],
-                         nominal_fit.psi0_ if model.n_pieces == nominal_fit.n_pieces_
-                         else model.psi0_guess])
+    x0 = np.concatenate(
+        [
+            [nominal_fit._x_raw[0], nominal_fit._x_raw[1]],
+            nominal_fit.psi0_ if model.n_pieces == nominal_fit.n_pieces_ else model.psi0_guess,
+        ]
+    )
     sol = model.fit((), x0)
     held = heldout_residual(model, (), sol.x)
-    adequacy = assess([psi_channel(model, sol, held, quantum=quantum, input_std_rad=in_std,
-                                   segments=segments)], model=NOMINAL)
+    adequacy = assess(
+        [psi_channel(model, sol, held, quantum=quantum, input_std_rad=in_std, segments=segments)],
+        model=NOMINAL,
+    )
     if not adequacy.explains:
         adequacy = adequacy.with_(unexplained=unexplained_text(adequacy))
     out = PathDiscovery("not_run", reason, nominal=adequacy, adequacy=adequacy, solution=sol)

@@ -63,6 +63,7 @@ FloatArray = np.ndarray
 PLAY_SMOOTH_S = 0.2
 """Time over which the modelled angle is smoothed to decide the backlash's holds (s)."""
 
+
 @dataclass(frozen=True)
 class PathState:
     """The modelled joint-angle reading part-way through the effects' chain.
@@ -86,8 +87,14 @@ class PathState:
     def scaled(self, g: FloatArray | float, **changes: Any) -> PathState:
         """Every derivative (``d0`` to ``d2`` and the effects' columns) multiplied by the
         local slope ``g`` of a pointwise change of the reading, with ``changes`` applied."""
-        return replace(self, d0=self.d0 * g, d1=self.d1 * g, d2=self.d2 * g,
-                       cols={k: v * g for k, v in self.cols.items()}, **changes)
+        return replace(
+            self,
+            d0=self.d0 * g,
+            d1=self.d1 * g,
+            d2=self.d2 * g,
+            cols={k: v * g for k, v in self.cols.items()},
+            **changes,
+        )
 
 
 @dataclass(frozen=True)
@@ -134,9 +141,7 @@ class PathEffectModel(Protocol):
     tolerated: Tolerance | None = None
     """Set for an effect the nominal model leaves unchecked near its null (a gain)."""
 
-    def stamp_shift(
-        self, t_rel: FloatArray, value: float
-    ) -> tuple[FloatArray, FloatArray] | None:
+    def stamp_shift(self, t_rel: FloatArray, value: float) -> tuple[FloatArray, FloatArray] | None:
         """How late the joint angle is stamped at ``t_rel`` (s since its first sample) and the
         derivative of that to ``value``; None: the effect does not touch the stamps."""
         return None
@@ -192,9 +197,15 @@ class Backlash(PathEffectModel):
             # (holding it would smooth the model and reward play that is not there)
             return c + np.where(hold, cs[idx] - cs, 0.0)
 
-        out = replace(state, y=held(u, us) - sgn * 0.5 * w, d0=held(state.d0, d0s),
-                      d1=held(state.d1, d1s), d2=held(state.d2, d2s),
-                      cols={k: held(v, m._smooth(v)) for k, v in state.cols.items()}, sgn=sgn)
+        out = replace(
+            state,
+            y=held(u, us) - sgn * 0.5 * w,
+            d0=held(state.d0, d0s),
+            d1=held(state.d1, d1s),
+            d2=held(state.d2, d2s),
+            cols={k: held(v, m._smooth(v)) for k, v in state.cols.items()},
+            sgn=sgn,
+        )
         return out, -0.5 * sgn
 
     def undo(self, state: Undone, value: float) -> Undone:
@@ -266,49 +277,69 @@ GAIN_TOLERANCE = 0.05
 
 CATALOGUE: tuple[EffectSpec[PathEffectModel], ...] = (
     EffectSpec(
-        "sensor_offset", "psi", EffectKind.SENSOR,
+        "sensor_offset",
+        "psi",
+        EffectKind.SENSOR,
         (EffectParam("offset", "rad", 0.0, -0.5, 0.5, 0.0),),
         "the joint-angle encoder reads a constant amount off (mounting, zeroing)",
-        sim_switch="sensor_offset", truth_key="sensor_offset(psi)", model=Offset(),
+        sim_switch="sensor_offset",
+        truth_key="sensor_offset(psi)",
+        model=Offset(),
     ),
     EffectSpec(
-        "sensor_scale", "psi", EffectKind.SENSOR,
+        "sensor_scale",
+        "psi",
+        EffectKind.SENSOR,
         (EffectParam("scale", "1", 1.0, 0.5, 2.0, 1.0),),
         "the joint-angle encoder's gain is off (a reading proportional to the true angle): at "
         "small angles it trades with L1 + L2 (psi ~ kappa (L1 + L2)); only large angles and "
         "transients tell the two apart",
-        confounded_with=("param:L1", "param:L2"), sim_switch="sensor_scale",
+        confounded_with=("param:L1", "param:L2"),
+        sim_switch="sensor_scale",
         truth_key="sensor_scale(psi)",
         model=Gain(tolerated=Tolerance(GAIN_TOLERANCE, "the joint angle's gain", "a gain error")),
     ),
     EffectSpec(
-        "backlash", "psi", EffectKind.SENSOR,
+        "backlash",
+        "psi",
+        EffectKind.SENSOR,
         (EffectParam("width", "rad", 0.0, 0.0, 0.3, 0.005),),
         "play in the hitch or its encoder: the reading follows the angle only once it leaves "
         "a dead band of this width (it lags by half the width after a reversal)",
-        confounded_with=("clock_offset(hitch)",), truth_key="hitch_dead_band_rad",
+        confounded_with=("clock_offset(hitch)",),
+        truth_key="hitch_dead_band_rad",
         model=Backlash(),
     ),
     EffectSpec(
-        "clock_offset", "hitch", EffectKind.CLOCK,
+        "clock_offset",
+        "hitch",
+        EffectKind.CLOCK,
         (EffectParam("offset", "s", 0.0, -1.0, 1.0, 0.0),),
         "the joint angle's stamps are late by a constant (transport delay, filtering, clock "
         "offset of the encoder's computer)",
-        confounded_with=("backlash(psi)",), sim_switch="clock_offset_s",
-        truth_key="clock_offset(hitch)", model=StampOffset(),
+        confounded_with=("backlash(psi)",),
+        sim_switch="clock_offset_s",
+        truth_key="clock_offset(hitch)",
+        model=StampOffset(),
     ),
     EffectSpec(
-        "clock_drift", "hitch", EffectKind.CLOCK,
+        "clock_drift",
+        "hitch",
+        EffectKind.CLOCK,
         (EffectParam("drift", "s/s", 0.0, -0.05, 0.05, 0.0),),
         "the joint angle's clock runs at another rate: its stamps drift linearly against the "
         "path's",
-        truth_key="clock_drift", model=StampDrift(),
+        truth_key="clock_drift",
+        model=StampDrift(),
     ),
     EffectSpec(
-        "sensor_nonlinearity", "psi", EffectKind.SENSOR,
+        "sensor_nonlinearity",
+        "psi",
+        EffectKind.SENSOR,
         (EffectParam("cubic", "1/rad^2", 0.0, -3.0, 3.0, 0.0),),
         "the encoder's reading bends away from the true angle at large angles (y + k y^3)",
-        confounded_with=("param:L1",), model=Cubic(),
+        confounded_with=("param:L1",),
+        model=Cubic(),
     ),
 )
 """The built-in effects the path discovery tries, in the order it tries them (registered ones,
@@ -360,7 +391,8 @@ def _chain(
 
 
 def _valued(
-    chain: Sequence[tuple[int, EffectSpec[PathEffectModel], PathEffectModel]], x: FloatArray,
+    chain: Sequence[tuple[int, EffectSpec[PathEffectModel], PathEffectModel]],
+    x: FloatArray,
 ) -> Iterator[tuple[EffectSpec[PathEffectModel], PathEffectModel, float]]:
     """(spec, hook, its value in the parameter vector ``x``) along ``chain``."""
     for i, e, m in chain:
@@ -443,8 +475,13 @@ class JointPathModel:
     """
 
     def __init__(
-        self, path: DrivePath, t_psi: FloatArray, psi: FloatArray,
-        gaps: Sequence[tuple[float, float]] = (), *, max_samples: int = 12000,
+        self,
+        path: DrivePath,
+        t_psi: FloatArray,
+        psi: FloatArray,
+        gaps: Sequence[tuple[float, float]] = (),
+        *,
+        max_samples: int = 12000,
         bounds_L1_m: tuple[float, float] = (-20.0, 50.0),
         bounds_L2_m: tuple[float, float] = (0.02, 50.0),
     ) -> None:
@@ -455,8 +492,9 @@ class JointPathModel:
         if t.size > max_samples:
             keep = np.unique(np.round(np.linspace(0, t.size - 1, max_samples)).astype(np.int64))
             t, p = t[keep], p[keep]
-        base = PathTransientFit(resolution_check=False, bounds_L1_m=bounds_L1_m,
-                                bounds_L2_m=bounds_L2_m)
+        base = PathTransientFit(
+            resolution_check=False, bounds_L1_m=bounds_L1_m, bounds_L2_m=bounds_L2_m
+        )
         base._prepare(path, t, p, list(gaps))
         self._base = base
         self.path = path
@@ -595,13 +633,22 @@ class JointPathModel:
         n_e = len(effects)
         q = 2 + n_e
         P = self.n_pieces
-        lo = np.concatenate([[self.bounds[0][0], self.bounds[1][0]],
-                             [e.params[0].lower for e in effects], np.full(P, -math.pi)])
-        hi = np.concatenate([[self.bounds[0][1], self.bounds[1][1]],
-                             [e.params[0].upper for e in effects], np.full(P, math.pi)])
+        lo = np.concatenate(
+            [
+                [self.bounds[0][0], self.bounds[1][0]],
+                [e.params[0].lower for e in effects],
+                np.full(P, -math.pi),
+            ]
+        )
+        hi = np.concatenate(
+            [
+                [self.bounds[0][1], self.bounds[1][1]],
+                [e.params[0].upper for e in effects],
+                np.full(P, math.pi),
+            ]
+        )
         if x0 is None:
-            x0 = np.concatenate([[1.0, 2.0], [e.params[0].init for e in effects],
-                                 self.psi0_guess])
+            x0 = np.concatenate([[1.0, 2.0], [e.params[0].init for e in effects], self.psi0_guess])
         x0 = np.clip(np.asarray(x0, dtype=float), lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo))
         w = np.ones(self.t.size) if held_out is None else (~held_out).astype(float)
         rows = np.arange(self.t.size)
@@ -624,9 +671,18 @@ class JointPathModel:
                 cache[key] = (R[:, -1].copy(), R[:, :-1].copy())
             return cache[key]
 
-        sol = least_squares(lambda x: both(x)[0], x0, jac=lambda x: both(x)[1],
-                            bounds=(lo, hi), method="trf", x_scale="jac", xtol=1e-9,
-                            ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
+        sol = least_squares(
+            lambda x: both(x)[0],
+            x0,
+            jac=lambda x: both(x)[1],
+            bounds=(lo, hi),
+            method="trf",
+            x_scale="jac",
+            xtol=1e-9,
+            ftol=1e-10,
+            gtol=1e-10,
+            max_nfev=max_nfev,
+        )
         x = np.asarray(sol.x)
         y, J, d0, true_u, sgn = self.evaluate(x, effects)
         r = p - y
@@ -637,8 +693,9 @@ class JointPathModel:
         dof = max(rf.size - q, 1) / max(rf.size - q - P, 1)
         cov = hac_covariance(Js, rf, bw) * dof
         cov_fixed = hac_covariance(Js[:, :2], rf, bw) * dof
-        return JointSolution(tuple(effects), x, cov, cov_fixed, r, fitted, y, true_u, sgn,
-                             bool(sol.success))
+        return JointSolution(
+            tuple(effects), x, cov, cov_fixed, r, fitted, y, true_u, sgn, bool(sol.success)
+        )
 
     def corrected(
         self, sol: JointSolution, *, drop_holds: bool = False

@@ -40,8 +40,17 @@ from logtools.errors import LogcalInputError
 from logtools.outputs import special_devices, special_filesystem
 from logtools.readers.formats import log_suffixes, skipped
 
-__all__ = ["ID_PATTERN", "SETTINGS_FILE", "EntryError", "LogJob", "content_hash", "display_name",
-           "file_kind", "find_logs", "log_id"]
+__all__ = [
+    "ID_PATTERN",
+    "SETTINGS_FILE",
+    "EntryError",
+    "LogJob",
+    "content_hash",
+    "display_name",
+    "file_kind",
+    "find_logs",
+    "log_id",
+]
 
 _CHUNK = 1 << 20
 METADATA_FILE = "metadata.yaml"
@@ -89,8 +98,11 @@ def _lstat(path: str) -> os.stat_result | None:
 def _is_rosbag2(path: str) -> bool:
     """A real folder (not a link) holding a ``metadata.yaml`` entry of any kind."""
     st = _lstat(path)
-    return (st is not None and stat.S_ISDIR(st.st_mode)
-            and _lstat(os.path.join(path, METADATA_FILE)) is not None)
+    return (
+        st is not None
+        and stat.S_ISDIR(st.st_mode)
+        and _lstat(os.path.join(path, METADATA_FILE)) is not None
+    )
 
 
 def _hash_file(path: str, digest: hashlib._Hash, special: set[int]) -> None:
@@ -115,8 +127,9 @@ def _rosbag2_files(folder: str) -> list[str]:
             with os.scandir(here) as it:
                 entries = list(it)
         except OSError as err:
-            raise EntryError(f"cannot list {sub or '.'} in the rosbag2 folder "
-                             f"({err.strerror or err})") from err
+            raise EntryError(
+                f"cannot list {sub or '.'} in the rosbag2 folder ({err.strerror or err})"
+            ) from err
         for e in entries:
             rel = os.path.join(sub, e.name) if sub else e.name
             st = e.stat(follow_symlinks=False)
@@ -125,8 +138,10 @@ def _rosbag2_files(folder: str) -> list[str]:
             elif stat.S_ISREG(st.st_mode):
                 found.append(rel)
             else:
-                raise EntryError(f"{display_name(rel)} in the rosbag2 folder is "
-                                 f"{file_kind(st.st_mode)}; logcal reads regular files only")
+                raise EntryError(
+                    f"{display_name(rel)} in the rosbag2 folder is "
+                    f"{file_kind(st.st_mode)}; logcal reads regular files only"
+                )
     return sorted(found, key=os.fsencode)
 
 
@@ -172,8 +187,9 @@ def log_id(rel: str | bytes, digits: int = 10) -> str:
     return f"{keep[:60]}-{tail}"
 
 
-def _walk(archive: str, skip: set[tuple[int, int]], special: set[int]
-          ) -> list[tuple[str, str | None]]:
+def _walk(
+    archive: str, skip: set[tuple[int, int]], special: set[int]
+) -> list[tuple[str, str | None]]:
     """(relative path, None) of every log, (relative path, why not) of every entry that is
     refused, sorted by bytes. Never follows a link; never raises for one entry.
 
@@ -192,8 +208,13 @@ def _walk(archive: str, skip: set[tuple[int, int]], special: set[int]
                 entries = list(it)
         except OSError as err:
             why = errno.errorcode.get(err.errno or 0, "")
-            found.append((sub, f"cannot list this folder ({err.strerror or err}"
-                               f"{', ' + why if why else ''}); its logs are not analysed"))
+            found.append(
+                (
+                    sub,
+                    f"cannot list this folder ({err.strerror or err}"
+                    f"{', ' + why if why else ''}); its logs are not analysed",
+                )
+            )
             continue
         for e in entries:
             if e.name.startswith("."):
@@ -208,9 +229,14 @@ def _walk(archive: str, skip: set[tuple[int, int]], special: set[int]
             if stat.S_ISLNK(st.st_mode):
                 target_dir = os.path.isdir(e.path)  # stat of the target: never opened
                 if is_log_name or target_dir:
-                    found.append((rel, f"is a symbolic link{' to a folder' if target_dir else ''}"
-                                       "; logcal reads only regular files inside the archive "
-                                       "and never follows links"))
+                    found.append(
+                        (
+                            rel,
+                            f"is a symbolic link{' to a folder' if target_dir else ''}"
+                            "; logcal reads only regular files inside the archive "
+                            "and never follows links",
+                        )
+                    )
                 continue
             if st.st_dev in special:
                 found.append((rel, "is on a kernel file system (/proc, /sys, /dev); not read"))
@@ -227,8 +253,9 @@ def _walk(archive: str, skip: set[tuple[int, int]], special: set[int]
                     if not skipped(Path(e.path)):  # e.g. a session's metadata, not a run
                         found.append((rel, None))
                 else:
-                    found.append((rel, f"is {file_kind(st.st_mode)}; logcal reads regular "
-                                       "files only"))
+                    found.append(
+                        (rel, f"is {file_kind(st.st_mode)}; logcal reads regular files only")
+                    )
     return sorted(found, key=lambda item: [os.fsencode(p) for p in item[0].split(os.sep)])
 
 
@@ -243,12 +270,15 @@ def find_logs(archive: Path, *, skip: tuple[Path, ...] = ()) -> list[LogJob]:
     """
     archive = archive.resolve()
     if not archive.is_dir():
-        raise LogcalInputError(f"{archive}: not a folder; expected an archive of logs "
-                               f"({', '.join(log_suffixes())} files, rosbag2 folders).")
+        raise LogcalInputError(
+            f"{archive}: not a folder; expected an archive of logs "
+            f"({', '.join(log_suffixes())} files, rosbag2 folders)."
+        )
     root = special_filesystem(archive)
     if root is not None:
-        raise LogcalInputError(f"{archive}: is on the kernel file system {root}; expected an "
-                               "archive of logs on disk.")
+        raise LogcalInputError(
+            f"{archive}: is on the kernel file system {root}; expected an archive of logs on disk."
+        )
     special = special_devices()
     skip_ids = set()
     for s in skip:
@@ -282,9 +312,16 @@ def find_logs(archive: Path, *, skip: tuple[Path, ...] = ()) -> list[LogJob]:
             jobs.append(LogJob(name, path, ident, "", None, entry_error=f"{name}: {err}"))
             continue
         except OSError as err:
-            jobs.append(LogJob(name, path, ident, "", None,
-                               entry_error=f"{name}: cannot read it ({err.strerror or err})"))
+            jobs.append(
+                LogJob(
+                    name,
+                    path,
+                    ident,
+                    "",
+                    None,
+                    entry_error=f"{name}: cannot read it ({err.strerror or err})",
+                )
+            )
             continue
         jobs.append(LogJob(name, path, ident, digest, settings, error))
     return jobs
-

@@ -19,8 +19,13 @@ def _run(job: LogJob, options: AnalysisOptions, budgets: Budgets) -> LogOutcome:
         with time_limit(budgets):
             return analyse_job(job, options)
     except LogTimeout:
-        return LogOutcome(job, "failed", error=budgets.time_message(job.rel),
-                          error_kind="input", seconds=time.perf_counter() - t0)
+        return LogOutcome(
+            job,
+            "failed",
+            error=budgets.time_message(job.rel),
+            error_kind="input",
+            seconds=time.perf_counter() - t0,
+        )
 
 
 def analyse_within_budget(job: LogJob, options: AnalysisOptions) -> LogOutcome:

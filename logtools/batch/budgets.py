@@ -41,8 +41,18 @@ from typing import IO, Any
 
 from logtools.errors import LogcalInputError
 
-__all__ = ["DEFAULT_TIMEOUT_S", "Budgets", "LogTimeout", "active", "default_memory_gib",
-           "init_worker", "marker_file", "out_of_memory", "set_active", "time_limit"]
+__all__ = [
+    "DEFAULT_TIMEOUT_S",
+    "Budgets",
+    "LogTimeout",
+    "active",
+    "default_memory_gib",
+    "init_worker",
+    "marker_file",
+    "out_of_memory",
+    "set_active",
+    "time_limit",
+]
 
 GIB = 2**30
 DEFAULT_TIMEOUT_S = 3600.0
@@ -76,8 +86,10 @@ class Budgets:
     memory_default: bool = False
 
     def __post_init__(self) -> None:
-        for flag, v, unit in (("--log-memory", self.memory_gib, "GiB"),
-                              ("--log-timeout", self.timeout_s, "seconds")):
+        for flag, v, unit in (
+            ("--log-memory", self.memory_gib, "GiB"),
+            ("--log-timeout", self.timeout_s, "seconds"),
+        ):
             if v is not None and not (math.isfinite(v) and v > 0):
                 raise LogcalInputError(f"{flag} {v}: expected {unit} > 0 (0: no budget).")
 
@@ -93,8 +105,11 @@ class Budgets:
             if v is not None and not (math.isfinite(v) and v >= 0):
                 raise LogcalInputError(f"{flag} {v}: expected a number >= 0 (0: no budget).")
         memory = default_memory_gib(workers) if memory_gib is None else memory_gib
-        return cls(memory_gib=memory or None, timeout_s=timeout_s or None,
-                   memory_default=memory_gib is None)
+        return cls(
+            memory_gib=memory or None,
+            timeout_s=timeout_s or None,
+            memory_default=memory_gib is None,
+        )
 
     @property
     def memory_bytes(self) -> int | None:
@@ -111,12 +126,15 @@ class Budgets:
     def memory_message(self, rel: str) -> str:
         if self.memory_gib is None:
             return f"{rel}: ran out of memory"
-        return (f"{rel}: exceeded the per-log memory budget of {self.memory_gib:g} GiB "
-                "(--log-memory)")
+        return (
+            f"{rel}: exceeded the per-log memory budget of {self.memory_gib:g} GiB (--log-memory)"
+        )
 
     def time_message(self, rel: str) -> str:
-        return (f"{rel}: took longer than the per-log time budget of {self.timeout_s:g} s "
-                "(--log-timeout)")
+        return (
+            f"{rel}: took longer than the per-log time budget of {self.timeout_s:g} s "
+            "(--log-timeout)"
+        )
 
 
 class LogTimeout(BaseException):
@@ -124,8 +142,12 @@ class LogTimeout(BaseException):
     through every ``except Exception``, as ``KeyboardInterrupt`` does)."""
 
 
-_OOM_TEXT = ("out of memory", "cannot allocate memory", "memory allocation failed",
-             "can't start new thread")
+_OOM_TEXT = (
+    "out of memory",
+    "cannot allocate memory",
+    "memory allocation failed",
+    "can't start new thread",
+)
 
 
 def out_of_memory(err: BaseException) -> bool:
@@ -182,8 +204,11 @@ def init_worker(budgets: Budgets, markers: str | None, setup: str | None = None)
         import resource
 
         _soft, hard = resource.getrlimit(resource.RLIMIT_AS)
-        cap = budgets.memory_bytes if hard == resource.RLIM_INFINITY else min(
-            hard, budgets.memory_bytes)
+        cap = (
+            budgets.memory_bytes
+            if hard == resource.RLIM_INFINITY
+            else min(hard, budgets.memory_bytes)
+        )
         resource.setrlimit(resource.RLIMIT_AS, (cap, hard))
     if _MARKERS is not None:
         _STACK_FILE = open(_MARKERS / f"{os.getpid()}.stack", "w")  # noqa: SIM115 (the worker's)
@@ -203,11 +228,11 @@ def time_limit(budgets: Budgets) -> Iterator[None]:
         return
     hard = budgets.hard_stop_s
     if hard is not None:
-        faulthandler.dump_traceback_later(hard, exit=True,
-                                          file=_STACK_FILE if _STACK_FILE else 2)
+        faulthandler.dump_traceback_later(hard, exit=True, file=_STACK_FILE if _STACK_FILE else 2)
     alarm = threading.current_thread() is threading.main_thread()
     previous: Any = None
     if alarm:
+
         def _raise(_signum: int, _frame: object) -> None:
             raise LogTimeout
 

@@ -108,8 +108,11 @@ def detect_drift(
     for a step change and a linear trend (see the module docstring)."""
     k = len(values)
     if k < 2 * MIN_SIDE:
-        return DriftResult(k, "too few logs", note=f"{k} log(s): a step change needs at least "
-                                                   f"{2 * MIN_SIDE} determined logs")
+        return DriftResult(
+            k,
+            "too few logs",
+            note=f"{k} log(s): a step change needs at least {2 * MIN_SIDE} determined logs",
+        )
     x = np.asarray(values, dtype=float)
     s = np.asarray(stds, dtype=float)
     w = 1.0 / s**2
@@ -139,16 +142,34 @@ def detect_drift(
         p_trend = float(2 * stats.norm.sf(abs(slope) / slope_std))
     u = f" {unit}" if unit else ""
     if flagged:
-        note = (f"step change after {logs[m - 1]}: {before:.4g} -> {after:.4g}{u} "
-                f"(shift {after - before:+.3g} ± {shift_std:.2g}{u}; bootstrap p = "
-                f"{p_change:.2g}, the smallest {DRAWS} draws can give is {1 / (DRAWS + 1):.1g})")
+        note = (
+            f"step change after {logs[m - 1]}: {before:.4g} -> {after:.4g}{u} "
+            f"(shift {after - before:+.3g} ± {shift_std:.2g}{u}; bootstrap p = "
+            f"{p_change:.2g}, the smallest {DRAWS} draws can give is {1 / (DRAWS + 1):.1g})"
+        )
         if overdispersed:
-            note += ("; the logs scatter beyond their stated uncertainty around both levels "
-                     f"(dispersion {dispersion:.2g}), so the flag may come from understated "
-                     "per-log uncertainty or gradual drift")
+            note += (
+                "; the logs scatter beyond their stated uncertainty around both levels "
+                f"(dispersion {dispersion:.2g}), so the flag may come from understated "
+                "per-log uncertainty or gradual drift"
+            )
     else:
         note = f"no step change (p = {p_change:.2g})"
     return DriftResult(
-        k, "ok", flagged, p_change, logs[m - 1], logs[m], before, after, after - before,
-        shift_std, dispersion, overdispersed, slope, slope_std, p_trend, note,
+        k,
+        "ok",
+        flagged,
+        p_change,
+        logs[m - 1],
+        logs[m],
+        before,
+        after,
+        after - before,
+        shift_std,
+        dispersion,
+        overdispersed,
+        slope,
+        slope_std,
+        p_trend,
+        note,
     )

@@ -53,24 +53,34 @@ worker. ``ProcessPoolExecutor(max_tasks_per_child=...)`` is not used: on Python 
 stops scheduling once a worker exits at its limit with tasks queued."""
 
 
-def _died(job: LogJob, what: str, budgets: Budgets, started: float | None,
-          stack: str | None) -> LogOutcome:
+def _died(
+    job: LogJob, what: str, budgets: Budgets, started: float | None, stack: str | None
+) -> LogOutcome:
     hard = budgets.hard_stop_s
     if hard is not None and started is not None and time.time() - started >= hard:
-        return LogOutcome(job, "failed", error=budgets.time_message(job.rel) + "; its worker "
-                          "was stopped, twice", error_kind="input", detail=stack or None)
-    memory = ("" if budgets.memory_gib is None else
-              f"exceeded the per-log memory budget of {budgets.memory_gib:g} GiB "
-              "(--log-memory), ")
+        return LogOutcome(
+            job,
+            "failed",
+            error=budgets.time_message(job.rel) + "; its worker was stopped, twice",
+            error_kind="input",
+            detail=stack or None,
+        )
+    memory = (
+        ""
+        if budgets.memory_gib is None
+        else f"exceeded the per-log memory budget of {budgets.memory_gib:g} GiB (--log-memory), "
+    )
     return LogOutcome(
-        job, "failed", error=f"{job.rel}: the worker analysing this log died ({what}), twice; "
+        job,
+        "failed",
+        error=f"{job.rel}: the worker analysing this log died ({what}), twice; "
         f"the log may have {memory or 'exhausted memory, '}or crashed a native library",
-        error_kind="internal", detail=stack or None,
+        error_kind="internal",
+        detail=stack or None,
     )
 
 
-_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
-                "POLARS_MAX_THREADS")
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "POLARS_MAX_THREADS")
 
 
 @contextlib.contextmanager
@@ -110,8 +120,9 @@ def _held(markers: Path) -> dict[str, tuple[float, str]]:
     return held
 
 
-def _run_local(jobs: Sequence[LogJob], options: AnalysisOptions, workers: int,
-               budgets: Budgets) -> Iterator[LogOutcome]:
+def _run_local(
+    jobs: Sequence[LogJob], options: AnalysisOptions, workers: int, budgets: Budgets
+) -> Iterator[LogOutcome]:
     """A pool of ``workers`` over the logs, renewed every ``workers * RECYCLE_EVERY`` logs.
 
     When a worker dies, the pool breaks and every log not yet done comes back: the logs a worker
@@ -125,14 +136,20 @@ def _run_local(jobs: Sequence[LogJob], options: AnalysisOptions, workers: int,
     while todo or suspects:
         if todo:
             width = workers
-            chunk, todo = todo[:workers * RECYCLE_EVERY], todo[workers * RECYCLE_EVERY:]
+            chunk, todo = todo[: workers * RECYCLE_EVERY], todo[workers * RECYCLE_EVERY :]
         else:
             width = 1
             chunk, suspects = suspects[:RECYCLE_EVERY], suspects[RECYCLE_EVERY:]
-        with tempfile.TemporaryDirectory(prefix="logcal-workers-") as markers, \
-                _thread_caps(width), ProcessPoolExecutor(
-                    max_workers=width, mp_context=context, initializer=init_worker,
-                    initargs=(budgets, markers, _WORKER_SETUP)) as pool:
+        with (
+            tempfile.TemporaryDirectory(prefix="logcal-workers-") as markers,
+            _thread_caps(width),
+            ProcessPoolExecutor(
+                max_workers=width,
+                mp_context=context,
+                initializer=init_worker,
+                initargs=(budgets, markers, _WORKER_SETUP),
+            ) as pool,
+        ):
             futures: dict[Future[LogOutcome], LogJob] = {
                 pool.submit(analyse_within_budget, job, options): job for job in chunk
             }
@@ -155,8 +172,9 @@ def _run_local(jobs: Sequence[LogJob], options: AnalysisOptions, workers: int,
                         tries[job.id] += 1
                         if tries[job.id] >= _ATTEMPTS:
                             started, stack = held[job.id]
-                            yield _died(job, str(err) or "process pool broken", budgets,
-                                        started, stack)
+                            yield _died(
+                                job, str(err) or "process pool broken", budgets, started, stack
+                            )
                         else:
                             suspects.append(job)
                         continue
@@ -189,7 +207,8 @@ def ray_task_options(budgets: Budgets, node_memory: Sequence[float]) -> dict[str
         if not budgets.memory_default:
             raise LogcalInputError(
                 f"--log-memory {budgets.memory_gib:g}: no node of the Ray cluster offers that "
-                f"much memory (the largest offers {largest / 2**30:.1f} GiB); lower it.")
+                f"much memory (the largest offers {largest / 2**30:.1f} GiB); lower it."
+            )
         request = int(largest)
     if request is not None:
         opts["memory"] = request
@@ -198,13 +217,19 @@ def ray_task_options(budgets: Budgets, node_memory: Sequence[float]) -> dict[str
 
 def _node_memory(ray: Any) -> list[float]:
     with contextlib.suppress(Exception):
-        return [float(n.get("Resources", {}).get("memory", 0.0)) for n in ray.nodes()
-                if n.get("Alive")]
+        return [
+            float(n.get("Resources", {}).get("memory", 0.0)) for n in ray.nodes() if n.get("Alive")
+        ]
     return []
 
 
-def _run_ray(jobs: Sequence[LogJob], options: AnalysisOptions, workers: int,
-             address: str | None, budgets: Budgets) -> Iterator[LogOutcome]:
+def _run_ray(
+    jobs: Sequence[LogJob],
+    options: AnalysisOptions,
+    workers: int,
+    address: str | None,
+    budgets: Budgets,
+) -> Iterator[LogOutcome]:
     try:
         import ray
     except ImportError as err:
@@ -220,8 +245,11 @@ def _run_ray(jobs: Sequence[LogJob], options: AnalysisOptions, workers: int,
             else:
                 ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
         except Exception as err:  # no such cluster, refused token, no shared memory, ...
-            what = (f"--address {address}: cannot join the Ray cluster" if address
-                    else "--engine ray: cannot start a local Ray instance")
+            what = (
+                f"--address {address}: cannot join the Ray cluster"
+                if address
+                else "--engine ray: cannot start a local Ray instance"
+            )
             raise LogcalInputError(
                 f"{what} ({type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''})"
                 "; a cluster started with token authentication needs RAY_AUTH_MODE=token and "

@@ -23,9 +23,12 @@ SETTINGS_MAX_BYTES = 1 << 20
 def file_kind(mode: int) -> str:
     """What a file of ``mode`` is, in words (``a FIFO``, ``a symbolic link``...)."""
     kinds = (
-        (stat.S_ISREG, "a regular file"), (stat.S_ISDIR, "a folder"),
-        (stat.S_ISLNK, "a symbolic link"), (stat.S_ISFIFO, "a FIFO"),
-        (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+        (stat.S_ISREG, "a regular file"),
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISLNK, "a symbolic link"),
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
         (stat.S_ISSOCK, "a socket"),
     )
     return next((text for test, text in kinds if test(mode)), "a special file")
@@ -46,8 +49,9 @@ def open_regular(path: str | Path, *, special: set[int] | None = None) -> int:
     try:
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
-            raise OSError(errno.EINVAL, f"it is {file_kind(st.st_mode)}; logcal reads "
-                                        "regular files only")
+            raise OSError(
+                errno.EINVAL, f"it is {file_kind(st.st_mode)}; logcal reads regular files only"
+            )
         if special and st.st_dev in special:
             raise OSError(errno.EINVAL, "it is on a kernel file system (/proc, /sys, /dev)")
         os.set_blocking(fd, True)

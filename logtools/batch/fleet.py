@@ -46,8 +46,12 @@ class ParameterSeries:
 
     def to_dict(self) -> dict[str, Any]:
         return {
-            "robot_id": self.robot_id, "robot": self.robot, "parameter": self.parameter,
-            "unit": self.unit, "logs": self.logs, "pooled": self.pooled.to_dict(),
+            "robot_id": self.robot_id,
+            "robot": self.robot,
+            "parameter": self.parameter,
+            "unit": self.unit,
+            "logs": self.logs,
+            "pooled": self.pooled.to_dict(),
             "drift": self.drift.to_dict(),
         }
 
@@ -55,10 +59,14 @@ class ParameterSeries:
 def fleet_summary(table: pl.DataFrame) -> list[ParameterSeries]:
     """Pool and test every (robot_id, robot type, parameter) of the table's recommended
     estimates; sorted by robot_id, robot, parameter."""
-    est = table.filter(pl.col("kind") == "estimate").with_columns(
-        pl.col("start_time").dt.epoch("ns").alias("start_ns"),
-        pl.col("start_time").is_null().alias("_no_time"),
-    ).sort(["robot_id", "robot", "parameter", "_no_time", "start_ns", "log"])
+    est = (
+        table.filter(pl.col("kind") == "estimate")
+        .with_columns(
+            pl.col("start_time").dt.epoch("ns").alias("start_ns"),
+            pl.col("start_time").is_null().alias("_no_time"),
+        )
+        .sort(["robot_id", "robot", "parameter", "_no_time", "start_ns", "log"])
+    )
     out: list[ParameterSeries] = []
     for key, g in est.group_by(["robot_id", "robot", "parameter"], maintain_order=True):
         robot_id, robot, parameter = (str(k) for k in key)
@@ -69,11 +77,36 @@ def fleet_summary(table: pl.DataFrame) -> list[ParameterSeries]:
         ident = g["identifiable"].to_list()
         start = g["start_ns"].to_list()
         pooled = pool_estimates(parameter, unit, logs, values, stds, ident)
-        use = [i for i in range(len(logs))
-               if ident[i] is not False and values[i] is not None and stds[i] is not None
-               and stds[i] > 0 and start[i] is not None]
-        drift = detect_drift([logs[i] for i in use], [start[i] for i in use],
-                             [values[i] for i in use], [stds[i] for i in use], unit)
-        out.append(ParameterSeries(robot_id, robot, parameter, unit, logs, g["log_id"].to_list(),
-                                   start, values, stds, ident, pooled, drift))
+        use = [
+            i
+            for i in range(len(logs))
+            if ident[i] is not False
+            and values[i] is not None
+            and stds[i] is not None
+            and stds[i] > 0
+            and start[i] is not None
+        ]
+        drift = detect_drift(
+            [logs[i] for i in use],
+            [start[i] for i in use],
+            [values[i] for i in use],
+            [stds[i] for i in use],
+            unit,
+        )
+        out.append(
+            ParameterSeries(
+                robot_id,
+                robot,
+                parameter,
+                unit,
+                logs,
+                g["log_id"].to_list(),
+                start,
+                values,
+                stds,
+                ident,
+                pooled,
+                drift,
+            )
+        )
     return out

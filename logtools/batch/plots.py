@@ -28,16 +28,18 @@ def series_png(series: ParameterSeries, path: Path) -> None:
     try:
         ax = fig.add_subplot(1, 1, 1)
         xs, ys, es, bad = [], [], [], []
-        for i, (v, s, ok) in enumerate(zip(series.values, series.stds, series.identifiable,
-                                           strict=True)):
+        for i, (v, s, ok) in enumerate(
+            zip(series.values, series.stds, series.identifiable, strict=True)
+        ):
             if ok is not False and v is not None and s is not None and math.isfinite(s):
                 xs.append(i)
                 ys.append(v)
                 es.append(1.96 * s)
             else:
                 bad.append(i)
-        ax.errorbar(xs, ys, yerr=es, fmt="o", ms=4, capsize=2, color="tab:blue",
-                    label="per log (95 %)")
+        ax.errorbar(
+            xs, ys, yerr=es, fmt="o", ms=4, capsize=2, color="tab:blue", label="per log (95 %)"
+        )
         est = series.pooled.estimate
         if math.isfinite(est.value) and math.isfinite(est.std):
             lo, hi = est.ci95
@@ -48,16 +50,25 @@ def series_png(series: ParameterSeries, path: Path) -> None:
             k = series.logs.index(d.change_after)
             ax.axvline(k + 0.5, color="tab:red", ls="--", lw=1.2, label="step change")
         if bad:
-            ax.plot(bad, [ax.get_ylim()[0]] * len(bad), "x", color="grey",
-                    label="not determined", clip_on=False)
+            ax.plot(
+                bad,
+                [ax.get_ylim()[0]] * len(bad),
+                "x",
+                color="grey",
+                label="not determined",
+                clip_on=False,
+            )
         from matplotlib.ticker import MaxNLocator
 
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_xlabel("log, in time order (0 = first)")
         unit = f" ({series.unit})" if series.unit else ""
         ax.set_ylabel(f"{series.parameter}{unit}", parse_math=False)
-        ax.set_title(f"{series.robot_id} · {series.robot} · {series.parameter}", fontsize=10,
-                     parse_math=False)
+        ax.set_title(
+            f"{series.robot_id} · {series.robot} · {series.parameter}",
+            fontsize=10,
+            parse_math=False,
+        )
         ax.legend(fontsize=7, loc="best")
         ax.grid(alpha=0.3)
         fig.tight_layout()

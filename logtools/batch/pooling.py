@@ -65,17 +65,31 @@ class PooledEstimate:
     heterogeneous: bool = False
 
     def to_dict(self) -> dict[str, Any]:
-        return json_safe({
-            "estimate": self.estimate.to_dict(), "method": self.method, "n_logs": self.n_logs,
-            "left_out": self.left_out, "q": self.q, "df": self.df,
-            "p_heterogeneity": self.p_heterogeneity, "i2": self.i2, "tau": self.tau,
-            "heterogeneous": self.heterogeneous,
-        })
+        return json_safe(
+            {
+                "estimate": self.estimate.to_dict(),
+                "method": self.method,
+                "n_logs": self.n_logs,
+                "left_out": self.left_out,
+                "q": self.q,
+                "df": self.df,
+                "p_heterogeneity": self.p_heterogeneity,
+                "i2": self.i2,
+                "tau": self.tau,
+                "heterogeneous": self.heterogeneous,
+            }
+        )
 
 
 def _usable(value: float | None, std: float | None, identifiable: bool | None) -> bool:
-    return (identifiable is not False and value is not None and std is not None
-            and math.isfinite(value) and math.isfinite(std) and std > 0)
+    return (
+        identifiable is not False
+        and value is not None
+        and std is not None
+        and math.isfinite(value)
+        and math.isfinite(std)
+        and std > 0
+    )
 
 
 def pool_estimates(
@@ -88,13 +102,21 @@ def pool_estimates(
 ) -> PooledEstimate:
     """Pool one parameter over logs (see the module docstring)."""
     keep = [i for i in range(len(logs)) if _usable(values[i], stds[i], identifiable[i])]
-    left_out = [f"{logs[i]}: not determined by this log" for i in range(len(logs))
-                if i not in keep]
+    left_out = [f"{logs[i]}: not determined by this log" for i in range(len(logs)) if i not in keep]
     if not keep:
         return PooledEstimate(
-            Estimate(name, math.nan, math.nan, (math.nan, math.nan), identifiable=False,
-                     unit=unit, note="no log determines it"),
-            "none", 0, left_out,
+            Estimate(
+                name,
+                math.nan,
+                math.nan,
+                (math.nan, math.nan),
+                identifiable=False,
+                unit=unit,
+                note="no log determines it",
+            ),
+            "none",
+            0,
+            left_out,
         )
     x = np.array([values[i] for i in keep], dtype=float)
     s = np.array([stds[i] for i in keep], dtype=float)
@@ -104,9 +126,12 @@ def pool_estimates(
     k = len(keep)
     if k == 1:
         return PooledEstimate(
-            Estimate(name, mean, std, (mean - 1.96 * std, mean + 1.96 * std), unit=unit,
-                     note="one log"),
-            "single log", 1, left_out,
+            Estimate(
+                name, mean, std, (mean - 1.96 * std, mean + 1.96 * std), unit=unit, note="one log"
+            ),
+            "single log",
+            1,
+            left_out,
         )
     q = float(np.sum(w * (x - mean) ** 2))
     df = k - 1
@@ -122,10 +147,20 @@ def pool_estimates(
         mean = float(np.sum(wr * x) / np.sum(wr))
         std = float(1.0 / math.sqrt(np.sum(wr)))
         method = "random effects (DerSimonian-Laird)"
-        note = (f"the {k} logs disagree beyond their stated uncertainty (Cochran's Q "
-                f"p = {p:.2g}, I2 = {100 * i2:.0f} %, between-log std {math.sqrt(tau2):.3g} "
-                f"{unit}): a part that changed or wore? see the drift over time")
+        note = (
+            f"the {k} logs disagree beyond their stated uncertainty (Cochran's Q "
+            f"p = {p:.2g}, I2 = {100 * i2:.0f} %, between-log std {math.sqrt(tau2):.3g} "
+            f"{unit}): a part that changed or wore? see the drift over time"
+        )
     return PooledEstimate(
         Estimate(name, mean, std, (mean - 1.96 * std, mean + 1.96 * std), unit=unit, note=note),
-        method, k, left_out, q, df, p, i2, math.sqrt(tau2), heterogeneous,
+        method,
+        k,
+        left_out,
+        q,
+        df,
+        p,
+        i2,
+        math.sqrt(tau2),
+        heterogeneous,
     )

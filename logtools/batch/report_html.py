@@ -83,8 +83,7 @@ def _time(start_ns: Any) -> str:
 def _table(head: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
     """A table; ``head`` is escaped here, cells must be escaped HTML already."""
     body = "".join("<tr>" + "".join(rows_cell(c) for c in r) + "</tr>" for r in rows)
-    return ("<table><tr>" + "".join(f"<th>{_e(h)}</th>" for h in head) + "</tr>" + body
-            + "</table>")
+    return "<table><tr>" + "".join(f"<th>{_e(h)}</th>" for h in head) + "</tr>" + body + "</table>"
 
 
 def rows_cell(cell: str) -> str:
@@ -99,13 +98,14 @@ def _n(text: str) -> str:
 
 
 def _page(title: str, body: str) -> bytes:
-    return (f'<!doctype html><html lang="en"><head><meta charset="utf-8"><title>{_e(title)}'
-            f'</title><style>{_CSS}</style></head><body>{body}</body></html>\n').encode()
+    return (
+        f'<!doctype html><html lang="en"><head><meta charset="utf-8"><title>{_e(title)}'
+        f"</title><style>{_CSS}</style></head><body>{body}</body></html>\n"
+    ).encode()
 
 
 def _page_link(record: Mapping[str, Any], prefix: str = "pages/") -> str:
-    return (f'<a href="{_e(prefix + quote(str(record["id"])) + ".html")}">'
-            f'{_e(record["log"])}</a>')
+    return f'<a href="{_e(prefix + quote(str(record["id"])) + ".html")}">{_e(record["log"])}</a>'
 
 
 def _estimate_cells(result: Mapping[str, Any]) -> str:
@@ -127,8 +127,11 @@ def _series_rows(series: list[ParameterSeries]) -> list[list[str]]:
     for s in series:
         p = s.pooled
         est = p.estimate
-        het = "-" if p.p_heterogeneity is None else (
-            f"{_p(p.p_heterogeneity)}, I² = {100 * (p.i2 or 0):.0f} %")
+        het = (
+            "-"
+            if p.p_heterogeneity is None
+            else (f"{_p(p.p_heterogeneity)}, I² = {100 * (p.i2 or 0):.0f} %")
+        )
         if p.heterogeneous:
             het = f'<span class="flag">logs disagree</span> ({het})'
         d = s.drift
@@ -136,58 +139,119 @@ def _series_rows(series: list[ParameterSeries]) -> list[list[str]]:
         if d.change_point:
             drift = f'<span class="flag">step change</span>: {drift}'
         if d.p_trend is not None:
-            drift += (f"; trend {_num(d.slope_per_day, 3)} ± {_num(d.slope_std, 2)} "
-                      f"{_e(s.unit)}/day ({_p(d.p_trend)})")
-        value = ("not determined" if not math.isfinite(est.std)
-                 else f"{_pm(est.value, est.std, s.unit)} {_ci(*est.ci95)}")
-        rows.append([_e(s.robot_id), _e(s.robot), _e(s.parameter), value, _e(p.method),
-                     _n(str(p.n_logs)), het, drift])
+            drift += (
+                f"; trend {_num(d.slope_per_day, 3)} ± {_num(d.slope_std, 2)} "
+                f"{_e(s.unit)}/day ({_p(d.p_trend)})"
+            )
+        value = (
+            "not determined"
+            if not math.isfinite(est.std)
+            else f"{_pm(est.value, est.std, s.unit)} {_ci(*est.ci95)}"
+        )
+        rows.append(
+            [
+                _e(s.robot_id),
+                _e(s.robot),
+                _e(s.parameter),
+                value,
+                _e(p.method),
+                _n(str(p.n_logs)),
+                het,
+                drift,
+            ]
+        )
     return rows
 
 
-def _index(records: list[dict[str, Any]], table: pl.DataFrame, series: list[ParameterSeries],
-           plots: dict[int, str]) -> bytes:
+def _index(
+    records: list[dict[str, Any]],
+    table: pl.DataFrame,
+    series: list[ParameterSeries],
+    plots: dict[int, str],
+) -> bytes:
     ok = [r for r in records if r.get("status") == "ok"]
     failed = [r for r in records if r.get("status") != "ok"]
     robots = sorted({(str(r.get("robot_id")), str(r.get("robot"))) for r in ok})
-    body = ["<h1>logcal batch report</h1>",
-            f"<p>{len(records)} logs: <span class='ok'>{len(ok)} analysed</span>, "
-            f"<span class='failed'>{len(failed)} failed</span>; {len(robots)} robot(s). "
-            "± is one standard error; [lo, hi] the 95 % interval. Fleet table: "
-            "<a href='fleet.parquet'>fleet.parquet</a>; pooled and drift: "
-            "<a href='fleet.json'>fleet.json</a>.</p>"]
+    body = [
+        "<h1>logcal batch report</h1>",
+        f"<p>{len(records)} logs: <span class='ok'>{len(ok)} analysed</span>, "
+        f"<span class='failed'>{len(failed)} failed</span>; {len(robots)} robot(s). "
+        "± is one standard error; [lo, hi] the 95 % interval. Fleet table: "
+        "<a href='fleet.parquet'>fleet.parquet</a>; pooled and drift: "
+        "<a href='fleet.json'>fleet.json</a>.</p>",
+    ]
     body.append("<h2>Parameters per robot, pooled across its logs</h2>")
-    body.append("<p>Pooled: inverse-variance weighting of each log's recommended estimate "
-                "(random effects when Cochran's Q says the logs disagree). Drift: a step change "
-                "(likelihood ratio, bootstrap p &lt; 0.01) and a linear trend over time.</p>")
-    body.append(_table(["robot id", "robot", "parameter", "pooled", "method", "logs",
-                        "heterogeneity", "drift"], _series_rows(series)))
+    body.append(
+        "<p>Pooled: inverse-variance weighting of each log's recommended estimate "
+        "(random effects when Cochran's Q says the logs disagree). Drift: a step change "
+        "(likelihood ratio, bootstrap p &lt; 0.01) and a linear trend over time.</p>"
+    )
+    body.append(
+        _table(
+            [
+                "robot id",
+                "robot",
+                "parameter",
+                "pooled",
+                "method",
+                "logs",
+                "heterogeneity",
+                "drift",
+            ],
+            _series_rows(series),
+        )
+    )
     if series:
         body.append("<h2>Parameters across logs and over time</h2>")
-        body.append("<p>Robots with two or more logs; each log's estimate with its 95 % "
-                    "interval, the pooled value as a band, a flagged step change dashed.</p>")
+        body.append(
+            "<p>Robots with two or more logs; each log's estimate with its 95 % "
+            "interval, the pooled value as a band, a flagged step change dashed.</p>"
+        )
         for i, s in enumerate(series):
             if i in plots:
-                body.append(f'<figure><img src="{_e(plots[i])}" alt="{_e(s.parameter)} of '
-                            f'{_e(s.robot_id)} across its logs"></figure>')
+                body.append(
+                    f'<figure><img src="{_e(plots[i])}" alt="{_e(s.parameter)} of '
+                    f'{_e(s.robot_id)} across its logs"></figure>'
+                )
     effects = table.filter(pl.col("kind") == "effect")
     body.append(f"<h2>Effects found ({effects.height})</h2>")
     by_id = {r["log"]: r for r in records}
-    body.append(_table(["log", "robot id", "effect", "value", "95 %", "explanation"], [
-        [_page_link(by_id[row["log"]]), _e(row["robot_id"]), _e(row["parameter"]),
-         _n(_pm(row["value"], row["std"], row["unit"])), _n(_ci(row["ci95_lo"],
-                                                                  row["ci95_hi"])),
-         _e(row["note"])] for row in effects.iter_rows(named=True)]))
+    body.append(
+        _table(
+            ["log", "robot id", "effect", "value", "95 %", "explanation"],
+            [
+                [
+                    _page_link(by_id[row["log"]]),
+                    _e(row["robot_id"]),
+                    _e(row["parameter"]),
+                    _n(_pm(row["value"], row["std"], row["unit"])),
+                    _n(_ci(row["ci95_lo"], row["ci95_hi"])),
+                    _e(row["note"]),
+                ]
+                for row in effects.iter_rows(named=True)
+            ],
+        )
+    )
     body.append(f"<h2>Failed logs ({len(failed)})</h2>")
-    body.append(_table(["log", "error"], [[_page_link(r), _e(r.get("error"))]
-                                          for r in failed]))
+    body.append(_table(["log", "error"], [[_page_link(r), _e(r.get("error"))] for r in failed]))
     body.append("<h2>Every log</h2>")
-    body.append(_table(["log", "robot id", "robot", "start", "status", "recommended estimate"], [
-        [_page_link(r), _e(r.get("robot_id")), _e(r.get("robot")), _e(_time(r.get("start_ns"))),
-         f"<span class='{'ok' if r.get('status') == 'ok' else 'failed'}'>"
-         f"{_e(r.get('status'))}</span>",
-         _estimate_cells(r.get("result") or {}) if r.get("status") == "ok" else "-"]
-        for r in records]))
+    body.append(
+        _table(
+            ["log", "robot id", "robot", "start", "status", "recommended estimate"],
+            [
+                [
+                    _page_link(r),
+                    _e(r.get("robot_id")),
+                    _e(r.get("robot")),
+                    _e(_time(r.get("start_ns"))),
+                    f"<span class='{'ok' if r.get('status') == 'ok' else 'failed'}'>"
+                    f"{_e(r.get('status'))}</span>",
+                    _estimate_cells(r.get("result") or {}) if r.get("status") == "ok" else "-",
+                ]
+                for r in records
+            ],
+        )
+    )
     return _page("logcal batch report", "\n".join(body))
 
 
@@ -199,20 +263,30 @@ def _analysed_with(r: Mapping[str, Any], batch_options: str | None) -> list[list
     s = s if isinstance(s, Mapping) else {}
     sources = [str(x) for x in s.get("sources") or [] if isinstance(x, str)]
     toml = _e(sources[-1]) if sources else ""
-    rows = [["robot type", _e(s.get("robot")) if s.get("robot") else "from the log",
-             toml if s.get("robot") else "the log"],
-            ["channel map", _e(s.get("channel_map")) if s.get("channel_map")
-             else "none (default topic names)", toml if s.get("channel_map") else ""],
-            ["robot id", _e(r.get("robot_id")), ""]]
+    rows = [
+        [
+            "robot type",
+            _e(s.get("robot")) if s.get("robot") else "from the log",
+            toml if s.get("robot") else "the log",
+        ],
+        [
+            "channel map",
+            _e(s.get("channel_map")) if s.get("channel_map") else "none (default topic names)",
+            toml if s.get("channel_map") else "",
+        ],
+        ["robot id", _e(r.get("robot_id")), ""],
+    ]
     options = s.get("options")
-    for key, value in (options.items() if isinstance(options, Mapping) else ()):
+    for key, value in options.items() if isinstance(options, Mapping) else ():
         shown = str(value).lower() if isinstance(value, bool) else value
         rows.append([f"option <code>{_e(key)}</code>", _e(shown), toml])
     span = r.get("span")
-    if isinstance(span, Mapping) and (span.get("start_s") is not None
-                                      or span.get("end_s") is not None):
-        rows.append(["span", f"{_num(span.get('start_s'))} s to {_num(span.get('end_s'))} s "
-                             "of the log", ""])
+    if isinstance(span, Mapping) and (
+        span.get("start_s") is not None or span.get("end_s") is not None
+    ):
+        rows.append(
+            ["span", f"{_num(span.get('start_s'))} s to {_num(span.get('end_s'))} s of the log", ""]
+        )
     if batch_options:
         rows.append(["analysis", f"<code>{_e(batch_options)}</code>", "logcal batch"])
     return rows
@@ -237,24 +311,36 @@ def _batch_options(out: Path) -> str | None:
 
 def _log_page(r: Mapping[str, Any], batch_options: str | None = None) -> bytes:
     res: Mapping[str, Any] = r.get("result") or {}
-    body = ['<p><a href="../index.html">← fleet report</a></p>',
-            f"<h1>{_e(r['log'])}</h1>",
-            _table(["", ""], [
-                ["status", f"<span class='{'ok' if r.get('status') == 'ok' else 'failed'}'>"
-                           f"{_e(r.get('status'))}</span>"],
-                ["robot id", _e(r.get("robot_id"))], ["robot", _e(r.get("robot"))],
+    body = [
+        '<p><a href="../index.html">← fleet report</a></p>',
+        f"<h1>{_e(r['log'])}</h1>",
+        _table(
+            ["", ""],
+            [
+                [
+                    "status",
+                    f"<span class='{'ok' if r.get('status') == 'ok' else 'failed'}'>"
+                    f"{_e(r.get('status'))}</span>",
+                ],
+                ["robot id", _e(r.get("robot_id"))],
+                ["robot", _e(r.get("robot"))],
                 ["start", _e(_time(r.get("start_ns")))],
                 ["content SHA-256", f"<code>{_e(r.get('content_hash'))}</code>"],
-                ["logcal.toml", _e(", ".join((r.get("settings") or {}).get("sources") or [])
-                                   or "none")],
-            ])]
+                [
+                    "logcal.toml",
+                    _e(", ".join((r.get("settings") or {}).get("sources") or []) or "none"),
+                ],
+            ],
+        ),
+    ]
     body.append("<h2>Analysed with</h2>")
     body.append(_table(["setting", "value", "from"], _analysed_with(r, batch_options)))
     if r.get("status") != "ok":
         body.append(f"<h2>Error</h2><pre>{_e(r.get('error'))}</pre>")
         if r.get("detail"):
-            body.append(f"<details><summary>traceback</summary><pre>{_e(r['detail'])}</pre>"
-                        "</details>")
+            body.append(
+                f"<details><summary>traceback</summary><pre>{_e(r['detail'])}</pre></details>"
+            )
         return _page(str(r["log"]), "\n".join(body))
     views = r.get("views") or {}
     body.append("<h2>Recording</h2>")
@@ -264,18 +350,23 @@ def _log_page(r: Mapping[str, Any], batch_options: str | None = None) -> bytes:
             f'<p><a href="../{_e(quote(rrd))}">download the rerun recording (.rrd)</a> '
             f'(open with <code>rerun FILE</code>) · <a class="rerun-web" '
             f'href="/rerun/open?rrd={_e(quote(rrd, safe=""))}">open in the rerun web viewer</a>'
-            " (needs <code>logcal serve</code>)</p>")
+            " (needs <code>logcal serve</code>)</p>"
+        )
     else:
-        body.append("<p>No rerun recording: " + _e("; ".join(r.get("notes") or [])
-                                                   or "views were not drawn") + ".</p>")
+        body.append(
+            "<p>No rerun recording: "
+            + _e("; ".join(r.get("notes") or []) or "views were not drawn")
+            + ".</p>"
+        )
     if ".png" in views:
-        body.append(f'<figure><img src="../{_e(quote(str(views[".png"])))}" '
-                    f'alt="report image of {_e(r["log"])}"></figure>')
+        body.append(
+            f'<figure><img src="../{_e(quote(str(views[".png"])))}" '
+            f'alt="report image of {_e(r["log"])}"></figure>'
+        )
     signals = (res.get("source") or {}).get("signals")
     if isinstance(signals, Mapping) and signals:
         body.append("<h2>Signals</h2>")
-        body.append(_table(["signal", "topic:field"], [[_e(k), _e(v)]
-                                                       for k, v in signals.items()]))
+        body.append(_table(["signal", "topic:field"], [[_e(k), _e(v)] for k, v in signals.items()]))
     est = res.get("estimate")
     body.append("<h2>Recommended estimate</h2>")
     if isinstance(est, Mapping):
@@ -284,29 +375,56 @@ def _log_page(r: Mapping[str, Any], batch_options: str | None = None) -> bytes:
             if isinstance(d, Mapping) and "value" in d and "std" in d:
                 ci = d.get("ci95") or [None, None]
                 determined = d.get("identifiable") is not False and _num(d.get("std")) != "-"
-                rows.append([_e(d.get("name") or key),
-                             _n(_pm(d["value"], d["std"], d.get("unit"))) if determined
-                             else "not determined", _n(_ci(*ci)), _e(d.get("note"))])
+                rows.append(
+                    [
+                        _e(d.get("name") or key),
+                        _n(_pm(d["value"], d["std"], d.get("unit")))
+                        if determined
+                        else "not determined",
+                        _n(_ci(*ci)),
+                        _e(d.get("note")),
+                    ]
+                )
         body.append(f"<p>{_e(est.get('method'))}: {_e(est.get('verdict'))}</p>")
         body.append(_table(["parameter", "value ± std", "95 %", "note"], rows))
     else:
         body.append("<p>No estimate (see the stages).</p>")
     body.append("<h2>Stages</h2>")
-    body.append(_table(["stage", "status", "reason"], [
-        [_e(s.get("stage")), _e(s.get("status")), _e(s.get("reason"))]
-        for s in res.get("stages") or [] if isinstance(s, Mapping)]))
+    body.append(
+        _table(
+            ["stage", "status", "reason"],
+            [
+                [_e(s.get("stage")), _e(s.get("status")), _e(s.get("reason"))]
+                for s in res.get("stages") or []
+                if isinstance(s, Mapping)
+            ],
+        )
+    )
     disc = res.get("discovery")
     body.append("<h2>Model-mismatch discovery</h2>")
     if isinstance(disc, Mapping):
         effects = [e for e in disc.get("effects") or [] if isinstance(e, Mapping)]
-        body.append(f"<p>status {_e(disc.get('status'))}; {len(effects)} effect(s) "
-                    f"{_e(disc.get('reason') or '')}</p>")
-        body.append(_table(["effect", "parameters [95 %]", "explanation"], [
-            [_e(e.get("label")), "; ".join(
-                f"{_e(k)} = {_num(v)} {_e((e.get('units') or {}).get(k, ''))} "
-                f"{_ci(*((e.get('ci95') or {}).get(k) or [None, None]))}"
-                for k, v in (e.get("parameters") or {}).items()), _e(e.get("explanation"))]
-            for e in effects]))
+        body.append(
+            f"<p>status {_e(disc.get('status'))}; {len(effects)} effect(s) "
+            f"{_e(disc.get('reason') or '')}</p>"
+        )
+        body.append(
+            _table(
+                ["effect", "parameters [95 %]", "explanation"],
+                [
+                    [
+                        _e(e.get("label")),
+                        "; ".join(
+                            f"{_e(k)} = {_num(v)} {_e((e.get('units') or {}).get(k, ''))} "
+                            f"{_ci(*((e.get('ci95') or {}).get(k) or [None, None]))}"
+                            for k, v in (e.get("parameters") or {}).items()
+                        ),
+                        _e(e.get("explanation")),
+                    ]
+                    for e in effects
+                ],
+            )
+        )
     else:
         body.append("<p>Not run.</p>")
     methods = [m for m in res.get("methods") or [] if isinstance(m, Mapping)]
@@ -315,13 +433,27 @@ def _log_page(r: Mapping[str, Any], batch_options: str | None = None) -> bytes:
 
         method_rows = parameter_rows({"methods": methods})
         body.append(f"<h2>Methods ({len(methods)})</h2>")
-        body.append(_table(["method", "segment", "parameter", "value ± std", "std is"], [
-            [_e(m["estimator"]), _e(m["segment"]), _e(m["parameter"]),
-             _n(_pm(m["value"], m["std"], m["unit"])), _e(m["std_kind"])]
-            for m in method_rows]))
+        body.append(
+            _table(
+                ["method", "segment", "parameter", "value ± std", "std is"],
+                [
+                    [
+                        _e(m["estimator"]),
+                        _e(m["segment"]),
+                        _e(m["parameter"]),
+                        _n(_pm(m["value"], m["std"], m["unit"])),
+                        _e(m["std_kind"]),
+                    ]
+                    for m in method_rows
+                ],
+            )
+        )
     if res.get("warnings"):
-        body.append("<h2>Warnings</h2><ul>" + "".join(
-            f"<li>{_e(w)}</li>" for w in res["warnings"]) + "</ul>")
+        body.append(
+            "<h2>Warnings</h2><ul>"
+            + "".join(f"<li>{_e(w)}</li>" for w in res["warnings"])
+            + "</ul>"
+        )
     return _page(str(r["log"]), "\n".join(body))
 
 
@@ -335,8 +467,9 @@ def _draw(series: ParameterSeries, path: Path) -> None:
     series_png(series, path)
 
 
-def write_report(out: Path, records: list[dict[str, Any]], table: pl.DataFrame,
-                 series: list[ParameterSeries]) -> Path:
+def write_report(
+    out: Path, records: list[dict[str, Any]], table: pl.DataFrame, series: list[ParameterSeries]
+) -> Path:
     """Write ``index.html``, ``pages/<id>.html`` and ``plots/*.png`` into ``out``; returns the
     index. Every file is written atomically."""
     from logtools.outputs import write_atomically
@@ -358,11 +491,13 @@ def write_report(out: Path, records: list[dict[str, Any]], table: pl.DataFrame,
     for r in records:
         name = f"{r['id']}.html"
         keep.add(name)
-        write_atomically(out / "pages" / name,
-                         functools.partial(_write, _log_page(r, batch_options)))
+        write_atomically(
+            out / "pages" / name, functools.partial(_write, _log_page(r, batch_options))
+        )
     for stale in (out / "pages").glob("*.html"):
         if stale.name not in keep:
             stale.unlink()
-    write_atomically(out / "index.html", functools.partial(_write, _index(records, table,
-                                                                           series, plots)))
+    write_atomically(
+        out / "index.html", functools.partial(_write, _index(records, table, series, plots))
+    )
     return out / "index.html"

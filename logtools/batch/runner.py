@@ -52,8 +52,16 @@ from logtools.batch.worker import AnalysisOptions, LogOutcome, analyse_job, log_
 from logtools.errors import LogcalInputError
 from logtools.outputs import special_filesystem
 
-__all__ = ["JOURNAL", "MANIFEST", "BatchProgress", "BatchSummary", "load_manifest",
-           "read_records", "run_batch", "write_atomic"]
+__all__ = [
+    "JOURNAL",
+    "MANIFEST",
+    "BatchProgress",
+    "BatchSummary",
+    "load_manifest",
+    "read_records",
+    "run_batch",
+    "write_atomic",
+]
 
 MANIFEST = "manifest.json"
 JOURNAL = "journal.jsonl"
@@ -102,8 +110,7 @@ def write_atomic(path: Path, data: bytes) -> None:
 def _json_bytes(doc: Any) -> bytes:
     from calib.results import json_safe
 
-    return (json.dumps(json_safe(doc), indent=1, sort_keys=True, allow_nan=False) + "\n"
-            ).encode()
+    return (json.dumps(json_safe(doc), indent=1, sort_keys=True, allow_nan=False) + "\n").encode()
 
 
 def _version() -> str:
@@ -154,22 +161,36 @@ def _span(job: LogJob, options: AnalysisOptions) -> dict[str, float | None]:
     return {"start_s": start, "end_s": end}
 
 
-def _record(job: LogJob, outcome: LogOutcome, views: dict[str, str],
-            options: AnalysisOptions) -> dict[str, Any]:
+def _record(
+    job: LogJob, outcome: LogOutcome, views: dict[str, str], options: AnalysisOptions
+) -> dict[str, Any]:
     return _clean({**_record_raw(job, outcome, views), "span": _span(job, options)})
 
 
 def _record_raw(job: LogJob, outcome: LogOutcome, views: dict[str, str]) -> dict[str, Any]:
     s = job.settings
     return {
-        "log": job.rel, "id": job.id, "content_hash": job.content_hash,
+        "log": job.rel,
+        "id": job.id,
+        "content_hash": job.content_hash,
         "robot_id": s.robot_id if s else None,
-        "settings": None if s is None else {
-            "robot": s.robot, "channel_map": s.channel_map, "options": dict(s.options),
-            "sources": list(s.sources)},
-        "status": outcome.status, "error": outcome.error, "error_kind": outcome.error_kind,
-        "detail": outcome.detail, "robot": outcome.robot, "start_ns": outcome.start_ns,
-        "end_ns": outcome.end_ns, "views": views, "notes": outcome.notes,
+        "settings": None
+        if s is None
+        else {
+            "robot": s.robot,
+            "channel_map": s.channel_map,
+            "options": dict(s.options),
+            "sources": list(s.sources),
+        },
+        "status": outcome.status,
+        "error": outcome.error,
+        "error_kind": outcome.error_kind,
+        "detail": outcome.detail,
+        "robot": outcome.robot,
+        "start_ns": outcome.start_ns,
+        "end_ns": outcome.end_ns,
+        "views": views,
+        "notes": outcome.notes,
         "result": outcome.result,
     }
 
@@ -183,8 +204,9 @@ def _locked(out: Path) -> Iterator[None]:
     try:  # never through a link planted at .lock, never truncating what is there
         fd = _open_nofollow(out / ".lock", os.O_WRONLY | os.O_CREAT)
     except OSError as err:
-        raise LogcalInputError(f"--out {out}: cannot create its lock file .lock "
-                               f"({err.strerror or err}).") from err
+        raise LogcalInputError(
+            f"--out {out}: cannot create its lock file .lock ({err.strerror or err})."
+        ) from err
     with os.fdopen(fd, "w") as fh:
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -205,11 +227,14 @@ def _prepare_subdirs(out: Path) -> None:
             sub.mkdir(exist_ok=True)
             mode = os.lstat(sub).st_mode
         except OSError as err:
-            raise LogcalInputError(f"--out {out}: cannot create {name}/ "
-                                   f"({err.strerror or err}).") from err
+            raise LogcalInputError(
+                f"--out {out}: cannot create {name}/ ({err.strerror or err})."
+            ) from err
         if not stat.S_ISDIR(mode):
-            raise LogcalInputError(f"--out {out}: {name} is not a folder (a link or a file); "
-                                   "logcal writes only into real folders of --out.")
+            raise LogcalInputError(
+                f"--out {out}: {name} is not a folder (a link or a file); "
+                "logcal writes only into real folders of --out."
+            )
 
 
 def _clean_partials(out: Path) -> None:
@@ -270,8 +295,11 @@ def load_manifest(out: Path) -> dict[str, dict[str, Any]]:
         if doc.get("format") == FORMAT:
             items = list(doc["logs"].items())
         elif doc.get("format") == _FORMAT_1:
-            items = [(e.get("id"), {**e, "log": rel}) for rel, e in doc["logs"].items()
-                     if isinstance(e, dict)]
+            items = [
+                (e.get("id"), {**e, "log": rel})
+                for rel, e in doc["logs"].items()
+                if isinstance(e, dict)
+            ]
     for ident, entry in items:
         valid = _valid_entry(ident, entry)
         if valid is not None:
@@ -298,8 +326,10 @@ def load_manifest(out: Path) -> dict[str, dict[str, Any]]:
 
 
 def _files(ident: str, views: Any) -> list[str]:
-    return [f"logs/{ident}.json", *(f"views/{ident}{s}" for s in VIEW_SUFFIXES
-                                     if isinstance(views, dict) and s in views)]
+    return [
+        f"logs/{ident}.json",
+        *(f"views/{ident}{s}" for s in VIEW_SUFFIXES if isinstance(views, dict) and s in views),
+    ]
 
 
 def _finished(entry: dict[str, Any] | None, key: str, out: Path) -> bool:
@@ -338,13 +368,23 @@ class _Journal:
         os.close(self.fd)
 
 
-def _compact(out: Path, manifest: dict[str, Any], archive: Path, options: AnalysisOptions,
-             version: str) -> None:
+def _compact(
+    out: Path, manifest: dict[str, Any], archive: Path, options: AnalysisOptions, version: str
+) -> None:
     """Fold the journal into ``manifest.json`` (written atomically), then remove the journal
     (a kill in between replays it on top of the same entries: no loss)."""
-    write_atomic(out / MANIFEST, _json_bytes({
-        "format": FORMAT, "archive": os.fsencode(str(archive)).decode("utf-8", "replace"),
-        "options": options.fingerprint(), "logcal": version, "logs": manifest}))
+    write_atomic(
+        out / MANIFEST,
+        _json_bytes(
+            {
+                "format": FORMAT,
+                "archive": os.fsencode(str(archive)).decode("utf-8", "replace"),
+                "options": options.fingerprint(),
+                "logcal": version,
+                "logs": manifest,
+            }
+        ),
+    )
     with contextlib.suppress(FileNotFoundError):
         os.unlink(out / JOURNAL)
 
@@ -364,11 +404,13 @@ def check_out(archive: Path, out: Path) -> Path:
     archive_res, out_res = archive.resolve(), out.resolve()
     root = special_filesystem(out_res)
     if root is not None:
-        raise LogcalInputError(f"--out {out}: is on the kernel file system {root}; choose a "
-                               "folder on disk.")
+        raise LogcalInputError(
+            f"--out {out}: is on the kernel file system {root}; choose a folder on disk."
+        )
     if archive_res == out_res or out_res in archive_res.parents:
-        raise LogcalInputError(f"--out {out_res}: is the archive or holds it; choose a folder "
-                               "outside the archive.")
+        raise LogcalInputError(
+            f"--out {out_res}: is the archive or holds it; choose a folder outside the archive."
+        )
     if archive_res in out_res.parents:
         for folder in (out_res, *out_res.parents):
             if folder == archive_res:
@@ -377,7 +419,8 @@ def check_out(archive: Path, out: Path) -> Path:
                 raise LogcalInputError(
                     f"--out {out_res}: is inside the rosbag2 folder {folder}, one of the "
                     "archive's logs; logcal never writes into an input. Choose a folder "
-                    "outside it.")
+                    "outside it."
+                )
     return out_res
 
 
@@ -407,8 +450,10 @@ def run_batch(
     if not archive.resolve().is_dir():
         from logtools.readers.formats import log_suffixes
 
-        raise LogcalInputError(f"{archive.resolve()}: not a folder; expected an archive of "
-                               f"logs ({', '.join(log_suffixes())} files, rosbag2 folders).")
+        raise LogcalInputError(
+            f"{archive.resolve()}: not a folder; expected an archive of "
+            f"logs ({', '.join(log_suffixes())} files, rosbag2 folders)."
+        )
     out = check_out(archive, out)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -427,8 +472,7 @@ def run_batch(
                 with contextlib.suppress(OSError):
                     os.unlink(out / f)
         keys = {j.id: _key(j, options, version) for j in jobs}
-        todo = [j for j in jobs
-                if force or not _finished(manifest.get(j.id), keys[j.id], out)]
+        todo = [j for j in jobs if force or not _finished(manifest.get(j.id), keys[j.id], out)]
         todo_ids = {j.id for j in todo}
         skipped = [j.rel for j in jobs if j.id not in todo_ids]
         state = BatchProgress(total=len(todo), skipped=len(skipped))
@@ -441,8 +485,9 @@ def run_batch(
         rest = [j for j in todo if j.entry_error is None and j.settings is not None]
         journal = _Journal(out)
         try:
-            outcomes = run_jobs(rest, options, engine=engine, workers=workers, address=address,
-                                budgets=budgets)
+            outcomes = run_jobs(
+                rest, options, engine=engine, workers=workers, address=address, budgets=budgets
+            )
             for outcome in _chain((analyse_job(j, options) for j in early), outcomes):
                 job = outcome.job
                 views: dict[str, str] = {}
@@ -453,12 +498,16 @@ def run_batch(
                     write_atomic(out / rel_view, data)
                     views[suffix] = rel_view
                 record_rel = f"logs/{job.id}.json"
-                write_atomic(out / record_rel,
-                             _json_bytes(_record(job, outcome, views, options)))
+                write_atomic(out / record_rel, _json_bytes(_record(job, outcome, views, options)))
                 manifest[job.id] = {
-                    "id": job.id, "log": job.rel, "key": keys[job.id],
-                    "content_hash": job.content_hash, "status": outcome.status,
-                    "record": record_rel, "views": views, "span": _span(job, options),
+                    "id": job.id,
+                    "log": job.rel,
+                    "key": keys[job.id],
+                    "content_hash": job.content_hash,
+                    "status": outcome.status,
+                    "record": record_rel,
+                    "views": views,
+                    "span": _span(job, options),
                     "seconds": round(outcome.seconds, 3),
                     "error": None if outcome.error is None else _text(outcome.error),
                 }
@@ -474,9 +523,11 @@ def run_batch(
         _compact(out, manifest, archive, options, version)
         if report:
             write_fleet_outputs(out)
-    failed = [(str(manifest[i]["log"]), str(manifest[i].get("error")))
-              for i in sorted(manifest, key=lambda i: (manifest[i]["log"], i))
-              if manifest[i].get("status") != "ok"]
+    failed = [
+        (str(manifest[i]["log"]), str(manifest[i].get("error")))
+        for i in sorted(manifest, key=lambda i: (manifest[i]["log"], i))
+        if manifest[i].get("status") != "ok"
+    ]
     return BatchSummary(out, len(jobs), analysed, skipped, failed, time.perf_counter() - t0)
 
 
@@ -495,6 +546,7 @@ def write_fleet_outputs(out: Path) -> None:
     table = fleet_table(records)
     write_parquet(table, out / "fleet.parquet")
     series = fleet_summary(table)
-    write_atomic(out / "fleet.json", _json_bytes({"format": FORMAT, "series": [
-        s.to_dict() for s in series]}))
+    write_atomic(
+        out / "fleet.json", _json_bytes({"format": FORMAT, "series": [s.to_dict() for s in series]})
+    )
     write_report(out, records, table, series)

@@ -46,8 +46,18 @@ from urllib.parse import parse_qs, quote, unquote, urlsplit
 
 from logtools.errors import LogcalInputError
 
-__all__ = ["MAX_REQUEST_LINE", "MAX_RRD", "MAX_WAITING", "QUEUE", "REQUEST_DEADLINE_S",
-           "TIMEOUT_S", "WORKERS", "ReportServer", "rerun_binary", "start_server"]
+__all__ = [
+    "MAX_REQUEST_LINE",
+    "MAX_RRD",
+    "MAX_WAITING",
+    "QUEUE",
+    "REQUEST_DEADLINE_S",
+    "TIMEOUT_S",
+    "WORKERS",
+    "ReportServer",
+    "rerun_binary",
+    "start_server",
+]
 
 HOST = "127.0.0.1"
 MAX_REQUEST_LINE = 8192
@@ -103,8 +113,9 @@ class _Handler(SimpleHTTPRequestHandler):
             if len(self.raw_requestline) > MAX_REQUEST_LINE:
                 self.requestline, self.request_version, self.command = "", "", ""
                 self.close_connection = True
-                self.send_error(HTTPStatus.REQUEST_URI_TOO_LONG,
-                                f"request line over {MAX_REQUEST_LINE} bytes")
+                self.send_error(
+                    HTTPStatus.REQUEST_URI_TOO_LONG, f"request line over {MAX_REQUEST_LINE} bytes"
+                )
                 return
             if not self.raw_requestline:
                 self.close_connection = True
@@ -113,8 +124,9 @@ class _Handler(SimpleHTTPRequestHandler):
                 self.requestline = self.raw_requestline.decode("latin-1").rstrip("\r\n")
                 self.request_version, self.command = "HTTP/1.0", ""
                 self.close_connection = True
-                self.send_error(HTTPStatus.BAD_REQUEST,
-                                "expected METHOD PATH HTTP/1.x (HTTP/0.9 is not served)")
+                self.send_error(
+                    HTTPStatus.BAD_REQUEST, "expected METHOD PATH HTTP/1.x (HTTP/0.9 is not served)"
+                )
                 return
             if not self.parse_request():
                 return
@@ -155,18 +167,24 @@ class _Handler(SimpleHTTPRequestHandler):
             return
         try:
             target = (self.root / rrd).resolve()
-            found = (rrd.endswith(".rrd") and not _UNSAFE_PATH.search(rrd)
-                     and self.root in target.parents and target.is_file())
+            found = (
+                rrd.endswith(".rrd")
+                and not _UNSAFE_PATH.search(rrd)
+                and self.root in target.parents
+                and target.is_file()
+            )
         except (OSError, ValueError):
             found = False
         if not found:
             self.send_error(HTTPStatus.NOT_FOUND, "no such recording in this report")
             return
         if self.viewer_url is None:
-            self.send_error(HTTPStatus.SERVICE_UNAVAILABLE,
-                            "the rerun web viewer is not running (rerun-sdk's rerun binary was "
-                            "not found, or --no-viewer); download the .rrd and open it with "
-                            "rerun instead")
+            self.send_error(
+                HTTPStatus.SERVICE_UNAVAILABLE,
+                "the rerun web viewer is not running (rerun-sdk's rerun binary was "
+                "not found, or --no-viewer); download the .rrd and open it with "
+                "rerun instead",
+            )
             return
         port = self.server.server_address[1]  # an AF_INET pair
         data_url = f"http://{HOST}:{port}/{quote(rrd)}"
@@ -181,8 +199,15 @@ class _PoolServer(HTTPServer):
 
     request_queue_size = 128  # listen backlog (socketserver's 5 drops SYNs under a burst)
 
-    def __init__(self, address: tuple[str, int], handler: Any, *, workers: int = WORKERS,
-                 queue_size: int = QUEUE, max_waiting: int = MAX_WAITING) -> None:
+    def __init__(
+        self,
+        address: tuple[str, int],
+        handler: Any,
+        *,
+        workers: int = WORKERS,
+        queue_size: int = QUEUE,
+        max_waiting: int = MAX_WAITING,
+    ) -> None:
         super().__init__(address, handler)
         self.errors: list[str] = []
         self._queue: queue.Queue[tuple[socket.socket, Any] | None] = queue.Queue(queue_size)
@@ -194,10 +219,13 @@ class _PoolServer(HTTPServer):
         self._wake_r, self._wake_w = socket.socketpair()
         self._wake_r.setblocking(False)
         self._wake_w.setblocking(False)
-        self._waiter = threading.Thread(target=self._wait_loop, daemon=True,
-                                        name="logcal-serve-waiting")
-        self._workers = [threading.Thread(target=self._work, daemon=True,
-                                          name=f"logcal-serve-{i}") for i in range(workers)]
+        self._waiter = threading.Thread(
+            target=self._wait_loop, daemon=True, name="logcal-serve-waiting"
+        )
+        self._workers = [
+            threading.Thread(target=self._work, daemon=True, name=f"logcal-serve-{i}")
+            for i in range(workers)
+        ]
         for t in (self._waiter, *self._workers):
             t.start()
 
@@ -205,8 +233,10 @@ class _PoolServer(HTTPServer):
     def _refuse(request: socket.socket) -> None:
         with contextlib.suppress(OSError):
             request.settimeout(1.0)
-            request.sendall(b"HTTP/1.0 503 Service Unavailable\r\nContent-Length: 0\r\n"
-                            b"Connection: close\r\nRetry-After: 1\r\n\r\n")
+            request.sendall(
+                b"HTTP/1.0 503 Service Unavailable\r\nContent-Length: 0\r\n"
+                b"Connection: close\r\nRetry-After: 1\r\n\r\n"
+            )
 
     def process_request(self, request: Any, client_address: Any) -> None:
         """Hand the new connection to the waiting room: no worker until it sends a byte."""
@@ -377,9 +407,18 @@ def _start_viewer(port: int) -> tuple[subprocess.Popen[bytes], str] | None:
     if exe is None:
         return None
     proc = subprocess.Popen(
-        [str(exe), "--serve-web", "--bind", HOST, "--web-viewer-port", str(port),
-         "--port", str(_free_port())],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        [
+            str(exe),
+            "--serve-web",
+            "--bind",
+            HOST,
+            "--web-viewer-port",
+            str(port),
+            "--port",
+            str(_free_port()),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
     )
     for _ in range(100):  # up to 10 s for it to listen
         if proc.poll() is not None:
@@ -391,8 +430,9 @@ def _start_viewer(port: int) -> tuple[subprocess.Popen[bytes], str] | None:
     return None
 
 
-def start_server(out: Path, *, port: int = 8000, viewer: bool = True,
-                 viewer_port: int | None = None) -> ReportServer:
+def start_server(
+    out: Path, *, port: int = 8000, viewer: bool = True, viewer_port: int | None = None
+) -> ReportServer:
     """Serve the report in ``out`` on 127.0.0.1:``port`` (0: a free port) in a background
     thread, and start rerun's web viewer on 127.0.0.1 when ``viewer``.
 
@@ -401,21 +441,34 @@ def start_server(out: Path, *, port: int = 8000, viewer: bool = True,
     """
     out = out.resolve()
     if not (out / "index.html").is_file():
-        raise LogcalInputError(f"{out}: no index.html; expected the --out folder of "
-                               "`logcal batch`.")
+        raise LogcalInputError(
+            f"{out}: no index.html; expected the --out folder of `logcal batch`."
+        )
     started = _start_viewer(viewer_port or _free_port()) if viewer else None
-    handler = type("Handler", (_Handler,), {
-        "viewer_url": started[1] if started else None, "root": out})
+    handler = type(
+        "Handler", (_Handler,), {"viewer_url": started[1] if started else None, "root": out}
+    )
     try:
-        httpd = _PoolServer((HOST, port), functools.partial(handler, directory=str(out)),
-                            workers=WORKERS, queue_size=QUEUE, max_waiting=MAX_WAITING)
+        httpd = _PoolServer(
+            (HOST, port),
+            functools.partial(handler, directory=str(out)),
+            workers=WORKERS,
+            queue_size=QUEUE,
+            max_waiting=MAX_WAITING,
+        )
     except OSError as err:
         if started:
             started[0].terminate()
         raise LogcalInputError(f"--port {port}: cannot listen on {HOST} ({err}).") from err
-    thread = threading.Thread(target=httpd.serve_forever, kwargs={"poll_interval": 0.25},
-                              daemon=True)
+    thread = threading.Thread(
+        target=httpd.serve_forever, kwargs={"poll_interval": 0.25}, daemon=True
+    )
     thread.start()
     bound = int(httpd.server_address[1])
-    return ReportServer(f"http://{HOST}:{bound}/", started[1] if started else None, httpd,
-                        started[0] if started else None, thread)
+    return ReportServer(
+        f"http://{HOST}:{bound}/",
+        started[1] if started else None,
+        httpd,
+        started[0] if started else None,
+        thread,
+    )

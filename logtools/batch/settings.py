@@ -55,9 +55,20 @@ from logtools.errors import LogcalInputError
 if TYPE_CHECKING:
     from logtools.robots.options import OptionSpec, RobotOptions
 
-__all__ = ["ARCHIVE_ROOT_ID", "BASE_KEYS", "SETTINGS_FILE", "SETTINGS_MAX_BYTES", "SPAN_KEYS",
-           "LogSettings", "SettingsCache", "SettingsError", "accepted_keys", "open_regular",
-           "read_regular", "settings_for"]
+__all__ = [
+    "ARCHIVE_ROOT_ID",
+    "BASE_KEYS",
+    "SETTINGS_FILE",
+    "SETTINGS_MAX_BYTES",
+    "SPAN_KEYS",
+    "LogSettings",
+    "SettingsCache",
+    "SettingsError",
+    "accepted_keys",
+    "open_regular",
+    "read_regular",
+    "settings_for",
+]
 
 SETTINGS_FILE = "logcal.toml"
 ARCHIVE_ROOT_ID = "(archive root)"
@@ -71,8 +82,9 @@ SPAN_KEYS = ("start", "end")
 class SettingsError(LogcalInputError):
     """A ``logcal.toml`` that cannot be used: the message names the file and the key."""
 
-    def __init__(self, file: Path, key: str | None, detail: str, *,
-                 message: str | None = None) -> None:
+    def __init__(
+        self, file: Path, key: str | None, detail: str, *, message: str | None = None
+    ) -> None:
         where = f"{file}: [{key}] " if key else f"{file}: "
         super().__init__(message if message is not None else where + detail)
         self.file, self.key, self.detail = file, key, detail
@@ -139,8 +151,7 @@ def _option_specs() -> dict[str, list[_Declared]]:
 def accepted_keys() -> tuple[str, ...]:
     """Every key a ``logcal.toml`` may hold: :data:`BASE_KEYS`, then each registered robot's
     option keys (in registry and field order)."""
-    return (*BASE_KEYS, *SPAN_KEYS,
-            *(k for k in _option_specs() if k not in BASE_KEYS + SPAN_KEYS))
+    return (*BASE_KEYS, *SPAN_KEYS, *(k for k in _option_specs() if k not in BASE_KEYS + SPAN_KEYS))
 
 
 def _names_file(spec: OptionSpec, value: str) -> bool:
@@ -175,21 +186,33 @@ def _inside(archive: Path, file: Path, key: str, value: str) -> Path:
     if "\0" in value:
         raise SettingsError(file, key, f"names {value!r}, which holds a NUL character.")
     if Path(value).is_absolute() or value.startswith("~"):
-        raise SettingsError(file, key, f"names {value!r}, an absolute path; a logcal.toml may "
-                                       "name only files inside the archive, relative to itself.")
+        raise SettingsError(
+            file,
+            key,
+            f"names {value!r}, an absolute path; a logcal.toml may "
+            "name only files inside the archive, relative to itself.",
+        )
     path = (file.parent / value).resolve()
     if archive not in path.parents:
-        raise SettingsError(file, key, f"names {value!r}, which is outside the archive "
-                                       f"{archive}; a logcal.toml may name only files inside "
-                                       "the archive.")
+        raise SettingsError(
+            file,
+            key,
+            f"names {value!r}, which is outside the archive "
+            f"{archive}; a logcal.toml may name only files inside "
+            "the archive.",
+        )
     try:
         st = os.stat(path)
     except OSError as err:
-        raise SettingsError(file, key, f"names {value!r}, which is not a file "
-                                       f"(looked for {path}: {err.strerror or err}).") from err
+        raise SettingsError(
+            file,
+            key,
+            f"names {value!r}, which is not a file (looked for {path}: {err.strerror or err}).",
+        ) from err
     if not stat.S_ISREG(st.st_mode):
-        raise SettingsError(file, key, f"names {value!r}, which is not a regular file "
-                                       f"(looked for {path}).")
+        raise SettingsError(
+            file, key, f"names {value!r}, which is not a regular file (looked for {path})."
+        )
     return path
 
 
@@ -202,8 +225,9 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def _option_value(archive: Path, file: Path, key: str, value: Any,
-                  declared: list[_Declared]) -> Any:
+def _option_value(
+    archive: Path, file: Path, key: str, value: Any, declared: list[_Declared]
+) -> Any:
     """``value`` of the robot option ``key`` checked against every robot declaring it
     (``build_options``), a file it names resolved inside the archive; as plain data."""
     from logtools.robots.options import build_options
@@ -225,8 +249,9 @@ def _names_a_file(declared: list[_Declared], value: str) -> bool:
     return any(_names_file(d.spec, value) for d in declared)
 
 
-def _typed(options: Mapping[str, Any], specs: Mapping[str, list[_Declared]], where: str
-           ) -> dict[str, RobotOptions]:
+def _typed(
+    options: Mapping[str, Any], specs: Mapping[str, list[_Declared]], where: str
+) -> dict[str, RobotOptions]:
     """By robot, its options instance from the checked ``options`` (each key to every robot
     declaring it, as :func:`~logtools.analyze.options_from_settings` does)."""
     from logtools.robots.options import build_options
@@ -237,16 +262,22 @@ def _typed(options: Mapping[str, Any], specs: Mapping[str, list[_Declared]], whe
         for d in specs.get(key, []):
             values.setdefault(d.cls, {})[key] = value
             names[d.cls] = d.spec.robot
-    return {names[cls]: build_options(cls, v, source="settings", where=where)
-            for cls, v in values.items()}
+    return {
+        names[cls]: build_options(cls, v, source="settings", where=where)
+        for cls, v in values.items()
+    }
 
 
 def _read(archive: Path, file: Path, specs: Mapping[str, list[_Declared]]) -> dict[str, Any]:
     try:
         text = read_regular(file).decode("utf-8")
         doc = toml_bounded.loads(text)
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError,
-            toml_bounded.TomlTooDeepError) as err:
+    except (
+        OSError,
+        UnicodeDecodeError,
+        tomllib.TOMLDecodeError,
+        toml_bounded.TomlTooDeepError,
+    ) as err:
         raise SettingsError(file, None, f"not a readable TOML file ({err}).") from err
     out: dict[str, Any] = {}
     for key, value in doc.items():
@@ -255,18 +286,23 @@ def _read(archive: Path, file: Path, specs: Mapping[str, list[_Declared]]) -> di
                 raise SettingsError(file, key, f"is {value!r}; expected a non-empty string.")
             out[key] = str(_inside(archive, file, key, value)) if key == "channel_map" else value
         elif key in SPAN_KEYS:
-            if (isinstance(value, bool) or not isinstance(value, int | float)
-                    or not math.isfinite(value) or value < 0):
-                raise SettingsError(file, key, f"is {value!r}; expected seconds >= 0 from each "
-                                               "log's first sample.")
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int | float)
+                or not math.isfinite(value)
+                or value < 0
+            ):
+                raise SettingsError(
+                    file, key, f"is {value!r}; expected seconds >= 0 from each log's first sample."
+                )
             out[key] = float(value)
         elif key in specs:
             out[key] = _option_value(archive, file, key, value, specs[key])
         else:
-            known = (*BASE_KEYS, *SPAN_KEYS,
-                     *(k for k in specs if k not in BASE_KEYS + SPAN_KEYS))
-            raise SettingsError(file, key, f"is not a logcal.toml key; expected one of "
-                                           f"{', '.join(known)}.")
+            known = (*BASE_KEYS, *SPAN_KEYS, *(k for k in specs if k not in BASE_KEYS + SPAN_KEYS))
+            raise SettingsError(
+                file, key, f"is not a logcal.toml key; expected one of {', '.join(known)}."
+            )
     return out
 
 
@@ -313,9 +349,13 @@ def settings_for(archive: Path, log: Path, cache: SettingsCache | None = None) -
     options = {k: v for k, v in sorted(merged.items()) if k not in BASE_KEYS + SPAN_KEYS}
     start, end = merged.get("start"), merged.get("end")
     if start is not None and end is not None and end <= start:
-        raise SettingsError(Path(sources[-1]), "end", f"is {end:g} s, not after start = "
-                                                      f"{start:g} s (the logcal.toml files "
-                                                      f"{', '.join(sources)}).")
+        raise SettingsError(
+            Path(sources[-1]),
+            "end",
+            f"is {end:g} s, not after start = "
+            f"{start:g} s (the logcal.toml files "
+            f"{', '.join(sources)}).",
+        )
     digest = hashlib.sha256()
     for key in BASE_KEYS:
         digest.update(f"{key}={merged.get(key, '')}\n".encode())
@@ -325,8 +365,11 @@ def settings_for(archive: Path, log: Path, cache: SettingsCache | None = None) -
     for key, value in options.items():
         digest.update(f"{key}={type(value).__name__}:{value}\n".encode())
     named = [merged["channel_map"]] if "channel_map" in merged else []
-    named += [v for k, v in options.items()
-              if isinstance(v, str) and _names_a_file(cache.specs.get(k, []), v)]
+    named += [
+        v
+        for k, v in options.items()
+        if isinstance(v, str) and _names_a_file(cache.specs.get(k, []), v)
+    ]
     for path in named:
         digest.update(_file_digest(path).encode())
     typed = _typed(options, cache.specs, sources[-1] if sources else SETTINGS_FILE)

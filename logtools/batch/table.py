@@ -68,10 +68,16 @@ def _is_estimate(d: Any) -> bool:
 def _estimate_row(name: str, d: Mapping[str, Any], **extra: Any) -> dict[str, Any]:
     ci = d.get("ci95") or [None, None]
     return {
-        "parameter": str(d.get("name") or name), "value": _num(d.get("value")),
-        "std": _num(d.get("std")), "ci95_lo": _num(ci[0]), "ci95_hi": _num(ci[1]),
-        "identifiable": bool(d.get("identifiable", True)), "unit": d.get("unit"),
-        "std_kind": _STD_ERROR, "note": d.get("note") or None, **extra,
+        "parameter": str(d.get("name") or name),
+        "value": _num(d.get("value")),
+        "std": _num(d.get("std")),
+        "ci95_lo": _num(ci[0]),
+        "ci95_hi": _num(ci[1]),
+        "identifiable": bool(d.get("identifiable", True)),
+        "unit": d.get("unit"),
+        "std_kind": _STD_ERROR,
+        "note": d.get("note") or None,
+        **extra,
     }
 
 
@@ -83,8 +89,7 @@ def parameter_rows(result: Mapping[str, Any]) -> list[dict[str, Any]]:
         method = str(est.get("method") or "recommended")
         for key, d in est.items():
             if _is_estimate(d):
-                rows.append(_estimate_row(key, d, kind="estimate", estimator=method,
-                                          segment="all"))
+                rows.append(_estimate_row(key, d, kind="estimate", estimator=method, segment="all"))
     for m in result.get("methods") or []:
         if not isinstance(m, Mapping):
             continue
@@ -93,8 +98,7 @@ def parameter_rows(result: Mapping[str, Any]) -> list[dict[str, Any]]:
         found = False
         for key, d in m.items():
             if _is_estimate(d):
-                rows.append(_estimate_row(key, d, kind="method", estimator=name,
-                                          segment=segment))
+                rows.append(_estimate_row(key, d, kind="method", estimator=name, segment=segment))
                 found = True
         if found:
             continue
@@ -103,12 +107,22 @@ def parameter_rows(result: Mapping[str, Any]) -> list[dict[str, Any]]:
             if f"{key}_std" in m and key != "condition_number" and _num(v) is not None:
                 std = _num(m[f"{key}_std"])
                 value = _num(v)
-                rows.append({
-                    "kind": "method", "estimator": name, "segment": segment, "parameter": key,
-                    "value": value, "std": std, "ci95_lo": None, "ci95_hi": None,
-                    "identifiable": None, "unit": "m", "std_kind": _SPREAD,
-                    "note": f"{m.get('family', '')} method, {m.get('n_repeats', 1)} repeat(s)",
-                })
+                rows.append(
+                    {
+                        "kind": "method",
+                        "estimator": name,
+                        "segment": segment,
+                        "parameter": key,
+                        "value": value,
+                        "std": std,
+                        "ci95_lo": None,
+                        "ci95_hi": None,
+                        "identifiable": None,
+                        "unit": "m",
+                        "std_kind": _SPREAD,
+                        "note": f"{m.get('family', '')} method, {m.get('n_repeats', 1)} repeat(s)",
+                    }
+                )
     return rows
 
 
@@ -124,18 +138,38 @@ def _effect_rows(result: Mapping[str, Any]) -> list[dict[str, Any]]:
         one = len(pars) == 1
         pname = next(iter(pars), None)
         ci = (e.get("ci95") or {}).get(pname) if one else None
-        rows.append({
-            "kind": "effect", "estimator": "discovery", "segment": "all",
-            "parameter": str(e.get("label") or e.get("id")),
-            "value": _num(pars[pname]) if one and pname is not None else None,
-            "std": _num((e.get("std") or {}).get(pname)) if one else None,
-            "ci95_lo": _num(ci[0]) if ci else None, "ci95_hi": _num(ci[1]) if ci else None,
-            "identifiable": True, "unit": (e.get("units") or {}).get(pname) if one else None,
-            "std_kind": _STD_ERROR, "note": e.get("explanation") or None,
-            "detail": json.dumps({k: e.get(k) for k in (
-                "parameters", "std", "ci95", "units", "rms_before", "rms_after", "delta_bic",
-                "alternatives")}, sort_keys=True),
-        })
+        rows.append(
+            {
+                "kind": "effect",
+                "estimator": "discovery",
+                "segment": "all",
+                "parameter": str(e.get("label") or e.get("id")),
+                "value": _num(pars[pname]) if one and pname is not None else None,
+                "std": _num((e.get("std") or {}).get(pname)) if one else None,
+                "ci95_lo": _num(ci[0]) if ci else None,
+                "ci95_hi": _num(ci[1]) if ci else None,
+                "identifiable": True,
+                "unit": (e.get("units") or {}).get(pname) if one else None,
+                "std_kind": _STD_ERROR,
+                "note": e.get("explanation") or None,
+                "detail": json.dumps(
+                    {
+                        k: e.get(k)
+                        for k in (
+                            "parameters",
+                            "std",
+                            "ci95",
+                            "units",
+                            "rms_before",
+                            "rms_after",
+                            "delta_bic",
+                            "alternatives",
+                        )
+                    },
+                    sort_keys=True,
+                ),
+            }
+        )
     return rows
 
 
@@ -148,8 +182,11 @@ def _start_time(start_ns: Any) -> datetime | None:
 def fleet_rows(record: Mapping[str, Any]) -> list[dict[str, Any]]:
     """All rows of one log's record (the per-log JSON the batch writes)."""
     base = {
-        "log": record["log"], "log_id": record["id"], "robot_id": record.get("robot_id"),
-        "robot": record.get("robot"), "start_time": _start_time(record.get("start_ns")),
+        "log": record["log"],
+        "log_id": record["id"],
+        "robot_id": record.get("robot_id"),
+        "robot": record.get("robot"),
+        "start_time": _start_time(record.get("start_ns")),
     }
     if record.get("status") != "ok":
         return [{**base, "kind": "failure", "error": record.get("error")}]

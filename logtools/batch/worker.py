@@ -71,11 +71,16 @@ class AnalysisOptions:
         """The settings that change a result, as text (part of each log's manifest key; the
         bounds and robot options only when given, so that a batch without them keeps its
         keys)."""
-        span = "".join(f";{k}={v!r}" for k, v in (("start", self.start_s), ("end", self.end_s))
-                       if v is not None)
+        span = "".join(
+            f";{k}={v!r}"
+            for k, v in (("start", self.start_s), ("end", self.end_s))
+            if v is not None
+        )
         given = "".join(f";{k}={v!r}" for k, v in sorted(self.options.items()))
-        return (f"repeats={self.repeats};seed={self.seed};discovery={self.discovery};"
-                f"views={self.views}{given}{span}")
+        return (
+            f"repeats={self.repeats};seed={self.seed};discovery={self.discovery};"
+            f"views={self.views}{given}{span}"
+        )
 
 
 def check_span(start_s: float | None, end_s: float | None) -> None:
@@ -88,14 +93,16 @@ def check_span(start_s: float | None, end_s: float | None) -> None:
 
     for flag, v in (("--start", start_s), ("--end", end_s)):
         if v is not None and (not math.isfinite(v) or v < 0):
-            raise LogcalInputError(f"{flag} {v:g}: expected seconds >= 0 from each log's first "
-                                   "sample")
+            raise LogcalInputError(
+                f"{flag} {v:g}: expected seconds >= 0 from each log's first sample"
+            )
     if start_s is not None and end_s is not None and end_s <= start_s:
         raise LogcalInputError(f"--end {end_s:g} s is not after --start {start_s:g} s")
 
 
-def log_span(settings: LogSettings | None, options: AnalysisOptions
-             ) -> tuple[float | None, float | None]:
+def log_span(
+    settings: LogSettings | None, options: AnalysisOptions
+) -> tuple[float | None, float | None]:
     """The span a log is analysed over: each bound from ``options`` (the command line), else
     from its ``logcal.toml`` settings; None: not bounded."""
     start = options.start_s if options.start_s is not None else getattr(settings, "start_s", None)
@@ -144,8 +151,9 @@ def _known_errors() -> tuple[type[Exception], ...]:
     return (LogcalError, CalibError)
 
 
-def _draw_views(loaded: LoadedLog, result: AnalysisResult, config: AnalysisConfig
-                ) -> tuple[dict[str, bytes], list[str]]:
+def _draw_views(
+    loaded: LoadedLog, result: AnalysisResult, config: AnalysisConfig
+) -> tuple[dict[str, bytes], list[str]]:
     """The robot's views (``.rrd``, ``.png``) as bytes, drawn by the one
     :func:`logtools.views.write_views` into a temporary folder (a view that fails, or a robot
     without views, is a note: the analysis stands)."""
@@ -154,12 +162,22 @@ def _draw_views(loaded: LoadedLog, result: AnalysisResult, config: AnalysisConfi
     with tempfile.TemporaryDirectory(prefix="logcal-batch-") as tmp:
         rrd, png = Path(tmp) / "view.rrd", Path(tmp) / "view.png"
         try:
-            written = write_views([loaded], result, rrd=rrd, png=png, inputs=[Path(loaded.path)],
-                                  config=config, on_error="note")
+            written = write_views(
+                [loaded],
+                result,
+                rrd=rrd,
+                png=png,
+                inputs=[Path(loaded.path)],
+                config=config,
+                on_error="note",
+            )
         except Exception as err:  # e.g. an output check: the analysis still stands
             return {}, [f"views not drawn: {type(err).__name__}: {err}"]
-        views = {path.suffix: path.read_bytes()
-                 for path in (written.rrd, written.png) if path is not None}
+        views = {
+            path.suffix: path.read_bytes()
+            for path in (written.rrd, written.png)
+            if path is not None
+        }
         return views, written.notes
 
 
@@ -194,12 +212,22 @@ def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
     """Analyse ``job`` with ``options``; every failure is returned, never raised."""
     t0 = time.perf_counter()
     if job.entry_error is not None or job.settings is None:
-        return LogOutcome(job, "failed", error=job.entry_error or job.settings_error,
-                          error_kind="input", seconds=time.perf_counter() - t0)
+        return LogOutcome(
+            job,
+            "failed",
+            error=job.entry_error or job.settings_error,
+            error_kind="input",
+            seconds=time.perf_counter() - t0,
+        )
     changed = _no_longer_plain(job.path)
     if changed is not None:  # replaced by a link or a FIFO since the archive was walked
-        return LogOutcome(job, "failed", error=f"{job.rel}: {changed}", error_kind="input",
-                          seconds=time.perf_counter() - t0)
+        return LogOutcome(
+            job,
+            "failed",
+            error=f"{job.rel}: {changed}",
+            error_kind="input",
+            seconds=time.perf_counter() - t0,
+        )
     try:
         from dataclasses import replace
 
@@ -218,38 +246,55 @@ def analyse_job(job: LogJob, options: AnalysisOptions) -> LogOutcome:
         check_span(start_s, end_s)  # one bound from the command line, one from logcal.toml
         cmap = LoadRequest.of(cmap, start_s=start_s, end_s=end_s)  # as analyze --start/--end
         config = AnalysisConfig(
-            repeats=options.repeats, seed=options.seed, discovery=options.discovery,
+            repeats=options.repeats,
+            seed=options.seed,
+            discovery=options.discovery,
             robot_options=options_from_settings(
                 {**s.options, **options.options},
-                where=s.sources[-1] if s.sources else "logcal.toml"),
+                where=s.sources[-1] if s.sources else "logcal.toml",
+            ),
             window_s=0.0 if options.views else None,  # views draw every sample
         )
         loaded, result = analyze_log(job.path, channel_map=cmap, config=config)
         win = result.source.get("windows")  # a long log analysed by windows: its whole span
         start_ns, end_ns = _time_span(
-            [win["first_ns"], win["last_ns"]] if isinstance(win, dict)
-            else loaded.frame["t_ns"].to_list())
+            [win["first_ns"], win["last_ns"]]
+            if isinstance(win, dict)
+            else loaded.frame["t_ns"].to_list()
+        )
         views: dict[str, bytes] = {}
         notes: list[str] = []
         if options.views:
             views, notes = _draw_views(loaded, result, config)
         return LogOutcome(
-            job, "ok", result=result.to_dict(), robot=result.robot, start_ns=start_ns,
-            end_ns=end_ns, views=views, notes=notes, seconds=time.perf_counter() - t0,
+            job,
+            "ok",
+            result=result.to_dict(),
+            robot=result.robot,
+            start_ns=start_ns,
+            end_ns=end_ns,
+            views=views,
+            notes=notes,
+            seconds=time.perf_counter() - t0,
         )
     except Exception as err:
         from logtools.batch.budgets import Budgets, active, out_of_memory
 
         if out_of_memory(err):  # over --log-memory (RLIMIT_AS of the worker): the log's size
             message = (active() or Budgets(timeout_s=None)).memory_message(job.rel)
-            return LogOutcome(job, "failed", error=message, error_kind="input",
-                              seconds=time.perf_counter() - t0)
+            return LogOutcome(
+                job, "failed", error=message, error_kind="input", seconds=time.perf_counter() - t0
+            )
         if isinstance(err, _known_errors()):
-            return LogOutcome(job, "failed", error=str(err), error_kind="input",
-                              seconds=time.perf_counter() - t0)
+            return LogOutcome(
+                job, "failed", error=str(err), error_kind="input", seconds=time.perf_counter() - t0
+            )
         # a bug of ours on this log: recorded, the batch goes on
         return LogOutcome(
-            job, "failed", error=f"internal error: {type(err).__name__}: {err}",
-            error_kind="internal", detail=traceback.format_exc(),
+            job,
+            "failed",
+            error=f"internal error: {type(err).__name__}: {err}",
+            error_kind="internal",
+            detail=traceback.format_exc(),
             seconds=time.perf_counter() - t0,
         )

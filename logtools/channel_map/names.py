@@ -47,11 +47,7 @@ def plugin_units() -> dict[str, str]:
 def is_logical_signal(name: str) -> bool:
     """True for a logical signal name, including per-joint names like ``q1`` or ``tau2`` and
     the signals a robot plugin declares."""
-    return (
-        name in LOGICAL_SIGNALS
-        or JOINT_SIGNAL.match(name) is not None
-        or name in plugin_units()
-    )
+    return name in LOGICAL_SIGNALS or JOINT_SIGNAL.match(name) is not None or name in plugin_units()
 
 
 def si_unit(name: str) -> str | None:
@@ -60,4 +56,3 @@ def si_unit(name: str) -> str | None:
     if m:
         return JOINT_UNITS[m.group(1)]
     return SIGNAL_UNITS.get(name) or plugin_units().get(name)
-

@@ -89,7 +89,6 @@ outliers are excluded) the values are not in the unit the channel map says, and 
 integration step count downstream would grow with them)."""
 
 
-
 def resolve_signals(
     log: LogData, channel_map: Mapping[str, SignalSource] | None = None
 ) -> ResolvedSignals:
@@ -143,7 +142,6 @@ def resolve_signals(
         robot=state.robot,
         outliers=state.outliers,
     )
-
 
 
 class _Resolution:
@@ -388,4 +386,3 @@ def _any_joint(family: str, signals: Mapping[str, pl.DataFrame]) -> bool:
     return family in ("q", "qd", "tau") and any(
         (m := JOINT_SIGNAL.match(k)) and m.group(1) == family for k in signals
     )
-

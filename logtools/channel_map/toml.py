@@ -77,8 +77,7 @@ def parse_formula(file: str, key: str, text: str) -> Formula:
     """``Formula.parse`` within :data:`MAX_FORMULA_CHARS`; errors name the file and key."""
     if len(text) > MAX_FORMULA_CHARS:
         raise ChannelMapEntryError(
-            file, key, f"is {len(text)} characters long; a formula has at most "
-            f"{MAX_FORMULA_CHARS}."
+            file, key, f"is {len(text)} characters long; a formula has at most {MAX_FORMULA_CHARS}."
         )
     try:
         return Formula.parse(text)
@@ -86,8 +85,9 @@ def parse_formula(file: str, key: str, text: str) -> Formula:
         raise ChannelMapEntryError(file, key, str(err)) from err
     except (RecursionError, MemoryError) as err:
         raise ChannelMapEntryError(
-            file, key, "is nested too deeply to parse; write it with fewer parentheses and "
-            "unary signs."
+            file,
+            key,
+            "is nested too deeply to parse; write it with fewer parentheses and unary signs.",
         ) from err
 
 
@@ -129,7 +129,6 @@ class ChannelMap(Mapping[str, SignalSource]):
         return isinstance(other, Mapping) and dict(self.signals) == dict(other)
 
     __hash__ = None  # type: ignore[assignment]
-
 
 
 def load_channel_map(path: str | Path) -> ChannelMap:
@@ -207,7 +206,8 @@ def parse_signal_option(text: str, robot: RobotConfig | None = None) -> tuple[st
     parts = [p.strip() for p in rest.split(":")] if eq else []
     if not name or len(parts) not in (2, 3) or not all(parts):
         raise ChannelMapEntryError(
-            SIGNAL_OPTION, f"signals.{name or '?'}",
+            SIGNAL_OPTION,
+            f"signals.{name or '?'}",
             f"{text!r} is not NAME=TOPIC:FIELD[:UNIT]; e.g. --signal psi=/hitch:data:deg or "
             "--signal yaw=/mocap/pose:pose.orientation:yaw_from_quaternion",
         )
@@ -264,7 +264,8 @@ def _robot_table(file: str, table: object) -> RobotConfig:
             urdf = value
         elif not _is_number(value) or not math.isfinite(value):
             raise ChannelMapEntryError(
-                file, f"robot.{key}",
+                file,
+                f"robot.{key}",
                 f"is {value!r}; expected a number (m or rad), or type = … / urdf = …",
             )
         elif key == "wheelbase":
@@ -374,7 +375,7 @@ def _numbers_and_unit(
     unit = entry.get("unit")
     if unit is not None and not isinstance(unit, str):
         raise ChannelMapEntryError(
-            file, f"{key}.unit", f"is {unit!r}; expected a unit name (a string, e.g. \"deg\")."
+            file, f"{key}.unit", f'is {unit!r}; expected a unit name (a string, e.g. "deg").'
         )
     if unit is not None:
         si = si_unit(name)
@@ -446,4 +447,3 @@ def _check_formula_cycles(file: str, signals: Mapping[str, SignalSource]) -> Non
 
     for n in sorted(deps):
         visit(n, [])
-

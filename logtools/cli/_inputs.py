@@ -43,7 +43,9 @@ def logs_argument(help_text: str = LOGS_HELP) -> Any:
 def channel_map_option() -> Any:
     """``--channel-map FILE.toml``."""
     return typer.Option(
-        None, "--channel-map", metavar="FILE.toml",
+        None,
+        "--channel-map",
+        metavar="FILE.toml",
         help="TOML mapping topics/fields to logical signals (docs/LOG_FORMAT.md).",
     )
 
@@ -51,7 +53,9 @@ def channel_map_option() -> Any:
 def signal_option() -> Any:
     """``--signal NAME=TOPIC:FIELD[:UNIT]`` (repeatable)."""
     return typer.Option(
-        None, "--signal", metavar="NAME=TOPIC:FIELD[:UNIT]",
+        None,
+        "--signal",
+        metavar="NAME=TOPIC:FIELD[:UNIT]",
         help="Read a logical signal from this topic and field, as a [signals.NAME] entry of a "
         "channel map would (repeatable; wins over --channel-map). UNIT converts to SI (deg, "
         "km/h, ...) or is a transform (yaw_from_quaternion); a CSV's topic is 'csv'.",
@@ -61,7 +65,9 @@ def signal_option() -> Any:
 def ground_truth_option() -> Any:
     """``--ground-truth FILE.tum``."""
     return typer.Option(
-        None, "--ground-truth", metavar="FILE.tum",
+        None,
+        "--ground-truth",
+        metavar="FILE.tum",
         help="A ground-truth trajectory on the log's clock (TUM: t x y z qx qy qz qw, s and "
         "m), whose x, y, yaw replace the log's own pose.",
     )
@@ -70,7 +76,10 @@ def ground_truth_option() -> Any:
 def start_option() -> Any:
     """``--start SECONDS``."""
     return typer.Option(
-        None, "--start", min=0.0, metavar="SECONDS",
+        None,
+        "--start",
+        min=0.0,
+        metavar="SECONDS",
         help="Use the log from this many seconds after its first sample.",
     )
 
@@ -78,7 +87,10 @@ def start_option() -> Any:
 def end_option() -> Any:
     """``--end SECONDS``."""
     return typer.Option(
-        None, "--end", min=0.0, metavar="SECONDS",
+        None,
+        "--end",
+        min=0.0,
+        metavar="SECONDS",
         help="Use the log up to this many seconds after its first sample.",
     )
 

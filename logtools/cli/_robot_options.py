@@ -52,19 +52,26 @@ def _cli_options(command: Command) -> list[_CliOption]:
     by_flag: dict[str, list[OptionSpec]] = {}
     for plugin in plugins():
         for spec in option_specs(plugin):
-            if (command == "analyze" or (command == "view" and spec.view)
-                    or (command == "batch" and spec.batch)
-                    or (command == "info" and spec.info)):
+            if (
+                command == "analyze"
+                or (command == "view" and spec.view)
+                or (command == "batch" and spec.batch)
+                or (command == "info" and spec.info)
+            ):
                 by_flag.setdefault(spec.flag, []).append(spec)
     out = []
     for flag, specs in by_flag.items():
         kinds = {s.type for s in specs}
         if len(kinds) > 1:
-            raise TypeError(f"robot option {flag}: robots {', '.join(s.robot for s in specs)} "
-                            f"declare it with different types ({', '.join(map(str, kinds))})")
+            raise TypeError(
+                f"robot option {flag}: robots {', '.join(s.robot for s in specs)} "
+                f"declare it with different types ({', '.join(map(str, kinds))})"
+            )
         if len({(s.file, s.or_name) for s in specs}) > 1:
-            raise TypeError(f"robot option {flag}: robots {', '.join(s.robot for s in specs)} "
-                            "disagree on whether its value names a file (file=, or_name=)")
+            raise TypeError(
+                f"robot option {flag}: robots {', '.join(s.robot for s in specs)} "
+                "disagree on whether its value names a file (file=, or_name=)"
+            )
         name = "ro_" + flag.lstrip("-").replace("-", "_")
         out.append(_CliOption(name, tuple(specs)))
     return out
@@ -74,8 +81,9 @@ def _typer_option(opt: _CliOption) -> Any:
     first = opt.specs[0]
     robots = " and ".join(dict.fromkeys(s.robot for s in opt.specs))
     help_text = first.help if len(opt.specs) == 1 else f"{first.help} ({robots})"
-    return typer.Option(None, first.flag, metavar=first.metavar or None, help=help_text,
-                        show_default=False)
+    return typer.Option(
+        None, first.flag, metavar=first.metavar or None, help=help_text, show_default=False
+    )
 
 
 @dataclass(frozen=True)
@@ -140,8 +148,9 @@ def _not_used(flag: str, robots: tuple[str, ...], plugin: RobotPlugin, where: st
     )
 
 
-def general_warnings(plugin: RobotPlugin, given: Mapping[str, tuple[str, object]],
-                     where: str = "") -> list[str]:
+def general_warnings(
+    plugin: RobotPlugin, given: Mapping[str, tuple[str, object]], where: str = ""
+) -> list[str]:
     """Warnings for general options given that only some robots use: ``given`` maps a flag to
     (what it sets, its value; None or False: not given). What it sets is an ``AnalysisConfig``
     setting (robots naming it in ``uses_settings``) or ``pose`` (robots reading the pose
@@ -184,16 +193,26 @@ class _WithRobotOptions:
     @property
     def __signature__(self) -> inspect.Signature:  # read by inspect.signature (typer)
         params, _ = self._own()
-        taken = {d for p in params if hasattr(p.default, "param_decls")
-                 for d in (p.default.param_decls or ())}
+        taken = {
+            d
+            for p in params
+            if hasattr(p.default, "param_decls")
+            for d in (p.default.param_decls or ())
+        }
         for opt in _cli_options(self._command):
             if opt.flag in taken:
-                raise TypeError(f"robot option {opt.flag} ({opt.specs[0].robot}) clashes with "
-                                f"{self._command}'s own {opt.flag}")
-            params.append(inspect.Parameter(
-                opt.name, inspect.Parameter.KEYWORD_ONLY, default=_typer_option(opt),
-                annotation=opt.specs[0].type | None,
-            ))
+                raise TypeError(
+                    f"robot option {opt.flag} ({opt.specs[0].robot}) clashes with "
+                    f"{self._command}'s own {opt.flag}"
+                )
+            params.append(
+                inspect.Parameter(
+                    opt.name,
+                    inspect.Parameter.KEYWORD_ONLY,
+                    default=_typer_option(opt),
+                    annotation=opt.specs[0].type | None,
+                )
+            )
         return inspect.Signature(params)
 
     @property

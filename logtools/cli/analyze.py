@@ -47,11 +47,15 @@ def register(app: typer.Typer) -> None:
         logs: list[Path] = _LOGS,
         as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
         rrd: Path | None = typer.Option(
-            None, "--rrd", metavar="FILE.rrd",
+            None,
+            "--rrd",
+            metavar="FILE.rrd",
             help="Save a rerun recording here (several runs: one file holding every run).",
         ),
         png: Path | None = typer.Option(
-            None, "--png", metavar="FILE.png",
+            None,
+            "--png",
+            metavar="FILE.png",
             help="Save a static PNG of the main views (default: beside --rrd; one run only).",
         ),
         repeats: int = typer.Option(
@@ -63,7 +67,9 @@ def register(app: typer.Typer) -> None:
         start: float | None = start_option(),
         end: float | None = end_option(),
         window: float | None = typer.Option(
-            None, "--window", metavar="SECONDS",
+            None,
+            "--window",
+            metavar="SECONDS",
             help="Analyse the log by time windows of this length, each read and analysed on "
             "its own, and pool them (memory stays that of one window); 0: the whole log at "
             "once. Default: windows of 1 h at 100 Hz when the log holds more than 2 h of "
@@ -72,12 +78,16 @@ def register(app: typer.Typer) -> None:
         no_discovery: bool = typer.Option(False, "--no-discovery", help="Skip discovery."),
         seed: int = typer.Option(0, "--seed", metavar="N", help="Seed of the bootstrap draws."),
         methods: bool = typer.Option(
-            False, "--methods", "-v",
+            False,
+            "--methods",
+            "-v",
             help="Also print every method's table and the robot's diagnostics (the report "
             "opens with the answer either way).",
         ),
         quiet: bool = typer.Option(
-            False, "--quiet", "-q",
+            False,
+            "--quiet",
+            "-q",
             help="Print only the answer: the recommended estimate and whether the model "
             "explains the log.",
         ),
@@ -101,8 +111,14 @@ def register(app: typer.Typer) -> None:
                 f"--window {window:g}: the views (--rrd, --png) draw every sample of the log; "
                 "give --window 0, or --start/--end to view a part"
             )
-        inputs = read_inputs(logs, channel_map=channel_map, signals=signal,
-                             ground_truth=ground_truth, start=start, end=end)
+        inputs = read_inputs(
+            logs,
+            channel_map=channel_map,
+            signals=signal,
+            ground_truth=ground_truth,
+            start=start,
+            end=end,
+        )
         runs = inputs.runs
         every = [Path(r) for r in runs] + [g for s in inputs.same for g in s.same] + list(logs)
         if rrd is not None:
@@ -115,8 +131,11 @@ def register(app: typer.Typer) -> None:
                     "give one log, or use --rrd (one recording file holds every run)"
                 )
         cfg = AnalysisConfig(
-            repeats=repeats, seed=seed, discovery=not no_discovery,
-            debug=_debug(), robot_options=robot_options.by_robot(),
+            repeats=repeats,
+            seed=seed,
+            discovery=not no_discovery,
+            debug=_debug(),
+            robot_options=robot_options.by_robot(),
             # the views need every sample: with --rrd/--png the log is analysed whole
             window_s=0.0 if rrd is not None or png is not None else window,
         )
@@ -124,39 +143,58 @@ def register(app: typer.Typer) -> None:
         if sys.stderr.isatty():
             with err.status("analysing", spinner="dots") as status:
                 loadeds, result = analyze_logs(
-                    runs, channel_map=inputs.channel_map, config=cfg,
+                    runs,
+                    channel_map=inputs.channel_map,
+                    config=cfg,
                     progress=lambda s: status.update(Text(s)),
                 )
         else:
             loadeds, result = analyze_logs(runs, channel_map=inputs.channel_map, config=cfg)
         plugin = plugin_for(str(result.robot))
-        unused = robot_options.unused(plugin) + general_warnings(plugin, {
-            "--ground-truth": ("pose", ground_truth),
-        })
+        unused = robot_options.unused(plugin) + general_warnings(
+            plugin,
+            {
+                "--ground-truth": ("pose", ground_truth),
+            },
+        )
         for warning in unused:
             say(f"logcal: warning: {warning}")
         if inputs.same or unused:
             result = replace(
                 result,
                 warnings=[*inputs.notes, *unused, *result.warnings],
-                source={**result.source, "same_recordings": [
-                    {"kept": str(g.kept), "same": [str(p) for p in g.same],
-                     "evidence": g.evidence} for g in inputs.same
-                ]},
+                source={
+                    **result.source,
+                    "same_recordings": [
+                        {
+                            "kept": str(g.kept),
+                            "same": [str(p) for p in g.same],
+                            "evidence": g.evidence,
+                        }
+                        for g in inputs.same
+                    ],
+                },
             )
         if rrd is not None or png is not None:
-            say_written(write_views(loadeds, result, rrd=rrd, png=png, inputs=every,
-                                    implicit_png=png is None, config=cfg))
+            say_written(
+                write_views(
+                    loadeds,
+                    result,
+                    rrd=rrd,
+                    png=png,
+                    inputs=every,
+                    implicit_png=png is None,
+                    config=cfg,
+                )
+            )
         if as_json:
             sys.stdout.write(json.dumps(result.to_dict(), indent=2) + "\n")
         else:
-            print_analysis(result, detail="quiet" if quiet else "methods" if methods
-                           else "answer")
+            print_analysis(result, detail="quiet" if quiet else "methods" if methods else "answer")
         bad = result.source.get("errors") or []
         if bad:
             for message in bad:
-                err.print(f"logcal: error: {printable(message)}", markup=False,
-                          highlight=False)
+                err.print(f"logcal: error: {printable(message)}", markup=False, highlight=False)
             raise typer.Exit(2)
 
 

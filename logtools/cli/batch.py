@@ -22,18 +22,25 @@ def register(app: typer.Typer) -> None:
     @app.command("batch")
     @with_robot_options("batch")
     def batch(
-        archive: Path = typer.Argument(..., help="Folder of logs (MCAP, CSV, ROS bags), with "
-                                       "optional logcal.toml files (docs/batch.md)."),
-        out: Path = typer.Option(..., "--out", "-o", help="Output folder (created; reruns "
-                                 "resume in it)."),
-        engine: Engine = typer.Option(Engine.LOCAL, "--engine", help="local process pool or "
-                                      "ray."),
-        workers: int = typer.Option(2, "--workers", min=1, help="Worker processes (local), or "
-                                    "CPUs of a new local Ray instance."),
-        address: str | None = typer.Option(None, "--address", help="Address of a running Ray "
-                                           "cluster (--engine ray)."),
-        repeats: int = typer.Option(10, "--repeats", min=1, help="Bootstrap repeats per "
-                                    "method."),
+        archive: Path = typer.Argument(
+            ...,
+            help="Folder of logs (MCAP, CSV, ROS bags), with "
+            "optional logcal.toml files (docs/batch.md).",
+        ),
+        out: Path = typer.Option(
+            ..., "--out", "-o", help="Output folder (created; reruns resume in it)."
+        ),
+        engine: Engine = typer.Option(Engine.LOCAL, "--engine", help="local process pool or ray."),
+        workers: int = typer.Option(
+            2,
+            "--workers",
+            min=1,
+            help="Worker processes (local), or CPUs of a new local Ray instance.",
+        ),
+        address: str | None = typer.Option(
+            None, "--address", help="Address of a running Ray cluster (--engine ray)."
+        ),
+        repeats: int = typer.Option(10, "--repeats", min=1, help="Bootstrap repeats per method."),
         no_discovery: bool = typer.Option(False, "--no-discovery", help="Skip discovery."),
         no_views: bool = typer.Option(False, "--no-views", help="Do not draw .rrd/.png views."),
         seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap draws."),
@@ -41,12 +48,20 @@ def register(app: typer.Typer) -> None:
         start: float | None = start_option(),
         end: float | None = end_option(),
         log_memory: float | None = typer.Option(
-            None, "--log-memory", min=0.0, metavar="GIB",
+            None,
+            "--log-memory",
+            min=0.0,
+            metavar="GIB",
             help="Memory budget of one log: its worker's address space in GiB (0: none; "
-            "default: 80% of RAM / workers, between 6 and 8 GiB)."),
+            "default: 80% of RAM / workers, between 6 and 8 GiB).",
+        ),
         log_timeout: float = typer.Option(
-            3600.0, "--log-timeout", min=0.0, metavar="SECONDS",
-            help="Time budget of one log (0: none)."),
+            3600.0,
+            "--log-timeout",
+            min=0.0,
+            metavar="SECONDS",
+            help="Time budget of one log (0: none).",
+        ),
         *,
         robot_options: GivenOptions,
     ) -> None:
@@ -69,45 +84,74 @@ def register(app: typer.Typer) -> None:
 
         if address and engine is not Engine.RAY:
             raise typer.BadParameter("--address needs --engine ray", param_hint="--address")
-        options = AnalysisOptions(repeats=repeats, seed=seed, discovery=not no_discovery,
-                                  views=not no_views, start_s=start, end_s=end,
-                                  options=robot_options.by_key())
+        options = AnalysisOptions(
+            repeats=repeats,
+            seed=seed,
+            discovery=not no_discovery,
+            views=not no_views,
+            start_s=start,
+            end_s=end,
+            options=robot_options.by_key(),
+        )
         budgets = Budgets.from_flags(log_memory, log_timeout, workers)  # docs/batch.md#budgets
         # --start/--end crop each log as analyze does; robot options apply to every log
         err = Console(stderr=True)
         bar = Progress(
-            TextColumn("[bold]analysing"), BarColumn(), MofNCompleteColumn(),
-            TextColumn("[red]{task.fields[failed]} failed"), TextColumn("·"),
-            TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+            TextColumn("[bold]analysing"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("[red]{task.fields[failed]} failed"),
+            TextColumn("·"),
+            TimeElapsedColumn(),
+            TextColumn("ETA"),
+            TimeRemainingColumn(),
             TextColumn("{task.fields[last]}", markup=False),
-            console=err, transient=False, disable=not sys.stderr.isatty(),
+            console=err,
+            transient=False,
+            disable=not sys.stderr.isatty(),
         )
         task = bar.add_task("logs", total=None, failed=0, last="")
 
         def show(p: BatchProgress) -> None:
-            bar.update(task, total=p.total, completed=p.done, failed=p.failed,
-                       last=printable(p.last)[-40:])
+            bar.update(
+                task, total=p.total, completed=p.done, failed=p.failed, last=printable(p.last)[-40:]
+            )
 
         t0 = time.perf_counter()
         with bar:
-            summary = run_batch(archive, out, options=options, engine=engine,
-                                workers=workers, address=address, force=force, progress=show,
-                                budgets=budgets)
+            summary = run_batch(
+                archive,
+                out,
+                options=options,
+                engine=engine,
+                workers=workers,
+                address=address,
+                force=force,
+                progress=show,
+                budgets=budgets,
+            )
         err.print(
             f"{summary.logs} logs: {len(summary.analysed)} analysed, {len(summary.skipped)} "
             f"already done, {len(summary.failed)} failed; {time.perf_counter() - t0:.1f} s. "
-            f"Report: {printable(summary.out / 'index.html')}", markup=False, highlight=False,
+            f"Report: {printable(summary.out / 'index.html')}",
+            markup=False,
+            highlight=False,
         )
         for rel, message in summary.failed:  # names and messages from the archive: escaped
-            err.print(f"  failed: {printable(rel)}: {printable(message)}", markup=False,
-                      highlight=False, soft_wrap=True)
+            err.print(
+                f"  failed: {printable(rel)}: {printable(message)}",
+                markup=False,
+                highlight=False,
+                soft_wrap=True,
+            )
 
     @app.command("serve")
     def serve(
         out: Path = typer.Argument(..., help="The --out folder of `logcal batch`."),
         port: int = typer.Option(8000, "--port", min=0, max=65535, help="Port on 127.0.0.1."),
-        no_viewer: bool = typer.Option(False, "--no-viewer",
-                                       help="Do not start rerun's web viewer."),
+        no_viewer: bool = typer.Option(
+            False, "--no-viewer", help="Do not start rerun's web viewer."
+        ),
     ) -> None:
         """Serve a batch report on 127.0.0.1, with rerun's web viewer for each log's .rrd."""
         import signal

@@ -54,19 +54,33 @@ def register(app: typer.Typer) -> None:
         from logtools.loginfo import summarize_log
         from logtools.recordings import distinct_recordings
 
-        inputs = read_inputs(logs, channel_map=channel_map, signals=signal,
-                             ground_truth=ground_truth, start=start, end=end, dedupe=False)
+        inputs = read_inputs(
+            logs,
+            channel_map=channel_map,
+            signals=signal,
+            ground_truth=ground_truth,
+            start=start,
+            end=end,
+            dedupe=False,
+        )
         summaries = [summarize_log(run, inputs.channel_map) for run in inputs.runs]
         sections = _robot_sections(robot_options)
-        same = distinct_recordings(inputs.runs, inputs.channel_map)[1] if len(
-            inputs.runs) > 1 else []
+        same = (
+            distinct_recordings(inputs.runs, inputs.channel_map)[1] if len(inputs.runs) > 1 else []
+        )
         if as_json:
             doc: dict[str, Any] = (
-                summaries[0].to_dict() if len(summaries) == 1 else {
+                summaries[0].to_dict()
+                if len(summaries) == 1
+                else {
                     "logs": [s.to_dict() for s in summaries],
                     "same_recordings": [
-                        {"kept": str(g.kept), "same": [str(p) for p in g.same],
-                         "evidence": g.evidence} for g in same
+                        {
+                            "kept": str(g.kept),
+                            "same": [str(p) for p in g.same],
+                            "evidence": g.evidence,
+                        }
+                        for g in same
                     ],
                 }
             )

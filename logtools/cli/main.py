@@ -17,8 +17,16 @@ from logtools.cli.state import debug_enabled, set_debug
 from logtools.errors import LogcalError
 from logtools.safe_text import printable
 
-__all__ = ["KNOWN_ERRORS", "app", "command", "debug_enabled", "launch", "main", "readable_metavars",
-           "run"]
+__all__ = [
+    "KNOWN_ERRORS",
+    "app",
+    "command",
+    "debug_enabled",
+    "launch",
+    "main",
+    "readable_metavars",
+    "run",
+]
 
 HELP_OPTIONS = ["-h", "--help"]
 
@@ -37,6 +45,7 @@ app = typer.Typer(
     context_settings={"help_option_names": HELP_OPTIONS},
 )
 
+
 def _version(value: bool) -> None:
     if value:
         from importlib.metadata import PackageNotFoundError, version
@@ -54,7 +63,11 @@ def _root(
     ctx: typer.Context,
     debug: bool = typer.Option(False, "--debug", help="Show the full traceback of errors."),
     show_version: bool = typer.Option(
-        False, "--version", "-V", is_eager=True, callback=_version,
+        False,
+        "--version",
+        "-V",
+        is_eager=True,
+        callback=_version,
         help="Print logcal's version and exit.",
     ),
 ) -> None:
@@ -72,9 +85,16 @@ def _register() -> None:
 
 
 _NAMED_METAVARS = {
-    "--out": "PATH", "-o": "PATH", "--rrd": "FILE.rrd", "--png": "FILE.png",
-    "--channel-map": "FILE.toml", "--port": "PORT", "--workers": "N", "--seed": "N",
-    "--repeats": "N", "--address": "HOST:PORT",
+    "--out": "PATH",
+    "-o": "PATH",
+    "--rrd": "FILE.rrd",
+    "--png": "FILE.png",
+    "--channel-map": "FILE.toml",
+    "--port": "PORT",
+    "--workers": "N",
+    "--seed": "N",
+    "--repeats": "N",
+    "--address": "HOST:PORT",
 }
 """Metavars by option name, for options that do not set their own."""
 

@@ -33,7 +33,9 @@ def register(app: typer.Typer) -> None:
     def view(
         logs: list[Path] = _LOGS,
         rrd: Path | None = typer.Option(
-            None, "--rrd", metavar="FILE.rrd",
+            None,
+            "--rrd",
+            metavar="FILE.rrd",
             help="Where to save the recording (default: the first LOG with suffix .rrd; "
             "several runs: one file holding every run).",
         ),
@@ -60,23 +62,35 @@ def register(app: typer.Typer) -> None:
         from logtools.views import write_views
         from viz.viewer import can_start_viewer, open_viewer
 
-        inputs = read_inputs(logs, channel_map=channel_map, signals=signal,
-                             ground_truth=ground_truth, start=start, end=end)
+        inputs = read_inputs(
+            logs,
+            channel_map=channel_map,
+            signals=signal,
+            ground_truth=ground_truth,
+            start=start,
+            end=end,
+        )
         first, given = Path(inputs.runs[0]), logs[0]
         every = [Path(r) for r in inputs.runs] + list(logs)
-        default = given.with_suffix(".rrd") if given.is_file() else given.resolve().with_name(
-            given.resolve().name + ".rrd")  # a folder's recording beside it
+        default = (
+            given.with_suffix(".rrd")
+            if given.is_file()
+            else given.resolve().with_name(given.resolve().name + ".rrd")
+        )  # a folder's recording beside it
         target = check_output(rrd or default, option="--rrd", suffixes=(".rrd",), inputs=every)
         for note in inputs.notes:
             say(f"logcal: {note}")
-        cfg = AnalysisConfig(repeats=repeats,
-                             robot_options=robot_options.by_robot(),
-                             window_s=0.0)  # the views draw every sample: never by windows
+        cfg = AnalysisConfig(
+            repeats=repeats, robot_options=robot_options.by_robot(), window_s=0.0
+        )  # the views draw every sample: never by windows
         loadeds, result = analyze_logs(inputs.runs, channel_map=inputs.channel_map, config=cfg)
         plugin = plugin_for(result.robot)
-        for warning in robot_options.unused(plugin) + general_warnings(plugin, {
-            "--ground-truth": ("pose", ground_truth),
-        }):
+        for warning in robot_options.unused(plugin) + general_warnings(
+            plugin,
+            {
+                "--ground-truth": ("pose", ground_truth),
+            },
+        ):
             say(f"logcal: warning: {warning}")
         if plugin.views is None:
             raise LogcalInputError(f"{first}: the {plugin.title} has no rerun views yet.")

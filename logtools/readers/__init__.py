@@ -177,8 +177,7 @@ def checked_numbers(name: str, metadata: dict[str, dict[str, str]]) -> list[Prob
         if not isinstance(rec, dict):
             continue
         for key in list(rec):
-            if keys and not any(key == k or (k.endswith(".") and key.startswith(k))
-                                for k in keys):
+            if keys and not any(key == k or (k.endswith(".") and key.startswith(k)) for k in keys):
                 continue
             try:
                 ok = math.isfinite(float(rec[key]))
@@ -186,11 +185,14 @@ def checked_numbers(name: str, metadata: dict[str, dict[str, str]]) -> list[Prob
                 ok = False
             if not ok:
                 value = str(rec.pop(key))[:60]
-                out.append(Problem(
-                    ProblemKind.UNDECODABLE, count=1,
-                    message=f"{name}: metadata record {record!r} key {key!r} is {value!r}, not "
-                    "a finite number; ignored",
-                ))
+                out.append(
+                    Problem(
+                        ProblemKind.UNDECODABLE,
+                        count=1,
+                        message=f"{name}: metadata record {record!r} key {key!r} is {value!r}, not "
+                        "a finite number; ignored",
+                    )
+                )
     return out
 
 

@@ -129,7 +129,11 @@ def in_span(log: LogData, t0_ns: int, t1_ns: int) -> LogData:
         topics[name] = kept
         times = kept[TIME_COLUMN]
         info[name] = TopicInfo(
-            ti.topic, ti.schema_name, ti.schema_encoding, ti.message_encoding, kept.height,
+            ti.topic,
+            ti.schema_name,
+            ti.schema_encoding,
+            ti.message_encoding,
+            kept.height,
             int(times.min()) if kept.height else None,  # type: ignore[arg-type]
             int(times.max()) if kept.height else None,  # type: ignore[arg-type]
         )

@@ -41,6 +41,7 @@ def _whole(name: str) -> bytes:
 
 # ----------------------------------------------------------------------------- MCAP
 
+
 def _sniff_mcap(path: Path, head: bytes) -> bool:
     from logtools.readers.mcap_scan import MAGIC
 
@@ -56,8 +57,7 @@ def _read_mcap(name: str, req: ReadRequest) -> LogData:
 
     decoders = req.decoders if req.decoders is not None else DEFAULT_DECODERS
     if req.size >= _BATCHED_MIN_BYTES:  # a large intact MCAP: a batch at a time
-        batched = read_mcap_batched(name, req.size, req.topics, decoders, req.keep,
-                                    req.span_ns)
+        batched = read_mcap_batched(name, req.size, req.topics, decoders, req.keep, req.span_ns)
         if batched is not None:
             return batched
     buf = _whole(name)
@@ -69,6 +69,7 @@ def _read_mcap(name: str, req: ReadRequest) -> LogData:
 
 
 # ----------------------------------------------------------------------------- ROS bags
+
 
 def _sniff_bag_folder(path: Path, head: bytes) -> bool:
     from logtools.readers.rosbag_reader import is_rosbag
@@ -90,6 +91,7 @@ def _read_bag(name: str, req: ReadRequest) -> LogData:
 
 
 # ----------------------------------------------------------------------------- CSV and kin
+
 
 def _looks_like_csv(head: bytes) -> bool:
     from logtools.readers.csv_reader import TIME_COLUMNS
@@ -153,17 +155,39 @@ def _read_tum(name: str, req: ReadRequest) -> LogData:
 
 
 BUILTIN: tuple[FormatReader, ...] = (
-    FormatReader("rosbag2", "ROS 2 bag folder (metadata.yaml with .db3 or .mcap storage)", (),
-                 _sniff_bag_folder, _read_bag, folder=True),
-    FormatReader("rosbag", "ROS bag file (ROS 1 .bag, rosbag2 .db3)", (".bag",),
-                 _sniff_bag_file, _read_bag),
-    FormatReader("mcap", "MCAP (JSON, ROS 2, ROS 1 or protobuf messages)", (".mcap",),
-                 _sniff_mcap, _read_mcap),
-    FormatReader("optiodom", "OptiOdom session run (headerless CSV beside *_metadata.csv)",
-                 (".csv",), _sniff_optiodom, _read_optiodom, runs=_optiodom_runs,
-                 skip=_optiodom_metadata),
-    FormatReader("tum", "TUM trajectory (t x y z qx qy qz qw)", (".tum",), _sniff_tum,
-                 _read_tum),
-    FormatReader("csv", "CSV export (a time column t, __time, %time or timestamp)", (".csv",),
-                 _sniff_csv, _read_csv),
+    FormatReader(
+        "rosbag2",
+        "ROS 2 bag folder (metadata.yaml with .db3 or .mcap storage)",
+        (),
+        _sniff_bag_folder,
+        _read_bag,
+        folder=True,
+    ),
+    FormatReader(
+        "rosbag", "ROS bag file (ROS 1 .bag, rosbag2 .db3)", (".bag",), _sniff_bag_file, _read_bag
+    ),
+    FormatReader(
+        "mcap",
+        "MCAP (JSON, ROS 2, ROS 1 or protobuf messages)",
+        (".mcap",),
+        _sniff_mcap,
+        _read_mcap,
+    ),
+    FormatReader(
+        "optiodom",
+        "OptiOdom session run (headerless CSV beside *_metadata.csv)",
+        (".csv",),
+        _sniff_optiodom,
+        _read_optiodom,
+        runs=_optiodom_runs,
+        skip=_optiodom_metadata,
+    ),
+    FormatReader("tum", "TUM trajectory (t x y z qx qy qz qw)", (".tum",), _sniff_tum, _read_tum),
+    FormatReader(
+        "csv",
+        "CSV export (a time column t, __time, %time or timestamp)",
+        (".csv",),
+        _sniff_csv,
+        _read_csv,
+    ),
 )

@@ -67,13 +67,15 @@ def check_csv_width(path: str, head: bytes, size: int) -> int:
     if not newline and size > MAX_HEADER_BYTES:
         if line.count(b",") >= MAX_CSV_COLUMNS:
             raise NotAnMcapError(
-                path, f"the CSV has more than {line.count(b',')} columns; logcal reads at most "
+                path,
+                f"the CSV has more than {line.count(b',')} columns; logcal reads at most "
                 f"{MAX_CSV_COLUMNS} (CSV width budget); keep the time and the signals the "
-                "analysis needs"
+                "analysis needs",
             )
         raise NotAnMcapError(
-            path, f"the CSV's header line is longer than {MAX_HEADER_BYTES} bytes (CSV width "
-            f"budget: at most {MAX_CSV_COLUMNS} columns)"
+            path,
+            f"the CSV's header line is longer than {MAX_HEADER_BYTES} bytes (CSV width "
+            f"budget: at most {MAX_CSV_COLUMNS} columns)",
         )
     try:
         fields = next(csv.reader([line.decode("utf-8", "replace")]), [])
@@ -81,8 +83,9 @@ def check_csv_width(path: str, head: bytes, size: int) -> int:
         fields = line.split(b",")  # type: ignore[assignment]
     if len(fields) > MAX_CSV_COLUMNS:
         raise NotAnMcapError(
-            path, f"the CSV has {len(fields)} columns; logcal reads at most {MAX_CSV_COLUMNS} "
-            "(CSV width budget); keep the time and the signals the analysis needs"
+            path,
+            f"the CSV has {len(fields)} columns; logcal reads at most {MAX_CSV_COLUMNS} "
+            "(CSV width budget); keep the time and the signals the analysis needs",
         )
     return len(fields)
 

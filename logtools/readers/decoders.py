@@ -360,9 +360,7 @@ def _fits(joined: bytes, n: int, infer: int | None, budget: int) -> bool:
 def _null_after_head(frame: pl.DataFrame) -> bool:
     """Whether a column has nulls after the first ``_JSON_INFER_ROWS`` rows but none in them."""
     head = frame.head(_JSON_INFER_ROWS)
-    return any(
-        frame[c].null_count() > 0 and head[c].null_count() == 0 for c in frame.columns
-    )
+    return any(frame[c].null_count() > 0 and head[c].null_count() == 0 for c in frame.columns)
 
 
 def _uniform_keys(joined: bytes, n: int) -> bool:

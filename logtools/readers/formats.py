@@ -98,4 +98,3 @@ def _builtin() -> None:
         if isinstance(reader, FormatReader):
             _REGISTRY[:] = [r for r in _REGISTRY if r.name != reader.name]
             _REGISTRY.insert(0, reader)
-

@@ -177,8 +177,11 @@ def read_mcap_batched(
             if not read_metadata_record(amap[mi.offset : mi.offset + mi.length], summary):
                 return None
         if span_ns is not None:
-            ordered = [c for c in ordered if c.message_end_time >= span_ns[0]
-                       and c.message_start_time <= span_ns[1]]
+            ordered = [
+                c
+                for c in ordered
+                if c.message_end_time >= span_ns[0] and c.message_start_time <= span_ns[1]
+            ]
         wanted = None if topics is None else set(topics)
         times: dict[int, list[np.ndarray]] = {}
         parts: dict[int, list[pl.DataFrame]] = {}
@@ -188,15 +191,17 @@ def read_mcap_batched(
             hi += batch[-1].message_index_length
             if not (len(MAGIC) <= lo < hi <= summary_start and load(lo, hi)):
                 return None
-            ok = _decode_batch(path, amap, batch, summary, wanted, decoders, keep, times, parts,
-                               span_ns)
+            ok = _decode_batch(
+                path, amap, batch, summary, wanted, decoders, keep, times, parts, span_ns
+            )
             if hasattr(mmap, "MADV_DONTNEED"):  # give the batch's pages back (Linux, macOS)
                 first = lo // mmap.PAGESIZE * mmap.PAGESIZE
                 amap.madvise(mmap.MADV_DONTNEED, first, hi - first)
             if not ok:
                 return None
-    return _assemble(path, summary, stats, wanted, decoders, keep, times, parts,
-                     whole=span_ns is None)
+    return _assemble(
+        path, summary, stats, wanted, decoders, keep, times, parts, whole=span_ns is None
+    )
 
 
 def _summary(fh: RawIOBase, amap: mmap.mmap, size: int) -> tuple[ScanResult, int] | None:
@@ -398,7 +403,7 @@ def _columns_problem(
         count=n,
         message=f"{where}: {n} columns were not decoded: beyond {MAX_COLUMNS} columns or the "
         f"channel's cell budget ({CELL_BUDGET_BASE} + {CELLS_PER_PAYLOAD_BYTE} per payload "
-        "byte), or a field name made twice (\"a.b\" beside {\"a\": {\"b\": ...}}); the first "
+        'byte), or a field name made twice ("a.b" beside {"a": {"b": ...}}); the first '
         f"{decoded.frame.width} columns were kept",
     )
 

@@ -95,8 +95,9 @@ def _yaml_nodes(name: str, text: str) -> None:
         stack[-1][1] += n
         if stack[-1][1] > METADATA_MAX_NODES or n > METADATA_MAX_NODES:
             raise NotARosbagError(
-                name, f"{_METADATA} expands to more than {METADATA_MAX_NODES} YAML nodes "
-                "(aliases repeating aliases); rosbag2 writes no aliases"
+                name,
+                f"{_METADATA} expands to more than {METADATA_MAX_NODES} YAML nodes "
+                "(aliases repeating aliases); rosbag2 writes no aliases",
             )
 
     for event in YAML(typ="safe", pure=True).parse(io.StringIO(text)):
@@ -150,8 +151,9 @@ def checked_metadata(name: str, folder: Path) -> dict[str, Any]:
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as err:
-        raise NotARosbagError(name, f"{_METADATA} is not UTF-8 text ({err.reason} at byte "
-                                    f"{err.start})") from err
+        raise NotARosbagError(
+            name, f"{_METADATA} is not UTF-8 text ({err.reason} at byte {err.start})"
+        ) from err
     try:
         _yaml_nodes(name, text)
         doc = YAML(typ="safe", pure=True).load(text)
@@ -167,8 +169,9 @@ def checked_metadata(name: str, folder: Path) -> dict[str, Any]:
 
 
 def _check_info(name: str, key: str, info: dict[str, Any]) -> None:
-    def need(sub: str, test: Any, expected: str, where: dict[str, Any] = info,
-             prefix: str = key) -> Any:
+    def need(
+        sub: str, test: Any, expected: str, where: dict[str, Any] = info, prefix: str = key
+    ) -> Any:
         value = where.get(sub)
         _want(name, f"{prefix}.{sub}", value, sub in where and test(value), expected)
         return value
@@ -179,9 +182,11 @@ def _check_info(name: str, key: str, info: dict[str, Any]) -> None:
 
     need("version", _is_int, "an integer")
     need("storage_identifier", lambda v: isinstance(v, str), "a storage name (sqlite3, mcap)")
-    need("relative_file_paths",
-         lambda v: isinstance(v, list) and all(isinstance(p, str) and p for p in v),
-         "a list of file names")
+    need(
+        "relative_file_paths",
+        lambda v: isinstance(v, list) and all(isinstance(p, str) and p for p in v),
+        "a list of file names",
+    )
     for sub, inner in (("duration", "nanoseconds"), ("starting_time", "nanoseconds_since_epoch")):
         table = need(sub, lambda v: isinstance(v, dict), "a mapping")
         need(inner, _is_int, "an integer", table, f"{key}.{sub}")
@@ -203,12 +208,23 @@ def _check_info(name: str, key: str, info: dict[str, Any]) -> None:
     for sub in ("compression_format", "compression_mode", "ros_distro"):
         opt(sub, lambda v: isinstance(v, str), "a string")
     mode = (info.get("compression_mode") or "").lower()
-    _want(name, f"{key}.compression_mode", info.get("compression_mode"),
-          mode in ("", "none", "file", "message"), "'', 'none', 'file' or 'message'")
-    opt("custom_data",
-        lambda v: isinstance(v, dict) and all(
-            isinstance(k, str) and isinstance(x, (str, int, float, bool)) for k, x in v.items()),
-        "a mapping of names to plain values")
+    _want(
+        name,
+        f"{key}.compression_mode",
+        info.get("compression_mode"),
+        mode in ("", "none", "file", "message"),
+        "'', 'none', 'file' or 'message'",
+    )
+    opt(
+        "custom_data",
+        lambda v: (
+            isinstance(v, dict)
+            and all(
+                isinstance(k, str) and isinstance(x, (str, int, float, bool)) for k, x in v.items()
+            )
+        ),
+        "a mapping of names to plain values",
+    )
     opt("files", lambda v: isinstance(v, list), "a list")
 
 
@@ -226,15 +242,17 @@ def prepared_folder(
     mode = "" if mode == "none" else mode
     if mode and (info.get("compression_format") or "") != "zstd":
         raise NotARosbagError(
-            name, f"{_METADATA}: compression_format is {info.get('compression_format')!r} with "
-            f"compression_mode {mode!r}; rosbag2 compresses with 'zstd' only"
+            name,
+            f"{_METADATA}: compression_format is {info.get('compression_format')!r} with "
+            f"compression_mode {mode!r}; rosbag2 compresses with 'zstd' only",
         )
     names = [Path(p).name for p in info["relative_file_paths"]]
     sources = [folder / n for n in names]
     missing = [str(p) for p in sources if not p.is_file()]
     if missing:
-        raise NotARosbagError(name, f"storage files named in {_METADATA} are missing: "
-                                    f"{', '.join(missing[:5])}")
+        raise NotARosbagError(
+            name, f"storage files named in {_METADATA} are missing: {', '.join(missing[:5])}"
+        )
     tmp = Path(stack.enter_context(TemporaryDirectory(prefix="logcal_bag_")))
     budget = decompress_budget(sum(p.stat().st_size for p in sources))
     used = 0
@@ -243,8 +261,9 @@ def prepared_folder(
         target = tmp / ((src.stem or "storage") if mode == "file" else src.name)
         if target.name in clean:  # one storage file read twice, or two that would clash
             raise NotARosbagError(
-                name, f"{_METADATA}: relative_file_paths names {src.name!r} where another "
-                f"entry already gives the storage file {target.name!r}; each file once"
+                name,
+                f"{_METADATA}: relative_file_paths names {src.name!r} where another "
+                f"entry already gives the storage file {target.name!r}; each file once",
             )
         if mode == "file":
             used += _decompress_file(name, src, target, budget - used)
@@ -271,13 +290,15 @@ def _decompress_file(name: str, src: Path, target: Path, left: int) -> int:
                 n += len(piece)
                 if n > left:
                     raise NotARosbagError(
-                        name, f"{src.name} (compression_mode file) decompresses to more than "
-                        f"the budget of {left} bytes left (64 MiB + 32 x the bag's size)"
+                        name,
+                        f"{src.name} (compression_mode file) decompresses to more than "
+                        f"the budget of {left} bytes left (64 MiB + 32 x the bag's size)",
                     )
                 fout.write(piece)
     except zstandard.ZstdError as err:
-        raise NotARosbagError(name, f"{src.name} is not zstd-compressed as {_METADATA} "
-                                    f"says ({err})") from err
+        raise NotARosbagError(
+            name, f"{src.name} is not zstd-compressed as {_METADATA} says ({err})"
+        ) from err
     return n
 
 
@@ -312,8 +333,9 @@ class PayloadGuard:
             return self._drop(topic, f"its payload is not zstd ({err})")
         if len(out) > self.left:
             raise NotARosbagError(
-                self.name, "its zstd-compressed messages (compression_mode message) decompress "
-                "to more than the budget of 64 MiB + 32 x the bag's size"
+                self.name,
+                "its zstd-compressed messages (compression_mode message) decompress "
+                "to more than the budget of 64 MiB + 32 x the bag's size",
             )
         self.left -= len(out)
         return out
@@ -327,19 +349,27 @@ class PayloadGuard:
         """The problems found before and while reading: dropped messages per topic."""
         out = list(self.problems)
         for topic, n in sorted(self.dropped.items()):
-            out.append(Problem(
-                ProblemKind.DROPPED_MESSAGES, topic, count=n,
-                message=f"{self.name}: topic {topic!r}: {n} messages were dropped (first: "
-                f"{self.why[topic]})",
-            ))
+            out.append(
+                Problem(
+                    ProblemKind.DROPPED_MESSAGES,
+                    topic,
+                    count=n,
+                    message=f"{self.name}: topic {topic!r}: {n} messages were dropped (first: "
+                    f"{self.why[topic]})",
+                )
+            )
         return out
 
 
 # ----------------------------------------------------------------------------- .db3 files
 
 
-_TOPIC_COLUMNS = (("id", "integer"), ("name", "text"), ("type", "text"),
-                  ("serialization_format", "text"))
+_TOPIC_COLUMNS = (
+    ("id", "integer"),
+    ("name", "text"),
+    ("type", "text"),
+    ("serialization_format", "text"),
+)
 
 
 def check_db3(name: str, path: Path) -> list[Problem]:
@@ -360,8 +390,9 @@ def check_db3(name: str, path: Path) -> list[Problem]:
             ).fetchone()
             if row[0]:
                 raise NotARosbagError(
-                    name, f"{path.name}: table topics, column {col}: {row[0]} rows hold "
-                    f"{row[1]}, not {want}"
+                    name,
+                    f"{path.name}: table topics, column {col}: {row[0]} rows hold "
+                    f"{row[1]}, not {want}",
                 )
         row = con.execute(
             "SELECT count(*), min(typeof(timestamp)) FROM messages "
@@ -369,8 +400,9 @@ def check_db3(name: str, path: Path) -> list[Problem]:
         ).fetchone()
         if row[0]:  # rosbags computes the bag's time span from these before any message
             raise NotARosbagError(
-                name, f"{path.name}: table messages, column timestamp: {row[0]} rows hold "
-                f"{row[1]}, not integer nanoseconds"
+                name,
+                f"{path.name}: table messages, column timestamp: {row[0]} rows hold "
+                f"{row[1]}, not integer nanoseconds",
             )
         (orphans,) = con.execute(
             "SELECT count(*) FROM messages WHERE topic_id NOT IN (SELECT id FROM topics)"
@@ -381,11 +413,14 @@ def check_db3(name: str, path: Path) -> list[Problem]:
         con.close()
     if not orphans:
         return []
-    return [Problem(
-        ProblemKind.UNKNOWN_CHANNEL, count=orphans,
-        message=f"{name}: {path.name}: {orphans} messages name a topic_id that the topics table "
-        "does not hold; they were not read",
-    )]
+    return [
+        Problem(
+            ProblemKind.UNKNOWN_CHANNEL,
+            count=orphans,
+            message=f"{name}: {path.name}: {orphans} messages name a topic_id that the topics "
+            "table does not hold; they were not read",
+        )
+    ]
 
 
 # ----------------------------------------------------------------------------- chunks
@@ -399,8 +434,9 @@ def _decompressor(kind: str) -> Any:
     return None
 
 
-def _chunk_size(name: str, fh: BinaryIO, at: int, length: int, kind: str, limit: int,
-                where: str) -> int:
+def _chunk_size(
+    name: str, fh: BinaryIO, at: int, length: int, kind: str, limit: int, where: str
+) -> int:
     """Decompress ``length`` bytes at ``at`` of ``fh`` (``kind``: bz2, lz4, zstd) by streaming,
     discarding the output; the decompressed size, refused beyond ``limit``."""
     fh.seek(at)
@@ -408,7 +444,8 @@ def _chunk_size(name: str, fh: BinaryIO, at: int, length: int, kind: str, limit:
     try:
         if kind == "zstd":
             reader = zstandard.ZstdDecompressor().stream_reader(
-                io.BytesIO(fh.read(length)), read_across_frames=True)
+                io.BytesIO(fh.read(length)), read_across_frames=True
+            )
             while piece := reader.read(_STEP):
                 n += len(piece)
                 if n > limit:
@@ -416,12 +453,17 @@ def _chunk_size(name: str, fh: BinaryIO, at: int, length: int, kind: str, limit:
         else:
             n = _stream_count(fh, length, kind, limit)
     except (OSError, EOFError, RuntimeError, ValueError, zstandard.ZstdError) as err:
-        raise NotARosbagError(name, f"the {kind} chunk at offset {where} does not decompress "
-                                    f"({type(err).__name__}: {err})") from err
+        raise NotARosbagError(
+            name,
+            f"the {kind} chunk at offset {where} does not decompress ({type(err).__name__}: {err})",
+        ) from err
     if n > limit:
-        raise NotARosbagError(name, f"the {kind} chunk at offset {where} decompresses to more "
-                                    f"than {limit} bytes (what it declares, or what is left of "
-                                    "the decompression budget of 64 MiB + 32 x the file size)")
+        raise NotARosbagError(
+            name,
+            f"the {kind} chunk at offset {where} decompresses to more "
+            f"than {limit} bytes (what it declares, or what is left of "
+            "the decompression budget of 64 MiB + 32 x the file size)",
+        )
     return n
 
 
@@ -463,8 +505,11 @@ def verify_ros1_chunks(name: str, path: Path, chunks: list[tuple[int, int, int, 
             if kind == "none":
                 continue
             if kind not in ("bz2", "lz4"):
-                raise NotARosbagError(name, f"the chunk at offset {pos} has compression "
-                                            f"{kind!r}; ROS 1 bags use none, bz2 or lz4")
+                raise NotARosbagError(
+                    name,
+                    f"the chunk at offset {pos} has compression "
+                    f"{kind!r}; ROS 1 bags use none, bz2 or lz4",
+                )
             limit = min(declared, left)
             left -= _chunk_size(name, fh, at, length, kind, limit, str(pos))
 
@@ -495,7 +540,7 @@ def verify_mcap_chunks(name: str, path: Path) -> None:
                 head = fh.read(min(length, 4096))
                 declared = struct.unpack_from("<Q", head, 16)[0]
                 (clen,) = struct.unpack_from("<I", head, 28)
-                kind = head[32:32 + clen].decode("latin-1")
+                kind = head[32 : 32 + clen].decode("latin-1")
                 rec_at = 32 + clen
                 if kind and len(head) >= rec_at + 8:
                     (rlen,) = struct.unpack_from("<Q", head, rec_at)
@@ -506,8 +551,9 @@ def verify_mcap_chunks(name: str, path: Path) -> None:
             pos += 9 + length
 
 
-def bounded_target(name: str, target: Path, is_ros1: bool, stack: ExitStack
-                   ) -> tuple[Path, PayloadGuard]:
+def bounded_target(
+    name: str, target: Path, is_ros1: bool, stack: ExitStack
+) -> tuple[Path, PayloadGuard]:
     """What ``rosbags`` should open for the bag at ``target`` and the guard its messages go
     through, after the checks above (ROS 1 chunks are checked by the record walk)."""
     if is_ros1 or not target.exists():

@@ -165,11 +165,18 @@ def check_plain_files(name: str, folder: Path) -> None:
         except OSError:
             continue  # a dangling link: rosbags names the missing file if it needs it
         if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
-            kind = ("a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode)
-                    else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
-                    else "not a regular file")
-            raise NotARosbagError(name, f"{entry!r} in the bag folder is {kind}; logcal "
-                                        "reads regular files only")
+            kind = (
+                "a FIFO"
+                if stat.S_ISFIFO(mode)
+                else "a socket"
+                if stat.S_ISSOCK(mode)
+                else "a device"
+                if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+                else "not a regular file"
+            )
+            raise NotARosbagError(
+                name, f"{entry!r} in the bag folder is {kind}; logcal reads regular files only"
+            )
 
 
 def _describe(err: BaseException) -> str:
@@ -199,16 +206,18 @@ def check_ros1_records(name: str, path: Path) -> None:
             (hlen,) = struct.unpack("<I", head) if len(head) == 4 else (size,)
             if pos + 4 + hlen + 4 > size:
                 raise NotARosbagError(
-                    name, f"the record at offset {pos} has a {hlen}-byte header: past the end "
-                    f"of the {size}-byte file (truncated or corrupt)"
+                    name,
+                    f"the record at offset {pos} has a {hlen}-byte header: past the end "
+                    f"of the {size}-byte file (truncated or corrupt)",
                 )
             fields = _ros1_header_fields(fh.read(hlen))
             (dlen,) = struct.unpack("<I", fh.read(4))
             end = pos + 4 + hlen + 4 + dlen
             if end > size:
                 raise NotARosbagError(
-                    name, f"the record at offset {pos} holds {dlen} data bytes: past the end of "
-                    f"the {size}-byte file (truncated or corrupt)"
+                    name,
+                    f"the record at offset {pos} holds {dlen} data bytes: past the end of "
+                    f"the {size}-byte file (truncated or corrupt)",
                 )
             op = fields.get("op", b"\xff")[:1]
             if op == bytes([_ROS1_OP_BAG_HEADER]) and len(fields.get("index_pos", b"")) == 8:
@@ -217,8 +226,9 @@ def check_ros1_records(name: str, path: Path) -> None:
                 (unpacked,) = struct.unpack("<I", fields["size"])
                 if unpacked > budget:
                     raise NotARosbagError(
-                        name, f"the chunk at offset {pos} declares {unpacked} bytes uncompressed, "
-                        f"beyond the decompression budget of {budget} bytes"
+                        name,
+                        f"the chunk at offset {pos} declares {unpacked} bytes uncompressed, "
+                        f"beyond the decompression budget of {budget} bytes",
                     )
                 kind = fields.get("compression", b"none").decode("latin-1")
                 chunks.append((pos, pos + 4 + hlen + 4, dlen, kind, unpacked))

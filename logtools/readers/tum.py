@@ -112,7 +112,8 @@ def read_tum(path: str | os.PathLike[str]) -> LogData:
             )
         if abs(values[0]) > _INT64_NS_LIMIT_S:
             raise NotAnMcapError(
-                name, f"line {number} of the TUM trajectory has the time {cells[0]}, which is no "
+                name,
+                f"line {number} of the TUM trajectory has the time {cells[0]}, which is no "
                 "time in seconds (beyond +-9.2e9 s)",
             )
         rows.append(values)
@@ -125,33 +126,56 @@ def read_tum(path: str | os.PathLike[str]) -> LogData:
     finite = np.all(np.isfinite(raw_rows), axis=1)
     if not finite.all():
         n_bad = int((~finite).sum())
-        problems.append(Problem(ProblemKind.NO_TIME, CSV_TOPIC, count=n_bad,
-                                message=f"{name}: {n_bad} TUM lines with non-finite values "
-                                "dropped"))
+        problems.append(
+            Problem(
+                ProblemKind.NO_TIME,
+                CSV_TOPIC,
+                count=n_bad,
+                message=f"{name}: {n_bad} TUM lines with non-finite values dropped",
+            )
+        )
         raw_rows, exact = raw_rows[finite], exact[finite]
     if np.any(np.diff(exact) < 0):
-        problems.append(Problem(ProblemKind.UNSORTED, CSV_TOPIC,
-                                count=int(np.sum(np.diff(exact) < 0)),
-                                message=f"{name}: TUM time is not increasing; lines were sorted"))
+        problems.append(
+            Problem(
+                ProblemKind.UNSORTED,
+                CSV_TOPIC,
+                count=int(np.sum(np.diff(exact) < 0)),
+                message=f"{name}: TUM time is not increasing; lines were sorted",
+            )
+        )
         order = np.argsort(exact, kind="stable")
         raw_rows, exact = raw_rows[order], exact[order]
     t_ns = exact
     keep = np.concatenate(([True], np.diff(t_ns) > 0))
     if not keep.all():
-        problems.append(Problem(ProblemKind.UNSORTED, CSV_TOPIC, count=int((~keep).sum()),
-                                message=f"{name}: {int((~keep).sum())} TUM lines repeat the "
-                                "previous stamp; the first of each was kept"))
+        problems.append(
+            Problem(
+                ProblemKind.UNSORTED,
+                CSV_TOPIC,
+                count=int((~keep).sum()),
+                message=f"{name}: {int((~keep).sum())} TUM lines repeat the "
+                "previous stamp; the first of each was kept",
+            )
+        )
         raw_rows, t_ns = raw_rows[keep], t_ns[keep]
     q = raw_rows[:, 4:8]
     norm = np.linalg.norm(q, axis=1)
     if np.any(norm == 0):
-        raise NotAnMcapError(name, "a TUM line has the quaternion (0, 0, 0, 0); expected a "
-                             "unit quaternion qx qy qz qw")
+        raise NotAnMcapError(
+            name,
+            "a TUM line has the quaternion (0, 0, 0, 0); expected a unit quaternion qx qy qz qw",
+        )
     if np.any(np.abs(norm - 1) > 1e-3):
-        problems.append(Problem(ProblemKind.SIGNAL, CSV_TOPIC,
-                                count=int(np.sum(np.abs(norm - 1) > 1e-3)),
-                                message=f"{name}: TUM quaternions of length up to "
-                                f"{float(np.max(np.abs(norm - 1))) + 1:.4g} were normalised"))
+        problems.append(
+            Problem(
+                ProblemKind.SIGNAL,
+                CSV_TOPIC,
+                count=int(np.sum(np.abs(norm - 1) > 1e-3)),
+                message=f"{name}: TUM quaternions of length up to "
+                f"{float(np.max(np.abs(norm - 1))) + 1:.4g} were normalised",
+            )
+        )
     qx, qy, qz, qw = (q / norm[:, None]).T
     yaw = np.arctan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
     frame = pl.DataFrame(
@@ -176,16 +200,23 @@ def read_tum(path: str | os.PathLike[str]) -> LogData:
         first_ns=int(t_ns[0]),
         last_ns=int(t_ns[-1]),
     )
-    return LogData(name, {CSV_TOPIC: frame}, {CSV_TOPIC: info}, {"tum": {"file": name}},
-                   problems)
+    return LogData(name, {CSV_TOPIC: frame}, {CSV_TOPIC: info}, {"tum": {"file": name}}, problems)
 
 
-def write_tum(path: str | os.PathLike[str], t_s: np.ndarray, x: np.ndarray, y: np.ndarray,
-              yaw: np.ndarray, *, header: str = "") -> None:
+def write_tum(
+    path: str | os.PathLike[str],
+    t_s: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    yaw: np.ndarray,
+    *,
+    header: str = "",
+) -> None:
     """Write a planar pose track as a TUM trajectory (z = 0, rotation about z by ``yaw``)."""
     lines = [f"# {header}"] if header else []
     lines.append("# t x y z qx qy qz qw")
     for ti, xi, yi, wi in zip(t_s, x, y, yaw, strict=True):
-        lines.append(f"{ti:.9f} {xi:.9g} {yi:.9g} 0 0 0 {math.sin(wi / 2):.12g} "
-                     f"{math.cos(wi / 2):.12g}")
+        lines.append(
+            f"{ti:.9f} {xi:.9g} {yi:.9g} 0 0 0 {math.sin(wi / 2):.12g} {math.cos(wi / 2):.12g}"
+        )
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")

@@ -257,8 +257,9 @@ class RobotPlugin:
     span_signals: tuple[str, ...] = ()
     prepare: Callable[[pl.DataFrame, RobotConfig], pl.DataFrame] | None = None
     derived_signals: tuple[SignalDerivation, ...] = ()
-    derive_pooled: Callable[[CalibrationResult, Sequence[CalibrationResult]],
-                            Mapping[str, Estimate]] | None = None
+    derive_pooled: (
+        Callable[[CalibrationResult, Sequence[CalibrationResult]], Mapping[str, Estimate]] | None
+    ) = None
     options: type[RobotOptions] = RobotOptions
     uses_settings: tuple[str, ...] = ()
     info: str | None = None

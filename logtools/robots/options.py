@@ -104,8 +104,7 @@ def option(
         raise ValueError(f"option {flag}: or_name=True needs file=True")
     if batch and file:
         raise ValueError(f"option {flag}: batch=True is for options that name no file")
-    declared = _Declared(flag, help, metavar, view, above, at_least, file, or_name, batch,
-                         info)
+    declared = _Declared(flag, help, metavar, view, above, at_least, file, or_name, batch, info)
     return dataclasses.field(default=default, metadata={_META: declared})
 
 
@@ -168,8 +167,10 @@ def _value_type(hint: Any, where: str) -> type:
             hint = rest[0]
     if isinstance(hint, type) and (hint in _VALUE_TYPES or issubclass(hint, Enum)):
         return hint
-    raise TypeError(f"{where}: an option's type must be bool, int, float, str, Path or an Enum "
-                    f"(optionally | None); got {hint!r}")
+    raise TypeError(
+        f"{where}: an option's type must be bool, int, float, str, Path or an Enum "
+        f"(optionally | None); got {hint!r}"
+    )
 
 
 def _default_metavar(kind: type) -> str:
@@ -193,18 +194,31 @@ def options_fields(cls: type[RobotOptions], robot: str = "") -> tuple[OptionSpec
             raise TypeError(f"{cls.__name__}.{f.name}: file=True needs a str or Path option")
         names_file = declared.file or kind is Path
         if declared.batch and names_file:
-            raise TypeError(f"{cls.__name__}.{f.name}: batch=True is for options that name "
-                            "no file")
+            raise TypeError(f"{cls.__name__}.{f.name}: batch=True is for options that name no file")
         metavar = declared.metavar
         if metavar is None:
-            metavar = (("PATH_OR_NAME" if declared.or_name else "PATH") if names_file
-                       else _default_metavar(kind))
-        out.append(OptionSpec(
-            key=f.name, flag=declared.flag, help=declared.help, metavar=metavar,
-            view=declared.view, type=kind, above=declared.above, at_least=declared.at_least,
-            robot=robot, file=names_file, or_name=declared.or_name, batch=declared.batch,
-            info=declared.info,
-        ))
+            metavar = (
+                ("PATH_OR_NAME" if declared.or_name else "PATH")
+                if names_file
+                else _default_metavar(kind)
+            )
+        out.append(
+            OptionSpec(
+                key=f.name,
+                flag=declared.flag,
+                help=declared.help,
+                metavar=metavar,
+                view=declared.view,
+                type=kind,
+                above=declared.above,
+                at_least=declared.at_least,
+                robot=robot,
+                file=names_file,
+                or_name=declared.or_name,
+                batch=declared.batch,
+                info=declared.info,
+            )
+        )
     return tuple(out)
 
 

@@ -21,6 +21,8 @@ from logtools.writers.mcap_writer import CdrEncoder, JsonEncoder, TopicBinding, 
 __all__ = ["JOINT_TOPIC", "arm_metadata", "write_arm_run"]
 
 JOINT_TOPIC = "/joint_states"
+
+
 def arm_metadata(
     run: ArmRun,
     *,
@@ -84,8 +86,12 @@ def write_arm_run(
     frames = {"joints": pl.DataFrame(columns)}
     if str(encoding) == "ros2":
         binding = TopicBinding(
-            JOINT_TOPIC, "joints", "sensor_msgs/msg/JointState", fields,
-            constants={"name": names, "header.frame_id": ""}, stamp_field="header.stamp",
+            JOINT_TOPIC,
+            "joints",
+            "sensor_msgs/msg/JointState",
+            fields,
+            constants={"name": names, "header.frame_id": ""},
+            stamp_field="header.stamp",
         )
         return write_frames_mcap(path, frames, [binding], CdrEncoder(), metadata=meta)
     if str(encoding) == "json":

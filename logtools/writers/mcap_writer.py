@@ -111,7 +111,8 @@ def json_schema(binding: TopicBinding) -> dict[str, Any]:
                 )
             if array not in target["properties"]:
                 target["properties"][array] = {
-                    "type": "array", "items": {"type": ["number", "null"]}
+                    "type": "array",
+                    "items": {"type": ["number", "null"]},
                 }
                 target["required"].append(array)
             continue

@@ -79,8 +79,7 @@ def test_structured_residual_is_not_explained_and_located_in_time() -> None:
 def test_misfit_located_along_a_covariate() -> None:
     speed = np.abs(np.sin(T / 7.0)) * 3.0
     r = _white(6, 0.01) + 0.08 * (speed > 2.4)
-    a = assess([ResidualChannel("psi", "rad", T, r, covariates={"speed (m/s)": speed})],
-               model="m")
+    a = assess([ResidualChannel("psi", "rad", T, r, covariates={"speed (m/s)": speed})], model="m")
     axes = {loc.axis for loc in a.located}
     assert "speed (m/s)" in axes
     top = next(loc for loc in a.located if loc.axis == "speed (m/s)")
@@ -118,16 +117,24 @@ def test_under_misfit_widens_and_undetermines_only_under_a_misfit() -> None:
 
 def test_parameter_change_finds_a_step_and_not_a_constant() -> None:
     rng = np.random.default_rng(11)
-    step = [PieceFit(10.0 * i, 10.0 * (i + 1), {"L2": (2.5 if i < 5 else 3.0)
-                                                  + rng.normal(0, 0.02)}, {"L2": 0.02})
-            for i in range(8)]
+    step = [
+        PieceFit(
+            10.0 * i,
+            10.0 * (i + 1),
+            {"L2": (2.5 if i < 5 else 3.0) + rng.normal(0, 0.02)},
+            {"L2": 0.02},
+        )
+        for i in range(8)
+    ]
     ch = parameter_change(step, ["L2"])
     assert ch is not None
     assert ch.t_s == pytest.approx(50.0)
     assert ch.before["L2"] == pytest.approx(2.5, abs=0.05)
     assert ch.after["L2"] == pytest.approx(3.0, abs=0.05)
-    flat = [PieceFit(10.0 * i, 10.0 * (i + 1), {"L2": 2.5 + rng.normal(0, 0.02)}, {"L2": 0.02})
-            for i in range(8)]
+    flat = [
+        PieceFit(10.0 * i, 10.0 * (i + 1), {"L2": 2.5 + rng.normal(0, 0.02)}, {"L2": 0.02})
+        for i in range(8)
+    ]
     assert parameter_change(flat, ["L2"]) is None
     assert parameter_change(flat[:3], ["L2"]) is None  # too few pieces to tell
 
@@ -144,10 +151,20 @@ def test_span_covers_both_explanations() -> None:
 # --- selection on a toy linear model: y = g * x + b + noise, gain g the robot's parameter ----
 
 X = np.linspace(-1.0, 1.0, 400)
-OFFSET = EffectSpec("sensor_offset", "y", EffectKind.SENSOR,
-                    (EffectParam("offset", "", 0.0, -1.0, 1.0, 0.0),), "y reads offset high")
-CUBIC = EffectSpec("nonlinearity", "y", EffectKind.SENSOR,
-                   (EffectParam("c3", "", 0.0, -1.0, 1.0, 0.0),), "y has a cubic term")
+OFFSET = EffectSpec(
+    "sensor_offset",
+    "y",
+    EffectKind.SENSOR,
+    (EffectParam("offset", "", 0.0, -1.0, 1.0, 0.0),),
+    "y reads offset high",
+)
+CUBIC = EffectSpec(
+    "nonlinearity",
+    "y",
+    EffectKind.SENSOR,
+    (EffectParam("c3", "", 0.0, -1.0, 1.0, 0.0),),
+    "y has a cubic term",
+)
 
 
 def _fitter(y: np.ndarray, sigma: float):  # type: ignore[no-untyped-def]
@@ -164,12 +181,20 @@ def _fitter(y: np.ndarray, sigma: float):  # type: ignore[no-untyped-def]
         r_train = y[~held] - A[~held] @ coef
         r_held = y[held] - A[held] @ coef
         cov = np.linalg.inv(A[~held].T @ A[~held]) * sigma**2
-        est = {n: Estimate(n, float(c), float(math.sqrt(cov[i, i])), (0, 0))
-               for i, (n, c) in enumerate(zip(names, coef, strict=True))}
+        est = {
+            n: Estimate(n, float(c), float(math.sqrt(cov[i, i])), (0, 0))
+            for i, (n, c) in enumerate(zip(names, coef, strict=True))
+        }
         eff = {e.key: {e.params[0].name: est[e.key]} for e in effects}
-        return ModelFit(effects, {"gain": est["gain"]}, eff,
-                        float((r_train**2).sum() / sigma**2), float((r_held**2).sum() / sigma**2),
-                        int((~held).sum()), len(names))
+        return ModelFit(
+            effects,
+            {"gain": est["gain"]},
+            eff,
+            float((r_train**2).sum() / sigma**2),
+            float((r_held**2).sum() / sigma**2),
+            int((~held).sum()),
+            len(names),
+        )
 
     return fit
 
@@ -193,8 +218,13 @@ def test_selection_reports_a_confound_that_moves_the_parameter() -> None:
     # fit moves the gain is what a confound looks like).
     rng = np.random.default_rng(13)
     y = 2.0 * X + 0.3 * X**3 + rng.normal(0.0, 0.01, X.size)
-    twin = EffectSpec("other_cubic", "y", EffectKind.DYNAMICS,
-                      (EffectParam("c3", "", 0.0, -1.0, 1.0, 0.0),), "a twin")
+    twin = EffectSpec(
+        "other_cubic",
+        "y",
+        EffectKind.DYNAMICS,
+        (EffectParam("c3", "", 0.0, -1.0, 1.0, 0.0),),
+        "a twin",
+    )
     base = _fitter(y, 0.01)
 
     def fit(effects: tuple[EffectSpec, ...]) -> ModelFit | None:
@@ -206,9 +236,15 @@ def test_selection_reports_a_confound_that_moves_the_parameter() -> None:
             g = f.parameters["gain"]
             moved = Estimate("gain", g.value + 0.5, g.std, g.ci95)
             key = {"nonlinearity(y)": "other_cubic(y)"}
-            return ModelFit(effects, {"gain": moved},
-                            {key.get(k, k): v for k, v in f.effect_parameters.items()},
-                            f.sse + 1.0, f.heldout_sse, f.n, f.k)
+            return ModelFit(
+                effects,
+                {"gain": moved},
+                {key.get(k, k): v for k, v in f.effect_parameters.items()},
+                f.sse + 1.0,
+                f.heldout_sse,
+                f.n,
+                f.k,
+            )
         return f
 
     sel = select_effects(fit, [CUBIC, twin])
@@ -224,8 +260,7 @@ def test_pooled_runs_are_not_explained_when_one_run_is_not() -> None:
     from calib.adequacy import combine_runs
 
     good = assess([ResidualChannel("psi", "rad", T, _white(14, 0.01))], model="m")
-    bad = assess([ResidualChannel("psi", "rad", T, _white(15, 0.01) + 0.05 * np.sin(T))],
-                 model="m")
+    bad = assess([ResidualChannel("psi", "rad", T, _white(15, 0.01) + 0.05 * np.sin(T))], model="m")
     assert combine_runs([("a", good), ("b", good)], "m").verdict == EXPLAINS
     both = combine_runs([("a", good), ("b", bad)], "m")
     assert both.verdict == NOT_EXPLAINED
@@ -241,11 +276,14 @@ def test_noise_floor_of_a_mostly_resting_signal_does_not_collapse() -> None:
 
 
 def test_parameter_change_ignores_a_tiny_or_drifting_difference() -> None:
-    tiny = [PieceFit(10.0 * i, 10.0 * (i + 1), {"m": 1.0 + (0.002 if i >= 4 else 0.0)},
-                     {"m": 1e-5}) for i in range(8)]
+    tiny = [
+        PieceFit(10.0 * i, 10.0 * (i + 1), {"m": 1.0 + (0.002 if i >= 4 else 0.0)}, {"m": 1e-5})
+        for i in range(8)
+    ]
     assert parameter_change(tiny, ["m"]) is None  # 0.2 %: below min_relative
-    drift = [PieceFit(10.0 * i, 10.0 * (i + 1), {"m": 1.0 + 0.05 * i}, {"m": 1e-3})
-             for i in range(8)]
+    drift = [
+        PieceFit(10.0 * i, 10.0 * (i + 1), {"m": 1.0 + 0.05 * i}, {"m": 1e-3}) for i in range(8)
+    ]
     assert parameter_change(drift, ["m"]) is None  # a steady drift is not one change
 
 
@@ -253,15 +291,23 @@ def test_piece_stability_widens_only_a_parameter_that_scatters() -> None:
     from calib.adequacy import piece_stability, widen_unstable
 
     rng = np.random.default_rng(17)
-    pieces = [PieceFit(10.0 * i, 10.0 * (i + 1),
-                       {"a": 1.0 + rng.normal(0, 0.01), "b": 2.0 + 0.2 * (-1) ** i},
-                       {"a": 0.01, "b": 0.01}) for i in range(6)]
+    pieces = [
+        PieceFit(
+            10.0 * i,
+            10.0 * (i + 1),
+            {"a": 1.0 + rng.normal(0, 0.01), "b": 2.0 + 0.2 * (-1) ** i},
+            {"a": 0.01, "b": 0.01},
+        )
+        for i in range(6)
+    ]
     st = piece_stability(pieces, ["a", "b"])
     assert not st["a"].unstable
     assert st["b"].unstable
     assert st["b"].factor > 10
-    est = {"a": Estimate("a", 1.0, 0.004, (0.992, 1.008)),
-           "b": Estimate("b", 2.0, 0.004, (1.992, 2.008))}
+    est = {
+        "a": Estimate("a", 1.0, 0.004, (0.992, 1.008)),
+        "b": Estimate("b", 2.0, 0.004, (1.992, 2.008)),
+    }
     w = widen_unstable(est, st, rel_tol=0.05)
     assert w["a"] is est["a"]
     assert w["b"].std > 0.2

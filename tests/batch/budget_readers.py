@@ -49,8 +49,13 @@ def _hog(path: str, req: ReadRequest) -> LogData:
 
 
 def _reader(suffix: str, read: object) -> FormatReader:
-    return FormatReader(f"test{suffix}", f"test reader {suffix}", (suffix,),
-                        lambda path, head: Path(path).suffix == suffix, read)  # type: ignore[arg-type]
+    return FormatReader(
+        f"test{suffix}",
+        f"test reader {suffix}",
+        (suffix,),
+        lambda path, head: Path(path).suffix == suffix,
+        read,
+    )  # type: ignore[arg-type]
 
 
 def install() -> None:

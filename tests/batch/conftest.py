@@ -18,8 +18,7 @@ def archive(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="session")
-def batch_run(archive: Path, tmp_path_factory: pytest.TempPathFactory
-              ) -> tuple[Path, BatchSummary]:
+def batch_run(archive: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, BatchSummary]:
     """The full archive analysed once (2 workers, views on)."""
     out = tmp_path_factory.mktemp("out")
     options = dataclasses.replace(FAST, views=True)

@@ -22,10 +22,14 @@ from viz.screenshot import CHROMIUM, READY_COLORS, color_pixel_counts
 pytestmark = [
     pytest.mark.browser,
     pytest.mark.slow,
-    pytest.mark.skipif(not os.access(CHROMIUM, os.X_OK),
-                       reason=f"needs Debian's chromium at {CHROMIUM} (apt-get install chromium)"),
-    pytest.mark.skipif(importlib.util.find_spec("playwright") is None,
-                       reason="needs Playwright (pip install '.[test]')"),
+    pytest.mark.skipif(
+        not os.access(CHROMIUM, os.X_OK),
+        reason=f"needs Debian's chromium at {CHROMIUM} (apt-get install chromium)",
+    ),
+    pytest.mark.skipif(
+        importlib.util.find_spec("playwright") is None,
+        reason="needs Playwright (pip install '.[test]')",
+    ),
 ]
 
 _STATS = """() => ({
@@ -36,8 +40,9 @@ _STATS = """() => ({
 })"""
 
 
-def test_report_renders_and_opens_recordings(batch_run: tuple[Path, BatchSummary],
-                                             tmp_path: Path) -> None:
+def test_report_renders_and_opens_recordings(
+    batch_run: tuple[Path, BatchSummary], tmp_path: Path
+) -> None:
     from playwright.sync_api import sync_playwright
 
     out, _ = batch_run
@@ -46,8 +51,10 @@ def test_report_renders_and_opens_recordings(batch_run: tuple[Path, BatchSummary
     try:
         with sync_playwright() as pw:
             browser = pw.chromium.launch(
-                executable_path=CHROMIUM, headless=True,
-                args=["--enable-unsafe-swiftshader", "--use-angle=swiftshader"])
+                executable_path=CHROMIUM,
+                headless=True,
+                args=["--enable-unsafe-swiftshader", "--use-angle=swiftshader"],
+            )
             try:
                 page = browser.new_page(viewport={"width": 1300, "height": 1800})
                 page.on("dialog", lambda d: (dialogs.append(d.message), d.dismiss()))
@@ -74,8 +81,12 @@ def test_report_renders_and_opens_recordings(batch_run: tuple[Path, BatchSummary
                 rec = next(r for r in read_records(out) if r["log"] == "truckA/a0.mcap")
                 page.goto(server.url + f"pages/{rec['id']}.html", wait_until="load")
                 fetched: list[int] = []
-                page.on("response", lambda r: fetched.append(r.status)
-                        if r.url.endswith(rec["views"][".rrd"]) else None)
+                page.on(
+                    "response",
+                    lambda r: (
+                        fetched.append(r.status) if r.url.endswith(rec["views"][".rrd"]) else None
+                    ),
+                )
                 page.click("a.rerun-web")
                 page.wait_for_url(server.viewer_url + "*", timeout=90_000)
                 deadline = time.monotonic() + 150

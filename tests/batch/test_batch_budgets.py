@@ -51,19 +51,36 @@ def test_hung_stuck_and_hungry_logs_fail_by_their_budget_and_the_rest_is_analyse
 ) -> None:
     archive = _archive(tmp_path / "a", (".hang", ".stuck", ".hog"))
     out = tmp_path / "out"
-    code = main(["batch", str(archive), "--out", str(out), "--workers", "2", *FAST,
-                 "--log-timeout", "6", "--log-memory", "3"])
+    code = main(
+        [
+            "batch",
+            str(archive),
+            "--out",
+            str(out),
+            "--workers",
+            "2",
+            *FAST,
+            "--log-timeout",
+            "6",
+            "--log-memory",
+            "3",
+        ]
+    )
     assert code == 0
     logs = _entries(out)
     assert [logs[f"good{i}.csv"]["status"] for i in range(3)] == ["ok"] * 3
     assert all(logs[f"bad{s}"]["status"] == "failed" for s in (".hang", ".stuck", ".hog"))
-    assert logs["bad.hang"]["error"] == \
-        "bad.hang: took longer than the per-log time budget of 6 s (--log-timeout)"
+    assert (
+        logs["bad.hang"]["error"]
+        == "bad.hang: took longer than the per-log time budget of 6 s (--log-timeout)"
+    )
     stuck = str(logs["bad.stuck"]["error"])
     assert "per-log time budget of 6 s (--log-timeout)" in stuck
     assert "stopped" in stuck
-    assert logs["bad.hog"]["error"] == \
-        "bad.hog: exceeded the per-log memory budget of 3 GiB (--log-memory)"
+    assert (
+        logs["bad.hog"]["error"]
+        == "bad.hog: exceeded the per-log memory budget of 3 GiB (--log-memory)"
+    )
     # the stuck worker's stack, dumped by the hard stop, is the record's detail
     record = json.loads((out / "logs" / f"{logs['bad.stuck']['id']}.json").read_text())
     assert "_stuck" in record["detail"]
@@ -76,16 +93,28 @@ def test_without_budgets_the_same_readers_are_not_stopped(tmp_path: Path) -> Non
     assert HOG_GIB < 20
     archive = _archive(tmp_path / "a", (".hog",), good=0)
     out = tmp_path / "out"
-    assert main(["batch", str(archive), "--out", str(out), "--workers", "1", *FAST,
-                 "--log-memory", "0"]) == 0
+    assert (
+        main(
+            ["batch", str(archive), "--out", str(out), "--workers", "1", *FAST, "--log-memory", "0"]
+        )
+        == 0
+    )
     assert _entries(out)["bad.hog"]["status"] == "ok"
 
 
-@pytest.mark.parametrize(("flag", "value"), [("--log-memory", "-1"), ("--log-timeout", "abc"),
-                                        ("--log-timeout", "-5"), ("--log-memory", "nan"),
-                                        ("--log-timeout", "inf")])
-def test_bad_budgets_exit_2(tmp_path: Path, flag: str, value: str,
-                            capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(
+    ("flag", "value"),
+    [
+        ("--log-memory", "-1"),
+        ("--log-timeout", "abc"),
+        ("--log-timeout", "-5"),
+        ("--log-memory", "nan"),
+        ("--log-timeout", "inf"),
+    ],
+)
+def test_bad_budgets_exit_2(
+    tmp_path: Path, flag: str, value: str, capsys: pytest.CaptureFixture[str]
+) -> None:
     archive = _archive(tmp_path / "a", (), good=1)
     assert main(["batch", str(archive), "--out", str(tmp_path / "out"), flag, value]) == 2
     assert flag in capsys.readouterr().err

@@ -48,23 +48,28 @@ def test_settings_take_every_robots_options_from_the_plugins(tmp_path: Path) -> 
     assert s.options == {"cutoff_hz": 5.5, "discovery_span_s": 60.0, "urdf": urdf}
     assert s.robot_options == {
         "manipulator": ManipulatorOptions(urdf=urdf, cutoff_hz=5.5),
-        "tractor_trailer": TractorTrailerOptions(discovery_span_s=60.0)}
+        "tractor_trailer": TractorTrailerOptions(discovery_span_s=60.0),
+    }
     before = s.fingerprint
     (tmp_path / "arm" / "arm.urdf").write_text("<robot name='b'/>")  # the file's content counts
     assert settings_for(tmp_path, log).fingerprint != before
     toml = tmp_path / "arm" / "logcal.toml"
     toml.write_text("cutoff_hz = -1\n")  # checked by the option's declaration
-    with pytest.raises(SettingsError, match=re.escape(f"{toml}: cutoff_hz = -1: expected a "
-                                                      "number > 0")):
+    with pytest.raises(
+        SettingsError, match=re.escape(f"{toml}: cutoff_hz = -1: expected a number > 0")
+    ):
         settings_for(tmp_path, log)
     toml.write_text('urdf = "missing.urdf"\n')  # names a file: it must be one, inside
     with pytest.raises(SettingsError, match=r"\[urdf\] names 'missing\.urdf', which is not a"):
         settings_for(tmp_path, log)
     toml.write_text('urdf = "panda"\n')  # a model name: no file
     assert settings_for(tmp_path, log).options["urdf"] == "panda"
-    toml.write_text('wheel_base = 2\n')
-    with pytest.raises(SettingsError, match=r"expected one of robot, channel_map, robot_id, "
-                       r".*cutoff_hz"):
+    toml.write_text("wheel_base = 2\n")
+    with pytest.raises(
+        SettingsError,
+        match=r"expected one of robot, channel_map, robot_id, "
+        r".*cutoff_hz",
+    ):
         settings_for(tmp_path, log)
 
 
@@ -76,8 +81,10 @@ def test_default_robot_id_is_the_top_folder(tmp_path: Path) -> None:
 def test_log_ids_are_safe_and_distinct() -> None:
     ids = {log_id(r) for r in ("a/b.mcap", "a_b.mcap", "<x>/'y'.mcap", "../../etc.csv")}
     assert len(ids) == 4
-    assert all(set(i) <= set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-")
-               for i in ids)
+    assert all(
+        set(i) <= set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-")
+        for i in ids
+    )
 
 
 def test_archive_walk_skips_hidden_and_output_folders(tmp_path: Path) -> None:
@@ -103,16 +110,18 @@ def test_archive_walk_takes_the_registered_formats(tmp_path: Path) -> None:
     assert [j.rel for j in find_logs(tmp_path)] == ["b.tum", "s/s1_run-1.csv"]
     saved = list(formats.formats())
     try:  # a format plugin's files are walked too
-        formats.register_format(FormatReader("xyz", "XYZ log", (".xyz",), lambda p, h: True,
-                                             lambda name, req: None))  # type: ignore[arg-type,return-value]
+        formats.register_format(
+            FormatReader("xyz", "XYZ log", (".xyz",), lambda p, h: True, lambda name, req: None)
+        )  # type: ignore[arg-type,return-value]
         assert [j.rel for j in find_logs(tmp_path)] == ["a.xyz", "b.tum", "s/s1_run-1.csv"]
     finally:
         formats._REGISTRY[:] = saved
 
 
 def test_inverse_variance_pool_by_hand() -> None:
-    p = pool_estimates("L1", "m", ["a", "b", "c"], [1.0, 1.2, None], [0.1, 0.2, None],
-                       [True, True, False])
+    p = pool_estimates(
+        "L1", "m", ["a", "b", "c"], [1.0, 1.2, None], [0.1, 0.2, None], [True, True, False]
+    )
     w = np.array([100.0, 25.0])
     assert p.estimate.value == pytest.approx((100 * 1.0 + 25 * 1.2) / 125)
     assert p.estimate.std == pytest.approx(1 / math.sqrt(w.sum()))
@@ -191,8 +200,9 @@ def test_serve_redirects_to_rerun_web_viewer(tmp_path: Path) -> None:
     assert server.viewer.poll() is not None
 
 
-def test_cli_batch_names_a_missing_archive(tmp_path: Path, capsys: pytest.CaptureFixture[str]
-                                           ) -> None:
+def test_cli_batch_names_a_missing_archive(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from logtools.cli.main import main
 
     code = main(["batch", str(tmp_path / "nowhere"), "--out", str(tmp_path / "out")])
@@ -212,8 +222,7 @@ def test_discovered_effects_become_table_rows(tmp_path: Path) -> None:
     from logtools.batch.runner import read_records, run_batch
     from logtools.writers.tractor_trailer import run_metadata, write_run
 
-    cfg = preset("harmonic", duration_s=63.0, rate_hz=20.0,
-                 effects=Effects(actuator_delay_s=0.4))
+    cfg = preset("harmonic", duration_s=63.0, rate_hz=20.0, effects=Effects(actuator_delay_s=0.4))
     run = simulate_tractor_trailer(dataclasses.replace(cfg, start_time_ns=T0_NS), seed=3)
     (tmp_path / "a").mkdir()
     write_run(tmp_path / "a" / "delay.mcap", run, metadata=run_metadata(run))

@@ -40,10 +40,24 @@ def _check_whole(out: Path) -> None:
 def test_killed_batch_resumes_without_redoing_finished_logs(tmp_path: Path) -> None:
     archive = small_archive(tmp_path / "archive")
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "logtools.cli.main", "batch", str(archive), "--out", str(out),
-           "--workers", "1", "--repeats", "2", "--no-discovery", "--no-views"]
-    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
+    cmd = [
+        sys.executable,
+        "-m",
+        "logtools.cli.main",
+        "batch",
+        str(archive),
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+        "--repeats",
+        "2",
+        "--no-discovery",
+        "--no-views",
+    ]
+    proc = subprocess.Popen(
+        cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
     try:
         deadline = time.monotonic() + 240
         while len(_manifest(out)) < 2 and time.monotonic() < deadline:

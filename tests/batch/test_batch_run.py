@@ -22,7 +22,8 @@ FAILING = {"bad/corrupt.mcap", "unknown/u.mcap", f"hostile/{HOSTILE_FILE}"}
 
 
 def test_every_log_is_recorded_and_failures_name_their_cause(
-        batch_run: tuple[Path, BatchSummary]) -> None:
+    batch_run: tuple[Path, BatchSummary],
+) -> None:
     out, summary = batch_run
     assert summary.logs == OK_LOGS + len(FAILING)
     assert len(summary.analysed) == summary.logs
@@ -51,8 +52,10 @@ def test_estimates_recover_the_simulated_truth(batch_run: tuple[Path, BatchSumma
 
 def test_pooled_estimates_and_the_moved_hitch(batch_run: tuple[Path, BatchSummary]) -> None:
     out, _ = batch_run
-    series = {(s["robot_id"], s["parameter"]): s
-              for s in json.loads((out / "fleet.json").read_text())["series"]}
+    series = {
+        (s["robot_id"], s["parameter"]): s
+        for s in json.loads((out / "fleet.json").read_text())["series"]
+    }
     a = series[("truck-A", "L1")]
     assert a["pooled"]["n_logs"] == 4
     assert abs(a["pooled"]["estimate"]["value"] - 1.25) < 0.02
@@ -69,8 +72,7 @@ def test_pooled_estimates_and_the_moved_hitch(batch_run: tuple[Path, BatchSummar
     assert samples["drift"]["status"] == "too few logs"
 
 
-def test_fleet_table_is_one_parquet_file_polars_reads(
-        batch_run: tuple[Path, BatchSummary]) -> None:
+def test_fleet_table_is_one_parquet_file_polars_reads(batch_run: tuple[Path, BatchSummary]) -> None:
     out, _ = batch_run
     table = pl.read_parquet(out / "fleet.parquet")
     est = table.filter(pl.col("kind") == "estimate")
@@ -108,13 +110,37 @@ class _Tags(HTMLParser):
         self.attrs += [(tag, k, v) for k, v in attrs]
 
 
-ALLOWED = {"html", "head", "meta", "title", "style", "body", "h1", "h2", "p", "a", "table", "tr",
-           "th", "td", "span", "figure", "img", "pre", "code", "details", "summary", "ul", "li"}
+ALLOWED = {
+    "html",
+    "head",
+    "meta",
+    "title",
+    "style",
+    "body",
+    "h1",
+    "h2",
+    "p",
+    "a",
+    "table",
+    "tr",
+    "th",
+    "td",
+    "span",
+    "figure",
+    "img",
+    "pre",
+    "code",
+    "details",
+    "summary",
+    "ul",
+    "li",
+}
 
 
 @pytest.mark.parametrize("hostile", [HOSTILE_TOPIC, HOSTILE_FILE, HOSTILE_ROBOT_ID])
-def test_html_escapes_everything_from_the_logs(batch_run: tuple[Path, BatchSummary],
-                                               hostile: str) -> None:
+def test_html_escapes_everything_from_the_logs(
+    batch_run: tuple[Path, BatchSummary], hostile: str
+) -> None:
     out, _ = batch_run
     pages = [out / "index.html", *sorted((out / "pages").glob("*.html"))]
     joined = "".join(p.read_text() for p in pages)

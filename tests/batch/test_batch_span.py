@@ -43,14 +43,31 @@ def test_records_equal_analyze_with_the_same_bounds(
     for record in records:
         assert record["span"] == {"start_s": 5.0, "end_s": 25.0}
         path = str(archive / record["log"])
-        assert main(["analyze", path, "--start", "5", "--end", "25", "--json", "--repeats",
-                     str(FAST.repeats), "--no-discovery"]) == 0
+        assert (
+            main(
+                [
+                    "analyze",
+                    path,
+                    "--start",
+                    "5",
+                    "--end",
+                    "25",
+                    "--json",
+                    "--repeats",
+                    str(FAST.repeats),
+                    "--no-discovery",
+                ]
+            )
+            == 0
+        )
         alone = json.loads(capsys.readouterr().out)
         assert record["result"] == alone
         assert any("cropped to 5.000 s .. 25.000 s" in w for w in alone["warnings"])
     manifest = load_manifest(cropped)
     assert {e["log"]: e["span"]["end_s"] for e in manifest.values()} == {
-        "truck/s0.mcap": 25.0, "truck/s1.mcap": 25.0}
+        "truck/s0.mcap": 25.0,
+        "truck/s1.mcap": 25.0,
+    }
 
 
 def test_other_bounds_redo_the_logs(archive: Path, tmp_path: Path) -> None:
@@ -60,8 +77,7 @@ def test_other_bounds_redo_the_logs(archive: Path, tmp_path: Path) -> None:
     again = run_batch(archive, out, options=_SPAN, report=False)
     assert (again.analysed, len(again.skipped)) == ([], 2)
     before = {r["log"]: r["result"] for r in read_records(out)}
-    wider = run_batch(archive, out, options=dataclasses.replace(_SPAN, end_s=35.0),
-                      report=False)
+    wider = run_batch(archive, out, options=dataclasses.replace(_SPAN, end_s=35.0), report=False)
     assert len(wider.analysed) == 2
     after = read_records(out)
     assert all(r["span"]["end_s"] == 35.0 for r in after)
@@ -89,14 +105,18 @@ def test_settings_keys_and_the_command_line_wins(archive: Path, tmp_path: Path) 
     assert all(r["span"] == {"start_s": 5.0, "end_s": 35.0} for r in read_records(by_settings))
 
 
-@pytest.mark.parametrize(("args", "said"), [
-    (["--start", "10", "--end", "5"], "--end 5 s is not after --start 10 s"),
-    (["--start", "10", "--end", "10"], "--end 10 s is not after --start 10 s"),
-    (["--start", "-1"], "--start"),
-    (["--end", "-3"], "--end"),
-])
-def test_bad_bounds_exit_2(archive: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                           args: list[str], said: str) -> None:
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (["--start", "10", "--end", "5"], "--end 5 s is not after --start 10 s"),
+        (["--start", "10", "--end", "10"], "--end 10 s is not after --start 10 s"),
+        (["--start", "-1"], "--start"),
+        (["--end", "-3"], "--end"),
+    ],
+)
+def test_bad_bounds_exit_2(
+    archive: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], said: str
+) -> None:
     out = tmp_path / "out"
     assert main(["batch", str(archive), "--out", str(out), "--no-views", *args]) == 2
     err = capsys.readouterr().err
@@ -105,13 +125,17 @@ def test_bad_bounds_exit_2(archive: Path, tmp_path: Path, capsys: pytest.Capture
     assert not (out / "manifest.json").exists()
 
 
-@pytest.mark.parametrize(("toml", "said"), [
-    ("start = 10\nend = 5\n", "[end] is 5 s, not after start = 10 s"),
-    ("start = -2\n", "[start] is -2; expected seconds >= 0"),
-    ('end = "soon"\n', "[end] is 'soon'; expected seconds >= 0"),
-])
-def test_bad_settings_bounds_fail_their_logs(archive: Path, tmp_path: Path, toml: str,
-                                             said: str) -> None:
+@pytest.mark.parametrize(
+    ("toml", "said"),
+    [
+        ("start = 10\nend = 5\n", "[end] is 5 s, not after start = 10 s"),
+        ("start = -2\n", "[start] is -2; expected seconds >= 0"),
+        ('end = "soon"\n', "[end] is 'soon'; expected seconds >= 0"),
+    ],
+)
+def test_bad_settings_bounds_fail_their_logs(
+    archive: Path, tmp_path: Path, toml: str, said: str
+) -> None:
     local = tmp_path / "archive"
     (local / "truck").mkdir(parents=True)
     src = archive / "truck" / "s0.mcap"

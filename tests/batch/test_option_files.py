@@ -22,14 +22,22 @@ from logtools.robots.options import RobotOptions, option, options_fields
 class RoverOptions(RobotOptions):
     """Options of a robot declared only in this test."""
 
-    gain_table: str | None = option(flag="--gain-table", metavar="TABLE", file=True,
-                                    help="The rover's gain table (a file).")
-    model: str | None = option(flag="--rover-model", metavar="MODEL", file=True, or_name=True,
-                               help="A model file, or a built-in model name.")
-    label_path: str | None = option(flag="--label-path", metavar="PATH",
-                                    help="A label that looks like a path but is only text.")
+    gain_table: str | None = option(
+        flag="--gain-table", metavar="TABLE", file=True, help="The rover's gain table (a file)."
+    )
+    model: str | None = option(
+        flag="--rover-model",
+        metavar="MODEL",
+        file=True,
+        or_name=True,
+        help="A model file, or a built-in model name.",
+    )
+    label_path: str | None = option(
+        flag="--label-path", metavar="PATH", help="A label that looks like a path but is only text."
+    )
     calibration: Path | None = option(  # noqa: RUF009
-        flag="--rover-calibration", help="A calibration file (a Path option).")
+        flag="--rover-calibration", help="A calibration file (a Path option)."
+    )
 
 
 def _never(_: frozenset[str]) -> str | None:
@@ -37,9 +45,13 @@ def _never(_: frozenset[str]) -> str | None:
 
 
 PLUGIN = RobotPlugin(
-    name="rover", title="test rover", signals=(SignalSpec("v", "m/s", "speed"),),
-    identify=_never, analyze=lambda *a: None,  # type: ignore[arg-type,return-value]
-    report=lambda r: [], options=RoverOptions,
+    name="rover",
+    title="test rover",
+    signals=(SignalSpec("v", "m/s", "speed"),),
+    identify=_never,
+    analyze=lambda *a: None,  # type: ignore[arg-type,return-value]
+    report=lambda r: [],
+    options=RoverOptions,
 )
 
 
@@ -75,8 +87,9 @@ def test_declarations_say_which_options_name_files() -> None:
 
 @pytest.mark.parametrize("value", ["../../outside.txt", "/etc/passwd", "~/.bashrc"])
 @pytest.mark.parametrize("key", ["gain_table", "calibration", "model"])
-def test_a_file_option_is_confined_to_the_archive(rover: None, tmp_path: Path, key: str,
-                                                  value: str) -> None:
+def test_a_file_option_is_confined_to_the_archive(
+    rover: None, tmp_path: Path, key: str, value: str
+) -> None:
     archive, log = _archive(tmp_path, f"{key} = {value!r}\n")
     with pytest.raises(SettingsError, match=re.escape(f"[{key}] names {value!r}")):
         settings_for(archive, log)
@@ -110,8 +123,15 @@ def test_robots_sharing_a_flag_agree_on_files(rover: None) -> None:
     class Other(RobotOptions):
         gain_table: str | None = option(flag="--gain-table", help="A text here.")
 
-    other = RobotPlugin(name="other", title="other", signals=PLUGIN.signals, identify=_never,
-                        analyze=PLUGIN.analyze, report=PLUGIN.report, options=Other)
+    other = RobotPlugin(
+        name="other",
+        title="other",
+        signals=PLUGIN.signals,
+        identify=_never,
+        analyze=PLUGIN.analyze,
+        report=PLUGIN.report,
+        options=Other,
+    )
     robots.register(other)
     with pytest.raises(TypeError, match="disagree on whether its value names a file"):
         _cli_options("analyze")

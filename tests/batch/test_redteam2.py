@@ -33,6 +33,7 @@ SECRET = "LOGCAL_REDTEAM_SECRET_4f1d"
 @contextlib.contextmanager
 def _alarm(seconds: int) -> Iterator[None]:
     """Fail (instead of hanging the suite) when the block takes longer than ``seconds``."""
+
     def _timeout(*_: object) -> None:
         raise TimeoutError(f"blocked for more than {seconds} s")
 
@@ -51,8 +52,10 @@ def _all_output_bytes(out: Path) -> bytes:
 
 # --- links and special files --------------------------------------------------------------
 
-def test_links_are_refused_and_never_read(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                          capsys: pytest.CaptureFixture[str]) -> None:
+
+def test_links_are_refused_and_never_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     from logtools.cli.main import main
 
     monkeypatch.setenv(SECRET, "leaked-value")
@@ -70,8 +73,23 @@ def test_links_are_refused_and_never_read(tmp_path: Path, monkeypatch: pytest.Mo
         assert "symbolic link" in job.entry_error
         assert job.content_hash == ""
     out = tmp_path / "out"
-    assert main(["batch", str(arch), "--out", str(out), "--workers", "1", "--no-views",
-                 "--no-discovery", "--repeats", "1"]) == 0
+    assert (
+        main(
+            [
+                "batch",
+                str(arch),
+                "--out",
+                str(out),
+                "--workers",
+                "1",
+                "--no-views",
+                "--no-discovery",
+                "--repeats",
+                "1",
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "leaked-value" not in err
     assert SECRET not in err
@@ -156,15 +174,20 @@ def test_each_entry_is_isolated(tmp_path: Path) -> None:
 
 # --- logcal.toml ---------------------------------------------------------------------------
 
-@pytest.mark.parametrize(("value", "reason"), [
-    ("../../outside.toml", "outside the archive"),
-    ("/etc/passwd", "absolute path"),
-    ("~/map.toml", "absolute path"),
-    ("link.toml", "outside the archive"),  # a link inside pointing out
-    ("*.toml", "not a file"),  # no globbing of the text
-])
-def test_settings_name_only_files_inside_the_archive(tmp_path: Path, value: str,
-                                                     reason: str) -> None:
+
+@pytest.mark.parametrize(
+    ("value", "reason"),
+    [
+        ("../../outside.toml", "outside the archive"),
+        ("/etc/passwd", "absolute path"),
+        ("~/map.toml", "absolute path"),
+        ("link.toml", "outside the archive"),  # a link inside pointing out
+        ("*.toml", "not a file"),  # no globbing of the text
+    ],
+)
+def test_settings_name_only_files_inside_the_archive(
+    tmp_path: Path, value: str, reason: str
+) -> None:
     arch = tmp_path / "archive"
     (arch / "r").mkdir(parents=True)
     (tmp_path / "outside.toml").write_text("")
@@ -201,6 +224,7 @@ def test_a_linked_or_special_logcal_toml_is_refused(tmp_path: Path) -> None:
 
 # --- output folder -------------------------------------------------------------------------
 
+
 def test_crafted_manifest_cannot_delete_or_read_outside_out(tmp_path: Path) -> None:
     arch = tmp_path / "archive"
     arch.mkdir()
@@ -211,17 +235,31 @@ def test_crafted_manifest_cannot_delete_or_read_outside_out(tmp_path: Path) -> N
     for v in victims:
         v.write_text("precious")
     crafted_id = "gone-0123456789"
-    manifest = {"format": "logcal-batch/2", "logs": {
-        crafted_id: {"id": crafted_id, "log": "gone.csv", "record": "../victim.json",
-                     "views": {".rrd": "../victim.rrd"}},
-        "../../victim": {"record": "../victim.json"},
-        "/abs-0123456789": {"record": str(victims[0])},
-    }}
+    manifest = {
+        "format": "logcal-batch/2",
+        "logs": {
+            crafted_id: {
+                "id": crafted_id,
+                "log": "gone.csv",
+                "record": "../victim.json",
+                "views": {".rrd": "../victim.rrd"},
+            },
+            "../../victim": {"record": "../victim.json"},
+            "/abs-0123456789": {"record": str(victims[0])},
+        },
+    }
     (out / MANIFEST).write_text(json.dumps(manifest))
-    (out / JOURNAL).write_text(json.dumps({"id": "x-0123456789", "entry": {
-        "record": str(victims[0]), "views": {"../../x": "y"}}}) + "\n" + "{torn")
-    old = {"format": "logcal-batch/1", "logs": {"gone2.csv": {
-        "id": "../../victim", "record": "../victim.json"}}}
+    (out / JOURNAL).write_text(
+        json.dumps(
+            {"id": "x-0123456789", "entry": {"record": str(victims[0]), "views": {"../../x": "y"}}}
+        )
+        + "\n"
+        + "{torn"
+    )
+    old = {
+        "format": "logcal-batch/1",
+        "logs": {"gone2.csv": {"id": "../../victim", "record": "../victim.json"}},
+    }
     assert load_manifest(out).keys() == {crafted_id}  # others: not ids of ours
     assert load_manifest(out)[crafted_id]["record"] == f"logs/{crafted_id}.json"
     summary = run_batch(arch, out, options=FAST)
@@ -249,8 +287,12 @@ def test_planted_links_in_out_are_not_written_through(tmp_path: Path) -> None:
     victim = tmp_path / "victim.txt"
     victim.write_text("precious")
     (out / ".lock").symlink_to(victim)
-    for name in ("manifest.json", "fleet.json", "index.html", f".manifest.{os.getpid()}"
-                 ".partial.json"):
+    for name in (
+        "manifest.json",
+        "fleet.json",
+        "index.html",
+        f".manifest.{os.getpid()}.partial.json",
+    ):
         (out / name).symlink_to(victim)
     with pytest.raises(LogcalInputError, match="lock"):
         run_batch(arch, out, options=FAST)
@@ -283,6 +325,7 @@ def test_out_is_never_inside_an_input_or_on_proc(tmp_path: Path) -> None:
 
 # --- names ---------------------------------------------------------------------------------
 
+
 def test_names_differing_in_undecodable_bytes_stay_two_records(tmp_path: Path) -> None:
     arch = tmp_path / "archive"
     arch.mkdir()
@@ -300,8 +343,9 @@ def test_names_differing_in_undecodable_bytes_stay_two_records(tmp_path: Path) -
     assert len(read_records(tmp_path / "out")) == 3
 
 
-def test_a_crafted_collision_of_short_ids_gets_long_ids(tmp_path: Path,
-                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_crafted_collision_of_short_ids_gets_long_ids(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     real = archive_mod.log_id
 
     def colliding(rel: str | bytes, digits: int = 10) -> str:
@@ -318,12 +362,17 @@ def test_a_crafted_collision_of_short_ids_gets_long_ids(tmp_path: Path,
     assert log_id("a.csv") == real("a.csv")
 
 
-HOSTILE_NAMES = ["esc\x1b[2J\x1b]0;owned\x07.csv", "line\nfailed: forged.csv",
-                 "rtl\u202eorez.csv", "bell\x07\r.csv"]
+HOSTILE_NAMES = [
+    "esc\x1b[2J\x1b]0;owned\x07.csv",
+    "line\nfailed: forged.csv",
+    "rtl\u202eorez.csv",
+    "bell\x07\r.csv",
+]
 
 
-def test_failed_lines_escape_hostile_names(tmp_path: Path,
-                                           capsys: pytest.CaptureFixture[str]) -> None:
+def test_failed_lines_escape_hostile_names(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from logtools.cli.main import main
 
     arch = tmp_path / "archive"
@@ -332,8 +381,23 @@ def test_failed_lines_escape_hostile_names(tmp_path: Path,
         (arch / name).write_text(TINY)
     with open(os.path.join(os.fsencode(arch), b"undecodable\xff\x1b.csv"), "w") as fh:
         fh.write(TINY)
-    assert main(["batch", str(arch), "--out", str(tmp_path / "out"), "--workers", "1",
-                 "--no-views", "--no-discovery", "--repeats", "1"]) == 0
+    assert (
+        main(
+            [
+                "batch",
+                str(arch),
+                "--out",
+                str(tmp_path / "out"),
+                "--workers",
+                "1",
+                "--no-views",
+                "--no-discovery",
+                "--repeats",
+                "1",
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     for bad in ("\x1b", "\x07", "\r", "\u202e", "\udcff"):
         assert bad not in err
@@ -344,9 +408,10 @@ def test_failed_lines_escape_hostile_names(tmp_path: Path,
 
 # --- journal -------------------------------------------------------------------------------
 
-def test_manifest_is_written_twice_per_run_not_once_per_log(tmp_path: Path,
-                                                            monkeypatch: pytest.MonkeyPatch
-                                                            ) -> None:
+
+def test_manifest_is_written_twice_per_run_not_once_per_log(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from logtools.batch import runner
 
     arch = tmp_path / "archive"
@@ -384,8 +449,9 @@ def test_journal_replay_after_a_kill(tmp_path: Path) -> None:
     keep = {first: entries[first]}
     (out / MANIFEST).write_text(json.dumps({**manifest, "logs": keep}))
     second = sorted(entries)[1]
-    (out / JOURNAL).write_text(json.dumps({"id": second, "entry": entries[second]}) + "\n"
-                               + '{"id": "torn')
+    (out / JOURNAL).write_text(
+        json.dumps({"id": second, "entry": entries[second]}) + "\n" + '{"id": "torn'
+    )
     assert load_manifest(out).keys() == {first, second}
     summary = run_batch(arch, out, options=FAST, report=False)
     assert len(summary.skipped) == 2
@@ -393,6 +459,7 @@ def test_journal_replay_after_a_kill(tmp_path: Path) -> None:
 
 
 # --- logcal serve ---------------------------------------------------------------------------
+
 
 def _raw(url_port: int, payload: bytes, timeout: float = 10.0) -> bytes:
     with socket.create_connection(("127.0.0.1", url_port), timeout=timeout) as s:
@@ -426,12 +493,14 @@ def test_serve_answers_hostile_requests(report_server: tuple[object, int]) -> No
     assert _status(_raw(port, b"HEAD /%1b%5b2J HTTP/1.0\r\n\r\n")) == 400
     long_line = b"GET /" + b"a" * (64 * 1024 + 10) + b" HTTP/1.0\r\n\r\n"
     assert _status(_raw(port, long_line)) == 414
-    assert _status(_raw(port, b"GET /" + b"a" * (MAX_REQUEST_LINE + 1) + b" HTTP/1.0\r\n\r\n")
-                   ) == 414
+    assert (
+        _status(_raw(port, b"GET /" + b"a" * (MAX_REQUEST_LINE + 1) + b" HTTP/1.0\r\n\r\n")) == 414
+    )
     rrd = b"GET /rerun/open?rrd=" + b"v" * 60_000 + b".rrd HTTP/1.0\r\n\r\n"
     assert _status(_raw(port, rrd)) == 414
-    assert _status(_raw(port, b"GET /rerun/open?rrd=" + b"v/" * 500 + b".rrd HTTP/1.0\r\n\r\n")
-                   ) == 404
+    assert (
+        _status(_raw(port, b"GET /rerun/open?rrd=" + b"v/" * 500 + b".rrd HTTP/1.0\r\n\r\n")) == 404
+    )
     assert _status(_raw(port, b"GET /rerun/open?rrd=views/%00.rrd HTTP/1.0\r\n\r\n")) == 404
     many_headers = b"GET / HTTP/1.0\r\n" + b"X: y\r\n" * 200 + b"\r\n"
     assert _status(_raw(port, many_headers)) == 431
@@ -443,13 +512,13 @@ def test_serve_answers_hostile_requests(report_server: tuple[object, int]) -> No
     # kept: traversal refused, loopback only
     assert _status(_raw(port, b"GET /rerun/open?rrd=../../etc/passwd HTTP/1.0\r\n\r\n")) == 404
     assert _status(_raw(port, b"GET /../../etc/passwd HTTP/1.0\r\n\r\n")) == 404
-    assert _status(_raw(port, b"GET /index.html HTTP/1.0\r\nHost: evil.example\r\n\r\n")
-                   ) == 200
+    assert _status(_raw(port, b"GET /index.html HTTP/1.0\r\nHost: evil.example\r\n\r\n")) == 200
     assert server.httpd.errors == []  # type: ignore[attr-defined]
 
 
-def test_serve_bounds_threads_and_stops_under_load(tmp_path: Path,
-                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+def test_serve_bounds_threads_and_stops_under_load(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from logtools.batch import serve
 
     monkeypatch.setattr(serve, "MAX_WAITING", 100)  # the waiting room overflows below

@@ -16,12 +16,22 @@ RAW = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u206
 
 def test_page_shows_the_settings_escaped() -> None:
     record = {
-        "id": "a-1", "log": "run\x1b[2J.csv", "status": "failed", "error": "bad\u202e",
+        "id": "a-1",
+        "log": "run\x1b[2J.csv",
+        "status": "failed",
+        "error": "bad\u202e",
         "robot_id": "<b>truck</b>",
-        "settings": {"robot": "tractor_trailer", "channel_map": "/a/<map>.toml",
-                     "options": {"cutoff_hz": 8.0, "urdf": "/a/arm.urdf",
-                                 "method_for_psi": "<script>x</script>", "flag": True},
-                     "sources": ["/a/logcal.toml"]},
+        "settings": {
+            "robot": "tractor_trailer",
+            "channel_map": "/a/<map>.toml",
+            "options": {
+                "cutoff_hz": 8.0,
+                "urdf": "/a/arm.urdf",
+                "method_for_psi": "<script>x</script>",
+                "flag": True,
+            },
+            "sources": ["/a/logcal.toml"],
+        },
         "span": {"start_s": 2.0, "end_s": None},
     }
     page = _log_page(record, "repeats=3;seed=0;discovery=False").decode()
@@ -53,11 +63,22 @@ def test_batch_pages_show_the_logcal_toml_options(tmp_path: Path) -> None:
     archive = tmp_path / "archive"
     (archive / "truck").mkdir(parents=True)
     (archive / "truck" / "run\x1b]0;owned\x07.csv").write_text(TINY)
-    (archive / "truck" / "logcal.toml").write_text(
-        'robot_id = "truck-07\u202e"\ncutoff_hz = 8.0\n')
+    (archive / "truck" / "logcal.toml").write_text('robot_id = "truck-07\u202e"\ncutoff_hz = 8.0\n')
     out = tmp_path / "out"
-    code = main(["batch", str(archive), "--out", str(out), "--workers", "1", "--no-views",
-                 "--no-discovery", "--repeats", "2"])
+    code = main(
+        [
+            "batch",
+            str(archive),
+            "--out",
+            str(out),
+            "--workers",
+            "1",
+            "--no-views",
+            "--no-discovery",
+            "--repeats",
+            "2",
+        ]
+    )
     assert code in (0, 2)
     [page] = list((out / "pages").glob("*.html"))
     text = page.read_text()

@@ -21,8 +21,13 @@ COV = np.array([[0.01, 0.012, 0.0], [0.012, 0.04, -0.03], [0.0, -0.03, 0.09]])
 
 
 def _result(**kw: object) -> CalibrationResult:
-    args: dict[str, object] = {"method": "LSQ", "parameters": PARAMS, "verdict": "all determined",
-                               "covariance": COV, "derived": {"a_plus_b": _est("a+b", 3.0, 0.25)}}
+    args: dict[str, object] = {
+        "method": "LSQ",
+        "parameters": PARAMS,
+        "verdict": "all determined",
+        "covariance": COV,
+        "derived": {"a_plus_b": _est("a+b", 3.0, 0.25)},
+    }
     args.update(kw)
     return CalibrationResult(**args)  # type: ignore[arg-type]
 

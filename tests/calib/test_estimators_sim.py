@@ -45,7 +45,10 @@ def _inside(ci: tuple[float, float], x: float) -> bool:
 @pytest.mark.parametrize(("L1", "L2"), SPLITS)
 def test_transient_fit_recovers_truth_without_noise(L1: float, L2: float) -> None:
     cfg = TractorTrailerSim(
-        L1=L1, L2=L2, commands=_patent_commands(), noise=NoiseSpec.none(),
+        L1=L1,
+        L2=L2,
+        commands=_patent_commands(),
+        noise=NoiseSpec.none(),
         effects=Effects(actuator_lag_s=0.1),
     )
     fit = TransientFit().fit(*_measured(simulate_tractor_trailer(cfg, 0)))
@@ -87,8 +90,11 @@ def test_steady_state_only_low_curvature_log(with_speed: bool) -> None:
     many seeds; one seed here would pass or fail by chance.)"""
     L1, L2 = 1.25, 2.48
     cfg = TractorTrailerSim(
-        L1=L1, L2=L2, commands=CommandSequence([CommandSpec(CommandType.HARMONIC, 63.0, 0.1)]),
-        hitch_model="steady", noise=NoiseSpec(std={"v": 0.01, "omega": 0.0173, "psi": 0.0173}),
+        L1=L1,
+        L2=L2,
+        commands=CommandSequence([CommandSpec(CommandType.HARMONIC, 63.0, 0.1)]),
+        hitch_model="steady",
+        noise=NoiseSpec(std={"v": 0.01, "omega": 0.0173, "psi": 0.0173}),
     )
     t, k, v, p = _measured(simulate_tractor_trailer(cfg, 3))
     res, rows = calibrate_link_lengths(t, k, p, v if with_speed else None)

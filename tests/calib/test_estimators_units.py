@@ -114,7 +114,7 @@ def test_projection_lands_on_curve_and_is_closest() -> None:
     assert (k - g) * dg + (p - ph) == pytest.approx(np.zeros(50), abs=1e-12)
     # and no point on a fine grid of the curve is closer
     grid = np.linspace(-0.8, 0.8, 20001)
-    d_grid = ((k[:, None] - steady_state_kappa(grid, L1, L2)) ** 2 + (p[:, None] - grid) ** 2)
+    d_grid = (k[:, None] - steady_state_kappa(grid, L1, L2)) ** 2 + (p[:, None] - grid) ** 2
     d_hat = (k - g) ** 2 + (p - ph) ** 2
     assert np.all(d_hat <= d_grid.min(axis=1) + 1e-12)
 
@@ -151,8 +151,9 @@ def test_eiv_intervals_cover_truth_on_noisy_high_curvature_data() -> None:
     for _ in range(10):
         k = 0.5 * np.sin(0.1 * t)
         psi = steady_state_psi(k, L1, L2)
-        fit = SteadyStateEIV().fit(k + rng.normal(0, 0.0173, k.size),
-                                   psi + rng.normal(0, 0.0173, k.size))
+        fit = SteadyStateEIV().fit(
+            k + rng.normal(0, 0.0173, k.size), psi + rng.normal(0, 0.0173, k.size)
+        )
         v = fit.verdict_
         hits.append(v.L1.ci95[0] <= L1 <= v.L1.ci95[1] and v.L2.ci95[0] <= L2 <= v.L2.ci95[1])
         assert v.split_determined
@@ -168,8 +169,9 @@ def test_eiv_low_curvature_steady_log_sum_determined_split_not() -> None:
     t = np.arange(0, 63.05, 0.1)
     k = 0.1 * np.sin(0.1 * t)
     psi = steady_state_psi(k, L1, L2)
-    fit = SteadyStateEIV().fit(k + rng.normal(0, 0.0173, k.size),
-                               psi + rng.normal(0, 0.0173, k.size))
+    fit = SteadyStateEIV().fit(
+        k + rng.normal(0, 0.0173, k.size), psi + rng.normal(0, 0.0173, k.size)
+    )
     v = fit.verdict_
     assert v.sum_determined
     assert not v.split_determined

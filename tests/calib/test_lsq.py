@@ -193,9 +193,7 @@ def test_block_factors_are_the_factors_of_consecutive_blocks(p: int) -> None:
         block = C[256 * i : 256 * (i + 1)]
         gram = block.T @ block
         np.testing.assert_array_equal(np.tril(F[i], -1), 0.0)
-        np.testing.assert_allclose(
-            F[i].T @ F[i], gram, rtol=1e-12, atol=1e-12 * np.abs(gram).max()
-        )
+        np.testing.assert_allclose(F[i].T @ F[i], gram, rtol=1e-12, atol=1e-12 * np.abs(gram).max())
     stacked = triangular_factor(F.reshape(-1, 4))  # blocks reduce to the whole matrix's factor
     gram = C.T @ C
     np.testing.assert_allclose(

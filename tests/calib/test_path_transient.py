@@ -24,11 +24,18 @@ from calib.tractor_trailer.models.hitch_path import advance_psi
 def _clean_scenario(rate_hz: float, **kw: object) -> Scenario:
     topics = {g: TopicSpec(rate_hz) for g in ("cmd", "odom", "pose", "hitch")}
     base = Scenario(
-        L1=1.25, L2=2.48, duration_s=60.0, command=Command("random", M=0.15,
-                                                           freqs_hz=(0.02, 0.07, 0.13),
-                                                           phases=(0.3, 1.0, 2.0),
-                                                           weights=(0.5, 0.3, 0.2)),
-        speed=Speed(base=1.5), topics=topics,
+        L1=1.25,
+        L2=2.48,
+        duration_s=60.0,
+        command=Command(
+            "random",
+            M=0.15,
+            freqs_hz=(0.02, 0.07, 0.13),
+            phases=(0.3, 1.0, 2.0),
+            weights=(0.5, 0.3, 0.2),
+        ),
+        speed=Speed(base=1.5),
+        topics=topics,
     )
     return dc.replace(base, **kw)
 
@@ -41,8 +48,7 @@ def _arrays(gen, source: str) -> tuple[DrivePath, np.ndarray, np.ndarray]:
 
     f = {k: v.fields for k, v in gen.topics.items()}
     if source == "pose":
-        path = DrivePath.from_pose(ts("/pose"), f["/pose"]["x"], f["/pose"]["y"],
-                                   f["/pose"]["yaw"])
+        path = DrivePath.from_pose(ts("/pose"), f["/pose"]["x"], f["/pose"]["y"], f["/pose"]["yaw"])
     else:
         path = DrivePath.from_rates(ts("/odom"), f["/odom"]["v"], f["/odom"]["omega"])
     return path, ts("/hitch/angle"), f["/hitch/angle"]["angle"]
@@ -60,9 +66,7 @@ def test_kernel_reaches_the_steady_state_relation() -> None:
         assert math.sin(end) - kappa * (L2 + L1 * math.cos(end)) == pytest.approx(0, abs=1e-9)
 
 
-@pytest.mark.parametrize(
-    "rate_hz", [5.0, 10.0, 50.0, pytest.param(200.0, marks=pytest.mark.slow)]
-)
+@pytest.mark.parametrize("rate_hz", [5.0, 10.0, 50.0, pytest.param(200.0, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("source", ["pose", "odometry"])
 def test_noise_free_logs_give_the_truth_at_any_rate(rate_hz: float, source: str) -> None:
     gen = generate(_clean_scenario(rate_hz), seed=1)
@@ -94,15 +98,20 @@ def test_negative_L1_and_stalls_restart_pieces() -> None:
     new piece and the negative L1 is found."""
     rng = np.random.default_rng(5)
     scn = small_robot_scenario(rng)
-    scn = dc.replace(scn, topics={k: dc.replace(v, noise={}, quantum={}, stamp_noise_s=0.0,
-                                                sample_jitter_s=0.0)
-                                  for k, v in scn.topics.items()})
+    scn = dc.replace(
+        scn,
+        topics={
+            k: dc.replace(v, noise={}, quantum={}, stamp_noise_s=0.0, sample_jitter_s=0.0)
+            for k, v in scn.topics.items()
+        },
+    )
     gen = generate(scn, seed=3)
     t0 = gen.truth["start_ns"]
     pose = gen.topics["/truck_trailer/truck_pose"]
     hitch = gen.topics["/encoder/angle"]
-    path = DrivePath.from_pose((pose.stamps_ns - t0) / 1e9, pose.fields["x"], pose.fields["y"],
-                               pose.fields["yaw"])
+    path = DrivePath.from_pose(
+        (pose.stamps_ns - t0) / 1e9, pose.fields["x"], pose.fields["y"], pose.fields["yaw"]
+    )
     fit = PathTransientFit().fit(path, (hitch.stamps_ns - t0) / 1e9, hitch.fields["angle"])
     long = [b - a for a, b in gen.truth["stalls"] if b - a > 0.2]  # default_gap_s here
     assert long
@@ -140,9 +149,13 @@ def test_noslip_regression_from_the_trailer_pose_is_exact_on_clean_data() -> Non
     from calib.tractor_trailer.estimators.noslip import NoSlipRegression
 
     scn = small_robot_scenario(np.random.default_rng(100))
-    scn = dc.replace(scn, topics={k: dc.replace(v, noise={}, quantum={}, stamp_noise_s=0.0,
-                                                sample_jitter_s=0.0)
-                                  for k, v in scn.topics.items()})
+    scn = dc.replace(
+        scn,
+        topics={
+            k: dc.replace(v, noise={}, quantum={}, stamp_noise_s=0.0, sample_jitter_s=0.0)
+            for k, v in scn.topics.items()
+        },
+    )
     gen = generate(scn, seed=0)
     t0 = gen.truth["start_ns"]
     odom, hitch = gen.topics["/odom"], gen.topics["/encoder/angle"]

@@ -88,8 +88,11 @@ def test_random_effects_with_equal_covariances_are_the_sample_covariance_over_k(
     np.testing.assert_allclose(auto.cov, c / 6, rtol=1e-9)
     np.testing.assert_allclose(auto.value, vals.mean(axis=0), rtol=1e-9)
     np.testing.assert_allclose(never.cov, cov / 6, rtol=1e-9)
-    agree = pool_gls(np.array([[1.0, 2.0]] * 3) + rng.normal(size=(3, 2)) * 1e-2,
-                     np.array([cov] * 3), random="auto")
+    agree = pool_gls(
+        np.array([[1.0, 2.0]] * 3) + rng.normal(size=(3, 2)) * 1e-2,
+        np.array([cov] * 3),
+        random="auto",
+    )
     assert not agree.heterogeneous
     assert not agree.random
     assert agree.inflation == 1.0
@@ -115,11 +118,13 @@ def test_a_piece_lacking_a_parameter_makes_the_random_effects_a_single_factor() 
 def test_a_parameter_a_piece_does_not_determine_comes_from_the_others() -> None:
     nan = math.nan
     vals = np.array([[1.0, 2.0], [1.2, nan], [nan, nan]])
-    covs = np.array([
-        [[0.04, 0.01], [0.01, 0.09]],
-        [[0.04, nan], [nan, nan]],
-        [[nan, nan], [nan, nan]],
-    ])
+    covs = np.array(
+        [
+            [[0.04, 0.01], [0.01, 0.09]],
+            [[0.04, nan], [nan, nan]],
+            [[nan, nan], [nan, nan]],
+        ]
+    )
     res = pool_gls(vals, covs, random="never")
     assert list(res.pieces) == [2, 1]
     # only the first two pieces, the second one over L1 alone
@@ -187,8 +192,7 @@ def test_permutation_invariance(pieces: tuple[np.ndarray, np.ndarray], r: object
 
 @settings(max_examples=60, deadline=None)
 @given(_pieces(), st.integers(2, 6))
-def test_identical_pieces_give_sigma_over_k(pieces: tuple[np.ndarray, np.ndarray], k: int
-                                            ) -> None:
+def test_identical_pieces_give_sigma_over_k(pieces: tuple[np.ndarray, np.ndarray], k: int) -> None:
     vals, covs = pieces
     res = pool_gls(np.repeat(vals[:1], k, axis=0), np.repeat(covs[:1], k, axis=0))
     np.testing.assert_allclose(res.value, vals[0], rtol=1e-8, atol=1e-8)

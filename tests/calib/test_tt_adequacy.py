@@ -29,13 +29,19 @@ def _inputs(log) -> tuple[DrivePath, np.ndarray, np.ndarray]:  # type: ignore[no
     hitch = log.streams["/hitch/angle"]
     t0 = min(s.stamps_ns[0] for s in log.streams.values())
     pose = log.streams["/pose"]
-    path = DrivePath.from_pose((pose.stamps_ns - t0) / 1e9, pose.fields["x"], pose.fields["y"],
-                               np.unwrap(pose.fields["yaw"]), smooth_samples=3)
+    path = DrivePath.from_pose(
+        (pose.stamps_ns - t0) / 1e9,
+        pose.fields["x"],
+        pose.fields["y"],
+        np.unwrap(pose.fields["yaw"]),
+        smooth_samples=3,
+    )
     return path, (hitch.stamps_ns - t0) / 1e9, hitch.fields["angle"]
 
 
-def _run(seed: int, kind: str | None = None, magnitude: float = 0.0, offset: float = 0.0
-         ) -> tuple[PathDiscovery, CalibrationResult, dict]:  # type: ignore[type-arg]
+def _run(
+    seed: int, kind: str | None = None, magnitude: float = 0.0, offset: float = 0.0
+) -> tuple[PathDiscovery, CalibrationResult, dict]:  # type: ignore[type-arg]
     log = tractor_log(seed, kind, magnitude)
     path, t, psi = _inputs(log)
     fit = PathTransientFit().fit(path, t, psi + offset)
@@ -163,21 +169,38 @@ def test_pose_noise_is_not_taken_for_a_clock_offset() -> None:
     1.242 to 1.205, truth 1.25). Discovery stays quiet and the estimate covers the truth."""
     import indgen  # type: ignore[import-not-found]
 
-    noise = {"cmd": {}, "cmd_vel": {}, "odom": {"v": 0.02, "omega": 0.005},
-             "pose": {"x": 0.02, "y": 0.02, "yaw": 0.005}, "hitch": {"angle": 0.005}}
+    noise = {
+        "cmd": {},
+        "cmd_vel": {},
+        "odom": {"v": 0.02, "omega": 0.005},
+        "pose": {"x": 0.02, "y": 0.02, "yaw": 0.005},
+        "hitch": {"angle": 0.005},
+    }
     scn = indgen.Scenario(
-        L1=1.25, L2=2.48, duration_s=60.0,
-        command=indgen.Command("random", M=0.12, freqs_hz=(0.03, 0.07, 0.12),
-                               phases=(0.0, 1.0, 2.0), weights=(0.4, 0.35, 0.25)),
-        speed=indgen.Speed(base=2.0), effects=indgen.Effects(actuator_delay_s=0.3),
+        L1=1.25,
+        L2=2.48,
+        duration_s=60.0,
+        command=indgen.Command(
+            "random",
+            M=0.12,
+            freqs_hz=(0.03, 0.07, 0.12),
+            phases=(0.0, 1.0, 2.0),
+            weights=(0.4, 0.35, 0.25),
+        ),
+        speed=indgen.Speed(base=2.0),
+        effects=indgen.Effects(actuator_delay_s=0.3),
         topics={g: indgen.TopicSpec(20.0, noise=n) for g, n in noise.items()},
     )
     gen = indgen.generate(scn, seed=1)
     pose = next(d for d in gen.topics.values() if d.group == "pose")
     hitch = next(d for d in gen.topics.values() if d.group == "hitch")
     t0 = int(min(pose.stamps_ns[0], hitch.stamps_ns[0]))
-    path = DrivePath.from_pose((pose.stamps_ns - t0) / 1e9, pose.fields["x"], pose.fields["y"],
-                               np.unwrap(pose.fields["yaw"]))
+    path = DrivePath.from_pose(
+        (pose.stamps_ns - t0) / 1e9,
+        pose.fields["x"],
+        pose.fields["y"],
+        np.unwrap(pose.fields["yaw"]),
+    )
     t, psi = (hitch.stamps_ns - t0) / 1e9, hitch.fields["angle"]
     fit = PathTransientFit().fit(path, t, psi)
     disc = discover_along_path(path, t, psi, [], fit)
@@ -203,9 +226,11 @@ def test_link_lengths_unstable_across_pieces_are_widened() -> None:
     assert recommended(est, disc).parameters == est.parameters
     L1 = est.parameters["L1"].value
     sd = est.parameters["L1"].std
-    pieces = [PieceFit(0.0, 1.0, {"L1": L1 - 0.3}, {"L1": sd}),
-              PieceFit(1.0, 2.0, {"L1": L1}, {"L1": sd}),
-              PieceFit(2.0, 3.0, {"L1": L1 + 0.3}, {"L1": sd})]
+    pieces = [
+        PieceFit(0.0, 1.0, {"L1": L1 - 0.3}, {"L1": sd}),
+        PieceFit(1.0, 2.0, {"L1": L1}, {"L1": sd}),
+        PieceFit(2.0, 3.0, {"L1": L1 + 0.3}, {"L1": sd}),
+    ]
     disc.stability = piece_stability(pieces, ("L1",))
     assert disc.stability["L1"].unstable
     out = recommended(est, disc)

@@ -68,12 +68,13 @@ class Quadratic(PathEffectModel):
         if not value:
             return state
         # the root of k y^2 + y - z = 0 nearer y = z (stable form)
-        return replace(state, z=2.0 * z / (1.0 + np.sqrt(np.maximum(1.0 + 4.0 * value * z,
-                                                                     0.0))))
+        return replace(state, z=2.0 * z / (1.0 + np.sqrt(np.maximum(1.0 + 4.0 * value * z, 0.0))))
 
 
 QUADRATIC: EffectSpec[PathEffectModel] = EffectSpec(
-    "sensor_quadratic", "psi", EffectKind.SENSOR,
+    "sensor_quadratic",
+    "psi",
+    EffectKind.SENSOR,
     (EffectParam("quadratic", "1/rad", 0.0, -3.0, 3.0, 0.0),),
     "the joint-angle encoder reads more on one side than the other (y + k y^2)",
     model=Quadratic(),
@@ -94,8 +95,13 @@ def _discover(k: float) -> tuple[PathDiscovery, dict]:  # type: ignore[type-arg]
     hitch = log.streams["/hitch/angle"]
     t0 = min(s.stamps_ns[0] for s in log.streams.values())
     pose = log.streams["/pose"]
-    path = DrivePath.from_pose((pose.stamps_ns - t0) / 1e9, pose.fields["x"], pose.fields["y"],
-                               np.unwrap(pose.fields["yaw"]), smooth_samples=3)
+    path = DrivePath.from_pose(
+        (pose.stamps_ns - t0) / 1e9,
+        pose.fields["x"],
+        pose.fields["y"],
+        np.unwrap(pose.fields["yaw"]),
+        smooth_samples=3,
+    )
     t = (hitch.stamps_ns - t0) / 1e9
     psi = np.asarray(hitch.fields["angle"], dtype=float)
     psi = psi + k * psi * psi  # this test's own distortion of the recorded angle
@@ -112,8 +118,17 @@ def test_hook_jacobian_matches_finite_differences() -> None:
     h = 1e-6
     fd = (hook.apply(state, 0.3 + h)[0].y - hook.apply(state, 0.3 - h)[0].y) / (2 * h)
     assert np.allclose(col, fd, rtol=1e-6, atol=1e-9)
-    back = hook.undo(Undone(None, None, y, hook.apply(state, 0.3)[0].y, None,  # type: ignore
-                            False), 0.3)
+    back = hook.undo(
+        Undone(
+            None,
+            None,
+            y,
+            hook.apply(state, 0.3)[0].y,
+            None,  # type: ignore
+            False,
+        ),
+        0.3,
+    )
     assert np.allclose(back.z, y, atol=1e-12)
 
 
@@ -175,8 +190,9 @@ class _CommandQuadratic(Effect):
     def channels(self) -> tuple[str, ...]:
         return ("psi",)
 
-    def modify_output(self, name: str, t_s: np.ndarray, y: np.ndarray,
-                      p: Mapping[str, float]) -> np.ndarray:
+    def modify_output(
+        self, name: str, t_s: np.ndarray, y: np.ndarray, p: Mapping[str, float]
+    ) -> np.ndarray:
         return y + p["quadratic"] * y * y if name == "psi" else y
 
     def explanation(self, values: Mapping[str, float]) -> str:
@@ -210,7 +226,8 @@ def test_command_catalogue_takes_a_registered_effect() -> None:
         assert cat[-1].spec.kind is EffectKind.SENSOR
         assert cat[-1] is not command_catalogue("transient")[-1]  # a fresh one per catalogue
         assert "sensor_quadratic(psi)" not in {
-            e.key for e in command_catalogue("transient", channels=("omega",))}
+            e.key for e in command_catalogue("transient", channels=("omega",))
+        }
     finally:
         unregister_command_effect("sensor_quadratic(psi)")
     assert "sensor_quadratic(psi)" not in {e.key for e in command_catalogue("transient")}
@@ -232,8 +249,9 @@ class _SteeringGain(Effect):
     def channels(self) -> tuple[str, ...]:
         return ("omega", "psi")
 
-    def modify_inputs(self, t_s: np.ndarray, kappa: np.ndarray, v: np.ndarray,
-                      p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    def modify_inputs(
+        self, t_s: np.ndarray, kappa: np.ndarray, v: np.ndarray, p: Mapping[str, float]
+    ) -> tuple[np.ndarray, np.ndarray]:
         return kappa * p["gain"], v
 
     def equivalents(self, channels: tuple[str, ...]) -> tuple[Equivalent, ...]:
@@ -242,13 +260,17 @@ class _SteeringGain(Effect):
         if "omega" not in channels:
             return ()
         me, yaw = self.key, SensorScale("omega").key
-        return (Equivalent(
-            GAIN_RULE, "the yaw rate cannot tell a steering gain from a gain of its sensor",
-            (me,), (yaw,),
-            lambda v, data: {yaw: {"scale": v[me]["gain"]}},
-            lambda v, data: {me: {"gain": v[yaw]["scale"]}},
-            exact=False,
-        ),)
+        return (
+            Equivalent(
+                GAIN_RULE,
+                "the yaw rate cannot tell a steering gain from a gain of its sensor",
+                (me,),
+                (yaw,),
+                lambda v, data: {yaw: {"scale": v[me]["gain"]}},
+                lambda v, data: {me: {"gain": v[yaw]["scale"]}},
+                exact=False,
+            ),
+        )
 
     def explanation(self, values: Mapping[str, float]) -> str:
         return f"the vehicle steers {values['gain']:.3f} x the commanded curvature"
@@ -279,16 +301,18 @@ def test_declared_equivalence_is_confirmed_and_a_confound(steering_gain: None) -
     assert rules[-1] == GAIN_RULE  # approximate: after the built-in exact ones
     assert GAIN_RULE not in [eq.rule for eq in equivalences(pool, ("psi",))]
 
-    frame, raw = indgen_log(scenario(indgen.Effects(understeer_K=0.0125), indgen.Speed(base=2.0)),
-                            seed=4)
+    frame, raw = indgen_log(
+        scenario(indgen.Effects(understeer_K=0.0125), indgen.Speed(base=2.0)), seed=4
+    )
     data = prepare_data(frame, raw)
     assert data.mean_square_speed() == pytest.approx(4.0, rel=1e-2)
     by_key = {e.key: e for e in pool}
     base = ModelSpec("transient")
     factors = neff_factors(fit_model(base, data, [1.3, 2.4], data.train_mask()))
     train = fit_set(base, [by_key["steering_gain"]], data, [1.3, 2.4], {}, data.train_mask())
-    conf = confirm_effects(data, base, [by_key["steering_gain"]], train, pool, factors,
-                           SelectionRules())
+    conf = confirm_effects(
+        data, base, [by_key["steering_gain"]], train, pool, factors, SelectionRules()
+    )
     assert [e.key for e in conf.effects] == ["steering_gain"]
     alt = next(a for a in conf.alternatives if a.rule == GAIN_RULE)
     assert alt.reported == ("steering_gain",)

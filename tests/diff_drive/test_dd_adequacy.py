@@ -27,12 +27,19 @@ if not JACKAL.is_dir():
     JACKAL = Path("/work/shared/realworld_drive/jackal")
 
 
-def _sim(seed: int, true: DiffDriveParams = NOM, duration: float = 180.0,
-         pose0: tuple[float, float, float] = (0.0, 0.0, 0.0), **kw: float) -> DriveRun:
-    cfg = SimConfig(true, NOM, slip_std=0.005, counts_per_rev=2797,
-                    pose_noise=(0.001, 0.001, 0.002), **kw)  # type: ignore[arg-type]
-    s = simulate_diff_drive(mixed_commands(NOM, duration, np.random.default_rng(seed)), cfg,
-                            seed, pose0)
+def _sim(
+    seed: int,
+    true: DiffDriveParams = NOM,
+    duration: float = 180.0,
+    pose0: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    **kw: float,
+) -> DriveRun:
+    cfg = SimConfig(
+        true, NOM, slip_std=0.005, counts_per_rev=2797, pose_noise=(0.001, 0.001, 0.002), **kw
+    )  # type: ignore[arg-type]
+    s = simulate_diff_drive(
+        mixed_commands(NOM, duration, np.random.default_rng(seed)), cfg, seed, pose0
+    )
     return DriveRun(s.t, s.wheel_right, s.wheel_left, s.x, s.y, s.yaw)
 
 
@@ -76,12 +83,18 @@ def test_stuck_encoder_through_the_pipeline(tmp_path: Path) -> None:
     from logtools.writers.csv_writer import write_frames_csv
 
     run = _stuck(_sim(1), 60.0, 64.0)
-    frame = pl.DataFrame({"t_ns": np.round(run.t * 1e9).astype(np.int64),
-                          "wheel_left": run.wheel_left, "wheel_right": run.wheel_right,
-                          "x": run.x, "y": run.y, "yaw": run.yaw})
+    frame = pl.DataFrame(
+        {
+            "t_ns": np.round(run.t * 1e9).astype(np.int64),
+            "wheel_left": run.wheel_left,
+            "wheel_right": run.wheel_right,
+            "x": run.x,
+            "y": run.y,
+            "yaw": run.yaw,
+        }
+    )
     path = tmp_path / "stuck.csv"
-    write_frames_csv(path, {"all": frame},
-                     {"all": ("wheel_left", "wheel_right", "x", "y", "yaw")})
+    write_frames_csv(path, {"all": frame}, {"all": ("wheel_left", "wheel_right", "x", "y", "yaw")})
     _, result = analyze_log(path)
     assert result.adequacy.before is not None
     assert result.adequacy.before.verdict == "does not explain"
@@ -99,17 +112,28 @@ def test_stuck_encoder_through_the_pipeline(tmp_path: Path) -> None:
 
 def _radius_change_run() -> DriveRun:
     first = _sim(2, duration=90.0)
-    cfg = SimConfig(DiffDriveParams(0.043, 0.042, 0.20), NOM, slip_std=0.005,
-                    counts_per_rev=2797, pose_noise=(0.001, 0.001, 0.002))
-    s = simulate_diff_drive(mixed_commands(NOM, 90.0, np.random.default_rng(22)), cfg, 22,
-                            (first.x[-1], first.y[-1], first.yaw[-1]))
+    cfg = SimConfig(
+        DiffDriveParams(0.043, 0.042, 0.20),
+        NOM,
+        slip_std=0.005,
+        counts_per_rev=2797,
+        pose_noise=(0.001, 0.001, 0.002),
+    )
+    s = simulate_diff_drive(
+        mixed_commands(NOM, 90.0, np.random.default_rng(22)),
+        cfg,
+        22,
+        (first.x[-1], first.y[-1], first.yaw[-1]),
+    )
     dt = first.t[1] - first.t[0]
     return DriveRun(
         np.concatenate([first.t, first.t[-1] + dt + s.t]),
         np.concatenate([first.wheel_right, first.wheel_right[-1] + s.wheel_right]),
         np.concatenate([first.wheel_left, first.wheel_left[-1] + s.wheel_left]),
-        np.concatenate([first.x, s.x]), np.concatenate([first.y, s.y]),
-        np.concatenate([first.yaw, s.yaw]))
+        np.concatenate([first.x, s.x]),
+        np.concatenate([first.y, s.y]),
+        np.concatenate([first.yaw, s.yaw]),
+    )
 
 
 def test_radius_change_located_and_split() -> None:
@@ -148,21 +172,35 @@ def test_ros2_odom_pose_from_the_encoders_is_refused_as_ground_truth(tmp_path: P
     dr = dead_reckon(run.t, run.wheel_right, run.wheel_left, NOM)
     t_ns = np.round(run.t * 1e9).astype(np.int64)
     frames = {
-        "wheels": pl.DataFrame({"t_ns": t_ns, "wheel_left": run.wheel_left,
-                                "wheel_right": run.wheel_right}),
-        "odom": pl.DataFrame({"t_ns": t_ns, "x": dr.x, "y": dr.y, "qz": np.sin(dr.yaw / 2),
-                              "qw": np.cos(dr.yaw / 2)}),
+        "wheels": pl.DataFrame(
+            {"t_ns": t_ns, "wheel_left": run.wheel_left, "wheel_right": run.wheel_right}
+        ),
+        "odom": pl.DataFrame(
+            {"t_ns": t_ns, "x": dr.x, "y": dr.y, "qz": np.sin(dr.yaw / 2), "qw": np.cos(dr.yaw / 2)}
+        ),
     }
     bindings = (
-        TopicBinding("/joint_states", "wheels", "sensor_msgs/msg/JointState",
-                     {"position.0": "wheel_left", "position.1": "wheel_right"},
-                     constants={"name": ["wheel_left_joint", "wheel_right_joint"]},
-                     stamp_field="header.stamp"),
-        TopicBinding("/odom", "odom", "nav_msgs/msg/Odometry",
-                     {"pose.pose.position.x": "x", "pose.pose.position.y": "y",
-                      "pose.pose.orientation.z": "qz", "pose.pose.orientation.w": "qw"},
-                     constants={"header.frame_id": "odom", "child_frame_id": "base_link"},
-                     stamp_field="header.stamp"),
+        TopicBinding(
+            "/joint_states",
+            "wheels",
+            "sensor_msgs/msg/JointState",
+            {"position.0": "wheel_left", "position.1": "wheel_right"},
+            constants={"name": ["wheel_left_joint", "wheel_right_joint"]},
+            stamp_field="header.stamp",
+        ),
+        TopicBinding(
+            "/odom",
+            "odom",
+            "nav_msgs/msg/Odometry",
+            {
+                "pose.pose.position.x": "x",
+                "pose.pose.position.y": "y",
+                "pose.pose.orientation.z": "qz",
+                "pose.pose.orientation.w": "qw",
+            },
+            constants={"header.frame_id": "odom", "child_frame_id": "base_link"},
+            stamp_field="header.stamp",
+        ),
     )
     path = tmp_path / "odom_pose.mcap"
     write_frames_mcap(path, frames, bindings, CdrEncoder())
@@ -171,14 +209,17 @@ def test_ros2_odom_pose_from_the_encoders_is_refused_as_ground_truth(tmp_path: P
     assert result.sections["ground_truth"]["verdict"] == "not ground truth"
     assert any("not ground truth" in w for w in result.warnings)
     assert result.estimate is None or not any(
-        e.identifiable for e in result.estimate.parameters.values()
-        if e.name.startswith("wheel_radius"))
+        e.identifiable
+        for e in result.estimate.parameters.values()
+        if e.name.startswith("wheel_radius")
+    )
     assert result.adequacy is not None
     assert result.adequacy.verdict != "explains"
 
 
-def _odom_imu(gain: float, seed: int, turn_slip: float = 0.0
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _odom_imu(
+    gain: float, seed: int, turn_slip: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, 120.0, 0.02)
     knots = np.arange(0.0, 123.0, 3.0)
@@ -248,8 +289,11 @@ def test_speed_dependent_slip_is_named_and_radii_cover_the_truth() -> None:
     assert slip is not None
     assert slip.significant
     assert slip.k.ci95[0] < 0.3 < slip.k.ci95[1]
-    for name, true in (("wheel_radius_right", NOM.r_R), ("wheel_radius_left", NOM.r_L),
-                       ("track_width", NOM.b)):
+    for name, true in (
+        ("wheel_radius_right", NOM.r_R),
+        ("wheel_radius_left", NOM.r_L),
+        ("track_width", NOM.b),
+    ):
         lo, hi = slip.with_slip[name].ci95
         assert lo < true < hi
 
@@ -269,12 +313,18 @@ def test_slip_through_the_pipeline_names_it_and_keeps_the_truth(tmp_path: Path) 
     from logtools.writers.csv_writer import write_frames_csv
 
     run = _slipping(4, 0.3)
-    frame = pl.DataFrame({"t_ns": np.round(run.t * 1e9).astype(np.int64),
-                          "wheel_left": run.wheel_left, "wheel_right": run.wheel_right,
-                          "x": run.x, "y": run.y, "yaw": run.yaw})
+    frame = pl.DataFrame(
+        {
+            "t_ns": np.round(run.t * 1e9).astype(np.int64),
+            "wheel_left": run.wheel_left,
+            "wheel_right": run.wheel_right,
+            "x": run.x,
+            "y": run.y,
+            "yaw": run.yaw,
+        }
+    )
     path = tmp_path / "slip.csv"
-    write_frames_csv(path, {"all": frame},
-                     {"all": ("wheel_left", "wheel_right", "x", "y", "yaw")})
+    write_frames_csv(path, {"all": frame}, {"all": ("wheel_left", "wheel_right", "x", "y", "yaw")})
     _, result = analyze_log(path)
     assert "wheel_slip" in result.discovery.named
     assert result.adequacy.verdict == "does not explain"
@@ -303,17 +353,28 @@ def test_piece_errors_are_honest_on_a_clean_log() -> None:
 
 def test_short_log_radius_change_is_found() -> None:
     first = _sim(2, duration=20.0)
-    cfg = SimConfig(DiffDriveParams(0.0425, 0.042, 0.20), NOM, slip_std=0.005,
-                    counts_per_rev=2797, pose_noise=(0.001, 0.001, 0.002))
-    s = simulate_diff_drive(mixed_commands(NOM, 20.0, np.random.default_rng(23)), cfg, 23,
-                            (first.x[-1], first.y[-1], first.yaw[-1]))
+    cfg = SimConfig(
+        DiffDriveParams(0.0425, 0.042, 0.20),
+        NOM,
+        slip_std=0.005,
+        counts_per_rev=2797,
+        pose_noise=(0.001, 0.001, 0.002),
+    )
+    s = simulate_diff_drive(
+        mixed_commands(NOM, 20.0, np.random.default_rng(23)),
+        cfg,
+        23,
+        (first.x[-1], first.y[-1], first.yaw[-1]),
+    )
     dt = first.t[1] - first.t[0]
     run = DriveRun(
         np.concatenate([first.t, first.t[-1] + dt + s.t]),
         np.concatenate([first.wheel_right, first.wheel_right[-1] + s.wheel_right]),
         np.concatenate([first.wheel_left, first.wheel_left[-1] + s.wheel_left]),
-        np.concatenate([first.x, s.x]), np.concatenate([first.y, s.y]),
-        np.concatenate([first.yaw, s.yaw]))
+        np.concatenate([first.x, s.x]),
+        np.concatenate([first.y, s.y]),
+        np.concatenate([first.yaw, s.yaw]),
+    )
     fit = fit_lsq([run], n_boot=0)
     change = radius_change([run], fit.params, fit.offset)
     assert change is not None  # a 1.2 % change of one wheel in a 40 s log

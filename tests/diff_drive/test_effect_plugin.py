@@ -36,17 +36,27 @@ GAIN = 0.05
 class BackwardGain(DriveEffect):
     """The true right-wheel turn is the logged one over (1 + g) where it is negative."""
 
-    def increments(self, run: int, data: DriveRun, dr: Array, dl: Array,
-                   values: Mapping[str, float], p: DiffDriveParams) -> tuple[Array, Array]:
+    def increments(
+        self,
+        run: int,
+        data: DriveRun,
+        dr: Array,
+        dl: Array,
+        values: Mapping[str, float],
+        p: DiffDriveParams,
+    ) -> tuple[Array, Array]:
         g = values["g"]
         return np.where(dr < 0, dr / (1 + g), dr), dl
 
 
 BACKWARD_GAIN: EffectSpec[DriveEffectModel] = EffectSpec(
-    "encoder_backward_gain", "wheel_right", EffectKind.SENSOR,
+    "encoder_backward_gain",
+    "wheel_right",
+    EffectKind.SENSOR,
     (EffectParam("g", "1", 0.0, -0.5, 0.5, 0.0),),
     "the right encoder counts (1 + g) of the wheel's turn while it turns backwards",
-    confounded_with=("wheel_radius_asymmetry(wheels)",), model=BackwardGain(),
+    confounded_with=("wheel_radius_asymmetry(wheels)",),
+    model=BackwardGain(),
 )
 
 
@@ -58,8 +68,7 @@ def registered() -> Iterator[None]:
 
 
 def _clean(seed: int) -> DriveRun:
-    cfg = SimConfig(NOM, NOM, slip_std=0.005, counts_per_rev=2797,
-                    pose_noise=(0.001, 0.001, 0.002))
+    cfg = SimConfig(NOM, NOM, slip_std=0.005, counts_per_rev=2797, pose_noise=(0.001, 0.001, 0.002))
     s = simulate_diff_drive(mixed_commands(NOM, 180.0, np.random.default_rng(seed)), cfg, seed)
     return DriveRun(s.t, s.wheel_right, s.wheel_left, s.x, s.y, s.yaw)
 
@@ -118,6 +127,7 @@ def test_extra_argument_without_registration() -> None:
     fit = fit_lsq([run], n_boot=50)
     plain = discover_effects([run], NOM, calibrated=fit.params, marker=fit.offset)
     assert "encoder_backward_gain" not in plain.named
-    d = discover_effects([run], NOM, calibrated=fit.params, marker=fit.offset,
-                         extra=(BACKWARD_GAIN,))
+    d = discover_effects(
+        [run], NOM, calibrated=fit.params, marker=fit.offset, extra=(BACKWARD_GAIN,)
+    )
     assert d.named[0] == "encoder_backward_gain"

@@ -23,8 +23,9 @@ def test_pooled_report_shows_each_runs_dead_reckoning_and_the_worse_ones(capsys)
     assert main(["analyze", "--json", *map(str, runs)]) == 0
     doc = json.loads(capsys.readouterr().out)
     rows = doc["dead_reckoning"]["runs"]
-    worse = [r for r in rows
-             if r["calibrated"]["end_point_error_m"] > r["nominal"]["end_point_error_m"]]
+    worse = [
+        r for r in rows if r["calibrated"]["end_point_error_m"] > r["nominal"]["end_point_error_m"]
+    ]
     assert main(["analyze", *map(str, runs)]) == 0
     text = capsys.readouterr().out
     assert "Dead reckoning, end-point error nominal -> calibrated" in text
@@ -40,13 +41,29 @@ def test_summary_lines_flag_a_worse_run() -> None:
     from calib.results import AnalysisResult
     from logtools.robots.diff_drive.report import summary_lines
 
-    res = AnalysisResult(robot="diff_drive", segments=[], methods=[], estimate=None, sections={
-        "dead_reckoning": {"calibrated_with": "LSQ", "runs": [
-            {"run": "a/run-1.csv", "nominal": {"end_point_error_m": 0.1},
-             "calibrated": {"end_point_error_m": 0.02}},
-            {"run": "a/run-2.csv", "nominal": {"end_point_error_m": 0.01},
-             "calibrated": {"end_point_error_m": 0.05}},
-        ]}})
+    res = AnalysisResult(
+        robot="diff_drive",
+        segments=[],
+        methods=[],
+        estimate=None,
+        sections={
+            "dead_reckoning": {
+                "calibrated_with": "LSQ",
+                "runs": [
+                    {
+                        "run": "a/run-1.csv",
+                        "nominal": {"end_point_error_m": 0.1},
+                        "calibrated": {"end_point_error_m": 0.02},
+                    },
+                    {
+                        "run": "a/run-2.csv",
+                        "nominal": {"end_point_error_m": 0.01},
+                        "calibrated": {"end_point_error_m": 0.05},
+                    },
+                ],
+            }
+        },
+    )
     lines = summary_lines(res)
     assert any("run-2.csv" in x and "WORSE" in x for x in lines)
     assert not any("run-1.csv" in x and "WORSE" in x for x in lines)

@@ -27,8 +27,9 @@ def _run(s: DiffDriveSim) -> DriveRun:
 
 def test_lsq_result_carries_the_bootstrap_covariance() -> None:
     true = DiffDriveParams(0.042 * 1.005, 0.042 * 0.995, 0.203)
-    sim = simulate_diff_drive(mixed_commands(NOM, 200.0, np.random.default_rng(3)),
-                              SimConfig(true, NOM), seed=3)
+    sim = simulate_diff_drive(
+        mixed_commands(NOM, 200.0, np.random.default_rng(3)), SimConfig(true, NOM), seed=3
+    )
     result, fit = calibrate_lsq([_run(sim)], n_boot=40)
     assert result.parameter_names == PARAMETER_NAMES
     cov = np.array(result.covariance)
@@ -53,24 +54,37 @@ def _corrected(alpha: float, beta: float, side: float) -> np.ndarray:
 def test_umbmark_covariance_is_the_delta_method_of_its_corrections() -> None:
     true = DiffDriveParams(0.042 * 1.001, 0.042 * 0.999, 0.2 * 1.002)
     cfg = SimConfig(true, NOM, slip_std=0.01, pose_noise=(0.002, 0.002, 0.002))
-    runs = [_run(simulate_diff_drive(square_commands(NOM, 1.7, d), cfg, seed=i))
-            for i, d in enumerate((1, 1, 1, -1, -1, -1))]
+    runs = [
+        _run(simulate_diff_drive(square_commands(NOM, 1.7, d), cfg, seed=i))
+        for i, d in enumerate((1, 1, 1, -1, -1, -1))
+    ]
     res = umbmark(runs, NOM, side=1.7)
     x0 = _corrected(res.alpha, res.beta, res.side)
     np.testing.assert_allclose(x0, [res.params.r_R, res.params.r_L, res.params.b], rtol=1e-12)
     h = 1e-7
-    jac = np.column_stack([
-        (_corrected(res.alpha + h, res.beta, res.side)
-         - _corrected(res.alpha - h, res.beta, res.side)) / (2 * h),
-        (_corrected(res.alpha, res.beta + h, res.side)
-         - _corrected(res.alpha, res.beta - h, res.side)) / (2 * h),
-    ])
+    jac = np.column_stack(
+        [
+            (
+                _corrected(res.alpha + h, res.beta, res.side)
+                - _corrected(res.alpha - h, res.beta, res.side)
+            )
+            / (2 * h),
+            (
+                _corrected(res.alpha, res.beta + h, res.side)
+                - _corrected(res.alpha, res.beta - h, res.side)
+            )
+            / (2 * h),
+        ]
+    )
     want = jac @ res.cov_ab @ jac.T
     assert np.all(np.diag(want) > 0)
     np.testing.assert_allclose(res.params_cov, want, rtol=1e-5, atol=1e-20)
     result = umbmark_result(res, 3, 3)
-    np.testing.assert_allclose(np.sqrt(np.diag(np.array(result.covariance))),
-                               [e.std for e in result.parameters.values()], rtol=1e-9)
+    np.testing.assert_allclose(
+        np.sqrt(np.diag(np.array(result.covariance))),
+        [e.std for e in result.parameters.values()],
+        rtol=1e-9,
+    )
     # the radii move together in opposite directions (their mean stays nominal)
     assert result.correlations is not None
     assert result.correlations[0][1] == pytest.approx(-1.0)

@@ -128,9 +128,15 @@ def full_parameters(p: ArmParams) -> dict[str, float]:
     ):
         n = f"joint{j}"
         out |= {
-            f"m[{n}]": m, f"mx[{n}]": m * cx, f"my[{n}]": m * cy, f"mz[{n}]": 0.0,
-            f"Ixx[{n}]": 0.1 * Ic + m * cy * cy, f"Ixy[{n}]": -m * cx * cy,
-            f"Iyy[{n}]": Ic + m * cx * cx, f"Ixz[{n}]": 0.0, f"Iyz[{n}]": 0.0,
+            f"m[{n}]": m,
+            f"mx[{n}]": m * cx,
+            f"my[{n}]": m * cy,
+            f"mz[{n}]": 0.0,
+            f"Ixx[{n}]": 0.1 * Ic + m * cy * cy,
+            f"Ixy[{n}]": -m * cx * cy,
+            f"Iyy[{n}]": Ic + m * cx * cx,
+            f"Ixz[{n}]": 0.0,
+            f"Iyz[{n}]": 0.0,
             f"Izz[{n}]": Ic + m * (cx * cx + cy * cy),
         }
     for j, n in enumerate(JOINTS):
@@ -205,9 +211,14 @@ def _params(rng: np.random.Generator) -> ArmParams:
     l1, l2 = float(rng.uniform(0.3, 0.6)), float(rng.uniform(0.25, 0.5))
     m1, m2 = float(rng.uniform(1.0, 5.0)), float(rng.uniform(0.5, 3.0))
     return ArmParams(
-        l1=l1, l2=l2, m1=m1, m2=m2,
-        cx1=l1 * float(rng.uniform(0.3, 0.6)), cy1=float(rng.uniform(-0.02, 0.02)),
-        cx2=l2 * float(rng.uniform(0.3, 0.6)), cy2=float(rng.uniform(-0.02, 0.02)),
+        l1=l1,
+        l2=l2,
+        m1=m1,
+        m2=m2,
+        cx1=l1 * float(rng.uniform(0.3, 0.6)),
+        cy1=float(rng.uniform(-0.02, 0.02)),
+        cx2=l2 * float(rng.uniform(0.3, 0.6)),
+        cy2=float(rng.uniform(-0.02, 0.02)),
         I1=m1 * l1**2 / 12 * float(rng.uniform(0.8, 1.2)),
         I2=m2 * l2**2 / 12 * float(rng.uniform(0.8, 1.2)),
         Fc=(float(rng.uniform(0.1, 1.0)), float(rng.uniform(0.1, 0.6))),
@@ -215,8 +226,22 @@ def _params(rng: np.random.Generator) -> ArmParams:
     )
 
 
-PERTURBABLE = ("m1", "m2", "cx1", "cy1", "cx2", "cy2", "I1", "I2", "Fc1", "Fc2", "Fv1", "Fv2",
-               "Ia1", "Ia2")
+PERTURBABLE = (
+    "m1",
+    "m2",
+    "cx1",
+    "cy1",
+    "cx2",
+    "cy2",
+    "I1",
+    "I2",
+    "Fc1",
+    "Fc2",
+    "Fv1",
+    "Fv2",
+    "Ia1",
+    "Ia2",
+)
 """Parameters ``arm_log(perturb=...)`` shifts (additively): mass, centre of mass, inertia of
 each link, Coulomb and viscous friction of each joint, and a rotor (armature) inertia ``Ia`` per
 joint (0 unperturbed: the arm has none, logcal's model has one; it adds Ia qdd to the torque)."""
@@ -233,8 +258,12 @@ def _perturbed(p: ArmParams, dp: dict[str, float]) -> tuple[ArmParams, FloatArra
 
 
 def arm_log(
-    seed: int, kind: str | None = None, magnitude: float = 0.0, duration_s: float | None = None,
-    *, perturb: dict[str, float] | None = None,
+    seed: int,
+    kind: str | None = None,
+    magnitude: float = 0.0,
+    duration_s: float | None = None,
+    *,
+    perturb: dict[str, float] | None = None,
 ) -> RobotLog:
     """An arm log (``/joint_states``, JSON arrays) with ``kind`` at ``magnitude`` (None / 0:
     clean); ``files["arm.urdf"]`` is the URDF of the (payload-free) arm. Draws from ``seed``.
@@ -266,8 +295,10 @@ def arm_log(
         tau = inverse_dynamics(p, q, qd, qdd) + armature * qdd
         if kind == "payload_pickup" and m > 0:
             late = tt >= t_pick
-            tau[late] = (inverse_dynamics(p.with_tip_mass(m), q[late], qd[late], qdd[late])
-                         + armature * qdd[late])
+            tau[late] = (
+                inverse_dynamics(p.with_tip_mass(m), q[late], qd[late], qdd[late])
+                + armature * qdd[late]
+            )
         if kind == "stribeck":
             tau = tau + m * np.exp(-((qd / vs) ** 2)) * np.sign(qd)
         if kind == "cogging":
@@ -291,14 +322,22 @@ def arm_log(
     eff = effort + g.normal(0, tau_sd, (n, 2))
     stamps = 1_760_000_000_000_000_000 + np.round(t * 1e9).astype(np.int64)
     stream = Stream(
-        "/joint_states", stamps, t, {"position": pos, "velocity": vel, "effort": eff},
+        "/joint_states",
+        stamps,
+        t,
+        {"position": pos, "velocity": vel, "effort": eff},
         {"position": qq / math.sqrt(12), "velocity": qd_sd, "effort": tau_sd},
         constants={"name": list(JOINTS)},
         expected={"position": q, "velocity": qd, "effort": effort},
     )
     truth: dict[str, Any] = {
-        "robot": "arm", "seed": seed, "duration_s": T, "kind": kind, "magnitude": m,
-        "rate_hz": rate, "arm": dict(p.__dict__),
+        "robot": "arm",
+        "seed": seed,
+        "duration_s": T,
+        "kind": kind,
+        "magnitude": m,
+        "rate_hz": rate,
+        "arm": dict(p.__dict__),
         "params": full_parameters(p),
     }
     if np.any(armature):
@@ -309,9 +348,12 @@ def arm_log(
         truth["stribeck_velocity"] = vs
     if kind == "cogging":
         truth["cogging_periods"] = [int(x) for x in cog_n]
-    csv = {("/joint_states", f, j): f"{c}{j + 1}"
-           for f, c in (("position", "q"), ("velocity", "qd"), ("effort", "tau"))
-           for j in range(2)}
+    csv = {
+        ("/joint_states", f, j): f"{c}{j + 1}"
+        for f, c in (("position", "q"), ("velocity", "qd"), ("effort", "tau"))
+        for j in range(2)
+    }
     meta = {"logcal": {"robot": "manipulator", "joints": ",".join(JOINTS)}}
-    return RobotLog("arm", {"/joint_states": stream}, truth, meta, csv,
-                    files={"arm.urdf": urdf_text(p)})
+    return RobotLog(
+        "arm", {"/joint_states": stream}, truth, meta, csv, files={"arm.urdf": urdf_text(p)}
+    )

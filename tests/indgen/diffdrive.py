@@ -56,8 +56,16 @@ def _inputs(rng: np.random.Generator, T: float) -> tuple[Any, Any, float]:
     return v_cmd, w_cmd, ramp
 
 
-def _encoder(kind: str | None, m: float, wheel: int, k: int, phi: FloatArray, t: FloatArray,
-             t0: float, u: FloatArray) -> FloatArray:
+def _encoder(
+    kind: str | None,
+    m: float,
+    wheel: int,
+    k: int,
+    phi: FloatArray,
+    t: FloatArray,
+    t0: float,
+    u: FloatArray,
+) -> FloatArray:
     """The encoder reading of wheel ``k`` (0 left, 1 right) before quantisation."""
     if k != wheel:
         return phi
@@ -135,8 +143,9 @@ def diff_drive_log(
     pieces = []
     y0 = [0.0, 0.0, float(rng.uniform(-np.pi, np.pi)), 0.0, 0.0]
     for a, bb in pairwise(edges):
-        sol = solve_ivp(rhs, (a, bb), y0, method="DOP853", rtol=1e-10, atol=1e-12,
-                        dense_output=True)
+        sol = solve_ivp(
+            rhs, (a, bb), y0, method="DOP853", rtol=1e-10, atol=1e-12, dense_output=True
+        )
         pieces.append((a, sol.sol))
         y0 = list(sol.y[:, -1])
     starts = np.array([p[0] for p in pieces])
@@ -167,47 +176,77 @@ def diff_drive_log(
     right_e = _encoder(kind, m, wheel, 1, sw[4], tw, t0, u)
     left, right = quantise(left_e, q), quantise(right_e, q)
     qsd = q / math.sqrt(12)
-    streams["/wheels"] = Stream("/wheels", stamps(tw, g), tw, {"left": left, "right": right},
-                                {"left": qsd, "right": qsd},
-                                expected={"left": left_e, "right": right_e})
+    streams["/wheels"] = Stream(
+        "/wheels",
+        stamps(tw, g),
+        tw,
+        {"left": left, "right": right},
+        {"left": qsd, "right": qsd},
+        expected={"left": left_e, "right": right_e},
+    )
     g = np.random.default_rng([seed, 2])
     tp = grid(g, pose_hz, T)
     sp = state(tp)
     n = tp.size
     streams["/pose"] = Stream(
-        "/pose", stamps(tp, g, 1e-4), tp,
-        {"x": sp[0] + g.normal(0, pos_sd, n), "y": sp[1] + g.normal(0, pos_sd, n),
-         "yaw": wrap(sp[2] + g.normal(0, yaw_sd, n))},
-        {"x": pos_sd, "y": pos_sd, "yaw": yaw_sd}, angle=("yaw",),
+        "/pose",
+        stamps(tp, g, 1e-4),
+        tp,
+        {
+            "x": sp[0] + g.normal(0, pos_sd, n),
+            "y": sp[1] + g.normal(0, pos_sd, n),
+            "yaw": wrap(sp[2] + g.normal(0, yaw_sd, n)),
+        },
+        {"x": pos_sd, "y": pos_sd, "yaw": yaw_sd},
+        angle=("yaw",),
         expected={"x": sp[0], "y": sp[1], "yaw": sp[2]},
     )
     g = np.random.default_rng([seed, 3])
     tc = grid(g, 20.0, T)
-    streams["/cmd/vel"] = Stream("/cmd/vel", stamps(tc, g, 0.0), tc,
-                                 {"v": v_cmd(tc), "omega": w_cmd(tc)})
+    streams["/cmd/vel"] = Stream(
+        "/cmd/vel", stamps(tc, g, 0.0), tc, {"v": v_cmd(tc), "omega": w_cmd(tc)}
+    )
     if var == "gyro":
         g = np.random.default_rng([seed, 4])
         dt = np.gradient(tw)
         v_odo = 0.5 * (nom["r_R"] * np.gradient(right) + nom["r_L"] * np.gradient(left)) / dt
         h = 1e-4
         yaw_rate = (state(tw + h)[2] - state(np.maximum(tw - h, 0.0))[2]) / (
-            tw + h - np.maximum(tw - h, 0.0))
+            tw + h - np.maximum(tw - h, 0.0)
+        )
         bias = float(g.normal(0.0, 0.002))
         gyro = yaw_rate + bias + g.normal(0.0, gyro_sd, tw.size)
         st = stamps(tw, g)
-        streams["/odom"] = Stream("/odom", st, tw, {"v": v_odo, "omega": gyro},
-                                  {"v": qsd * ticks / (2 * np.pi), "omega": gyro_sd})
+        streams["/odom"] = Stream(
+            "/odom",
+            st,
+            tw,
+            {"v": v_odo, "omega": gyro},
+            {"v": qsd * ticks / (2 * np.pi), "omega": gyro_sd},
+        )
         zeros = np.zeros(tw.size)
-        streams["/imu/data"] = Stream("/imu/data", st, tw,
-                                      {"angular_velocity.x": zeros, "angular_velocity.y": zeros,
-                                       "angular_velocity.z": gyro},
-                                      {"angular_velocity.z": gyro_sd})
+        streams["/imu/data"] = Stream(
+            "/imu/data",
+            st,
+            tw,
+            {"angular_velocity.x": zeros, "angular_velocity.y": zeros, "angular_velocity.z": gyro},
+            {"angular_velocity.z": gyro_sd},
+        )
     dense = np.linspace(0.0, T, int(T * 50) + 1)
     sd_ = state(dense)
     truth: dict[str, Any] = {
-        "robot": "diff_drive", "seed": seed, "duration_s": T, "variant": var,
-        "kind": kind, "magnitude": m, "r_R": r_R, "r_L": r_L, "b": b, "ticks_per_rev": ticks,
-        "params": {"r_R": r_R, "r_L": r_L, "b": b}, "nominal": nom,
+        "robot": "diff_drive",
+        "seed": seed,
+        "duration_s": T,
+        "variant": var,
+        "kind": kind,
+        "magnitude": m,
+        "r_R": r_R,
+        "r_L": r_L,
+        "b": b,
+        "ticks_per_rev": ticks,
+        "params": {"r_R": r_R, "r_L": r_L, "b": b},
+        "nominal": nom,
         "distance_m": float(np.sum(np.hypot(np.diff(sd_[0]), np.diff(sd_[1])))),
     }
     if kind == "radius_change":
@@ -218,12 +257,21 @@ def diff_drive_log(
             truth["t_stuck_s"] = [t0, min(T, t0 + m)]
     meta = {
         "logcal": {"robot": "diff_drive"},
-        "logcal.nominal": {"wheel_radius_right": repr(nom["r_R"]),
-                           "wheel_radius_left": repr(nom["r_L"]), "track_width": repr(nom["b"])},
+        "logcal.nominal": {
+            "wheel_radius_right": repr(nom["r_R"]),
+            "wheel_radius_left": repr(nom["r_L"]),
+            "track_width": repr(nom["b"]),
+        },
     }
-    csv = {("/wheels", "left", -1): "wheel_left", ("/wheels", "right", -1): "wheel_right",
-           ("/cmd/vel", "v", -1): "v_cmd", ("/cmd/vel", "omega", -1): "omega_cmd",
-           ("/pose", "x", -1): "x", ("/pose", "y", -1): "y", ("/pose", "yaw", -1): "yaw"}
+    csv = {
+        ("/wheels", "left", -1): "wheel_left",
+        ("/wheels", "right", -1): "wheel_right",
+        ("/cmd/vel", "v", -1): "v_cmd",
+        ("/cmd/vel", "omega", -1): "omega_cmd",
+        ("/pose", "x", -1): "x",
+        ("/pose", "y", -1): "y",
+        ("/pose", "yaw", -1): "yaw",
+    }
     if var == "gyro":
         csv[("/odom", "omega", -1)] = "omega"
     return RobotLog("diff_drive", streams, truth, meta, csv, start_ns=start_ns)

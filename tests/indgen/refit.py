@@ -93,18 +93,27 @@ def _rel(rel: float, floor: float = 0.0) -> Callable[[float], float]:
 
 PARAMETERS: dict[str, dict[str, tuple[str, Callable[[float], float]]]] = {
     # name -> (truth key of the base value or "" for 0, step from the base value)
-    "tractor_trailer": {"L1": ("L1", _rel(1e-3, 0.1)), "L2": ("L2", _rel(1e-3, 0.1)),
-                        "psi0": ("", lambda _: 1e-3)},
-    "diff_drive": {"r_R": ("r_R", _rel(1e-3)), "r_L": ("r_L", _rel(1e-3)),
-                   "b": ("b", _rel(1e-3))},
+    "tractor_trailer": {
+        "L1": ("L1", _rel(1e-3, 0.1)),
+        "L2": ("L2", _rel(1e-3, 0.1)),
+        "psi0": ("", lambda _: 1e-3),
+    },
+    "diff_drive": {"r_R": ("r_R", _rel(1e-3)), "r_L": ("r_L", _rel(1e-3)), "b": ("b", _rel(1e-3))},
     "arm": {
-        "m1": ("m1", _rel(1e-3)), "m2": ("m2", _rel(1e-3)),
-        "cx1": ("l1", _rel(1e-3)), "cy1": ("l1", _rel(1e-3)),
-        "cx2": ("l2", _rel(1e-3)), "cy2": ("l2", _rel(1e-3)),
-        "I1": ("I1", _rel(1e-3)), "I2": ("I2", _rel(1e-3)),
-        "Fc1": ("", lambda _: 1e-2), "Fc2": ("", lambda _: 1e-2),
-        "Fv1": ("", lambda _: 1e-2), "Fv2": ("", lambda _: 1e-2),
-        "Ia1": ("I1", _rel(1e-2)), "Ia2": ("I2", _rel(1e-2)),
+        "m1": ("m1", _rel(1e-3)),
+        "m2": ("m2", _rel(1e-3)),
+        "cx1": ("l1", _rel(1e-3)),
+        "cy1": ("l1", _rel(1e-3)),
+        "cx2": ("l2", _rel(1e-3)),
+        "cy2": ("l2", _rel(1e-3)),
+        "I1": ("I1", _rel(1e-3)),
+        "I2": ("I2", _rel(1e-3)),
+        "Fc1": ("", lambda _: 1e-2),
+        "Fc2": ("", lambda _: 1e-2),
+        "Fv1": ("", lambda _: 1e-2),
+        "Fv2": ("", lambda _: 1e-2),
+        "Ia1": ("I1", _rel(1e-2)),
+        "Ia2": ("I2", _rel(1e-2)),
     },
 }
 """The nominal model's parameters per robot, perturbed one at a time for the sensitivities."""
@@ -169,8 +178,10 @@ def _diff_drive(log: RobotLog, ref: RobotLog) -> list[Channel]:
     var_h = float(p.noise_std["yaw"]) ** 2 * cw + (rR**2 + rL**2) / b**2 * q2
     var_a = float(p.noise_std["x"]) ** 2 * cw + (rR**2 + rL**2) / 4 * q2
     tm = 0.5 * (tw[a] + tw[e])
-    return [Channel("heading increment", tm, heading, math.sqrt(float(np.mean(var_h)))),
-            Channel("along-track displacement", tm, along, math.sqrt(float(np.mean(var_a))))]
+    return [
+        Channel("heading increment", tm, heading, math.sqrt(float(np.mean(var_h)))),
+        Channel("along-track displacement", tm, along, math.sqrt(float(np.mean(var_a)))),
+    ]
 
 
 def _arm_params(truth: dict[str, Any]) -> ArmParams:
@@ -191,7 +202,9 @@ def _arm(log: RobotLog, ref: RobotLog) -> list[Channel]:
 
 
 _CHANNELS: dict[str, Callable[[RobotLog, RobotLog], list[Channel]]] = {
-    "tractor_trailer": _tractor, "diff_drive": _diff_drive, "arm": _arm,
+    "tractor_trailer": _tractor,
+    "diff_drive": _diff_drive,
+    "arm": _arm,
 }
 
 
@@ -227,7 +240,7 @@ def _solve(S: FloatArray, r: FloatArray) -> FloatArray:
 def _rms_per(r: FloatArray, sizes: list[int], names: list[str]) -> dict[str, float]:
     out, i = {}, 0
     for name, k in zip(names, sizes, strict=True):
-        seg = r[i:i + k]
+        seg = r[i : i + k]
         out[name] = float(np.sqrt(np.mean(seg * seg))) if k else 0.0
         i += k
     return out
@@ -236,14 +249,21 @@ def _rms_per(r: FloatArray, sizes: list[int], names: list[str]) -> dict[str, flo
 class _Problem:
     """The regenerations of one log's clean twin at theta0 + beta, on ``target``'s instants."""
 
-    def __init__(self, gen: Callable[..., RobotLog], seed: int, clean: RobotLog,
-                 target: list[Channel], kw: dict[str, Any]) -> None:
+    def __init__(
+        self,
+        gen: Callable[..., RobotLog],
+        seed: int,
+        clean: RobotLog,
+        target: list[Channel],
+        kw: dict[str, Any],
+    ) -> None:
         self.gen, self.seed, self.clean, self.target, self.kw = gen, seed, clean, target, kw
         spec = PARAMETERS[clean.robot]
         base = {**clean.truth, **clean.truth.get("arm", {})}
         self.names = list(spec)
-        self.steps = np.array([spec[k][1](float(base[spec[k][0]]) if spec[k][0] else 0.0)
-                               for k in self.names])
+        self.steps = np.array(
+            [spec[k][1](float(base[spec[k][0]]) if spec[k][0] else 0.0) for k in self.names]
+        )
         self.y_kind = _vector(target, target)
         self.generated = 0
 
@@ -252,8 +272,13 @@ class _Problem:
         if not np.any(beta):
             return _vector(modelled_channels(self.clean, self.clean), self.target)
         self.generated += 1
-        log = self.gen(self.seed, None, 0.0,
-                       perturb=dict(zip(self.names, beta.tolist(), strict=True)), **self.kw)
+        log = self.gen(
+            self.seed,
+            None,
+            0.0,
+            perturb=dict(zip(self.names, beta.tolist(), strict=True)),
+            **self.kw,
+        )
         return _vector(modelled_channels(log, self.clean), self.target)
 
     def residual(self, beta: FloatArray) -> FloatArray | None:
@@ -274,9 +299,16 @@ class _Problem:
         return np.column_stack(cols)
 
 
-def _fit(pb: _Problem, rows: NDArray[np.bool_], beta: FloatArray, r: FloatArray,
-         S: FloatArray, max_iter: int, newton: bool, free: NDArray[np.bool_] | None = None,
-         ) -> tuple[FloatArray, FloatArray, FloatArray, int]:
+def _fit(
+    pb: _Problem,
+    rows: NDArray[np.bool_],
+    beta: FloatArray,
+    r: FloatArray,
+    S: FloatArray,
+    max_iter: int,
+    newton: bool,
+    free: NDArray[np.bool_] | None = None,
+) -> tuple[FloatArray, FloatArray, FloatArray, int]:
     """Minimise the residual on ``rows`` over the ``free`` parameters (default: all) from
     ``beta`` (residual ``r``, sensitivities ``S`` there): Gauss-Newton (``newton``: S recomputed
     at each accepted point) or chord steps, each checked by a regeneration (a step that does
@@ -324,9 +356,14 @@ def refit_effect(
     target = modelled_channels(log, clean)
     names = [c.name for c in target]
     sizes = [c.t.size for c in target]
-    out: dict[str, Any] = {"refit": dict.fromkeys(names, 0.0),
-                           "heldout": dict.fromkeys(names, 0.0), "beta": {},
-                           "iterations": 0, "generated": 0, "seconds": 0.0}
+    out: dict[str, Any] = {
+        "refit": dict.fromkeys(names, 0.0),
+        "heldout": dict.fromkeys(names, 0.0),
+        "beta": {},
+        "iterations": 0,
+        "generated": 0,
+        "seconds": 0.0,
+    }
     if not target:
         return out
     pb = _Problem(gen, seed, clean, target, kw)

@@ -81,8 +81,11 @@ def write_mcap_json(path: str | Path, log: RobotLog) -> None:
 
 def write_csv(path: str | Path, log: RobotLog) -> None:
     """CSV of the log's ``csv_columns`` (see module docstring)."""
-    used = [s for s in log.streams.values()
-            if any(k[0] == s.topic for k in log.csv_columns) and s.stamps_ns.size]
+    used = [
+        s
+        for s in log.streams.values()
+        if any(k[0] == s.topic for k in log.csv_columns) and s.stamps_ns.size
+    ]
     stamps = np.unique(np.concatenate([s.stamps_ns for s in used]))
     cols: dict[str, np.ndarray] = {}
     for (topic, name, j), col in log.csv_columns.items():
@@ -96,8 +99,9 @@ def write_csv(path: str | Path, log: RobotLog) -> None:
     write_csv_rows(path, (stamps - log.start_ns) / 1e9, cols, list(cols))
 
 
-def write_log(directory: str | Path, log: RobotLog, name: str = "log",
-              fmt: str = "mcap") -> dict[str, Path]:
+def write_log(
+    directory: str | Path, log: RobotLog, name: str = "log", fmt: str = "mcap"
+) -> dict[str, Path]:
     """Write the log (``fmt`` ``mcap`` or ``csv``) and its extra files into ``directory``;
     returns {"log": path, file name: path, ...}."""
     d = Path(directory)

@@ -34,8 +34,13 @@ GENERATORS: dict[str, Callable[..., RobotLog]] = {
 
 
 def generate_log(
-    robot: str, seed: int, kind: str | None = None, magnitude: float = 0.0, *,
-    refit: bool = True, **kw: Any
+    robot: str,
+    seed: int,
+    kind: str | None = None,
+    magnitude: float = 0.0,
+    *,
+    refit: bool = True,
+    **kw: Any,
 ) -> RobotLog:
     """A log of ``robot`` with ``kind`` at ``magnitude`` (None: clean), effect sizes attached
     (the refit-aware ones unless ``refit`` is False)."""

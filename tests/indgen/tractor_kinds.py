@@ -30,8 +30,15 @@ from .scenario import TOPICS, Scenario, random_scenario
 
 __all__ = ["PERTURBABLE", "backlash", "tractor_log"]
 
-_STD = {"v": 0.02, "omega": 0.005, "x": 0.02, "y": 0.02, "yaw": 0.005, "angle": 0.005,
-        "curvature": 0.0}
+_STD = {
+    "v": 0.02,
+    "omega": 0.005,
+    "x": 0.02,
+    "y": 0.02,
+    "yaw": 0.005,
+    "angle": 0.005,
+    "curvature": 0.0,
+}
 _DENSE_HZ = 500.0
 
 
@@ -49,8 +56,9 @@ def backlash(u: FloatArray, width: float) -> FloatArray:
     return y
 
 
-def _integrate(scn: Scenario, L2_after: float, t_swap: float, c: float,
-               psi0: float = 0.0) -> tuple[Any, ...]:
+def _integrate(
+    scn: Scenario, L2_after: float, t_swap: float, c: float, psi0: float = 0.0
+) -> tuple[Any, ...]:
     cmd, spd, L1, T = scn.command, scn.speed, scn.L1, scn.duration_s
     brk = set(cmd.breaks()) | set(spd.breaks()) | {t_swap}
     edges = [0.0, *sorted(b for b in brk if 1e-9 < b < T - 1e-9), T]
@@ -69,8 +77,7 @@ def _integrate(scn: Scenario, L2_after: float, t_swap: float, c: float,
             dpsi = w - (v * math.sin(s[3]) - L1 * w * math.cos(s[3])) / L2 - c * v * v * k
             return [v * math.cos(s[2]), v * math.sin(s[2]), w, dpsi]
 
-        sol = solve_ivp(rhs, (a, b), y0, method="DOP853", rtol=1e-9, atol=1e-11,
-                        dense_output=True)
+        sol = solve_ivp(rhs, (a, b), y0, method="DOP853", rtol=1e-9, atol=1e-11, dense_output=True)
         if not sol.success:
             raise RuntimeError(f"integration failed on [{a}, {b}]: {sol.message}")
         pieces.append((a, sol.sol))
@@ -104,8 +111,12 @@ initial hitch angle (0 unperturbed)."""
 
 
 def tractor_log(
-    seed: int, kind: str | None = None, magnitude: float = 0.0, duration_s: float | None = None,
-    *, perturb: dict[str, float] | None = None,
+    seed: int,
+    kind: str | None = None,
+    magnitude: float = 0.0,
+    duration_s: float | None = None,
+    *,
+    perturb: dict[str, float] | None = None,
 ) -> RobotLog:
     """A tractor-trailer log (``tractor_trailer`` topics of LOG_FORMAT.md) with ``kind`` at
     ``magnitude`` (None or magnitude 0: clean). Draws from ``seed`` only (not from the kind).
@@ -125,8 +136,9 @@ def tractor_log(
     m = magnitude if kind is not None else 0.0
     L2_after = scn.L2 * (1.0 + m) if kind == "trailer_swap" else scn.L2
     c = m if kind == "trailer_slip" else 0.0
-    pieces = _integrate(scn, L2_after, t_swap if kind == "trailer_swap" else T + 1.0, c,
-                        dp.get("psi0", 0.0))
+    pieces = _integrate(
+        scn, L2_after, t_swap if kind == "trailer_swap" else T + 1.0, c, dp.get("psi0", 0.0)
+    )
     dense_t = grid(np.random.default_rng(0), _DENSE_HZ, T)
     dense_psi = _state(pieces, dense_t)[3]
     rec_psi = _hitch(kind, m, dense_psi)
@@ -146,9 +158,17 @@ def tractor_log(
         st = _state(pieces, t)
         v_cmd = scn.speed.values(t)
         kc = scn.command.values(t)
-        true = {"kappa_cmd": kc, "v_cmd": v_cmd, "omega_cmd": v_cmd * kc, "v": v_cmd,
-                "omega": v_cmd * kc, "x": st[0], "y": st[1], "yaw": st[2],
-                "psi": np.interp(t, dense_t, rec_psi)}
+        true = {
+            "kappa_cmd": kc,
+            "v_cmd": v_cmd,
+            "omega_cmd": v_cmd * kc,
+            "v": v_cmd,
+            "omega": v_cmd * kc,
+            "x": st[0],
+            "y": st[1],
+            "yaw": st[2],
+            "psi": np.interp(t, dense_t, rec_psi),
+        }
         fields: dict[str, FloatArray] = {}
         noise: dict[str, float] = {}
         expected: dict[str, FloatArray] = {}
@@ -164,12 +184,23 @@ def tractor_log(
         if kind == "clock_drift" and group == "hitch":
             stamp_s = stamp_s * (1.0 + m)
         stamps = start_ns + np.round(stamp_s * 1e9).astype(np.int64)
-        streams[tdef.topic] = Stream(tdef.topic, stamps, t, fields, noise,
-                                     angle=("yaw",) if "yaw" in fields else (),
-                                     expected=expected)
+        streams[tdef.topic] = Stream(
+            tdef.topic,
+            stamps,
+            t,
+            fields,
+            noise,
+            angle=("yaw",) if "yaw" in fields else (),
+            expected=expected,
+        )
     truth: dict[str, Any] = {
-        "robot": "tractor_trailer", "seed": seed, "duration_s": T,
-        "L1": scn.L1, "L2": scn.L2, "kind": kind, "magnitude": m,
+        "robot": "tractor_trailer",
+        "seed": seed,
+        "duration_s": T,
+        "L1": scn.L1,
+        "L2": scn.L2,
+        "kind": kind,
+        "magnitude": m,
         "max_abs_psi": float(np.max(np.abs(dense_psi))),
         "params": {"L1": scn.L1, "L2": scn.L2},
     }
@@ -177,9 +208,15 @@ def tractor_log(
         truth |= {"t_swap_s": t_swap, "L2_after": L2_after}
     if kind == "hitch_backlash":
         truth["hitch_dead_band_rad"] = m
-    csv = {("/cmd/curvature", "curvature", -1): "kappa_cmd", ("/cmd/vel", "v", -1): "v_cmd",
-           ("/odom", "v", -1): "v", ("/odom", "omega", -1): "omega", ("/pose", "x", -1): "x",
-           ("/pose", "y", -1): "y", ("/pose", "yaw", -1): "yaw",
-           ("/hitch/angle", "angle", -1): "psi"}
+    csv = {
+        ("/cmd/curvature", "curvature", -1): "kappa_cmd",
+        ("/cmd/vel", "v", -1): "v_cmd",
+        ("/odom", "v", -1): "v",
+        ("/odom", "omega", -1): "omega",
+        ("/pose", "x", -1): "x",
+        ("/pose", "y", -1): "y",
+        ("/pose", "yaw", -1): "yaw",
+        ("/hitch/angle", "angle", -1): "psi",
+    }
     meta = {"logcal": {"robot": "tractor_trailer"}}
     return RobotLog("tractor_trailer", streams, truth, meta, csv, start_ns=start_ns)

@@ -27,9 +27,20 @@ def _truth(path: Path) -> dict[str, float]:
 def mixed_json(tmp_path_factory: pytest.TempPathFactory) -> dict:
     out = tmp_path_factory.mktemp("analyze") / "mixed.json"
     code = subprocess.run(
-        [sys.executable, "-m", "logtools.cli.main", "analyze", str(SAMPLES / "tt_mixed.mcap"),
-         "--json", "--repeats", "3"],
-        capture_output=True, text=True, check=False, cwd=ROOT,
+        [
+            sys.executable,
+            "-m",
+            "logtools.cli.main",
+            "analyze",
+            str(SAMPLES / "tt_mixed.mcap"),
+            "--json",
+            "--repeats",
+            "3",
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=ROOT,
     )
     assert code.returncode == 0, code.stderr
     out.write_text(code.stdout)
@@ -85,24 +96,43 @@ def test_default_baseline_is_transient_and_names_nothing_on_a_clean_run(mixed_js
 @pytest.mark.slow
 def test_steady_baseline_names_the_hitch_transient(capsys: pytest.CaptureFixture[str]) -> None:
     """The patent's steady-state view leaves out the trailer's transient: discovery names it."""
-    code = main(["analyze", str(SAMPLES / "tt_mixed.mcap"), "--json", "--repeats", "1",
-                 "--baseline", "steady"])
+    code = main(
+        [
+            "analyze",
+            str(SAMPLES / "tt_mixed.mcap"),
+            "--json",
+            "--repeats",
+            "1",
+            "--baseline",
+            "steady",
+        ]
+    )
     assert code == 0
     doc = json.loads(capsys.readouterr().out)
     assert "hitch_transient" in [e["id"] for e in doc["discovery"]["effects"]]
 
 
 def test_discovery_span_limits_what_discovery_looks_at(capsys: pytest.CaptureFixture[str]) -> None:
-    code = main(["analyze", str(SAMPLES / "tt_mixed.mcap"), "--json", "--repeats", "1",
-                 "--discovery-span", "100"])
+    code = main(
+        [
+            "analyze",
+            str(SAMPLES / "tt_mixed.mcap"),
+            "--json",
+            "--repeats",
+            "1",
+            "--discovery-span",
+            "100",
+        ]
+    )
     assert code == 0
     win = json.loads(capsys.readouterr().out)["discovery"]["windows"]
     assert win["used_s"] == pytest.approx(100.0)
     assert win["total_s"] > 100.0
     assert win["windows_s"][0][0] == 0.0
     assert win["windows_s"][-1][1] == pytest.approx(win["total_s"])
-    code = main(["analyze", str(SAMPLES / "tt_mixed.mcap"), "--repeats", "1",
-                 "--discovery-span", "100"])
+    code = main(
+        ["analyze", str(SAMPLES / "tt_mixed.mcap"), "--repeats", "1", "--discovery-span", "100"]
+    )
     assert "Discovery looked at 100 s of the" in capsys.readouterr().out
 
 
@@ -120,8 +150,16 @@ def test_other_encodings_give_the_same_estimate(
 
 
 def test_terminal_report_warns_about_the_cls_split(capsys: pytest.CaptureFixture[str]) -> None:
-    code = main(["analyze", str(SAMPLES / "tt_harmonic_clean.mcap"), "--repeats", "1",
-                 "--no-discovery", "--methods"])  # the method tables come with --methods
+    code = main(
+        [
+            "analyze",
+            str(SAMPLES / "tt_harmonic_clean.mcap"),
+            "--repeats",
+            "1",
+            "--no-discovery",
+            "--methods",
+        ]
+    )  # the method tables come with --methods
     out = capsys.readouterr().out
     assert code == 0
     assert "Recommended estimate" in out
@@ -131,8 +169,18 @@ def test_terminal_report_warns_about_the_cls_split(capsys: pytest.CaptureFixture
 @pytest.mark.slow
 def test_rrd_and_png_are_written(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rrd = tmp_path / "out.rrd"
-    code = main(["analyze", str(SAMPLES / "tt_harmonic_clean.mcap"), "--repeats", "1",
-                 "--no-discovery", "--rrd", str(rrd), "--json"])
+    code = main(
+        [
+            "analyze",
+            str(SAMPLES / "tt_harmonic_clean.mcap"),
+            "--repeats",
+            "1",
+            "--no-discovery",
+            "--rrd",
+            str(rrd),
+            "--json",
+        ]
+    )
     assert code == 0
     assert rrd.stat().st_size > 10_000
     assert rrd.with_suffix(".png").stat().st_size > 10_000
@@ -163,11 +211,20 @@ def test_a_missing_compiled_integrator_is_said_once(
     import calib.tractor_trailer.models.hitch_rk4 as rk4
 
     monkeypatch.setattr(rk4, "_library", lambda: None)  # as in a source tree never built
-    code = main(["analyze", str(SAMPLES / "tt_harmonic_clean.mcap"), "--json", "--repeats", "1",
-                 "--no-discovery"])
+    code = main(
+        [
+            "analyze",
+            str(SAMPLES / "tt_harmonic_clean.mcap"),
+            "--json",
+            "--repeats",
+            "1",
+            "--no-discovery",
+        ]
+    )
     assert code == 0
     # the tractor pipeline notes it in its result (the shared CLI names no robot's extension)
-    notes = [w for w in json.loads(capsys.readouterr().out)["warnings"]
-             if "compiled integrator" in w]
+    notes = [
+        w for w in json.loads(capsys.readouterr().out)["warnings"] if "compiled integrator" in w
+    ]
     assert len(notes) == 1
     assert "about 5x slower" in notes[0]

@@ -23,7 +23,10 @@ FAST = AnalysisConfig(repeats=1, per_segment=False)
 
 def _log(tmp_path: Path, duration_s: float = 40.0, rate_hz: float = 20.0) -> LoadedLog:
     scn = Scenario(
-        L1=1.0, L2=2.0, duration_s=duration_s, command=Command("H", M=0.2),
+        L1=1.0,
+        L2=2.0,
+        duration_s=duration_s,
+        command=Command("H", M=0.2),
         speed=Speed(base=1.5),
         topics={g: TopicSpec(rate_hz, noise={}) for g in ("cmd", "cmd_vel", "odom", "hitch")},
     )
@@ -142,8 +145,22 @@ def test_simulate_at_10_hz_then_analyze(
     from logtools.cli.main import main
 
     out = tmp_path / "r10.mcap"
-    assert main(["simulate", "tractor-trailer", "--out", str(out), "--duration", "63",
-                 "--preset", "harmonic", *extra]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "tractor-trailer",
+                "--out",
+                str(out),
+                "--duration",
+                "63",
+                "--preset",
+                "harmonic",
+                *extra,
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     assert main(["analyze", str(out), "--json", "--repeats", "1"]) == 0
     doc = json.loads(capsys.readouterr().out)

@@ -46,8 +46,9 @@ def test_batch_hands_the_given_baseline_to_every_log(
 ) -> None:
     seen: list[AnalysisOptions] = []
 
-    def fake_run_batch(archive: Path, out: Path, *, options: AnalysisOptions,
-                       **_: Any) -> SimpleNamespace:
+    def fake_run_batch(
+        archive: Path, out: Path, *, options: AnalysisOptions, **_: Any
+    ) -> SimpleNamespace:
         seen.append(options)
         return SimpleNamespace(logs=0, analysed=[], skipped=[], failed=[], out=out)
 
@@ -86,10 +87,13 @@ def test_a_settings_file_names_the_baseline_by_key(tmp_path: Path) -> None:
     assert "transient, steady" in str(err.value)
 
 
-@pytest.mark.parametrize(("given", "expected"), [
-    ({}, Baseline.STEADY), ({"baseline": "transient"}, Baseline.TRANSIENT)])
+@pytest.mark.parametrize(
+    ("given", "expected"), [({}, Baseline.STEADY), ({"baseline": "transient"}, Baseline.TRANSIENT)]
+)
 def test_the_command_line_wins_over_the_settings_file(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, given: dict[str, str],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    given: dict[str, str],
     expected: Baseline,
 ) -> None:
     archive, log = _archive(tmp_path, 'baseline = "steady"\n')
@@ -100,8 +104,13 @@ def test_the_command_line_wins_over_the_settings_file(
         raise LogcalInputError("stop here")
 
     monkeypatch.setattr("logtools.analyze.analyze_log", fake_analyze_log)
-    job = LogJob(rel="truck/run.csv", path=str(log), id="run", content_hash="x",
-                 settings=settings_for(archive, log))
+    job = LogJob(
+        rel="truck/run.csv",
+        path=str(log),
+        id="run",
+        content_hash="x",
+        settings=settings_for(archive, log),
+    )
     outcome = analyse_job(job, AnalysisOptions(repeats=1, views=False, options=given))
     assert (outcome.status, outcome.error) == ("failed", "stop here")
     assert configs[0].options(TractorTrailerOptions).baseline is expected

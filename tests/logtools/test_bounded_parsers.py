@@ -51,7 +51,10 @@ def capped_read(path: Path, cap: int = CAP, timeout: float = 60.0) -> tuple[int,
     t0 = time.perf_counter()
     proc = subprocess.run(
         [sys.executable, "-c", _RUNNER.format(cap=cap), str(path)],
-        capture_output=True, text=True, timeout=timeout, check=False,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
     )
     return proc.returncode, proc.stdout, proc.stderr, time.perf_counter() - t0
 
@@ -99,7 +102,7 @@ def _ros1_bomb(tmp_path: Path, kind: str, extra: int) -> Path:
     header = b"".join(
         struct.pack("<I", len(k) + 1 + len(v)) + k.encode() + b"=" + v for k, v in fields.items()
     )
-    new = (struct.pack("<I", len(header)) + header + struct.pack("<I", len(data)) + data)
+    new = struct.pack("<I", len(header)) + header + struct.pack("<I", len(data)) + data
     old_len = at + dlen - pos
     buf[pos : at + dlen] = new
     delta = len(new) - old_len
@@ -114,8 +117,7 @@ def _ros1_bomb(tmp_path: Path, kind: str, extra: int) -> Path:
 
 
 @pytest.mark.parametrize(("kind", "extra"), [("bz2", 2**32), ("lz4", 120 * 2**20)])
-def test_ros1_chunk_bombs_are_refused_within_the_cap(tmp_path: Path, kind: str,
-                                                      extra: int) -> None:
+def test_ros1_chunk_bombs_are_refused_within_the_cap(tmp_path: Path, kind: str, extra: int) -> None:
     bomb = _ros1_bomb(tmp_path, kind, extra)
     assert bomb.stat().st_size < 600_000
     code, out, err, secs = capped_read(bomb)
@@ -156,8 +158,11 @@ def test_rosbag2_file_compression_bomb_is_refused(tmp_path: Path) -> None:
         for _ in range(64):
             w.write(chunk)
     _set_meta(folder, f"- {db.name}", f"- {db.name}.zstd")
-    _set_meta(folder, "compression_format: ''\n  compression_mode: ''",
-              "compression_format: zstd\n  compression_mode: FILE")
+    _set_meta(
+        folder,
+        "compression_format: ''\n  compression_mode: ''",
+        "compression_format: zstd\n  compression_mode: FILE",
+    )
     assert sum(p.stat().st_size for p in folder.iterdir()) < 2_000_000
     code, out, err, secs = capped_read(folder)
     assert code == 2, (out, err[-2000:])
@@ -171,8 +176,11 @@ def test_rosbag2_file_compression_reads_an_honest_bag(tmp_path: Path) -> None:
     (folder / (db.name + ".zstd")).write_bytes(zstandard.ZstdCompressor().compress(db.read_bytes()))
     db.unlink()
     _set_meta(folder, f"- {db.name}", f"- {db.name}.zstd")
-    _set_meta(folder, "compression_format: ''\n  compression_mode: ''",
-              "compression_format: zstd\n  compression_mode: FILE")
+    _set_meta(
+        folder,
+        "compression_format: ''\n  compression_mode: ''",
+        "compression_format: zstd\n  compression_mode: FILE",
+    )
     log = read_log(folder)
     assert len(log.topics) == 6
     assert not log.problems
@@ -189,8 +197,11 @@ def _message_compressed(folder: Path, payload: bytes | None = None) -> None:
         con.execute("UPDATE messages SET data = ? WHERE id = ?", (payload, rows[0][0]))
     con.commit()
     con.close()
-    _set_meta(folder, "compression_format: ''\n  compression_mode: ''",
-              "compression_format: zstd\n  compression_mode: MESSAGE")
+    _set_meta(
+        folder,
+        "compression_format: ''\n  compression_mode: ''",
+        "compression_format: zstd\n  compression_mode: MESSAGE",
+    )
 
 
 def test_rosbag2_message_compression_bomb_is_refused_within_the_cap(tmp_path: Path) -> None:
@@ -232,8 +243,11 @@ def test_yaml_alias_bomb_in_metadata_is_refused_fast(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("old", "new", "key"),
     [
-        ("  message_count: ", "  message_count: many #",
-         "rosbag2_bagfile_information.message_count"),
+        (
+            "  message_count: ",
+            "  message_count: many #",
+            "rosbag2_bagfile_information.message_count",
+        ),
         ("  version: 4", "  version: [4]", "rosbag2_bagfile_information.version"),
         ("        name: /cmd_vel", "        name: {a: 1}", "topic_metadata.name"),
         ("  storage_identifier: sqlite3", "  storage_identifier: 3", "storage_identifier"),
@@ -366,8 +380,9 @@ def test_a_csv_300000_columns_wide_is_refused_before_parsing(tmp_path: Path) -> 
     assert secs < 20
 
 
-def test_a_large_csv_streams_and_gives_the_same_frame(tmp_path: Path,
-                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_large_csv_streams_and_gives_the_same_frame(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from logtools.readers import csv_reader
 
     n = 20_000
@@ -424,12 +439,15 @@ def test_deep_toml_is_one_clear_error(tmp_path: Path) -> None:
         load_channel_map(big)
 
 
-@pytest.mark.parametrize(("entry", "key"), [
-    ('topic = "/a"\nfield = "b"\nunit = ["deg"]', "signals.psi.unit"),
-    ('topic = "/a"\nfield = "b"\ntransform = ["deg_to_rad"]', "signals.psi.transform"),
-    ('topic = "/a"\nfield = "b"\nstamp = {x = 1}', "signals.psi.stamp"),
-    ('formula = ["v"]', "signals.psi.formula"),
-])
+@pytest.mark.parametrize(
+    ("entry", "key"),
+    [
+        ('topic = "/a"\nfield = "b"\nunit = ["deg"]', "signals.psi.unit"),
+        ('topic = "/a"\nfield = "b"\ntransform = ["deg_to_rad"]', "signals.psi.transform"),
+        ('topic = "/a"\nfield = "b"\nstamp = {x = 1}', "signals.psi.stamp"),
+        ('formula = ["v"]', "signals.psi.formula"),
+    ],
+)
 def test_wrong_toml_types_name_the_key(tmp_path: Path, entry: str, key: str) -> None:
     from logtools.channel_map import load_channel_map
 
@@ -450,8 +468,7 @@ def test_non_numeric_nominal_metadata_is_dropped_and_reported(tmp_path: Path) ->
         for i in range(5):
             w.add_message(cid, log_time=i * 10**8, data=b'{"v":1.0}', publish_time=0)
         w.add_metadata("logcal.nominal", {"track_width": "wide", "wheel_radius_left": "0.1"})
-        w.add_metadata("logcal", {"robot": "manipulator_2link", "nominal.m1": "[1]",
-                                  "l1": "nan"})
+        w.add_metadata("logcal", {"robot": "manipulator_2link", "nominal.m1": "[1]", "l1": "nan"})
         w.finish()
     log = read_log(path)
     assert log.metadata["logcal.nominal"] == {"wheel_radius_left": "0.1"}

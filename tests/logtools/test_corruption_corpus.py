@@ -122,8 +122,10 @@ def _record(opcode: int, body: bytes) -> bytes:
 
 def _one_chunk_file(compression: str, payload: bytes, declared: int) -> bytes:
     """Header + one chunk whose records are ``payload`` compressed, declaring ``declared``."""
-    data = zstandard.ZstdCompressor(level=19).compress(payload) if compression == "zstd" else (
-        lz4.frame.compress(payload)
+    data = (
+        zstandard.ZstdCompressor(level=19).compress(payload)
+        if compression == "zstd"
+        else (lz4.frame.compress(payload))
     )
     body = struct.pack("<QQQI", 0, 1, declared, 0) + struct.pack("<I", len(compression))
     body += compression.encode() + struct.pack("<Q", len(data)) + data

@@ -35,8 +35,12 @@ def _speed_magnitude(found: FoundSignals) -> Derived:
         return Derived(notes=(f"{found.path}: no v, so no speed magnitude",))
     out = v.with_columns(pl.col("value").abs())
     origin = SignalOrigin("magnitude", "abs(v)", f"|v| from {found.sources['v'].describe()}")
-    return Derived(out, SignalSource(DERIVED_TOPIC, "abs(v)", formula="abs(v)"), origin,
-                   ("speed magnitude derived",))
+    return Derived(
+        out,
+        SignalSource(DERIVED_TOPIC, "abs(v)", formula="abs(v)"),
+        origin,
+        ("speed magnitude derived",),
+    )
 
 
 PLUGIN = RobotPlugin(
@@ -128,8 +132,9 @@ def test_tractor_kappa_cmd_from_steering_and_the_wheelbase() -> None:
 
 
 def test_tractor_kappa_cmd_needs_a_wheelbase_to_use_steering() -> None:
-    got = derive_kappa_cmd(_found(steer_cmd=np.zeros(100), v_cmd=np.ones(100),
-                                  omega_cmd=np.ones(100)))
+    got = derive_kappa_cmd(
+        _found(steer_cmd=np.zeros(100), v_cmd=np.ones(100), omega_cmd=np.ones(100))
+    )
     assert got.signal is None  # the steering command wins over the twist, and says why not
     assert any("no wheelbase is known" in n for n in got.notes)
 

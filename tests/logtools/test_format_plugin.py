@@ -27,7 +27,9 @@ def _read_jsonl(name: str, req: ReadRequest) -> LogData:
 
 
 JSONL = FormatReader(
-    "jsonl", "JSON lines (one object per sample, time t in s)", (".jsonl",),
+    "jsonl",
+    "JSON lines (one object per sample, time t in s)",
+    (".jsonl",),
     lambda path, head: path.suffix == ".jsonl" and head.lstrip().startswith(b"{"),
     _read_jsonl,
 )

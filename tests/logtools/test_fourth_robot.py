@@ -47,7 +47,10 @@ class BicycleOptions(RobotOptions):
     """The bicycle's own options."""
 
     wheelbase_guess: float | None = option(
-        flag="--wheelbase-guess", metavar="METRES", above=0.0, view=True,
+        flag="--wheelbase-guess",
+        metavar="METRES",
+        above=0.0,
+        view=True,
         help="The wheelbase you expect (m); the report and views compare the estimate with it.",
     )
 
@@ -79,9 +82,12 @@ def _analyze(loaded: LoadedLog, config: AnalysisConfig, progress: object) -> Ana
     guess = config.options(BicycleOptions).wheelbase_guess  # the typed accessor
     verdict = f"wheelbase from {n} samples above {MIN_SPEED} m/s"
     return AnalysisResult(
-        robot="bicycle", segments=[], methods=[],
+        robot="bicycle",
+        segments=[],
+        methods=[],
         estimate=CalibrationResult("least squares", {"wheelbase": est}, verdict),
-        adequacy=adequacy, source={"path": str(loaded.path)},
+        adequacy=adequacy,
+        source={"path": str(loaded.path)},
         stages=[StageStatus("wheelbase", "ok"), StageStatus("model adequacy", "ok")],
         sections={"samples_used": n, "wheelbase_guess": guess},
         artifacts={"t": t[keep], "omega": y, "predicted": k * x},
@@ -100,8 +106,9 @@ def _report(result: AnalysisResult) -> list[RenderableType]:
 seen_options: list[RobotOptions] = []
 
 
-def bicycle_views(out: Path, loaded: LoadedLog, result: AnalysisResult,
-                  options: BicycleOptions) -> Path:
+def bicycle_views(
+    out: Path, loaded: LoadedLog, result: AnalysisResult, options: BicycleOptions
+) -> Path:
     """The bicycle's rerun recording: measured and predicted yaw rate, and the estimate."""
     import rerun as rr
 
@@ -111,10 +118,16 @@ def bicycle_views(out: Path, loaded: LoadedLog, result: AnalysisResult,
     rec.save(out)
     try:
         times = rr.TimeColumn("time", duration=np.asarray(art["t"], float))
-        rec.send_columns("yaw_rate/measured", indexes=[times],
-                         columns=rr.Scalars.columns(scalars=np.asarray(art["omega"], float)))
-        rec.send_columns("yaw_rate/predicted", indexes=[times],
-                         columns=rr.Scalars.columns(scalars=np.asarray(art["predicted"], float)))
+        rec.send_columns(
+            "yaw_rate/measured",
+            indexes=[times],
+            columns=rr.Scalars.columns(scalars=np.asarray(art["omega"], float)),
+        )
+        rec.send_columns(
+            "yaw_rate/predicted",
+            indexes=[times],
+            columns=rr.Scalars.columns(scalars=np.asarray(art["predicted"], float)),
+        )
         text = result.estimate.report() if result.estimate is not None else "no estimate"
         if options.wheelbase_guess is not None:
             text += f"\n\nyour guess: {options.wheelbase_guess:g} m"
@@ -132,8 +145,9 @@ def simulated_csv(wheelbase: float, duration: float, rate: float, seed: int) -> 
     v = 3.0 + 2.0 * np.sin(0.21 * t)
     steer = 0.3 * np.sin(0.5 * t) + 0.1 * np.sin(1.3 * t + 0.4)
     omega = v * np.tan(steer) / wheelbase + rng.normal(0.0, 0.005, t.size)
-    rows = "\n".join(f"{a:.4f},{s:.6f},{b:.5f},{w:.6f}"
-                     for a, s, b, w in zip(t, steer, v, omega, strict=True))
+    rows = "\n".join(
+        f"{a:.4f},{s:.6f},{b:.5f},{w:.6f}" for a, s, b, w in zip(t, steer, v, omega, strict=True)
+    )
     return "t,steer,v,omega\n" + rows + "\n", int(t.size)
 
 
@@ -157,8 +171,10 @@ def register_simulate(group: typer.Typer) -> None:
     ) -> None:
         """Simulate a kinematic bicycle and write its CSV drive log."""
         if wheelbase <= 0 or duration <= 1 or rate <= 0:
-            raise LogcalInputError(f"--wheelbase {wheelbase:g} --duration {duration:g} --rate "
-                                   f"{rate:g}: expected positive values, duration > 1 s")
+            raise LogcalInputError(
+                f"--wheelbase {wheelbase:g} --duration {duration:g} --rate "
+                f"{rate:g}: expected positive values, duration > 1 s"
+            )
         text, rows = simulated_csv(wheelbase, duration, rate, seed)
         out.write_text(text)
         print(f"wrote {out}: {rows} rows, wheelbase {wheelbase:g} m, seed {seed}")
@@ -233,8 +249,9 @@ def test_reported(log: Path, capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_viewed(log: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rrd = tmp_path / "drive.rrd"
-    assert main(["view", str(log), "--no-viewer", "--rrd", str(rrd),
-                 "--wheelbase-guess", "2.6"]) == 0
+    assert (
+        main(["view", str(log), "--no-viewer", "--rrd", str(rrd), "--wheelbase-guess", "2.6"]) == 0
+    )
     assert rrd.is_file()
     assert rrd.stat().st_size > 0
     assert f"rerun recording saved: {rrd}" in capsys.readouterr().err
@@ -254,7 +271,8 @@ def test_samples_beside_the_other_robots(
     assert main(["simulate", "samples", str(out)]) == 0  # every robot's declared samples
     printed = capsys.readouterr().out
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        [*(s.name for s in SAMPLES), "bicycle.csv"])
+        [*(s.name for s in SAMPLES), "bicycle.csv"]
+    )
     assert str(out / "bicycle.csv") in printed
     first = (out / "bicycle.csv").read_bytes()
     assert write_samples(tmp_path) == [tmp_path / "bicycle.csv"]
@@ -284,12 +302,16 @@ def test_options_on_the_command_line(log: Path, capsys: pytest.CaptureFixture[st
 def test_options_are_typed_in_the_configuration(bicycle: None) -> None:
     specs = option_specs(PLUGIN)
     assert [(s.key, s.flag, s.view, s.type) for s in specs] == [
-        ("wheelbase_guess", "--wheelbase-guess", True, float)]
+        ("wheelbase_guess", "--wheelbase-guess", True, float)
+    ]
     cfg = AnalysisConfig(robot_options=options_from_settings({"wheelbase_guess": 2.5}))
     assert cfg.options(BicycleOptions) == BicycleOptions(wheelbase_guess=2.5)
     assert AnalysisConfig().options(BicycleOptions) == BicycleOptions()
-    with pytest.raises(LogcalInputError, match=r"logcal.toml: wheelbase_guess = 'long': "
-                       r"expected a number > 0"):
+    with pytest.raises(
+        LogcalInputError,
+        match=r"logcal.toml: wheelbase_guess = 'long': "
+        r"expected a number > 0",
+    ):
         build_options(BicycleOptions, {"wheelbase_guess": "long"}, where="logcal.toml")
     with pytest.raises(LogcalInputError, match="'wheel_base' is not an option of any robot"):
         options_from_settings({"wheel_base": 2.5})
@@ -322,10 +344,12 @@ def test_batch_settings_take_the_robots_options(log: Path, tmp_path: Path) -> No
     again = settings_for(archive, run)
     (archive / "car" / "logcal.toml").write_text("wheelbase_guess = 2.6\n")  # nearest wins
     assert settings_for(archive, run).robot_options == {
-        "bicycle": BicycleOptions(wheelbase_guess=2.6)}
+        "bicycle": BicycleOptions(wheelbase_guess=2.6)
+    }
     assert settings_for(archive, run).fingerprint != again.fingerprint  # a changed option
     (archive / "car" / "logcal.toml").write_text('wheelbase_guess = "long"\n')
     toml = archive / "car" / "logcal.toml"
-    with pytest.raises(SettingsError, match=re.escape(
-            f"{toml}: wheelbase_guess = 'long': expected a number > 0")):
+    with pytest.raises(
+        SettingsError, match=re.escape(f"{toml}: wheelbase_guess = 'long': expected a number > 0")
+    ):
         settings_for(archive, run)

@@ -21,9 +21,22 @@ def test_one_input_of_every_class(tmp_path: Path) -> None:
     from fuzz_all import CLASSES
 
     proc = subprocess.run(
-        [sys.executable, str(ROOT / "bench" / "fuzz_all.py"), "--inputs", str(len(CLASSES)),
-         "--seed", str(seed), "--save", str(tmp_path / "failures"), "--wall-s", "300"],
-        capture_output=True, text=True, timeout=900, check=False,
+        [
+            sys.executable,
+            str(ROOT / "bench" / "fuzz_all.py"),
+            "--inputs",
+            str(len(CLASSES)),
+            "--seed",
+            str(seed),
+            "--save",
+            str(tmp_path / "failures"),
+            "--wall-s",
+            "300",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        check=False,
     )
     replay = f"python bench/fuzz_all.py --inputs {len(CLASSES)} --seed {seed}"
     assert proc.returncode == 0, f"{replay}\n{proc.stdout[-3000:]}\n{proc.stderr[-2000:]}"

@@ -40,8 +40,11 @@ def _diffs(a: Any, b: Any, where: str = "") -> list[str]:
     if isinstance(a, list) and isinstance(b, list):
         if len(a) != len(b):
             return [f"{where}: {len(a)} vs {len(b)} items"]
-        return [d for i, (x, y) in enumerate(zip(a, b, strict=True))
-                for d in _diffs(x, y, f"{where}[{i}]")]
+        return [
+            d
+            for i, (x, y) in enumerate(zip(a, b, strict=True))
+            for d in _diffs(x, y, f"{where}[{i}]")
+        ]
     if isinstance(a, float) and isinstance(b, float):
         ok = math.isclose(a, b, rel_tol=1e-6, abs_tol=1e-12)
         return [] if ok else [f"{where}: {a!r} vs {b!r}"]
@@ -53,8 +56,16 @@ def _diffs(a: Any, b: Any, where: str = "") -> list[str]:
 def test_analyze_json_matches_the_pre_plugin_output(
     name: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code = main(["analyze", str(ROOT / "sample_logs" / f"{name}.mcap"), "--json",
-                 "--repeats", "2", "--no-discovery"])
+    code = main(
+        [
+            "analyze",
+            str(ROOT / "sample_logs" / f"{name}.mcap"),
+            "--json",
+            "--repeats",
+            "2",
+            "--no-discovery",
+        ]
+    )
     assert code == 0
     now = json.loads(capsys.readouterr().out)
     before = json.loads((GOLDEN / f"{name}.json").read_text())

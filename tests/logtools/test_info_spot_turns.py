@@ -14,10 +14,16 @@ from logtools.loginfo import summarize_log
 def _log(tmp_path: Path, *, stall: bool) -> Path:
     t = np.arange(0.0, 30.0, 0.1)
     v = np.where((t > 10) & (t < 14), 0.0, 1.0)  # a 4 s spot turn
-    frame = pl.DataFrame({
-        "t": t, "v_cmd": v, "omega_cmd": np.full_like(t, 0.3), "v": v,
-        "omega": np.full_like(t, 0.3), "psi": 0.1 * np.sin(t / 3),
-    })
+    frame = pl.DataFrame(
+        {
+            "t": t,
+            "v_cmd": v,
+            "omega_cmd": np.full_like(t, 0.3),
+            "v": v,
+            "omega": np.full_like(t, 0.3),
+            "psi": 0.1 * np.sin(t / 3),
+        }
+    )
     if stall:  # the recorder stops for 5 s: a real gap of every signal
         frame = frame.filter((pl.col("t") < 20) | (pl.col("t") > 25))
     out = tmp_path / ("stall.csv" if stall else "spot.csv")

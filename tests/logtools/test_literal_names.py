@@ -31,8 +31,9 @@ def _estimate(names: tuple[str, ...]) -> CalibrationResult:
         n: Estimate(n, 0.1 * (i + 1), 0.01, (0.08, 0.12 + i), unit="N·m")
         for i, n in enumerate(names)
     }
-    return CalibrationResult(method="LSQ [ridge]", parameters=params,
-                             verdict="determined for [torso_lift_joint]")
+    return CalibrationResult(
+        method="LSQ [ridge]", parameters=params, verdict="determined for [torso_lift_joint]"
+    )
 
 
 def _result(robot: str, path: str = "runs/[bold]run.mcap") -> AnalysisResult:
@@ -60,9 +61,16 @@ def plain_plugin() -> str:
     """A robot whose own report part is empty: the frame of the report alone."""
     name = "literal_names_test"
     if not any(p.name == name for p in plugins()):
-        register(RobotPlugin(name=name, title="test robot", signals=(),
-                             identify=lambda _: None, analyze=lambda *a: None,  # type: ignore[arg-type,return-value]
-                             report=lambda _: []))
+        register(
+            RobotPlugin(
+                name=name,
+                title="test robot",
+                signals=(),
+                identify=lambda _: None,
+                analyze=lambda *a: None,  # type: ignore[arg-type,return-value]
+                report=lambda _: [],
+            )
+        )
     return name
 
 
@@ -83,9 +91,14 @@ def test_report_frame_prints_every_name_literally(plain_plugin):
 
 def test_pooled_report_prints_run_paths_and_parameter_names_literally(plain_plugin):
     runs = [_result(plain_plugin, f"runs/[bold]run{i}.mcap") for i in (1, 2)]
-    pooled = AnalysisResult(robot=plain_plugin, segments=[], methods=[],
-                            estimate=_estimate(NAMES), runs=runs,
-                            source={"runs_pooled": 2})
+    pooled = AnalysisResult(
+        robot=plain_plugin,
+        segments=[],
+        methods=[],
+        estimate=_estimate(NAMES),
+        runs=runs,
+        source={"runs_pooled": 2},
+    )
     text = _render(pooled)
     for i in (1, 2):  # runs by their shortest unique names, printed literally
         assert f"[bold]run{i}.mcap" in text

@@ -177,8 +177,14 @@ def _scattered(payloads: list[bytes]) -> Payloads:
         [b'{"t":%d,"a":0.5}' % i for i in range(5000)] + [b'{"t":1,"a":1.0,"z":{"q":2}}'],
     ],
     ids=[
-        "line-breaks", "empty", "not-an-object", "two-objects", "blocks-of-varying-width",
-        "field-first-seen-late", "field-renamed-late", "nested-field-first-seen-late",
+        "line-breaks",
+        "empty",
+        "not-an-object",
+        "two-objects",
+        "blocks-of-varying-width",
+        "field-first-seen-late",
+        "field-renamed-late",
+        "nested-field-first-seen-late",
     ],
 )
 def test_json_bulk_from_views_equals_per_message(payloads: list[bytes]) -> None:

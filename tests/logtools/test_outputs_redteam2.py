@@ -32,8 +32,7 @@ def test_a_link_planted_at_the_old_temporary_name_is_not_followed(tmp_path: Path
     assert target.read_bytes() == b"RRF2"
 
 
-def test_the_temporary_file_is_created_exclusively_under_a_random_name(tmp_path: Path
-                                                                       ) -> None:
+def test_the_temporary_file_is_created_exclusively_under_a_random_name(tmp_path: Path) -> None:
     seen: list[Path] = []
 
     def write(tmp: Path) -> None:
@@ -84,8 +83,9 @@ def test_the_written_file_has_the_usual_permissions(tmp_path: Path) -> None:
     assert stat.S_IMODE(os.stat(tmp_path / "out.csv").st_mode) == 0o644
 
 
-@pytest.mark.parametrize("path", ["/proc/x.rrd", "/proc/self/x.rrd", "/sys/x.rrd",
-                                  "/dev/x.rrd", "/dev/shm/x.rrd"])
+@pytest.mark.parametrize(
+    "path", ["/proc/x.rrd", "/proc/self/x.rrd", "/sys/x.rrd", "/dev/x.rrd", "/dev/shm/x.rrd"]
+)
 def test_kernel_file_systems_are_refused_before_the_work(path: str) -> None:
     if not Path(path).parent.is_dir():
         pytest.skip(f"{Path(path).parent} does not exist here")

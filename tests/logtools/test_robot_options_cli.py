@@ -45,8 +45,22 @@ def test_view_of_an_arm_with_a_tractor_option_warns(
     assert main(["simulate", "manipulator", "--out", str(log), "--duration", "6"]) == 0
     capsys.readouterr()
     rrd = tmp_path / "arm.rrd"
-    assert main(["view", str(log), "--no-viewer", "--rrd", str(rrd), "--repeats", "2",
-                 "--method", "OLS1(EM1)"]) == 0
+    assert (
+        main(
+            [
+                "view",
+                str(log),
+                "--no-viewer",
+                "--rrd",
+                str(rrd),
+                "--repeats",
+                "2",
+                "--method",
+                "OLS1(EM1)",
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "--method applies to tractor_trailer logs" in err
     assert "manipulator log" in err
@@ -55,10 +69,12 @@ def test_view_of_an_arm_with_a_tractor_option_warns(
 
 
 def test_analysis_config_carries_each_robots_options_typed() -> None:
-    cfg = AnalysisConfig(robot_options={
-        "manipulator": ManipulatorOptions(urdf="panda", cutoff_hz=5.0),
-        "tractor_trailer": TractorTrailerOptions(method_for_psi="PMLS/PM1"),
-    })
+    cfg = AnalysisConfig(
+        robot_options={
+            "manipulator": ManipulatorOptions(urdf="panda", cutoff_hz=5.0),
+            "tractor_trailer": TractorTrailerOptions(method_for_psi="PMLS/PM1"),
+        }
+    )
     assert cfg.options(ManipulatorOptions).cutoff_hz == 5.0
     assert cfg.options(TractorTrailerOptions).discovery_span_s is None
     assert AnalysisConfig().options(ManipulatorOptions) == ManipulatorOptions()
@@ -77,7 +93,7 @@ def test_analysis_config_carries_each_robots_options_typed() -> None:
 
 
 def test_a_bad_option_value_is_one_message_naming_the_flag(
-    capsys: pytest.CaptureFixture[str]
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     log = Path(__file__).resolve().parents[2] / "sample_logs" / "tt_mixed.csv"
     assert main(["analyze", str(log), "--discovery-span", "-5"]) == 2

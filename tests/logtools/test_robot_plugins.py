@@ -25,9 +25,12 @@ def _analyze(loaded: LoadedLog, config: Any, progress: Any) -> AnalysisResult:
     mean, std = float(theta.mean()), float(theta.std(ddof=1) / np.sqrt(theta.size))
     est = Estimate("theta0", mean, std, (mean - 1.96 * std, mean + 1.96 * std), unit="rad")
     return AnalysisResult(
-        robot="test_pendulum", segments=[], methods=[],
+        robot="test_pendulum",
+        segments=[],
+        methods=[],
         estimate=CalibrationResult("mean", {"theta0": est}, "the mean angle"),
-        source={"path": loaded.path}, stages=[StageStatus("mean", "ok")],
+        source={"path": loaded.path},
+        stages=[StageStatus("mean", "ok")],
         sections={"samples": int(theta.size)},
     )
 

@@ -36,34 +36,62 @@ def drive(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     ours = d / "dd.csv"
     for seed, path in ((1, ours), (2, d / "dd2.csv")):
         subprocess.run(
-            [sys.executable, "-m", "logtools.cli.main", "simulate", "diff-drive", "--out",
-             str(path), "--duration", "60", "--seed", str(seed)],
-            check=True, capture_output=True,
+            [
+                sys.executable,
+                "-m",
+                "logtools.cli.main",
+                "simulate",
+                "diff-drive",
+                "--out",
+                str(path),
+                "--duration",
+                "60",
+                "--seed",
+                str(seed),
+            ],
+            check=True,
+            capture_output=True,
         )
     df = pl.read_csv(ours)
     t_ns = np.round(df["t"].to_numpy() * 1e9).astype(np.int64) + EPOCH * 10**9
     wheels = d / "wheels.csv"
-    pl.DataFrame({"%time": t_ns, "field.left": df["wheel_left"],
-                  "field.right": df["wheel_right"]}).write_csv(wheels)
+    pl.DataFrame(
+        {"%time": t_ns, "field.left": df["wheel_left"], "field.right": df["wheel_right"]}
+    ).write_csv(wheels)
     pose = df.drop_nulls(["x"])
     gt = d / "mocap.tum"
-    write_tum(gt, pose["t"].to_numpy() + EPOCH, pose["x"].to_numpy(), pose["y"].to_numpy(),
-              pose["yaw"].to_numpy(), header="motion capture, base_link")
+    write_tum(
+        gt,
+        pose["t"].to_numpy() + EPOCH,
+        pose["x"].to_numpy(),
+        pose["y"].to_numpy(),
+        pose["yaw"].to_numpy(),
+        header="motion capture, base_link",
+    )
     session = d / "session"
     session.mkdir()
-    (session / "0001_metadata.csv").write_text("type,diff\nngear,1\nencRes,4096\nLi,0.2\n"
-                                                "Di,0.084,0.084\n")
+    (session / "0001_metadata.csv").write_text(
+        "type,diff\nngear,1\nencRes,4096\nLi,0.2\nDi,0.084,0.084\n"
+    )
     for i, path in enumerate((ours, d / "dd2.csv"), 1):
         run = pl.read_csv(path).drop_nulls(["x"])
         k = 4096 / (2 * math.pi)
-        rows = np.column_stack([
-            run["t"].to_numpy(), run["x"].to_numpy(), run["y"].to_numpy(),
-            run["yaw"].to_numpy(),
-            np.diff(np.round(run["wheel_right"].fill_null(strategy="forward").to_numpy() * k),
-                    prepend=0),
-            np.diff(np.round(run["wheel_left"].fill_null(strategy="forward").to_numpy() * k),
-                    prepend=0),
-        ])
+        rows = np.column_stack(
+            [
+                run["t"].to_numpy(),
+                run["x"].to_numpy(),
+                run["y"].to_numpy(),
+                run["yaw"].to_numpy(),
+                np.diff(
+                    np.round(run["wheel_right"].fill_null(strategy="forward").to_numpy() * k),
+                    prepend=0,
+                ),
+                np.diff(
+                    np.round(run["wheel_left"].fill_null(strategy="forward").to_numpy() * k),
+                    prepend=0,
+                ),
+            ]
+        )
         np.savetxt(session / f"0001_run-0{i}.csv", rows, delimiter=",", fmt="%.9g")
     return {"ours": ours, "wheels": wheels, "gt": gt, "session": session, "dir": d}
 
@@ -88,9 +116,15 @@ def test_cli_conventions_version_short_help_bare_and_completion(capsys):
         assert not re.search(r"<(bool|path|list\[Path\]|str|int|float)>", text), command
     assert main(["analyze", "--help"]) == 0
     text = capsys.readouterr().out
-    for metavar in ("--rrd FILE.rrd", "--channel-map FILE.toml", "--urdf PATH_OR_NAME",
-                    "--signal NAME=TOPIC:FIELD[:UNIT]", "--start SECONDS", "--repeats N",
-                    "--baseline transient|steady"):
+    for metavar in (
+        "--rrd FILE.rrd",
+        "--channel-map FILE.toml",
+        "--urdf PATH_OR_NAME",
+        "--signal NAME=TOPIC:FIELD[:UNIT]",
+        "--start SECONDS",
+        "--repeats N",
+        "--baseline transient|steady",
+    ):
         assert metavar in text, metavar
     assert "[signals.NAME]" in text  # help is printed as written, no markup eaten
 
@@ -101,15 +135,22 @@ def test_cli_conventions_version_short_help_bare_and_completion(capsys):
 @pytest.mark.parametrize(
     ("column", "values", "expected_ns"),
     [
-        ("__time", ["1700000000.5", "1700000000.55"], [1_700_000_000_500_000_000,
-                                                       1_700_000_000_550_000_000]),
-        ("%time", ["1700000000500000001", "1700000000550000001"],
-         [1_700_000_000_500_000_001, 1_700_000_000_550_000_001]),
+        (
+            "__time",
+            ["1700000000.5", "1700000000.55"],
+            [1_700_000_000_500_000_000, 1_700_000_000_550_000_000],
+        ),
+        (
+            "%time",
+            ["1700000000500000001", "1700000000550000001"],
+            [1_700_000_000_500_000_001, 1_700_000_000_550_000_001],
+        ),
         ("timestamp", ["0.0", "0.05"], [0, 50_000_000]),
     ],
 )
-def test_csv_time_columns_of_plotjuggler_rostopic_and_timestamp(tmp_path, column, values,
-                                                                expected_ns):
+def test_csv_time_columns_of_plotjuggler_rostopic_and_timestamp(
+    tmp_path, column, values, expected_ns
+):
     from logtools.readers import read_log
 
     path = tmp_path / "x.csv"
@@ -144,9 +185,20 @@ def test_tum_trajectory_is_a_log_of_its_own(drive, capsys, tmp_path):
 
 
 def test_ground_truth_and_signal_options_calibrate_a_rostopic_wheel_log(drive, capsys):
-    argv = ["analyze", str(drive["wheels"]), "--ground-truth", str(drive["gt"]),
-            "--signal", "wheel_left=csv:field.left", "--signal", "wheel_right=csv:field.right",
-            "--no-discovery", "--repeats", "2", "--json"]
+    argv = [
+        "analyze",
+        str(drive["wheels"]),
+        "--ground-truth",
+        str(drive["gt"]),
+        "--signal",
+        "wheel_left=csv:field.left",
+        "--signal",
+        "wheel_right=csv:field.right",
+        "--no-discovery",
+        "--repeats",
+        "2",
+        "--json",
+    ]
     assert main(argv) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["robot"] == "diff_drive"
@@ -158,12 +210,25 @@ def test_ground_truth_and_signal_options_calibrate_a_rostopic_wheel_log(drive, c
 def test_ground_truth_on_another_clock_is_refused(drive, tmp_path, capsys):
     shifted = tmp_path / "late.tum"
     lines = drive["gt"].read_text().splitlines()
-    shifted.write_text("\n".join(
-        ln if ln.startswith("#") else " ".join([f"{float(ln.split()[0]) + 1e6:.6f}",
-                                                *ln.split()[1:]])
-        for ln in lines) + "\n")
-    argv = ["analyze", str(drive["wheels"]), "--ground-truth", str(shifted), "--signal",
-            "wheel_left=csv:field.left", "--signal", "wheel_right=csv:field.right"]
+    shifted.write_text(
+        "\n".join(
+            ln
+            if ln.startswith("#")
+            else " ".join([f"{float(ln.split()[0]) + 1e6:.6f}", *ln.split()[1:]])
+            for ln in lines
+        )
+        + "\n"
+    )
+    argv = [
+        "analyze",
+        str(drive["wheels"]),
+        "--ground-truth",
+        str(shifted),
+        "--signal",
+        "wheel_left=csv:field.left",
+        "--signal",
+        "wheel_right=csv:field.right",
+    ]
     assert main(argv) == 2
     assert "no common time" in capsys.readouterr().err
 
@@ -172,8 +237,10 @@ def test_signal_option_is_a_channel_map_entry(tmp_path, capsys):
     from logtools.channel_map import load_channel_map, parse_signal_option, with_signal_options
 
     toml = tmp_path / "m.toml"
-    toml.write_text('[signals.psi]\ntopic = "/hitch"\nfield = "data"\nunit = "deg"\n'
-                    '[signals.v]\ntopic = "/odom"\nfield = "twist.twist.linear.x"\n')
+    toml.write_text(
+        '[signals.psi]\ntopic = "/hitch"\nfield = "data"\nunit = "deg"\n'
+        '[signals.v]\ntopic = "/odom"\nfield = "twist.twist.linear.x"\n'
+    )
     cmap = load_channel_map(toml)
     name, src = parse_signal_option("psi=/hitch:data:deg")
     assert (name, src) == ("psi", cmap["psi"])
@@ -209,8 +276,10 @@ def test_info_and_view_read_an_optiodom_session_folder(drive, tmp_path, capsys):
     assert out.count("log: ") == 2
     assert "0001_metadata.csv" not in out.split("robot:")[0]
     rrd = tmp_path / "session.rrd"
-    assert main(["view", str(drive["session"]), "--no-viewer", "--rrd", str(rrd),
-                 "--repeats", "2"]) == 0
+    assert (
+        main(["view", str(drive["session"]), "--no-viewer", "--rrd", str(rrd), "--repeats", "2"])
+        == 0
+    )
     assert rrd.is_file()
     assert main(["view", "-h"]) == 0
     assert "--urdf" in capsys.readouterr().out
@@ -220,22 +289,50 @@ def test_rrd_of_pooled_runs_is_the_one_file_named(drive, tmp_path, capsys):
     out_dir = tmp_path / "out"
     out_dir.mkdir()
     rrd = out_dir / "square.rrd"
-    assert main(["analyze", str(drive["session"]), "--rrd", str(rrd), "--no-discovery",
-                 "--repeats", "2"]) == 0
+    assert (
+        main(
+            [
+                "analyze",
+                str(drive["session"]),
+                "--rrd",
+                str(rrd),
+                "--no-discovery",
+                "--repeats",
+                "2",
+            ]
+        )
+        == 0
+    )
     captured = capsys.readouterr()
     assert sorted(p.name for p in out_dir.iterdir()) == ["square.rrd"]
     assert "2 runs, one recording each" in captured.err
     assert "No estimate:" not in captured.out  # pooled runs that each ran
-    printed = subprocess.run([sys.executable, "-m", "rerun", "rrd", "print", str(rrd)],
-                             capture_output=True, text=True, check=False)
+    printed = subprocess.run(
+        [sys.executable, "-m", "rerun", "rrd", "print", str(rrd)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert printed.stdout.count("Recording,") == 2  # one recording per run, in one file
     assert main(["analyze", str(drive["session"]), "--png", str(out_dir / "x.png")]) == 2
     assert "one run" in capsys.readouterr().err
 
 
 def test_option_that_does_not_apply_to_the_robot_warns(capsys):
-    assert main(["analyze", str(SAMPLES / "tt_mixed.csv"), "--urdf", "panda",
-                 "--no-discovery", "--repeats", "2"]) == 0
+    assert (
+        main(
+            [
+                "analyze",
+                str(SAMPLES / "tt_mixed.csv"),
+                "--urdf",
+                "panda",
+                "--no-discovery",
+                "--repeats",
+                "2",
+            ]
+        )
+        == 0
+    )
     captured = capsys.readouterr()
     assert "--urdf applies to manipulator logs" in captured.err
     assert "tractor_trailer" in captured.err
@@ -265,8 +362,10 @@ def test_batch_does_not_count_optiodom_metadata_as_a_log(drive):
     jobs = find_logs(drive["session"])
     names = [Path(str(getattr(j, "path", j))).name for j in jobs]
     if any(n.endswith("_metadata.csv") for n in names):
-        pytest.xfail("logtools/batch/archive.py (red-team engineer's) still walks the OptiOdom "
-                     "*_metadata.csv as a log")
+        pytest.xfail(
+            "logtools/batch/archive.py (red-team engineer's) still walks the OptiOdom "
+            "*_metadata.csv as a log"
+        )
     assert len(names) == 2
 
 
@@ -275,8 +374,7 @@ def test_batch_does_not_count_optiodom_metadata_as_a_log(drive):
 
 def test_same_recording_in_three_encodings_is_counted_once(capsys):
     files = [SAMPLES / "tt_mixed.mcap", SAMPLES / "tt_mixed_ros2.mcap", SAMPLES / "tt_mixed.csv"]
-    assert main(["analyze", *map(str, files), "--no-discovery", "--repeats", "2",
-                 "--json"]) == 0
+    assert main(["analyze", *map(str, files), "--no-discovery", "--repeats", "2", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert not doc.get("runs")  # one recording: one run's result, not a pool of three
     (group,) = doc["source"]["same_recordings"]

@@ -21,7 +21,8 @@ def test_db3_corrupt_while_reading_messages_is_a_clean_error(tmp_path: Path) -> 
     sys.path.insert(0, str(ROOT / "bench"))
     from fuzz_all import Seeds, build_reader
 
-    path, _ = build_reader("bag2_db3", random.Random("7:18787"), Seeds(tmp_path / "seeds"),
-                           tmp_path / "case")
+    path, _ = build_reader(
+        "bag2_db3", random.Random("7:18787"), Seeds(tmp_path / "seeds"), tmp_path / "case"
+    )
     with pytest.raises(NotARosbagError, match="malformed"):
         read_log(path)

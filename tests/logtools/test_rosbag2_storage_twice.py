@@ -31,8 +31,9 @@ def test_read_refuses_a_storage_file_listed_twice(bag_listing_a_file_twice: Path
         read_log(bag_listing_a_file_twice)
 
 
-def test_info_exits_2_naming_it(bag_listing_a_file_twice: Path,
-                                capsys: pytest.CaptureFixture[str]) -> None:
+def test_info_exits_2_naming_it(
+    bag_listing_a_file_twice: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["info", str(bag_listing_a_file_twice)]) == 2
     err = capsys.readouterr().err
     assert "each file once" in err

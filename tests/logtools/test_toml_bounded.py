@@ -18,15 +18,18 @@ from logtools.errors import ChannelMapError
 DEEP = "x = " + "[" * 100_000 + "]" * 100_000 + "\n"
 
 
-@pytest.mark.parametrize(("text", "depth"), [
-    ("a = [[1], {b = [2]}]", 3),
-    ('a = "[[[[{{"', 0),
-    ("a = '[[[['  # [[[[", 0),
-    ('a = """\n[[[\n\\""" [[ """', 0),
-    ("a = '''[[[\n[[['''", 0),
-    ('a = "\\"[[[" \n b = [1]', 1),
-    ("[[tables]]\nx = 1", 2),
-])
+@pytest.mark.parametrize(
+    ("text", "depth"),
+    [
+        ("a = [[1], {b = [2]}]", 3),
+        ('a = "[[[[{{"', 0),
+        ("a = '[[[['  # [[[[", 0),
+        ('a = """\n[[[\n\\""" [[ """', 0),
+        ("a = '''[[[\n[[['''", 0),
+        ('a = "\\"[[[" \n b = [1]', 1),
+        ("[[tables]]\nx = 1", 2),
+    ],
+)
 def test_nesting_is_counted_outside_strings_and_comments(text: str, depth: int) -> None:
     assert toml_bounded.nesting_depth(text) == depth
 
@@ -48,23 +51,29 @@ def test_too_deep_is_refused_before_parsing(monkeypatch: pytest.MonkeyPatch) -> 
         toml_bounded.loads(DEEP)
 
 
-def test_deep_channel_map_is_one_clean_error(tmp_path: Path,
-                                             monkeypatch: pytest.MonkeyPatch) -> None:
+def test_deep_channel_map_is_one_clean_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     _no_tomllib(monkeypatch)
     path = tmp_path / "map.toml"
     path.write_text(DEEP)
-    with pytest.raises(ChannelMapError, match=re.escape(f"{path}: not a readable TOML channel "
-                                                        "map (arrays or tables nested")):
+    with pytest.raises(
+        ChannelMapError,
+        match=re.escape(f"{path}: not a readable TOML channel map (arrays or tables nested"),
+    ):
         load_channel_map(path)
 
 
-def test_deep_logcal_toml_is_a_settings_error(tmp_path: Path,
-                                              monkeypatch: pytest.MonkeyPatch) -> None:
+def test_deep_logcal_toml_is_a_settings_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     _no_tomllib(monkeypatch)
     archive = tmp_path / "archive"
     archive.mkdir()
     (archive / "run.csv").write_text("t,v\n0,1\n")
     (archive / "logcal.toml").write_text(DEEP)
-    with pytest.raises(SettingsError, match=re.escape(f"{archive / 'logcal.toml'}: not a "
-                                                      "readable TOML file (arrays or tables")):
+    with pytest.raises(
+        SettingsError,
+        match=re.escape(f"{archive / 'logcal.toml'}: not a readable TOML file (arrays or tables"),
+    ):
         settings_for(archive, archive / "run.csv")

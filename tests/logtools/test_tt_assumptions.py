@@ -46,8 +46,9 @@ def test_the_gain_assumption_is_stated_with_the_free_gain_lengths(
 def test_pooled_windows_keep_the_assumption_every_window_makes(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    code = main(["analyze", str(ROOT / "sample_logs" / "tt_mixed.mcap"), "--json",
-                 "--window", "80"])
+    code = main(
+        ["analyze", str(ROOT / "sample_logs" / "tt_mixed.mcap"), "--json", "--window", "80"]
+    )
     assert code == 0
     doc = json.loads(capsys.readouterr().out)
     runs = [r["estimate"] for r in doc["runs"]]
@@ -56,4 +57,5 @@ def test_pooled_windows_keep_the_assumption_every_window_makes(
     est = doc["estimate"]
     assert est["assumptions"] == ["the joint angle's gain is 1"]
     assert est["verdict"].endswith(
-        "These intervals assume the joint angle's gain is 1, as each window's do.")
+        "These intervals assume the joint angle's gain is 1, as each window's do."
+    )

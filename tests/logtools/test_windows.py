@@ -27,8 +27,9 @@ from logtools.writers.tractor_trailer import JSON_BINDINGS, run_frames, run_meta
 FAST = AnalysisConfig(repeats=1, discovery=False)
 
 
-def _pieces_log(path: Path, l2s: list[float], piece_s: float, chunk_size: int | None = None
-                ) -> Path:
+def _pieces_log(
+    path: Path, l2s: list[float], piece_s: float, chunk_size: int | None = None
+) -> Path:
     """A 100 Hz tractor-trailer log of consecutive simulated pieces of ``piece_s`` each, the
     trailer's L2 of each piece from ``l2s`` (the pose carried on from piece to piece)."""
     pieces = []
@@ -44,20 +45,24 @@ def _pieces_log(path: Path, l2s: list[float], piece_s: float, chunk_size: int | 
         p = fr["pose"]
         px, py, yaw = p["x"].to_numpy(), p["y"].to_numpy(), p["yaw"].to_numpy() + yaw0
         fr["pose"] = p.with_columns(
-            pl.Series("x", x0 + c * px - s * py), pl.Series("y", y0 + s * px + c * py),
-            pl.Series("yaw", yaw), pl.Series("qz", np.sin(yaw / 2)),
+            pl.Series("x", x0 + c * px - s * py),
+            pl.Series("y", y0 + s * px + c * py),
+            pl.Series("yaw", yaw),
+            pl.Series("qz", np.sin(yaw / 2)),
             pl.Series("qw", np.cos(yaw / 2)),
         )
         last = run.truth.row(-1, named=True)
-        x0, y0, yaw0 = (x0 + c * last["x"] - s * last["y"], y0 + s * last["x"] + c * last["y"],
-                        yaw0 + last["yaw"])
+        x0, y0, yaw0 = (
+            x0 + c * last["x"] - s * last["y"],
+            y0 + s * last["x"] + c * last["y"],
+            yaw0 + last["yaw"],
+        )
         pieces.append(fr)
         meta = meta or run_metadata(run)
     frames = {g: pl.concat([f[g] for f in pieces]) for g in pieces[0]}
     enc = JsonEncoder()
     if chunk_size is not None:  # small chunks: a time range then spans few of many
         from mcap.writer import Writer
-
 
         def small_chunks(fh, compression, chunked):  # type: ignore[no-untyped-def]
             enc._writer = Writer(fh, compression=compression, chunk_size=chunk_size)
@@ -103,8 +108,9 @@ def test_windows_pool_to_an_interval_that_overlaps_the_whole_log(windowed) -> No
 def test_the_json_says_how_the_log_was_windowed(
     steady_log: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    rc = main(["analyze", str(steady_log), "--json", "--window", "60", "--repeats", "1",
-               "--no-discovery"])
+    rc = main(
+        ["analyze", str(steady_log), "--json", "--window", "60", "--repeats", "1", "--no-discovery"]
+    )
     assert rc in (0, None)
     doc = json.loads(capsys.readouterr().out)
     w = doc["source"]["windows"]
@@ -311,8 +317,9 @@ def test_a_window_keeps_no_per_sample_arrays(steady_log: Path) -> None:
 # --- pooling the windows by their covariances (calib.pooling through pool_windows) ---------
 
 
-def _window(k: int, l1: float, l2: float, cov: list[list[float]] | None,
-            sum_determined: bool = True) -> object:
+def _window(
+    k: int, l1: float, l2: float, cov: list[list[float]] | None, sum_determined: bool = True
+) -> object:
     """A window's result as pool_windows receives it: a tractor estimate (L1, L2, their
     covariance, the sum as the estimator would give it)."""
     from calib.results import AnalysisResult, CalibrationResult, Estimate
@@ -326,12 +333,20 @@ def _window(k: int, l1: float, l2: float, cov: list[list[float]] | None,
 
     total = est("L1+L2", l1 + l2, float(c[0, 0] + c[1, 1] + 2 * c[0, 1]), sum_determined)
     return AnalysisResult(
-        robot="tractor_trailer", segments=[], methods=[],
-        estimate=CalibrationResult("PATH", {"L1": est("L1", l1, c[0, 0]),
-                                            "L2": est("L2", l2, c[1, 1])},
-                                   "fit", covariance=cov, derived=derived_sum(total)),
-        source={"path": "x.mcap", "window": {"index": k, "start_s": 60.0 * (k - 1),
-                                             "end_s": 60.0 * k}},
+        robot="tractor_trailer",
+        segments=[],
+        methods=[],
+        estimate=CalibrationResult(
+            "PATH",
+            {"L1": est("L1", l1, c[0, 0]), "L2": est("L2", l2, c[1, 1])},
+            "fit",
+            covariance=cov,
+            derived=derived_sum(total),
+        ),
+        source={
+            "path": "x.mcap",
+            "window": {"index": k, "start_s": 60.0 * (k - 1), "end_s": 60.0 * k},
+        },
     )
 
 
@@ -342,8 +357,14 @@ def _pool(windows: list[object], derive: bool = True) -> object:
 
     spans = tuple((60.0 * i, 60.0 * (i + 1)) for i in range(len(windows)))
     plan = WindowPlan(0, spans, 60.0, False, LogExtent(0, 10**12, {}), whole=False)
-    return pool_windows("x.mcap", plan, windows, [], {},  # type: ignore[arg-type]
-                        derive=pooled_derived if derive else None)
+    return pool_windows(
+        "x.mcap",
+        plan,
+        windows,
+        [],
+        {},  # type: ignore[arg-type]
+        derive=pooled_derived if derive else None,
+    )
 
 
 # L1, L2 nearly opposite: the sum far better determined than the split
@@ -405,14 +426,17 @@ def test_a_window_without_a_covariance_pools_each_parameter_on_its_own() -> None
     s1, s2 = (w.estimate.derived["sum_L1_L2"] for w in ws)  # type: ignore[attr-defined]
     w1, w2 = s1.std**-2, s2.std**-2
     assert est.derived["sum_L1_L2"].value == pytest.approx(
-        (w1 * s1.value + w2 * s2.value) / (w1 + w2))
+        (w1 * s1.value + w2 * s2.value) / (w1 + w2)
+    )
 
 
 def test_a_window_that_does_not_determine_a_parameter_adds_nothing_for_it() -> None:
     nan = math.nan
-    ws = [_window(1, 1.0, 2.5, [[0.04, 0.01], [0.01, 0.09]]),
-          _window(2, 1.3, 2.6, [[0.04, nan], [nan, nan]]),
-          _window(3, 1.2, 2.4, [[0.04, 0.01], [0.01, 0.09]])]
+    ws = [
+        _window(1, 1.0, 2.5, [[0.04, 0.01], [0.01, 0.09]]),
+        _window(2, 1.3, 2.6, [[0.04, nan], [nan, nan]]),
+        _window(3, 1.2, 2.4, [[0.04, 0.01], [0.01, 0.09]]),
+    ]
     res = _pool(ws)
     est = res.estimate  # type: ignore[attr-defined]
     stats = res.source["windows"]["pooling"]  # type: ignore[attr-defined]
@@ -438,9 +462,12 @@ def test_one_window_keeps_its_own_estimate() -> None:
     from logtools.windows import _pool_pieces
 
     est = CalibrationResult(
-        method="m", verdict="v",
-        parameters={"a": Estimate("a", 4.7, 5.0, (1.13, math.inf), identifiable=False),
-                    "b": Estimate("b", 1.0, 0.1, (0.8, 1.2))},
+        method="m",
+        verdict="v",
+        parameters={
+            "a": Estimate("a", 4.7, 5.0, (1.13, math.inf), identifiable=False),
+            "b": Estimate("b", 1.0, 0.1, (0.8, 1.2)),
+        },
         covariance=((25.0, 0.1), (0.1, 0.01)),
     )
     piece = AnalysisResult(robot="r", segments=[], methods=[], estimate=est)

@@ -48,8 +48,9 @@ def _fitter(case: str, nominal: bool = False) -> ArmFitter:
         "compliance": {"compliance": (0.0, 0.02)},
         "change": {"payload_change": (10.0, 0.5)},
     }
-    run = simulate_planar(ARM, Friction(), duration_s=20.0, sensors=Sensors(), seed=3,
-                          **switches[case])  # type: ignore[arg-type]
+    run = simulate_planar(
+        ARM, Friction(), duration_s=20.0, sensors=Sensors(), seed=3, **switches[case]
+    )  # type: ignore[arg-type]
     sig = prepare_signals(run.t_s, run.q, run.tau, cutoff_hz=CFG.cutoff_hz)
     return ArmFitter(Planar2Link(ARM), sig, TERMS, ARM.theta() if nominal else None, CFG)
 
@@ -68,7 +69,10 @@ def _covers_or_not_determined(est: dict, truth: dict[str, float]) -> None:
         e = est[name]
         slack = 1e-3 * abs(value)
         assert (not e.identifiable) or e.ci95[0] - slack <= value <= e.ci95[1] + slack, (
-            name, e, value)
+            name,
+            e,
+            value,
+        )
 
 
 def test_clean_log_is_explained_and_determined() -> None:
@@ -143,11 +147,9 @@ def test_payload_picked_up_mid_log_is_located_and_split() -> None:
 def test_pipeline_reports_delay_adequacy(tmp_path: Path) -> None:
     from logtools.writers.manipulator import arm_metadata, write_arm_run
 
-    run = simulate_planar(ARM, Friction(), duration_s=12.0, sensors=Sensors(), seed=4,
-                          delay_s=0.02)
+    run = simulate_planar(ARM, Friction(), duration_s=12.0, sensors=Sensors(), seed=4, delay_s=0.02)
     nominal = {k: getattr(ARM, k) for k in ("m1", "m2", "r1", "r2", "I1", "I2")}
-    meta = arm_metadata(run, model_terms=("coulomb_friction", "viscous_friction"),
-                        nominal=nominal)
+    meta = arm_metadata(run, model_terms=("coulomb_friction", "viscous_friction"), nominal=nominal)
     write_arm_run(tmp_path / "delay.mcap", run, metadata=meta)
     loaded = load_log(tmp_path / "delay.mcap")
     cfg = AnalysisConfig(robot_options={"manipulator": ManipulatorOptions(cutoff_hz=20.0)})
@@ -165,9 +167,12 @@ def test_pipeline_reports_delay_adequacy(tmp_path: Path) -> None:
 @pytest.mark.skipif(not DFKI.is_dir(), reason="shared real recordings not present")
 def test_dfki_run_gets_a_verdict() -> None:
     loaded = load_log(DFKI / "dp_C0_20220914_trajectory_00.mcap")
-    cfg = AnalysisConfig(discovery=False,  # the verdict alone; discovery is the slow part
-                         robot_options={"manipulator": ManipulatorOptions(
-                             urdf=str(DFKI / "design_C.0_model_3.1_acrobot.urdf"))})
+    cfg = AnalysisConfig(
+        discovery=False,  # the verdict alone; discovery is the slow part
+        robot_options={
+            "manipulator": ManipulatorOptions(urdf=str(DFKI / "design_C.0_model_3.1_acrobot.urdf"))
+        },
+    )
     res = PLUGIN.analyze(loaded, cfg, lambda _m: None)
     adq = res.adequacy
     assert adq is not None
@@ -188,8 +193,9 @@ def test_confounded_explanations_span_or_are_not_determined() -> None:
     without = f.fit_arm(())
     assert with_c is not None
     assert without is not None
-    est = spanned(with_c.estimates(), [("payload", without.estimates())],
-                  "joint_compliance(joint2)")
+    est = spanned(
+        with_c.estimates(), [("payload", without.estimates())], "joint_compliance(joint2)"
+    )
     for name in ("a1", "a2", "a3", "a4", "a5"):
         e = est[name]
         lo = min(with_c.estimates()[name].ci95[0], without.estimates()[name].ci95[0])

@@ -124,8 +124,11 @@ def test_pooled_dispersion_scales_the_errors_the_pieces_show() -> None:
 
 
 def test_unit_scales_judge_a_value_near_zero_by_its_kind() -> None:
-    est = {"mx": _est("mx", 0.8, 0.01, "kg*m"), "my": _est("my", 1e-4, 0.01, "kg*m"),
-           "Fc": _est("Fc", 0.3, 0.01, "N*m")}
+    est = {
+        "mx": _est("mx", 0.8, 0.01, "kg*m"),
+        "my": _est("my", 1e-4, 0.01, "kg*m"),
+        "Fc": _est("Fc", 0.3, 0.01, "N*m"),
+    }
     sc = unit_scales(est)
     assert sc["my"] == pytest.approx(0.05 * 0.8)
     assert sc["Fc"] == pytest.approx(0.05 * 0.3)
@@ -133,8 +136,10 @@ def test_unit_scales_judge_a_value_near_zero_by_its_kind() -> None:
 
 def test_an_unstable_parameter_near_zero_is_judged_against_its_unit_scale() -> None:
     est = {"mx": _est("mx", 0.8, 0.001, "kg*m"), "my": _est("my", 1e-4, 0.001, "kg*m")}
-    pieces = [PieceFit(float(i), float(i + 1), {"mx": 0.8, "my": v}, {"mx": 0.001, "my": 0.001})
-              for i, v in enumerate([0.003, -0.003, 0.003, -0.003, 0.003, -0.003])]
+    pieces = [
+        PieceFit(float(i), float(i + 1), {"mx": 0.8, "my": v}, {"mx": 0.001, "my": 0.001})
+        for i, v in enumerate([0.003, -0.003, 0.003, -0.003, 0.003, -0.003])
+    ]
     out = stabilised(est, pieces)
     # widened by the spread (~0.0033) and the overdispersion, still within 25 % of 0.04
     assert out["my"].std > 0.003
@@ -163,8 +168,7 @@ def test_pipeline_reads_the_joints_at_their_logged_stamps(tmp_path: object) -> N
     from logtools.robots.manipulator.pipeline import _joints
     from logtools.writers.manipulator import arm_metadata, write_arm_run
 
-    run = simulate_planar(ARM, Friction(), duration_s=4.0,
-                          sensors=Sensors(jitter_s=0.0008), seed=5)
+    run = simulate_planar(ARM, Friction(), duration_s=4.0, sensors=Sensors(jitter_s=0.0008), seed=5)
     path = Path(str(tmp_path)) / "jitter.mcap"
     write_arm_run(path, run, metadata=arm_metadata(run))
     loaded = load_log(path)

@@ -56,7 +56,9 @@ class Ripple(ColumnEffect):
 
 
 RIPPLE: EffectSpec[ArmEffectModel] = EffectSpec(
-    "torque_ripple", "joint1", EffectKind.DYNAMICS,
+    "torque_ripple",
+    "joint1",
+    EffectKind.DYNAMICS,
     (EffectParam("ripple[joint1]", "N*m", 0.0, -np.inf, np.inf, 0.0),),
     "a position-dependent torque ripple (gear cogging), a sin(8 q)",
     model=Ripple("joint1", PERIODS),

@@ -54,8 +54,11 @@ def test_simulated_log_round_trip(tmp_path: Path, suffix: str) -> None:
 def test_dfki_real_log() -> None:
     loaded = load_log(DFKI / "dp_C0_20220914_trajectory_00.mcap")
     assert loaded.robot == "manipulator"
-    cfg = AnalysisConfig(robot_options={"manipulator": ManipulatorOptions(
-        urdf=str(DFKI / "design_C.0_model_3.1_acrobot.urdf"))})
+    cfg = AnalysisConfig(
+        robot_options={
+            "manipulator": ManipulatorOptions(urdf=str(DFKI / "design_C.0_model_3.1_acrobot.urdf"))
+        }
+    )
     res = PLUGIN.analyze(loaded, cfg, lambda _m: None)
     s = res.sections
     assert s["joints"] == ["Joint1", "Joint2"]

@@ -12,8 +12,13 @@ from calib.manipulator.simulate import Friction, Sensors, simulate_planar
 
 def test_arm_results_carry_the_hac_covariance() -> None:
     p = Planar2Params(payload=0.2)
-    run = simulate_planar(p, Friction(coulomb=(0.1, 0.15), viscous=(0.1, 0.05)),
-                          duration_s=10.0, sensors=Sensors(), seed=2)
+    run = simulate_planar(
+        p,
+        Friction(coulomb=(0.1, 0.15), viscous=(0.1, 0.05)),
+        duration_s=10.0,
+        sensors=Sensors(),
+        seed=2,
+    )
     res = identify_arm(Planar2Link(p), run.t_s, run.q, run.tau)
     rec = res.recommended
     assert rec.parameter_names == tuple(res.design.names)

@@ -18,30 +18,38 @@ from calib.manipulator import serial
 from logtools.cli.main import main
 
 _REDUCTIONS = {"j1": 50.0, "j2": -20.0}
-_NEW_FORM = ('<transmission name="t1"><type>transmission_interface/SimpleTransmission</type>'
-             '<joint name="j1"><hardwareInterface>hardware_interface/EffortJointInterface'
-             '</hardwareInterface></joint><actuator name="m1"><mechanicalReduction>50'
-             '</mechanicalReduction></actuator></transmission>')
-_OLD_FORM = ('<transmission name="t2" type="pr2_mechanism_model/SimpleTransmission">'
-             '<actuator name="m2"/><joint name="j2"/><mechanicalReduction>-20'
-             '</mechanicalReduction></transmission>')
+_NEW_FORM = (
+    '<transmission name="t1"><type>transmission_interface/SimpleTransmission</type>'
+    '<joint name="j1"><hardwareInterface>hardware_interface/EffortJointInterface'
+    '</hardwareInterface></joint><actuator name="m1"><mechanicalReduction>50'
+    "</mechanicalReduction></actuator></transmission>"
+)
+_OLD_FORM = (
+    '<transmission name="t2" type="pr2_mechanism_model/SimpleTransmission">'
+    '<actuator name="m2"/><joint name="j2"/><mechanicalReduction>-20'
+    "</mechanicalReduction></transmission>"
+)
 
 
 def _link(name: str, m: float, com: str) -> str:
-    return (f'<link name="{name}"><inertial><origin xyz="{com}"/><mass value="{m}"/>'
-            '<inertia ixx="0.02" iyy="0.03" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>'
-            '</link>')
+    return (
+        f'<link name="{name}"><inertial><origin xyz="{com}"/><mass value="{m}"/>'
+        '<inertia ixx="0.02" iyy="0.03" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>'
+        "</link>"
+    )
 
 
 def _urdf(transmissions: str) -> str:
     limit = '<limit lower="-2" upper="2" effort="50" velocity="3"/>'
-    return ('<?xml version="1.0"?><robot name="two"><link name="base"/>'
-            + _link("l1", 2.0, "0.2 0 0") + _link("l2", 1.5, "0.2 0 0.02")
-            + '<joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>'
-            f'<axis xyz="0 1 0"/>{limit}</joint>'
-            '<joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>'
-            f'<origin xyz="0.4 0 0"/><axis xyz="0 1 0"/>{limit}</joint>'
-            + transmissions + '</robot>')
+    return (
+        '<?xml version="1.0"?><robot name="two"><link name="base"/>'
+        + _link("l1", 2.0, "0.2 0 0")
+        + _link("l2", 1.5, "0.2 0 0.02")
+        + '<joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>'
+        f'<axis xyz="0 1 0"/>{limit}</joint>'
+        '<joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>'
+        f'<origin xyz="0.4 0 0"/><axis xyz="0 1 0"/>{limit}</joint>' + transmissions + "</robot>"
+    )
 
 
 @pytest.fixture(scope="module")
@@ -55,15 +63,30 @@ def arm(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("arm")
     (out / "arm.urdf").write_text(_urdf(_NEW_FORM + _OLD_FORM))
     model = serial.load_serial_arm(str(out / "arm.urdf"), None, 2)
-    run = simulate_trajectory(model, Friction(coulomb=(0.3, 0.3), viscous=(0.2, 0.2)),
-                              duration_s=8, rate_hz=250, sensors=Sensors(torque_noise=0.05),
-                              seed=3, center=np.zeros(2), amplitude=np.full(2, 1.2))
+    run = simulate_trajectory(
+        model,
+        Friction(coulomb=(0.3, 0.3), viscous=(0.2, 0.2)),
+        duration_s=8,
+        rate_hz=250,
+        sensors=Sensors(torque_noise=0.05),
+        seed=3,
+        center=np.zeros(2),
+        amplitude=np.full(2, 1.2),
+    )
     red = np.array([_REDUCTIONS["j1"], _REDUCTIONS["j2"]])
     write_arm_run(out / "joint.mcap", run, encoding="json", metadata={})
-    write_arm_run(out / "actuator.mcap", dataclasses.replace(run, tau=run.tau / red),
-                  encoding="json", metadata={})
-    write_arm_run(out / "current.mcap", dataclasses.replace(
-        run, tau=run.tau / (red * np.array([2.0, 1.0]))), encoding="json", metadata={})
+    write_arm_run(
+        out / "actuator.mcap",
+        dataclasses.replace(run, tau=run.tau / red),
+        encoding="json",
+        metadata={},
+    )
+    write_arm_run(
+        out / "current.mcap",
+        dataclasses.replace(run, tau=run.tau / (red * np.array([2.0, 1.0]))),
+        encoding="json",
+        metadata={},
+    )
     return out
 
 
@@ -87,22 +110,34 @@ def test_both_forms_are_read(arm: Path) -> None:
     found = {t.name: t for t in serial.read_transmissions(arm / "arm.urdf")}
     assert set(found) == {"t1", "t2"}
     assert (found["t1"].joints, found["t1"].actuators, found["t1"].reduction) == (
-        ("j1",), ("m1",), 50.0)
+        ("j1",),
+        ("m1",),
+        50.0,
+    )
     assert (found["t2"].joints, found["t2"].kind, found["t2"].reduction) == (
-        ("j2",), "SimpleTransmission", -20.0)
+        ("j2",),
+        "SimpleTransmission",
+        -20.0,
+    )
     assert found["t1"].simple
     assert found["t2"].simple
 
 
 def test_a_differential_is_read_but_not_simple(tmp_path: Path) -> None:
-    diff = ('<transmission name="w"><type>transmission_interface/DifferentialTransmission'
-            '</type><actuator name="a"><mechanicalReduction>2</mechanicalReduction></actuator>'
-            '<actuator name="b"><mechanicalReduction>2</mechanicalReduction></actuator>'
-            '<joint name="j1"/><joint name="j2"/></transmission>')
+    diff = (
+        '<transmission name="w"><type>transmission_interface/DifferentialTransmission'
+        '</type><actuator name="a"><mechanicalReduction>2</mechanicalReduction></actuator>'
+        '<actuator name="b"><mechanicalReduction>2</mechanicalReduction></actuator>'
+        '<joint name="j1"/><joint name="j2"/></transmission>'
+    )
     (tmp_path / "w.urdf").write_text(_urdf(diff))
     (t,) = serial.read_transmissions(tmp_path / "w.urdf")
     assert (t.kind, t.joints, t.simple, t.reduction) == (
-        "DifferentialTransmission", ("j1", "j2"), False, None)
+        "DifferentialTransmission",
+        ("j1", "j2"),
+        False,
+        None,
+    )
 
 
 def test_actuator_side_log_recovers_the_joint_side_parameters(
@@ -110,8 +145,7 @@ def test_actuator_side_log_recovers_the_joint_side_parameters(
 ) -> None:
     urdf = str(arm / "arm.urdf")
     joint = _analyse(capsys, str(arm / "joint.mcap"), "--urdf", urdf)
-    actuator = _analyse(capsys, str(arm / "actuator.mcap"), "--urdf", urdf,
-                        "--effort", "actuator")
+    actuator = _analyse(capsys, str(arm / "actuator.mcap"), "--urdf", urdf, "--effort", "actuator")
     assert list(_estimate(actuator)) == list(_estimate(joint))
     assert len(_estimate(joint)) >= 8
     np.testing.assert_allclose(_values(actuator), _values(joint), rtol=1e-6, atol=1e-9)
@@ -141,18 +175,28 @@ def test_a_torque_constant_from_the_channel_map(
     cmap.write_text("[robot]\ntorque_constant_j1 = 2.0\n")
     urdf = str(arm / "arm.urdf")
     joint = _analyse(capsys, str(arm / "joint.mcap"), "--urdf", urdf)
-    current = _analyse(capsys, str(arm / "current.mcap"), "--urdf", urdf, "--effort",
-                       "actuator", "--channel-map", str(cmap))
+    current = _analyse(
+        capsys,
+        str(arm / "current.mcap"),
+        "--urdf",
+        urdf,
+        "--effort",
+        "actuator",
+        "--channel-map",
+        str(cmap),
+    )
     np.testing.assert_allclose(_values(current), _values(joint), rtol=1e-6, atol=1e-9)
     j1 = current["effort_scaling"]["joints"]["j1"]
     assert (j1["factor"], j1["reduction"], j1["torque_constant"]) == (100.0, 50.0, 2.0)
     # given without --effort actuator: not applied, and said
-    as_logged = _analyse(capsys, str(arm / "current.mcap"), "--urdf", urdf, "--channel-map",
-                         str(cmap))
+    as_logged = _analyse(
+        capsys, str(arm / "current.mcap"), "--urdf", urdf, "--channel-map", str(cmap)
+    )
     assert any("applied with --effort actuator only" in w for w in as_logged["warnings"])
     cmap.write_text("[robot]\ntorque_constant_j9 = 2.0\n")
-    assert main(["analyze", str(arm / "joint.mcap"), "--urdf", urdf, "--channel-map",
-                 str(cmap)]) == 2
+    assert (
+        main(["analyze", str(arm / "joint.mcap"), "--urdf", urdf, "--channel-map", str(cmap)]) == 2
+    )
     assert "torque_constant_j9" in capsys.readouterr().err
 
 
@@ -161,14 +205,22 @@ def test_a_joint_without_a_transmission_is_one_error(
 ) -> None:
     partial = tmp_path / "partial.urdf"
     partial.write_text(_urdf(_NEW_FORM))
-    assert main(["analyze", str(arm / "actuator.mcap"), "--urdf", str(partial),
-                 "--effort", "actuator"]) == 2
+    assert (
+        main(
+            ["analyze", str(arm / "actuator.mcap"), "--urdf", str(partial), "--effort", "actuator"]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert "partial.urdf" in err
     assert "joint j2 has no <transmission>" in err
     assert "Traceback" not in err
-    assert main(["analyze", str(arm / "actuator.mcap"), "--urdf", str(partial),
-                 "--effort", "sideways"]) == 2
+    assert (
+        main(
+            ["analyze", str(arm / "actuator.mcap"), "--urdf", str(partial), "--effort", "sideways"]
+        )
+        == 2
+    )
 
 
 def test_info_lists_the_transmissions(arm: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -183,13 +235,14 @@ def test_info_lists_the_transmissions(arm: Path, capsys: pytest.CaptureFixture[s
     assert [t["reduction"] for t in doc["urdf"]["transmissions"]] == [50.0, -20.0]
 
 
-_ENTITY = ('<?xml version="1.0"?><!DOCTYPE robot [<!ENTITY a "aaaaaaaaaa">'
-           '<!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;">]><robot name="x">&b;</robot>')
+_ENTITY = (
+    '<?xml version="1.0"?><!DOCTYPE robot [<!ENTITY a "aaaaaaaaaa">'
+    '<!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;">]><robot name="x">&b;</robot>'
+)
 
 
 def test_a_hostile_urdf_is_refused_cleanly(
-    arm: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-    capsys: pytest.CaptureFixture[str]
+    arm: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     bad = tmp_path / "entity.urdf"
     bad.write_text(_ENTITY)
@@ -197,16 +250,17 @@ def test_a_hostile_urdf_is_refused_cleanly(
         serial.read_transmissions(bad)
     with pytest.raises(CalibError, match="DOCTYPE"):
         serial.load_serial_arm(str(bad), None, 2)
-    for cmd in (["analyze", str(arm / "actuator.mcap"), "--effort", "actuator"],
-                ["info", str(arm / "actuator.mcap")]):
+    for cmd in (
+        ["analyze", str(arm / "actuator.mcap"), "--effort", "actuator"],
+        ["info", str(arm / "actuator.mcap")],
+    ):
         assert main([*cmd, "--urdf", str(bad)]) == 2
         err = capsys.readouterr().err
         assert "entity.urdf" in err
         assert "DOCTYPE" in err
         assert "Traceback" not in err
     deep = tmp_path / "deep.urdf"
-    deep.write_text(_urdf(_NEW_FORM).replace(
-        "</robot>", "<a>" * 100 + "</a>" * 100 + "</robot>"))
+    deep.write_text(_urdf(_NEW_FORM).replace("</robot>", "<a>" * 100 + "</a>" * 100 + "</robot>"))
     with pytest.raises(CalibError, match="nested more than 64"):
         serial.read_transmissions(deep)
     broken = tmp_path / "broken.urdf"

@@ -18,8 +18,10 @@ def test_a_urdf_named_by_the_log_is_never_opened(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     log = tmp_path / "arm.mcap"
-    assert main(["simulate", "manipulator", "--arm", "panda", "--duration", "2",
-                 "--out", str(log)]) == 0
+    assert (
+        main(["simulate", "manipulator", "--arm", "panda", "--duration", "2", "--out", str(log)])
+        == 0
+    )
     opened: list[str] = []
     monkeypatch.setattr(serial, "load_serial_arm", lambda *a, **k: opened.append(a[0]))
     assert main(["analyze", str(log)]) == 2
@@ -36,12 +38,17 @@ def test_model_names_are_never_patterns(name: str) -> None:
 
 
 def _chain(n: int) -> str:
-    links = "".join(f'<link name="l{i}"><inertial><mass value="1"/><inertia ixx="1" iyy="1" '
-                    f'izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>' for i in range(n + 1))
-    joints = "".join(f'<joint name="j{i}" type="revolute"><parent link="l{i}"/>'
-                     f'<child link="l{i + 1}"/><axis xyz="0 0 1"/>'
-                     f'<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
-                     for i in range(n))
+    links = "".join(
+        f'<link name="l{i}"><inertial><mass value="1"/><inertia ixx="1" iyy="1" '
+        f'izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        for i in range(n + 1)
+    )
+    joints = "".join(
+        f'<joint name="j{i}" type="revolute"><parent link="l{i}"/>'
+        f'<child link="l{i + 1}"/><axis xyz="0 0 1"/>'
+        f'<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+        for i in range(n)
+    )
     return f'<robot name="chain">{links}{joints}</robot>'
 
 

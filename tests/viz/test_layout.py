@@ -33,14 +33,26 @@ def _row(name, fam, l1, l2=2.5, s1=0.01, s2=0.02, cond=10.0, flags=None):
 
 
 def test_forest_rows_merge_equal_runs_and_set_apart_the_split():
-    rows = forest_rows([
-        _row("M13", "CLS", 1.194), _row("M14", "CLS", 1.194), _row("M15", "CLS", 1.3),
-        _row("OLS1(EM1)", "EMLS", 1.2), _row("PM", "PMLS", math.nan, math.nan),
-        _row("EIV-ML", "EIV", 0.2, flags={"split_determined": False}),
-        _row("TLS", "EMLS", 1.21, cond=1e9), _row("Transient-path", "TRANSIENT", 1.25),
-    ])
+    rows = forest_rows(
+        [
+            _row("M13", "CLS", 1.194),
+            _row("M14", "CLS", 1.194),
+            _row("M15", "CLS", 1.3),
+            _row("OLS1(EM1)", "EMLS", 1.2),
+            _row("PM", "PMLS", math.nan, math.nan),
+            _row("EIV-ML", "EIV", 0.2, flags={"split_determined": False}),
+            _row("TLS", "EMLS", 1.21, cond=1e9),
+            _row("Transient-path", "TRANSIENT", 1.25),
+        ]
+    )
     assert [r.label for r in rows] == [
-        "OLS1(EM1)", "Transient-path", "M13–M14", "M15", "PM", "EIV-ML", "TLS"
+        "OLS1(EM1)",
+        "Transient-path",
+        "M13–M14",
+        "M15",
+        "PM",
+        "EIV-ML",
+        "TLS",
     ]
     assert [r.apart is None for r in rows] == [True, True] + [False] * 5
     assert rows[2].names == ("M13", "M14")

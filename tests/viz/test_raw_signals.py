@@ -28,8 +28,10 @@ def _log(robot: str, tmp_path: Path) -> Path:
     if robot == "tractor_trailer":
         return SAMPLES / "tt_harmonic_clean.mcap"
     out = tmp_path / f"{robot}.mcap"
-    cmd = {"diff_drive": ["simulate", "diff-drive", "--out", str(out)],
-           "manipulator": ["simulate", "manipulator", "--out", str(out), "--duration", "6"]}
+    cmd = {
+        "diff_drive": ["simulate", "diff-drive", "--out", str(out)],
+        "manipulator": ["simulate", "manipulator", "--out", str(out), "--duration", "6"],
+    }
     assert main(cmd[robot]) == 0
     return out
 
@@ -38,15 +40,32 @@ def _log(robot: str, tmp_path: Path) -> Path:
 def test_recording_holds_the_signals_as_read(robot: str, tmp_path: Path) -> None:
     log = _log(robot, tmp_path)
     rrd = tmp_path / "out.rrd"
-    assert main(["analyze", str(log), "--no-discovery", "--repeats", "1", "--rrd", str(rrd),
-                 "--png", str(tmp_path / "out.png")]) == 0
+    assert (
+        main(
+            [
+                "analyze",
+                str(log),
+                "--no-discovery",
+                "--repeats",
+                "1",
+                "--rrd",
+                str(rrd),
+                "--png",
+                str(tmp_path / "out.png"),
+            ]
+        )
+        == 0
+    )
     rows = _raw_rows(rrd)
     assert rows, "no /raw entity in the recording"
     data = read_log(log)
     # one numeric field of each topic, at every message the topic recorded
     for topic, frame in data.topics.items():
-        fields = [c for c, t in frame.schema.items() if c != "t_ns" and t.is_numeric()
-                  and "covariance" not in c]
+        fields = [
+            c
+            for c, t in frame.schema.items()
+            if c != "t_ns" and t.is_numeric() and "covariance" not in c
+        ]
         if not fields:
             continue
         path = "/raw/" + "/".join(p for p in topic.split("/") if p) + "/" + fields[0]

@@ -55,8 +55,10 @@ def test_entity_paths_and_blueprint(recorded):
         "/methods/table",
     }
     for seg in ("all", "harmonic", "curve"):
-        expected |= {f"/methods/{seg}/{k}" for k in ("names", "bars", "bars_value", "lines",
-                                                     "ticks", "titles")}
+        expected |= {
+            f"/methods/{seg}/{k}"
+            for k in ("names", "bars", "bars_value", "lines", "ticks", "titles")
+        }
     assert expected <= set(ents)
 
 
@@ -237,8 +239,13 @@ def test_recommended_transient_prediction_is_drawn_as_that_model(case, tmp_path)
     t0 = int(t_ns[0])
     t_s = (t_ns[::5] - t0) / 1e9
     fit = SimpleNamespace(
-        t_s_=t_s, psi_fit_=np.sin(t_s), residual_=0.01 * np.cos(t_s), psi_offset_=0.0,
-        L1_=1.26, L2_=2.47, bias_correction_=np.array([0.01, -0.01]),
+        t_s_=t_s,
+        psi_fit_=np.sin(t_s),
+        residual_=0.01 * np.cos(t_s),
+        psi_offset_=0.0,
+        L1_=1.26,
+        L2_=2.47,
+        bias_correction_=np.array([0.01, -0.01]),
     )
     pred = transient_prediction(fit, t0)
     np.testing.assert_array_equal(pred["psi_model_t_ns"], t_ns[::5])

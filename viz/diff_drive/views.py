@@ -89,20 +89,20 @@ def log_views(
                 if not ok.any():
                     continue
                 colour = _COLOURS.get(label, (0, 0, 0))
-                rec.log(f"{base}/{label}", rr.LineStrips2D([xy[ok]], colors=[colour]),
-                        static=True)
+                rec.log(f"{base}/{label}", rr.LineStrips2D([xy[ok]], colors=[colour]), static=True)
                 rec.log(  # where the path ends: where the drift shows
                     f"{base}/{label}_end",
                     rr.Points2D([xy[ok][-1]], colors=[colour], radii=[-4.0]),
                     static=True,
                 )
-            views.append(rrb.Spatial2DView(
-                name=f"run {Path(run_name).name}: black truth, red nominal, blue calibrated "
-                "(dead reckoning; dots: end points)",
-                origin=base,
-            ))
-        rec.log("methods", rr.TextDocument(_table(result), media_type="text/markdown"),
-                static=True)
+            views.append(
+                rrb.Spatial2DView(
+                    name=f"run {Path(run_name).name}: black truth, red nominal, blue calibrated "
+                    "(dead reckoning; dots: end points)",
+                    origin=base,
+                )
+            )
+        rec.log("methods", rr.TextDocument(_table(result), media_type="text/markdown"), static=True)
         origin = int(loaded.frame["t_ns"][0]) if loaded.frame.height else None
         log_raw_signals(rec, loaded.log.topics, timeline="time", origin_ns=origin)
     finally:
@@ -114,8 +114,9 @@ def log_views(
                 grid,
                 rrb.Tabs(
                     rrb.TextDocumentView(name="methods: parameters (mm)", origin="methods"),
-                    rrb.TimeSeriesView(name="raw signals as read (s from the log's start)",
-                                       origin="raw"),
+                    rrb.TimeSeriesView(
+                        name="raw signals as read (s from the log's start)", origin="raw"
+                    ),
                 ),
                 row_shares=[3, 1],
             ),
@@ -160,8 +161,14 @@ def write_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
         for k, (_label, e) in enumerate(rows):
             lo, hi = e.ci95
             if math.isfinite(lo) and math.isfinite(hi):
-                ax.errorbar([e.value * _MM], [k], xerr=[[(e.value - lo) * _MM],
-                            [(hi - e.value) * _MM]], fmt="o", color="C0", capsize=3)
+                ax.errorbar(
+                    [e.value * _MM],
+                    [k],
+                    xerr=[[(e.value - lo) * _MM], [(hi - e.value) * _MM]],
+                    fmt="o",
+                    color="C0",
+                    capsize=3,
+                )
             elif math.isfinite(e.value):
                 ax.plot([e.value * _MM], [k], "x", color="grey")
         for key, style, what in (("nominal", "--", "nominal"), ("truth", "-", "truth")):
@@ -179,4 +186,3 @@ def write_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
     fig.savefig(out)
     plt.close(fig)
     return out
-

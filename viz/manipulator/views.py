@@ -18,7 +18,9 @@ __all__ = ["log_views", "write_png"]
 
 
 def log_views(
-    out: Path, loaded: LoadedLike, result: AnalysisResult,
+    out: Path,
+    loaded: LoadedLike,
+    result: AnalysisResult,
     options: object = None,
 ) -> Path:
     """Save the arm's views of ``result`` to ``out`` (.rrd), with the signals as read from
@@ -59,8 +61,10 @@ def log_views(
     finally:
         rec.flush()
     torque: list[rrb.View] = [
-        rrb.TimeSeriesView(name=f"{name}: measured vs predicted torque (N·m, held-out 40 %)",
-                           origin=f"torque/{name}")
+        rrb.TimeSeriesView(
+            name=f"{name}: measured vs predicted torque (N·m, held-out 40 %)",
+            origin=f"torque/{name}",
+        )
         for name in names
     ]
     conv: list[rrb.View] = [
@@ -71,12 +75,14 @@ def log_views(
         rrb.Blueprint(
             rrb.Horizontal(
                 rrb.Vertical(
-                    rrb.Spatial3DView(name="arm (forward kinematics of the logged q)",
-                                      origin="arm"),
+                    rrb.Spatial3DView(
+                        name="arm (forward kinematics of the logged q)", origin="arm"
+                    ),
                     rrb.Tabs(
                         rrb.TextDocumentView(name="summary", origin="summary"),
-                        rrb.TimeSeriesView(name="raw signals as read (s from the log's start)",
-                                           origin="raw"),
+                        rrb.TimeSeriesView(
+                            name="raw signals as read (s from the log's start)", origin="raw"
+                        ),
                     ),
                 ),
                 rrb.Vertical(*(torque[:4] or [rrb.TextDocumentView(origin="summary")])),
@@ -100,8 +106,9 @@ def write_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
 
     art = result.artifacts
     names = list(art.get("joint_names", []))[:8]
-    fig, axes = plt.subplots(max(1, len(names)), 1, figsize=(16, 9), dpi=100, sharex=True,
-                             squeeze=False)
+    fig, axes = plt.subplots(
+        max(1, len(names)), 1, figsize=(16, 9), dpi=100, sharex=True, squeeze=False
+    )
     if "holdout_t_s" in art:
         t = np.asarray(art["holdout_t_s"])
         meas, pred = np.asarray(art["holdout_measured"]), np.asarray(art["holdout_predicted"])
@@ -136,4 +143,3 @@ def _summary(result: AnalysisResult) -> str:
     if result.estimate is not None:
         lines += ["```", result.estimate.report(), "```"]
     return "\n\n".join(lines)
-

@@ -136,8 +136,7 @@ def default_blueprint(
         )
         for name, origin in (
             ("κ (1/m): command yellow, measured orange", "/signals/kappa"),
-            ("ψ (rad): measured blue, recommended model green, steady state pink",
-             "/signals/psi"),
+            ("ψ (rad): measured blue, recommended model green, steady state pink", "/signals/psi"),
             ("ψ residual (rad): baseline violet, with effects green", "/signals/residuals"),
         )
     ]
@@ -148,10 +147,18 @@ def default_blueprint(
         *series,
         row_shares=[2, 3, 3, 3],
     )
-    raw_views = [rrb.TimeSeriesView(
-        name="Raw signals as read (every topic at its own stamps)", origin="/raw",
-        time_ranges=_whole_log(), axis_x=axis,
-    )] if raw else []
+    raw_views = (
+        [
+            rrb.TimeSeriesView(
+                name="Raw signals as read (every topic at its own stamps)",
+                origin="/raw",
+                time_ranges=_whole_log(),
+                axis_x=axis,
+            )
+        ]
+        if raw
+        else []
+    )
     docs = rrb.Tabs(
         *raw_views,
         rrb.TextDocumentView(name="Summary", origin="/summary"),

@@ -122,7 +122,12 @@ def forest_rows(methods: Sequence[MethodResult]) -> list[ForestRow]:
         label = m.name if len(g) == 1 else f"{g[0].name}–{g[-1].name}"
         rows.append(
             ForestRow(
-                label, tuple(x.name for x in g), m.L1, m.L2, m.L1_std, m.L2_std,
+                label,
+                tuple(x.name for x in g),
+                m.L1,
+                m.L2,
+                m.L1_std,
+                m.L2_std,
                 set_apart_reason(m),
             )
         )
@@ -256,7 +261,10 @@ def _panels(
 
 
 def _text(
-    rec: rr.RecordingStream, path: str, xy: list[tuple[float, float]], labels: list[str],
+    rec: rr.RecordingStream,
+    path: str,
+    xy: list[tuple[float, float]],
+    labels: list[str],
     color: tuple[int, int, int],
 ) -> None:
     """Text at canvas positions: labels of invisible points, shown whatever their number."""
@@ -265,7 +273,10 @@ def _text(
     rec.log(
         path,
         rr.Points2D(
-            np.array(xy, dtype=float), labels=labels, colors=[color], radii=[0.0],
+            np.array(xy, dtype=float),
+            labels=labels,
+            colors=[color],
+            radii=[0.0],
             show_labels=True,
         ),
         static=True,
@@ -282,20 +293,43 @@ def _log_canvas(
     y_of, headers = _row_layout(rows)
     bottom = y_of[-1] + _ROW
     name_x = sum(_NAMES) / 2
-    _text(rec, f"{base}/names", [(name_x, y) for r, y in zip(rows, y_of, strict=True)
-                                 if r.apart is None],
-          [r.label for r in rows if r.apart is None], TEXT)
-    _text(rec, f"{base}/names_apart", [(name_x, y) for r, y in zip(rows, y_of, strict=True)
-                                       if r.apart is not None],
-          [r.label for r in rows if r.apart is not None], GREY_TEXT)
-    _text(rec, f"{base}/headers", [(CANVAS_WIDTH / 2, y) for y, _ in headers],
-          [h for _, h in headers], GREY_TEXT)
+    _text(
+        rec,
+        f"{base}/names",
+        [(name_x, y) for r, y in zip(rows, y_of, strict=True) if r.apart is None],
+        [r.label for r in rows if r.apart is None],
+        TEXT,
+    )
+    _text(
+        rec,
+        f"{base}/names_apart",
+        [(name_x, y) for r, y in zip(rows, y_of, strict=True) if r.apart is not None],
+        [r.label for r in rows if r.apart is not None],
+        GREY_TEXT,
+    )
+    _text(
+        rec,
+        f"{base}/headers",
+        [(CANVAS_WIDTH / 2, y) for y, _ in headers],
+        [h for _, h in headers],
+        GREY_TEXT,
+    )
     if headers:
         ydiv = headers[0][0] - 0.5 * _ROW
-        rec.log(f"{base}/divider", rr.LineStrips2D([[[0.0, ydiv], [CANVAS_WIDTH, ydiv]]],
-                colors=[GREY], radii=[ui_points(0.5)]), static=True)
-    _text(rec, f"{base}/titles", [((p.x0 + p.x1) / 2, 0.6 * _ROW) for p in panels],
-          [p.title for p in panels], TEXT)
+        rec.log(
+            f"{base}/divider",
+            rr.LineStrips2D(
+                [[[0.0, ydiv], [CANVAS_WIDTH, ydiv]]], colors=[GREY], radii=[ui_points(0.5)]
+            ),
+            static=True,
+        )
+    _text(
+        rec,
+        f"{base}/titles",
+        [((p.x0 + p.x1) / 2, 0.6 * _ROW) for p in panels],
+        [p.title for p in panels],
+        TEXT,
+    )
     frames: list[list[list[float]]] = []
     bars: list[list[list[float]]] = []
     bars_apart: list[list[list[float]]] = []
@@ -305,8 +339,15 @@ def _log_canvas(
     tick_xy: list[tuple[float, float]] = []
     off_xy, off_txt = [], []
     for pan in panels:
-        frames.append([[pan.x0, 1.4 * _ROW], [pan.x0, bottom], [pan.x1, bottom],
-                       [pan.x1, 1.4 * _ROW], [pan.x0, 1.4 * _ROW]])
+        frames.append(
+            [
+                [pan.x0, 1.4 * _ROW],
+                [pan.x0, bottom],
+                [pan.x1, bottom],
+                [pan.x1, 1.4 * _ROW],
+                [pan.x0, 1.4 * _ROW],
+            ]
+        )
         for v in nice_ticks(pan.lo, pan.hi):
             tick_xy.append((pan.x(v), bottom + 0.8 * _ROW))
             ticks.append(_tick_text(v, pan.hi - pan.lo))
@@ -321,36 +362,51 @@ def _log_canvas(
             elif r.apart is None and "zoomed" not in pan.title:  # its number at the edge
                 off_xy.append((pan.x(v) + (-3.0 if v > pan.hi else 3.0), y))
                 off_txt.append(("▶ " if v > pan.hi else "◀ ") + f"{v:.3g}")
-    rec.log(f"{base}/frames", rr.LineStrips2D(frames, colors=[(90, 90, 90)],
-            radii=[ui_points(0.5)]), static=True)
+    rec.log(
+        f"{base}/frames",
+        rr.LineStrips2D(frames, colors=[(90, 90, 90)], radii=[ui_points(0.5)]),
+        static=True,
+    )
     _text(rec, f"{base}/ticks", tick_xy, ticks, TEXT)
     _text(rec, f"{base}/beyond", off_xy, off_txt, TEXT)
-    for name, segs, pts, color in (("bars", bars, marks, COLORS["L1"]),
-                                   ("bars_apart", bars_apart, marks_apart, GREY)):
+    for name, segs, pts, color in (
+        ("bars", bars, marks, COLORS["L1"]),
+        ("bars_apart", bars_apart, marks_apart, GREY),
+    ):
         if segs:
-            rec.log(f"{base}/{name}", rr.LineStrips2D(segs, colors=[color],
-                    radii=[ui_points(1.5)]), static=True)
+            rec.log(
+                f"{base}/{name}",
+                rr.LineStrips2D(segs, colors=[color], radii=[ui_points(1.5)]),
+                static=True,
+            )
         if pts:
-            rec.log(f"{base}/{name}_value", rr.Points2D(np.array(pts), colors=[color],
-                    radii=[ui_points(3.0)]), static=True)
+            rec.log(
+                f"{base}/{name}_value",
+                rr.Points2D(np.array(pts), colors=[color], radii=[ui_points(3.0)]),
+                static=True,
+            )
     lines, colors = [], []
     for pan in panels:
-        for src, color in ((truth, COLORS["truth"]),
-                           ({k: v[0] for k, v in recv.items()}, COLORS["psi_estimate"])):
+        for src, color in (
+            (truth, COLORS["truth"]),
+            ({k: v[0] for k, v in recv.items()}, COLORS["psi_estimate"]),
+        ):
             at = src.get(pan.param)
             if at is not None and pan.inside(at):
                 lines.append([[pan.x(at), 1.4 * _ROW], [pan.x(at), bottom]])
                 colors.append(color)
     if lines:
-        rec.log(f"{base}/lines", rr.LineStrips2D(lines, colors=colors,
-                radii=[ui_points(1.0)]), static=True)
+        rec.log(
+            f"{base}/lines",
+            rr.LineStrips2D(lines, colors=colors, radii=[ui_points(1.0)]),
+            static=True,
+        )
     note = ["bars: value ± 1 std (spread over repeats; a single fit's standard error)"]
     if truth:
         note.append("white line: truth")
     if recv and result.estimate is not None:
         note.append(f"green line: recommended ({result.estimate.method})")
-    _text(rec, f"{base}/note", [(CANVAS_WIDTH / 2, bottom + 2.0 * _ROW)], ["; ".join(note)],
-          TEXT)
+    _text(rec, f"{base}/note", [(CANVAS_WIDTH / 2, bottom + 2.0 * _ROW)], ["; ".join(note)], TEXT)
 
 
 def log_methods(rec: rr.RecordingStream, result: AnalysisResult) -> list[str]:

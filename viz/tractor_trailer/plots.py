@@ -34,8 +34,9 @@ def _outside_legend(ax, below: bool = False) -> None:
     if not ax.get_legend_handles_labels()[0]:
         return
     if below:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize=7, frameon=False,
-                  ncol=2)
+        ax.legend(
+            loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize=7, frameon=False, ncol=2
+        )
     else:
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
 
@@ -79,17 +80,29 @@ def _icr_closeup(ax, c: Mapping[str, np.ndarray], half: float | None) -> None:
     for name in ("C2", "P", "C1"):
         ax.plot(c[name][:, 0], c[name][:, 1], color=hex_color(name), lw=0.8, alpha=0.6)
     ax.plot(*np.stack([c1, p, c2]).T, color="k", lw=2.5, label="links C1–P–C2")
-    ax.plot(*np.stack([o, q, c2, o]).T, color=hex_color("triangle_OQC2"), lw=1.2,
-            label="triangle O Q C2")
-    ax.plot(*np.stack([q, c1, p, q]).T, color=hex_color("triangle_QC1P"), lw=1.2,
-            label="triangle Q C1 P")
-    ax.plot(*np.stack([o, c1]).T, color=hex_color("radius"), lw=0.8, ls=":",
-            label=f"radius O C1, R = {c['R'][i]:.2f} m")
+    ax.plot(
+        *np.stack([o, q, c2, o]).T,
+        color=hex_color("triangle_OQC2"),
+        lw=1.2,
+        label="triangle O Q C2",
+    )
+    ax.plot(
+        *np.stack([q, c1, p, q]).T,
+        color=hex_color("triangle_QC1P"),
+        lw=1.2,
+        label="triangle Q C1 P",
+    )
+    ax.plot(
+        *np.stack([o, c1]).T,
+        color=hex_color("radius"),
+        lw=0.8,
+        ls=":",
+        label=f"radius O C1, R = {c['R'][i]:.2f} m",
+    )
     for name, pt in (("C1", c1), ("P", p), ("C2", c2), ("O", o), ("Q", q)):
         color = hex_color(name)
         ax.plot(*pt, "o", color=color, ms=6)
-        ax.annotate(name, pt, xytext=(5, 5), textcoords="offset points", fontsize=8,
-                    color="k")
+        ax.annotate(name, pt, xytext=(5, 5), textcoords="offset points", fontsize=8, color="k")
     ax.set_xlim(c1[0] - half, c1[0] + half)
     ax.set_ylim(c1[1] - half, c1[1] + half)
     ax.set_xlabel("x (m)")
@@ -156,11 +169,22 @@ def _psi(
         ax.plot(t, shown[-1], color=hex_color("psi"), lw=2.2, label="ψ measured")
     if "psi_model" in names:
         tm = (np.asarray(views["psi_model_t_ns"], dtype=np.int64) - t0_ns) / 1e9
-        ax.plot(tm, views["psi_model"], color=hex_color("psi_estimate"), lw=1.0,
-                label=_wrap(names["psi_model"]))
+        ax.plot(
+            tm,
+            views["psi_model"],
+            color=hex_color("psi_estimate"),
+            lw=1.0,
+            label=_wrap(names["psi_model"]),
+        )
     if "psi_steady" in names:
-        ax.plot(t, views["psi_steady"], color=hex_color("psi_steady"), lw=0.9, ls="--",
-                label=_wrap(names["psi_steady"]))
+        ax.plot(
+            t,
+            views["psi_steady"],
+            color=hex_color("psi_steady"),
+            lw=0.9,
+            ls="--",
+            label=_wrap(names["psi_steady"]),
+        )
     _robust_ylim(ax, *shown)
     _segment_marks(ax, result, labels=False)
     _outside_legend(ax)
@@ -172,8 +196,7 @@ def _wrap(text: str, width: int = 38) -> str:
     return "\n".join(textwrap.wrap(text, width))
 
 
-def _forest(ax, rows: list[ForestRow], result: AnalysisResult, param: str, *,
-            zoom: bool) -> None:
+def _forest(ax, rows: list[ForestRow], result: AnalysisResult, param: str, *, zoom: bool) -> None:
     """value ± std per row; set-apart rows grey below a divider; truth and recommended
     value as vertical lines; the x range all rows' bulk, or zoomed on the recommended."""
     truth = result.truth.get(param)
@@ -188,16 +211,21 @@ def _forest(ax, rows: list[ForestRow], result: AnalysisResult, param: str, *,
         ax.set_title(f"{param} (m) zoomed", fontsize=9)
     else:
         extra = [rec[param][0]] if param in rec else []
-        lo, hi = robust_range(np.concatenate([vals[det] - sds[det], vals[det] + sds[det],
-                                              extra]), truth)
+        lo, hi = robust_range(
+            np.concatenate([vals[det] - sds[det], vals[det] + sds[det], extra]), truth
+        )
         ax.set_title(f"{param} (m), all methods", fontsize=9)
     for k, color in ((det, hex_color(param)), (~det, "0.6")):
         ax.errorbar(vals[k], ys[k], xerr=sds[k], fmt="o", ms=3, lw=1, color=color)
     if truth is not None:
         ax.axvline(truth, color="k", ls="--", lw=1, label=f"truth {param} = {truth:.4g} m")
     if param in rec and result.estimate is not None:
-        ax.axvline(rec[param][0], color=hex_color("psi_estimate"), lw=1.2,
-                   label=f"recommended ({result.estimate.method}) {rec[param][0]:.4g} m")
+        ax.axvline(
+            rec[param][0],
+            color=hex_color("psi_estimate"),
+            lw=1.2,
+            label=f"recommended ({result.estimate.method}) {rec[param][0]:.4g} m",
+        )
     ax.set_xlim(lo, hi)
     first_apart = next((i for i, a in enumerate(apart) if a), None)
     if first_apart is not None:
@@ -205,8 +233,13 @@ def _forest(ax, rows: list[ForestRow], result: AnalysisResult, param: str, *,
     if not zoom:
         for y, v in zip(ys[det], vals[det], strict=True):
             if np.isfinite(v) and not lo <= v <= hi:
-                ax.annotate(("◀ " if v < lo else "▶ ") + f"{v:.3g}", (lo if v < lo else hi, y),
-                            ha="left" if v < lo else "right", va="center", fontsize=6)
+                ax.annotate(
+                    ("◀ " if v < lo else "▶ ") + f"{v:.3g}",
+                    (lo if v < lo else hi, y),
+                    ha="left" if v < lo else "right",
+                    va="center",
+                    fontsize=6,
+                )
     labels = [r.label if r.apart is None else f"{r.label} ({r.apart})" for r in rows]
     ax.set_yticks(ys, labels if not zoom else [""] * len(rows), fontsize=6)
     for tick, a in zip(ax.get_yticklabels(), apart, strict=True):
@@ -240,14 +273,17 @@ def write_report_png(
 
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    drawn: Mapping[str, np.ndarray] = (
-        result.artifacts.get(VIEWS, {}) if views is None else views
-    )
+    drawn: Mapping[str, np.ndarray] = result.artifacts.get(VIEWS, {}) if views is None else views
     fig = Figure(figsize=(16, 10), layout="constrained")
     axes = fig.subplot_mosaic(
-        [["world", "close", "kappa", "kappa"], ["world", "close", "psi", "psi"],
-         ["L1", "L1z", "L2", "L2z"], ["L1", "L1z", "L2", "L2z"]],
-        height_ratios=[1, 1, 1.1, 1.1], width_ratios=[1, 0.8, 1, 0.8],
+        [
+            ["world", "close", "kappa", "kappa"],
+            ["world", "close", "psi", "psi"],
+            ["L1", "L1z", "L2", "L2z"],
+            ["L1", "L1z", "L2", "L2z"],
+        ],
+        height_ratios=[1, 1, 1.1, 1.1],
+        width_ratios=[1, 0.8, 1, 0.8],
     )
     _world(axes["world"], frame, drawn)
     _icr_closeup(axes["close"], drawn, follow_half_width(drawn))
@@ -267,12 +303,19 @@ def write_report_png(
         for h, lab in zip(*axes[key].get_legend_handles_labels(), strict=True):
             handles.setdefault(lab, h)
     if handles:
-        fig.legend(list(handles.values()), list(handles.keys()), loc="outside lower center",
-                   ncol=len(handles), fontsize=8, frameon=False)
+        fig.legend(
+            list(handles.values()),
+            list(handles.keys()),
+            loc="outside lower center",
+            ncol=len(handles),
+            fontsize=8,
+            frameon=False,
+        )
     fig.suptitle(
         result.robot
         + ("" if result.estimate is None else f" — recommended: {result.estimate.method}")
-        + "\nerror bars: value ± 1 std; grey rows: L1/L2 split not to be read.  " + PM_MEANING,
+        + "\nerror bars: value ± 1 std; grey rows: L1/L2 split not to be read.  "
+        + PM_MEANING,
         fontsize=10,
     )
     fig.savefig(out, dpi=dpi)

@@ -95,9 +95,7 @@ def write_recording(
         KeyError: ``method_for_psi`` is not a method of ``result``, or ``views`` lacks its
             prediction.
     """
-    drawn: Mapping[str, np.ndarray] = (
-        result.artifacts.get(VIEWS, {}) if views is None else views
-    )
+    drawn: Mapping[str, np.ndarray] = result.artifacts.get(VIEWS, {}) if views is None else views
     if method_for_psi is not None:
         find_method(result, method_for_psi)  # fail before writing anything
         if "psi_steady_method" not in drawn:
@@ -105,8 +103,9 @@ def write_recording(
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     rec = rr.RecordingStream(application_id)
-    blueprint = default_blueprint(result, _time_range(frame), _y_ranges(frame, drawn), drawn,
-                                  raw=bool(raw))
+    blueprint = default_blueprint(
+        result, _time_range(frame), _y_ranges(frame, drawn), drawn, raw=bool(raw)
+    )
     rec.save(out, default_blueprint=blueprint)
     try:
         rec.log(

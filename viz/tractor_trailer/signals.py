@@ -107,9 +107,7 @@ def log_signals(
         )
     psi = column(frame, "psi") if has(frame, "psi") else None
     if psi is not None:
-        send_series(
-            rec, "signals/psi/measured", t, psi, name="ψ measured", color="psi", width=3.0
-        )
+        send_series(rec, "signals/psi/measured", t, psi, name="ψ measured", color="psi", width=3.0)
     names = psi_curve_names(result, views, method_for_psi)
     if "psi_model" in names:
         send_series(
@@ -156,18 +154,38 @@ def _log_residuals(
             vals = np.asarray(res[key], dtype=float)
             if vals.shape == rt.shape:
                 before = key.endswith("_before")
-                name = "ψ residual of the baseline" if before else (
-                    "ψ residual with the effects discovery accepted")
-                send_series(rec, f"signals/residuals/{key}", rt, vals, name=name,
-                            color="residual" if before else "psi_estimate")
+                name = (
+                    "ψ residual of the baseline"
+                    if before
+                    else ("ψ residual with the effects discovery accepted")
+                )
+                send_series(
+                    rec,
+                    f"signals/residuals/{key}",
+                    rt,
+                    vals,
+                    name=name,
+                    color="residual" if before else "psi_estimate",
+                )
         return
     if "psi_model_residual" in views:
-        send_series(rec, "signals/residuals/psi", np.asarray(views["psi_model_t_ns"], np.int64),
-                    views["psi_model_residual"], name="ψ measured − recommended model",
-                    color="residual")
+        send_series(
+            rec,
+            "signals/residuals/psi",
+            np.asarray(views["psi_model_t_ns"], np.int64),
+            views["psi_model_residual"],
+            name="ψ measured − recommended model",
+            color="residual",
+        )
     elif psi is not None and "psi_steady" in views:
-        send_series(rec, "signals/residuals/psi", t, psi - views["psi_steady"],
-                    name="ψ measured − steady-state relation", color="residual")
+        send_series(
+            rec,
+            "signals/residuals/psi",
+            t,
+            psi - views["psi_steady"],
+            name="ψ measured − steady-state relation",
+            color="residual",
+        )
 
 
 def log_segments(rec: rr.RecordingStream, frame: pl.DataFrame, result: AnalysisResult) -> None:

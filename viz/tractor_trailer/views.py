@@ -25,7 +25,9 @@ class TractorViewOptions(Protocol):
 
 
 def tractor_trailer_rrd(
-    out: Path, loaded: LoadedLike, result: AnalysisResult,
+    out: Path,
+    loaded: LoadedLike,
+    result: AnalysisResult,
     options: TractorViewOptions | None = None,
 ) -> Path:
     """The tractor-trailer's rerun recording (world, ICR construction, signals, methods);
@@ -34,8 +36,7 @@ def tractor_trailer_rrd(
     from viz.tractor_trailer.recording import write_recording
 
     method = options.method_for_psi if options is not None else None
-    return write_recording(out, loaded.frame, result, method_for_psi=method,
-                           raw=loaded.log.topics)
+    return write_recording(out, loaded.frame, result, method_for_psi=method, raw=loaded.log.topics)
 
 
 def tractor_trailer_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
@@ -44,4 +45,3 @@ def tractor_trailer_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -
 
     write_report_png(out, loaded.frame, result)
     return out
-

@@ -27,7 +27,14 @@ from viz._frame import column, has, times_ns
 from viz.style import COLORS, TIMELINE, ui_points
 
 __all__ = [
-    "FOLLOW", "ICR", "ICR_STRIPS", "LABELS", "ROBOT", "ROBOT_POINTS", "WORLD", "log_world",
+    "FOLLOW",
+    "ICR",
+    "ICR_STRIPS",
+    "LABELS",
+    "ROBOT",
+    "ROBOT_POINTS",
+    "WORLD",
+    "log_world",
 ]
 
 WORLD = "world"
@@ -158,9 +165,7 @@ def _log_follow(rec: rr.RecordingStream, t: NDArray[np.int64], c1: NDArray[np.fl
     )
 
 
-def _log_labels(
-    rec: rr.RecordingStream, t: NDArray[np.int64], c: Mapping[str, np.ndarray]
-) -> None:
+def _log_labels(rec: rr.RecordingStream, t: NDArray[np.int64], c: Mapping[str, np.ndarray]) -> None:
     """Per step the labels C1, P, C2 and, where the ICR is drawn, "O: R = 1/κ = … m" and "Q"
     at their points (invisible points with text; the overview leaves them out)."""
     robot = np.stack([c["C1"], c["P"], c["C2"]], axis=1)
@@ -193,15 +198,11 @@ def _icr_ok(c: Mapping[str, np.ndarray], n: int) -> NDArray[np.bool_]:
     return np.asarray(c["icr_valid"], dtype=bool) & np.isfinite(pts).reshape(n, -1).all(axis=1)
 
 
-def _log_robot(
-    rec: rr.RecordingStream, t: NDArray[np.int64], c: Mapping[str, np.ndarray]
-) -> None:
+def _log_robot(rec: rr.RecordingStream, t: NDArray[np.int64], c: Mapping[str, np.ndarray]) -> None:
     """C1, P, C2 as points and C1-P-C2 as one strip at every time step."""
     rec.log(
         ROBOT,
-        rr.Points2D.from_fields(
-            colors=[COLORS[n] for n in ROBOT_POINTS], radii=[_PT]
-        ),
+        rr.Points2D.from_fields(colors=[COLORS[n] for n in ROBOT_POINTS], radii=[_PT]),
         rr.LineStrips2D.from_fields(colors=[COLORS["links"]], radii=[_LINK]),
         static=True,
     )

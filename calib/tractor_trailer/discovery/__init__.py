@@ -145,7 +145,11 @@ def _effect_fit(
         v = float(final.theta[final.names.index(name)])
         sd = param_std(final, cov, name, p.time_shift, data.time_resolution_s)
         estimates[p.name] = Estimate(
-            p.name, v, sd, (v - 1.96 * sd, v + 1.96 * sd), unit=p.unit,
+            p.name,
+            v,
+            sd,
+            (v - 1.96 * sd, v + 1.96 * sd),
+            unit=p.unit,
             note="Gauss-Newton Fisher interval of the final joint fit",
         )
     pars = {k: e.value for k, e in estimates.items()}

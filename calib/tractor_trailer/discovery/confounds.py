@@ -204,8 +204,7 @@ def _unpinned_confound(
     )
     free = _explanation(g, covariance(g, data), data)
     ratio = max(
-        (free.std[k] / reported.std[k] if reported.std[k] > 0 else math.inf)
-        for k in eq.parameters
+        (free.std[k] / reported.std[k] if reported.std[k] > 0 else math.inf) for k in eq.parameters
     )
     if math.isfinite(ratio) and ratio <= UNPINNED_STD_RATIO:
         return None  # the log pins the effect: the link lengths do not depend on it

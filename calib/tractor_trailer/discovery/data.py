@@ -150,9 +150,7 @@ class DiscoveryData:
         for a in (self.t_s, self.tc_s, self.th_s, self.kappa_h, self.v_h, self.kappa_cmd, self.v):
             a.flags.writeable = False
 
-    def recall(
-        self, kind: str, key: Hashable, make: Callable[[], T], size: int | None = None
-    ) -> T:
+    def recall(self, kind: str, key: Hashable, make: Callable[[], T], size: int | None = None) -> T:
         """``make()``, remembered under ``key`` among the last few values of its ``kind``
         (``RECALLED`` says how many; ``size`` overrides).
 

@@ -101,13 +101,14 @@ def restrict(
     t0 = int(frame.get_column("t_ns").min())  # type: ignore[arg-type]
     keep = _time_filter(pl.col("t_ns"), t0, windows)
     sub = frame.filter(keep)
-    sig = None if signals is None else {
-        k: (v.filter(keep) if "t_ns" in v.columns else v) for k, v in signals.items()
-    }
+    sig = (
+        None
+        if signals is None
+        else {k: (v.filter(keep) if "t_ns" in v.columns else v) for k, v in signals.items()}
+    )
     segs = None
     if segments is not None:
         segs = [
-            s for s in segments
-            if any(s.start_s < b and s.end_s > a for a, b in windows.spans_s)
+            s for s in segments if any(s.start_s < b and s.end_s > a for a, b in windows.spans_s)
         ]
     return sub, sig, segs

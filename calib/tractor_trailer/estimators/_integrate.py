@@ -73,9 +73,7 @@ def plan_steps(
     return StepPlan(h, u, v, 2 * n_sub)
 
 
-def simulate_psi(
-    plan: StepPlan, L1: np.ndarray, L2: np.ndarray, psi0: np.ndarray
-) -> FloatArray:
+def simulate_psi(plan: StepPlan, L1: np.ndarray, L2: np.ndarray, psi0: np.ndarray) -> FloatArray:
     """Joint angle (rad) at the nodes and bin edges of ``plan`` for m parameter sets.
 
     d psi/dt = u (1 + (L1/L2) cos psi) - v sin(psi) / L2 by classical RK4

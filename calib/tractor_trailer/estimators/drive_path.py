@@ -127,8 +127,14 @@ class DrivePath:
 
     @classmethod
     def from_pose(
-        cls, t_s: ArrayLike, x_m: ArrayLike, y_m: ArrayLike, yaw_rad: ArrayLike,
-        gap_s: float | None = None, *, smooth_samples: int = 1,
+        cls,
+        t_s: ArrayLike,
+        x_m: ArrayLike,
+        y_m: ArrayLike,
+        yaw_rad: ArrayLike,
+        gap_s: float | None = None,
+        *,
+        smooth_samples: int = 1,
     ) -> DrivePath:
         """From a pose of link 1 (any point of link 1: lateral motion is projected away).
 
@@ -159,16 +165,31 @@ class DrivePath:
         def coarser() -> DrivePath:
             return replace(
                 cls.from_pose(t[::2], x[::2], y[::2], th[::2], gap_s=2 * gap),
-                theta_noise_rad=s_th, s_noise_m=s_xy,
+                theta_noise_rad=s_th,
+                s_noise_m=s_xy,
             )
 
-        return cls(t, np.concatenate([[0.0], np.cumsum(ds)]), th, "pose", gap, coarser,
-                   smooth_samples, s_th, s_xy)
+        return cls(
+            t,
+            np.concatenate([[0.0], np.cumsum(ds)]),
+            th,
+            "pose",
+            gap,
+            coarser,
+            smooth_samples,
+            s_th,
+            s_xy,
+        )
 
     @classmethod
     def from_rates(
-        cls, t_s: ArrayLike, v_mps: ArrayLike, omega_radps: ArrayLike, *,
-        source: str = "odometry", gap_s: float | None = None,
+        cls,
+        t_s: ArrayLike,
+        v_mps: ArrayLike,
+        omega_radps: ArrayLike,
+        *,
+        source: str = "odometry",
+        gap_s: float | None = None,
     ) -> DrivePath:
         """From speed (m/s) and yaw rate (rad/s) of link 1: odometry (trapezoidal), or
         v kappa_cmd for ``source="command"`` (held from sample to sample, as commands are)."""
@@ -187,12 +208,22 @@ class DrivePath:
 
             def perturbed(rng: np.random.Generator) -> DrivePath:
                 return cls.from_rates(
-                    t, v + sv * rng.standard_normal(t.size), w + sw * rng.standard_normal(t.size),
-                    source=source, gap_s=gap,
+                    t,
+                    v + sv * rng.standard_normal(t.size),
+                    w + sw * rng.standard_normal(t.size),
+                    source=source,
+                    gap_s=gap,
                 )
 
-        return cls(t, _cumtrapz(t, v, gap, hold), _cumtrapz(t, w, gap, hold), source, gap,
-                   coarser, perturbed=perturbed)
+        return cls(
+            t,
+            _cumtrapz(t, v, gap, hold),
+            _cumtrapz(t, w, gap, hold),
+            source,
+            gap,
+            coarser,
+            perturbed=perturbed,
+        )
 
     def at(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Cumulative (s, theta) at ``t_s`` (linear between knots; held beyond the ends)."""
@@ -258,8 +289,12 @@ def pool_runs(
             return pool_runs(coarse, offsets)[0]
 
     pooled = DrivePath(
-        np.concatenate(t_k), np.concatenate(s_k), np.concatenate(th_k), "+".join(sources),
-        max(p.gap_s for p, *_ in runs), coarser,
+        np.concatenate(t_k),
+        np.concatenate(s_k),
+        np.concatenate(th_k),
+        "+".join(sources),
+        max(p.gap_s for p, *_ in runs),
+        coarser,
         max(p.smoothing_samples for p, *_ in runs),
         max(p.theta_noise_rad for p, *_ in runs),
         max(p.s_noise_m for p, *_ in runs),
@@ -268,8 +303,14 @@ def pool_runs(
 
 
 def pose_smoothing(
-    t_s: np.ndarray, x_m: np.ndarray, y_m: np.ndarray, yaw_rad: np.ndarray,
-    psi_rad: np.ndarray, *, max_window_s: float = 0.25, share: float = 0.3,
+    t_s: np.ndarray,
+    x_m: np.ndarray,
+    y_m: np.ndarray,
+    yaw_rad: np.ndarray,
+    psi_rad: np.ndarray,
+    *,
+    max_window_s: float = 0.25,
+    share: float = 0.3,
 ) -> int | None:
     """Savitzky-Golay length (samples) that makes a pose quiet enough to drive the joint-angle
     model, or None when no window up to ``max_window_s`` does.

@@ -67,8 +67,10 @@ def _profiled_jacobian(
         d2g = s * (2.0 * L1 * L1 + L1 * L2 * c - L2 * L2) / D**3
         r = k[a:b] - g
         f_ph = wk * (r * d2g - dg * dg) - wp
-        partials = ((-s * c / D**2, (D - 2.0 * c * (L2 * c + L1)) / D**3),  # g_L1, g_ph,L1
-                    (-s / D**2, (c * D - 2.0 * (L2 * c + L1)) / D**3))  # g_L2, g_ph,L2
+        partials = (
+            (-s * c / D**2, (D - 2.0 * c * (L2 * c + L1)) / D**3),  # g_L1, g_ph,L1
+            (-s / D**2, (c * D - 2.0 * (L2 * c + L1)) / D**3),
+        )  # g_L2, g_ph,L2
         held = np.abs(q) >= _PSI_MAX
         for j, (g_l, dg_l) in enumerate(partials):
             dph = -wk * (r * dg_l - g_l * dg) / f_ph
@@ -272,8 +274,17 @@ class SteadyStateEIV:
             return reduced(theta)[:, :2].copy()
 
         x0 = np.clip(_initial_guess(k, p), lo * 1.01, hi * 0.99)
-        sol = least_squares(resid, x0, jac=jac, bounds=([lo, lo], [hi, hi]), x_scale=1.0,
-                            xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200)
+        sol = least_squares(
+            resid,
+            x0,
+            jac=jac,
+            bounds=([lo, lo], [hi, hi]),
+            x_scale=1.0,
+            xtol=1e-12,
+            ftol=1e-12,
+            gtol=1e-12,
+            max_nfev=200,
+        )
         if not np.all(np.isfinite(sol.x)):
             raise SolverError(f"SteadyStateEIV.fit: non-finite estimate {sol.x!r}")
         L1, L2 = (float(v) for v in sol.x)
@@ -293,7 +304,10 @@ class SteadyStateEIV:
             n for n, v in (("L1", L1), ("L2", L2)) if v - lo < 1e-4 * span or hi - v < 1e-4 * span
         ]
         self.verdict_ = identifiability(
-            cov, (L1, L2), rel_tol=self.rel_tol, method=self.name,
+            cov,
+            (L1, L2),
+            rel_tol=self.rel_tol,
+            method=self.name,
             not_determined=self.on_bound_,
         )
         self.result_ = self._calibration(J, e)

@@ -25,6 +25,7 @@ def undetermined(e: Estimate, reason: str) -> Estimate:
     what the fit said."""
     return Estimate(e.name, e.value, math.nan, (-math.inf, math.inf), False, e.unit, reason)
 
+
 Z95 = 1.959963984540054
 
 _ADVICE = (
@@ -49,12 +50,15 @@ def make_estimate(
     would be unfair, e.g. for a value near zero). ``force_undetermined``: e.g. on a bound; the
     interval is then reported unbounded rather than narrow."""
     half = Z95 * std
-    ok = bool(
-        np.isfinite(std) and np.isfinite(value) and half <= rel_tol * max(abs(value), scale)
-    )
+    ok = bool(np.isfinite(std) and np.isfinite(value) and half <= rel_tol * max(abs(value), scale))
     if force_undetermined:
         return Estimate(
-            name, float(value), math.nan, (-math.inf, math.inf), False, unit,
+            name,
+            float(value),
+            math.nan,
+            (-math.inf, math.inf),
+            False,
+            unit,
             (note + "; " if note else "") + "on a bound of the fit: not determined",
         )
     return Estimate(name, float(value), float(std), (value - half, value + half), ok, unit, note)
@@ -97,10 +101,7 @@ def _interval(e: Estimate) -> str:
 
 def _sentence(l1: Estimate, l2: Estimate, s: Estimate, advice: str) -> str:
     if l1.identifiable and l2.identifiable:
-        return (
-            f"This log determines L1 = {_pm(l1)} and L2 = {_pm(l2)} "
-            f"(95 %); L1 + L2 = {_pm(s)}."
-        )
+        return f"This log determines L1 = {_pm(l1)} and L2 = {_pm(l2)} (95 %); L1 + L2 = {_pm(s)}."
     if s.identifiable:
         return (
             f"This log determines L1 + L2 = {_pm(s)} (95 %); the split is not determined "
@@ -160,6 +161,7 @@ def identifiability(
         var_dir = inv_w
     else:
         var_dir = np.maximum(w, 0.0)
+
     # variance of a^T theta = sum_k (a . v_k)^2 var_k, with inf * 0 treated as 0
     def var_of(a: np.ndarray) -> float:
         proj = (V.T @ a) ** 2
@@ -172,12 +174,15 @@ def identifiability(
     sds = np.sqrt(var_of(np.array([1.0, 1.0])))
     note = f"{method}: Wald 95 % interval" if method else "Wald 95 % interval"
     nd = set(not_determined)
-    l1 = make_estimate("L1", v1, sd1, rel_tol=rel_tol, note=note, scale=scale,
-                       force_undetermined="L1" in nd)
-    l2 = make_estimate("L2", v2, sd2, rel_tol=rel_tol, note=note, scale=scale,
-                       force_undetermined="L2" in nd)
-    s = make_estimate("L1+L2", v1 + v2, sds, rel_tol=rel_tol, note=note, scale=scale,
-                      force_undetermined=bool(nd))
+    l1 = make_estimate(
+        "L1", v1, sd1, rel_tol=rel_tol, note=note, scale=scale, force_undetermined="L1" in nd
+    )
+    l2 = make_estimate(
+        "L2", v2, sd2, rel_tol=rel_tol, note=note, scale=scale, force_undetermined="L2" in nd
+    )
+    s = make_estimate(
+        "L1+L2", v1 + v2, sds, rel_tol=rel_tol, note=note, scale=scale, force_undetermined=bool(nd)
+    )
     corr = float(m[0, 1] / np.sqrt(m[0, 0] * m[1, 1])) if m[0, 0] * m[1, 1] > 0 else float("nan")
     if is_fisher and np.isfinite(corr):
         corr = -corr

@@ -88,8 +88,9 @@ class NoSlipRegression:
         win = win + np.cumsum(~keep)  # a gap always starts a new window
         win = np.unique(win[keep], return_inverse=True)[1]
         Y = np.bincount(win, weights=y_inc[keep])
-        A = np.column_stack([np.bincount(win, weights=a_inc[keep]),
-                             np.bincount(win, weights=b_inc[keep])])
+        A = np.column_stack(
+            [np.bincount(win, weights=a_inc[keep]), np.bincount(win, weights=b_inc[keep])]
+        )
         if Y.size < 8:
             raise InsufficientDataError(
                 f"{self.name}: {Y.size} windows of {self.window_s} s; need 8"
@@ -106,19 +107,34 @@ class NoSlipRegression:
         self.n_windows_ = int(Y.size)
         scale = 0.5 * (abs(self.L1_) + abs(self.L2_))
         self.verdict_: IdentifiabilityVerdict = identifiability(
-            cov, (self.L1_, self.L2_), rel_tol=self.rel_tol, method=self.name, advice=_ADVICE,
+            cov,
+            (self.L1_, self.L2_),
+            rel_tol=self.rel_tol,
+            method=self.name,
+            advice=_ADVICE,
             scale=scale,
         )
         aic, bic = information_criteria(float(r @ r), r.size, 2)
         self.result_: CalibrationResult = calibration_result(
-            self.name, self.verdict_, cov, converged=True, aic=aic, bic=bic,
-            details={"estimator": "no-slip regression of the tractor axle on the trailer pose",
-                     "windows": self.n_windows_, "window_s": self.window_s,
-                     "hac_bandwidth": bw, "identifiability": self.verdict_.to_dict()},
+            self.name,
+            self.verdict_,
+            cov,
+            converged=True,
+            aic=aic,
+            bic=bic,
+            details={
+                "estimator": "no-slip regression of the tractor axle on the trailer pose",
+                "windows": self.n_windows_,
+                "window_s": self.window_s,
+                "hac_bandwidth": bw,
+                "identifiability": self.verdict_.to_dict(),
+            },
         )
         sv = np.linalg.svd(A, compute_uv=False)
         self.method_result_: MethodResult = method_result(
-            self.name, Family.NOSLIP, self.verdict_,
+            self.name,
+            Family.NOSLIP,
+            self.verdict_,
             condition_number=float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf,
         )
         return self

@@ -163,7 +163,10 @@ class PathTransientFit:
 
     # ------------------------------------------------------------------ layout
     def _prepare(
-        self, path: DrivePath, t_psi: ArrayLike, psi: ArrayLike,
+        self,
+        path: DrivePath,
+        t_psi: ArrayLike,
+        psi: ArrayLike,
         gaps: list[tuple[float, float]],
     ) -> None:
         t = np.asarray(t_psi, dtype=float).ravel()
@@ -190,13 +193,14 @@ class PathTransientFit:
         for g0, g1 in gaps:
             in_gap |= (t > g0) & (t < g1)
         if in_gap.any():
-            notes.append(f"{int(in_gap.sum())} joint-angle samples inside recorder gaps of other "
-                         "signals were not used")
+            notes.append(
+                f"{int(in_gap.sum())} joint-angle samples inside recorder gaps of other "
+                "signals were not used"
+            )
             t, p = t[~in_gap], p[~in_gap]
         if t.size < _MIN_PIECE:
             raise InsufficientDataError(
-                f"{self.name}: {t.size} joint-angle samples on the recorded path; need "
-                f"{_MIN_PIECE}"
+                f"{self.name}: {t.size} joint-angle samples on the recorded path; need {_MIN_PIECE}"
             )
         piece = _pieces(t, path, gaps)
         s_at, _ = path.at(t)
@@ -289,7 +293,13 @@ class PathTransientFit:
         self._knot_var_factor = a * a + (1.0 - a) ** 2
         self._path_noise = (path.theta_noise_rad, path.s_noise_m)
         self._layout = _Layout(
-            A, B, chunk_of[obs], step_of[obs], np.array(c_piece), np.array(c_first), prev,
+            A,
+            B,
+            chunk_of[obs],
+            step_of[obs],
+            np.array(c_piece),
+            np.array(c_first),
+            prev,
             np.array([e - k for k, e in ranges]),
         )
         self._chunk_start_guess = np.interp(nt[np.array(starts)], t, self._p)
@@ -334,8 +344,9 @@ class PathTransientFit:
         width = min(width, lay.A.shape[0])
         A, B = lay.A[:width, idx], lay.B[:width, idx]
         first = lay.chunk_first[idx]
-        start = np.where(first, self._psi0_guess[lay.chunk_piece[idx]],
-                         self._chunk_start_guess[idx])
+        start = np.where(
+            first, self._psi0_guess[lay.chunk_piece[idx]], self._chunk_start_guess[idx]
+        )
         out = advance_psi(A, B, L1, L2, np.repeat(start[:, None], L1.size, axis=1))
         col = np.full(c, -1)
         col[idx] = np.arange(idx.size)
@@ -396,7 +407,10 @@ class PathTransientFit:
         return evaluate
 
     def _fit_core(
-        self, path: DrivePath, t_psi: ArrayLike, psi: ArrayLike,
+        self,
+        path: DrivePath,
+        t_psi: ArrayLike,
+        psi: ArrayLike,
         gaps: list[tuple[float, float]] | None,
     ) -> None:
         self._prepare(path, t_psi, psi, list(gaps or []))
@@ -404,15 +418,23 @@ class PathTransientFit:
         P = self.n_pieces_
         piece = self._piece
         first_idx = np.searchsorted(piece, np.arange(P))
-        self._psi0_guess = np.array(
-            [float(np.mean(self._p[i : i + 3])) for i in first_idx]
-        )
+        self._psi0_guess = np.array([float(np.mean(self._p[i : i + 3])) for i in first_idx])
         q = 3 if self.fit_psi_offset else 2
         x0 = np.concatenate([self._start_point(), np.zeros(q - 2), self._psi0_guess])
-        lo = np.concatenate([[self.bounds_L1_m[0], self.bounds_L2_m[0]],
-                             np.full(q - 2, -math.pi), np.full(P, -math.pi)])
-        hi = np.concatenate([[self.bounds_L1_m[1], self.bounds_L2_m[1]],
-                             np.full(q - 2, math.pi), np.full(P, math.pi)])
+        lo = np.concatenate(
+            [
+                [self.bounds_L1_m[0], self.bounds_L2_m[0]],
+                np.full(q - 2, -math.pi),
+                np.full(P, -math.pi),
+            ]
+        )
+        hi = np.concatenate(
+            [
+                [self.bounds_L1_m[1], self.bounds_L2_m[1]],
+                np.full(q - 2, math.pi),
+                np.full(P, math.pi),
+            ]
+        )
         x0 = np.clip(x0, lo + 1e-6, hi - 1e-6)
         n = self._p.size
         rows = np.arange(n)
@@ -470,8 +492,16 @@ class PathTransientFit:
             return fold(x)[:, :-1].copy()
 
         sol = least_squares(
-            fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
-            tr_solver="lsmr" if sparse else "exact", xtol=1e-10, ftol=1e-12, gtol=1e-10,
+            fun,
+            x0,
+            jac=jac,
+            bounds=(lo, hi),
+            method="trf",
+            x_scale="jac",
+            tr_solver="lsmr" if sparse else "exact",
+            xtol=1e-10,
+            ftol=1e-12,
+            gtol=1e-10,
             max_nfev=200,
         )
         if not np.all(np.isfinite(sol.x)):
@@ -493,8 +523,13 @@ class PathTransientFit:
             c.clear()
 
     def _resolution_error(
-        self, path: DrivePath, t_psi: ArrayLike, psi: ArrayLike,
-        gaps: list[tuple[float, float]] | None, x: np.ndarray, q: int,
+        self,
+        path: DrivePath,
+        t_psi: ArrayLike,
+        psi: ArrayLike,
+        gaps: list[tuple[float, float]] | None,
+        x: np.ndarray,
+        q: int,
     ) -> np.ndarray:
         """Covariance (q x q) of the discretisation error of the path.
 
@@ -539,9 +574,12 @@ class PathTransientFit:
         from calib.errors import CalibError
 
         other = PathTransientFit(
-            rel_tol=self.rel_tol, fit_psi_offset=self.fit_psi_offset,
-            bounds_L1_m=self.bounds_L1_m, bounds_L2_m=self.bounds_L2_m,
-            chunk_nodes=self.chunk_nodes, resolution_check=False,
+            rel_tol=self.rel_tol,
+            fit_psi_offset=self.fit_psi_offset,
+            bounds_L1_m=self.bounds_L1_m,
+            bounds_L2_m=self.bounds_L2_m,
+            chunk_nodes=self.chunk_nodes,
+            resolution_check=False,
         )
         try:
             cut = np.nonzero(np.diff(self._piece))[0]
@@ -624,10 +662,12 @@ class PathTransientFit:
         vt = s_th * s_th * self._knot_var_factor
         vs = s_s * s_s * self._knot_var_factor
         self._direct_var = float(np.mean(g * g * vt + h * h * vs))
-        grad = np.array([
-            np.sum(vt * g * c / L2),
-            np.sum(vt * g * (-L1 * c / (L2 * L2))) + np.sum(vs * h * (sn / (L2 * L2))),
-        ])
+        grad = np.array(
+            [
+                np.sum(vt * g * c / L2),
+                np.sum(vt * g * (-L1 * c / (L2 * L2))) + np.sum(vs * h * (sn / (L2 * L2))),
+            ]
+        )
         Js = self._projected(J, 2)
         H = Js.T @ Js
         return np.linalg.solve(H, grad) if np.linalg.cond(H) < 1e14 else np.zeros(2)
@@ -657,7 +697,13 @@ class PathTransientFit:
         return cov / phases.size
 
     def _finish(
-        self, sol: object, r: np.ndarray, J: np.ndarray, q: int, lo: np.ndarray, hi: np.ndarray,
+        self,
+        sol: object,
+        r: np.ndarray,
+        J: np.ndarray,
+        q: int,
+        lo: np.ndarray,
+        hi: np.ndarray,
         extra_cov: np.ndarray,
     ) -> None:
         raw = np.asarray(sol.x)  # type: ignore[attr-defined]
@@ -674,8 +720,9 @@ class PathTransientFit:
         self.cov_ = cov
         span = hi[:q] - lo[:q]
         on_bound = (raw[:q] - lo[:q] < 1e-4 * span) | (hi[:q] - raw[:q] < 1e-4 * span)
-        self.on_bound_ = [n for n, b in zip(("L1", "L2", "psi_offset"), on_bound, strict=False)
-                          if b]
+        self.on_bound_ = [
+            n for n, b in zip(("L1", "L2", "psi_offset"), on_bound, strict=False) if b
+        ]
         self.residual_ = r
         self.residual_rms_ = float(np.sqrt(np.mean(r * r)))
         self.noise_std_ = max(hf_noise_std(self._p), 1e-4)
@@ -694,8 +741,12 @@ class PathTransientFit:
             cov2 = np.diag([np.inf, np.inf])
         scale = 0.5 * (abs(self.L1_) + abs(self.L2_))
         self.verdict_: IdentifiabilityVerdict = identifiability(
-            np.where(np.isfinite(cov2), cov2, 1e12), (self.L1_, self.L2_),
-            rel_tol=self.rel_tol, method=self.name, advice=_ADVICE, scale=scale,
+            np.where(np.isfinite(cov2), cov2, 1e12),
+            (self.L1_, self.L2_),
+            rel_tol=self.rel_tol,
+            method=self.name,
+            advice=_ADVICE,
+            scale=scale,
             not_determined=self.on_bound_ or ([] if finite else ["L1", "L2"]),
         )
         aic, bic = information_criteria(float(r @ r), r.size, q + self.n_pieces_)
@@ -706,8 +757,7 @@ class PathTransientFit:
             "pieces": self.n_pieces_,
             "samples": int(r.size),
             "psi_offset_rad": self.psi_offset_ if self.fit_psi_offset else None,
-            "psi_offset_std_rad": math.sqrt(cov[2, 2]) if self.fit_psi_offset and finite
-            else None,
+            "psi_offset_std_rad": math.sqrt(cov[2, 2]) if self.fit_psi_offset and finite else None,
             "residual_rms_rad": self.residual_rms_,
             "noise_std_rad": self.noise_std_,
             "expected_rms_rad": self.expected_rms_,
@@ -720,20 +770,25 @@ class PathTransientFit:
             "path_smoothing_samples": self._smoothing,
             "input_noise_bias_correction": self.bias_correction_.tolist(),
             "psi_quantum_rad": self.quantum_,
-            "notes": list(self.notes_) + ([self._resolution_note] if self._resolution_note
-                                          else []),
+            "notes": list(self.notes_) + ([self._resolution_note] if self._resolution_note else []),
             "identifiability": self.verdict_.to_dict(),
         }
         self.result_: CalibrationResult = calibration_result(
-            self.name, self.verdict_, cov2, converged=self.converged_, aic=aic, bic=bic,
+            self.name,
+            self.verdict_,
+            cov2,
+            converged=self.converged_,
+            aic=aic,
+            bic=bic,
             details=details,
         )
         Jc = J[:, :2]
         sv = np.linalg.svd(Jc[np.all(np.isfinite(Jc), axis=1)], compute_uv=False)
         cond = float(sv[0] / sv[-1]) if sv.size == 2 and sv[-1] > 0 else math.inf
         self.method_result_: MethodResult = method_result(
-            self.name, Family.TRANSIENT, self.verdict_, condition_number=cond,
+            self.name,
+            Family.TRANSIENT,
+            self.verdict_,
+            condition_number=cond,
             extra={"residual_rms_rad": self.residual_rms_, "misfit": self.misfit_},
         )
-
-

@@ -35,12 +35,14 @@ class SteeringGeometry:
 
     def to_dict(self) -> dict[str, object]:
         # JSON key "steering_offset" (the field is ``offset``): kept for JSON readers
-        return {"wheelbase": self.wheelbase.to_dict(), "steering_offset": self.offset.to_dict(),
-                "samples": self.samples}
+        return {
+            "wheelbase": self.wheelbase.to_dict(),
+            "steering_offset": self.offset.to_dict(),
+            "samples": self.samples,
+        }
 
     def report(self) -> str:
-        return (f"Steering geometry from the path: {self.wheelbase.report()}; "
-                f"{self.offset.report()}")
+        return f"Steering geometry from the path: {self.wheelbase.report()}; {self.offset.report()}"
 
 
 def fit_steering_geometry(
@@ -79,8 +81,15 @@ def fit_steering_geometry(
     def est(name: str, value: float, s: float, unit: str) -> Estimate:
         half = Z95 * s
         ok_ = bool(math.isfinite(s) and s > 0 and half <= 0.1 * max(abs(value), 0.05))
-        return Estimate(name, value, s, (value - half, value + half), ok_, unit,
-                        "tan(steer - offset) / wheelbase fitted to the path's curvature")
+        return Estimate(
+            name,
+            value,
+            s,
+            (value - half, value + half),
+            ok_,
+            unit,
+            "tan(steer - offset) / wheelbase fitted to the path's curvature",
+        )
 
     return SteeringGeometry(
         est("wheelbase", float(sol.x[0]), float(sd[0]), "m"),

@@ -297,9 +297,16 @@ class TransientFit:
         n = min(tc.size, max(10, math.ceil(START_SPAN_S * self.rate_hz)))
         self._start_bins = n
         self._start_plan = (
-            self._plan if n == tc.size else plan_steps(
-                tc[:n], b.edges[: n + 1], u_mean[:n], b.slope[0][:n], v_mean[:n],
-                b.slope[1][:n], n_sub,
+            self._plan
+            if n == tc.size
+            else plan_steps(
+                tc[:n],
+                b.edges[: n + 1],
+                u_mean[:n],
+                b.slope[0][:n],
+                v_mean[:n],
+                b.slope[1][:n],
+                n_sub,
             )
         )
         self._tbar, self._edges = tc, b.edges
@@ -331,8 +338,9 @@ class TransientFit:
             d = 1e-6 * np.maximum(np.abs(x), 1.0)
             return -(s[:, 1:] - s[:, :1]) / d
 
-        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), xtol=1e-10, ftol=1e-12,
-                            gtol=1e-10, max_nfev=100)
+        sol = least_squares(
+            fun, x0, jac=jac, bounds=(lo, hi), xtol=1e-10, ftol=1e-12, gtol=1e-10, max_nfev=100
+        )
         if not np.all(np.isfinite(sol.x)):
             raise SolverError(f"TransientFit.fit: non-finite estimate {sol.x!r}")
         r = fun(sol.x)

@@ -50,9 +50,10 @@ def rk4_substeps(
     L2a = np.abs(np.asarray(L2, dtype=float))
     r = float(np.max(np.abs(np.asarray(L1, dtype=float)) / L2a))
     il2 = float(np.max(1.0 / L2a))
-    worst = float(np.max(np.abs(dtheta), initial=0.0)) * (1.0 + r) + float(
-        np.max(np.abs(ds), initial=0.0)
-    ) * il2
+    worst = (
+        float(np.max(np.abs(dtheta), initial=0.0)) * (1.0 + r)
+        + float(np.max(np.abs(ds), initial=0.0)) * il2
+    )
     if not math.isfinite(worst) or worst / max_step > MAX_SUBSTEPS:
         raise SolverError(
             f"the path moves up to {worst:.3g} rad-equivalent between two samples, which needs "

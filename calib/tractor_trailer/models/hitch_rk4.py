@@ -343,9 +343,7 @@ def rk4_hitch_half(
     if lib is None or not hasattr(lib, "logcal_rk4_hitch_half"):
         return None
     n = (th.size + 1) // 2
-    r_at = np.ascontiguousarray(
-        [i for i in sorted(resets or {}) if 1 <= i < n], dtype=np.int64
-    )
+    r_at = np.ascontiguousarray([i for i in sorted(resets or {}) if 1 <= i < n], dtype=np.int64)
     r_val = np.ascontiguousarray([float((resets or {})[i]) for i in r_at.tolist()], dtype=float)
     out = np.empty(n)
     lib.logcal_rk4_hitch_half(

@@ -65,8 +65,10 @@ class PublishedCell:
 
 @cache
 def _document() -> dict[str, Any]:
-    text = resources.files("calib.tractor_trailer").joinpath("data/patent_figures.json").read_text(
-        "utf-8"
+    text = (
+        resources.files("calib.tractor_trailer")
+        .joinpath("data/patent_figures.json")
+        .read_text("utf-8")
     )
     return json.loads(text)
 

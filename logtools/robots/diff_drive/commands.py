@@ -127,7 +127,12 @@ def register_simulate(sim: typer.Typer) -> None:
         n = write_atomically(
             out,
             lambda tmp: write_run(
-                tmp, sim, encoding=enc, style=str(style), gyro=gyro, metadata=meta  # type: ignore[arg-type]
+                tmp,
+                sim,
+                encoding=enc,
+                style=str(style),  # type: ignore[arg-type]
+                gyro=gyro,
+                metadata=meta,
             ),
         )
         unit = "rows" if enc is LogEncoding.CSV else "messages"

@@ -182,18 +182,22 @@ def _lsq_section(fit: LsqFit, sections: dict[str, Any]) -> None:
         }
 
 
-def _widen(result: CalibrationResult, adequacy: Adequacy,
-           pieces: Mapping[str, Sequence[float]]) -> CalibrationResult:
+def _widen(
+    result: CalibrationResult, adequacy: Adequacy, pieces: Mapping[str, Sequence[float]]
+) -> CalibrationResult:
     """``result`` with every radius and the track as a model that does not explain the log
     allows (:func:`calib.adequacy.under_misfit`)."""
     if adequacy.explains or not adequacy.channels:
         return result
-    params = {k: under_misfit(e, adequacy, pieces=pieces.get(k, ()))
-              for k, e in result.parameters.items()}
+    params = {
+        k: under_misfit(e, adequacy, pieces=pieces.get(k, ())) for k, e in result.parameters.items()
+    }
     return dataclasses.replace(
-        result, parameters=params,
+        result,
+        parameters=params,
         verdict=result.verdict + "; the model does not explain the log: intervals widened, "
-        "not determined")
+        "not determined",
+    )
 
 
 def _model_label(excluded: Sequence[StuckSpan]) -> str:
@@ -202,8 +206,9 @@ def _model_label(excluded: Sequence[StuckSpan]) -> str:
     return LSQ_MODEL + ", samples of " + ", ".join(s.label for s in excluded) + " excluded"
 
 
-def _log_verdict(adequacy: Adequacy, first: Adequacy, excluded: Sequence[StuckSpan],
-                 slip: SlipFit | None) -> Adequacy:
+def _log_verdict(
+    adequacy: Adequacy, first: Adequacy, excluded: Sequence[StuckSpan], slip: SlipFit | None
+) -> Adequacy:
     """The log's verdict: samples left out (a stuck encoder) or a named slip mean that the
     constant-parameter odometry model does not explain the log as recorded, even when the model
     with them explains the rest; the places are named. The estimates were judged (and widened)
@@ -217,19 +222,46 @@ def _log_verdict(adequacy: Adequacy, first: Adequacy, excluded: Sequence[StuckSp
     total = max((float(c.n) for c in ch.values()), default=1.0)
     for s in excluded:
         floor = head.noise_floor if head is not None and head.noise_floor > 0 else math.nan
-        locs.append(Location("heading increment", "time", f"stuck encoder {s.label}", s.t0_s,
-                             s.t1_s, abs(s.heading_rad), abs(s.heading_rad) / floor, 1.0,
-                             min(1.0, (s.t1_s - s.t0_s) / max(total * 0.5, 1e-9))))
+        locs.append(
+            Location(
+                "heading increment",
+                "time",
+                f"stuck encoder {s.label}",
+                s.t0_s,
+                s.t1_s,
+                abs(s.heading_rad),
+                abs(s.heading_rad) / floor,
+                1.0,
+                min(1.0, (s.t1_s - s.t0_s) / max(total * 0.5, 1e-9)),
+            )
+        )
     if slip is not None and along is not None:
-        locs.append(Location("along-track displacement", "speed (m/s)",
-                             f"speed-dependent slip (k = {slip.k.value:.3g} s/m)", 0.0,
-                             math.inf, along.residual_rms, along.ratio, 1.0, 1.0))
+        locs.append(
+            Location(
+                "along-track displacement",
+                "speed (m/s)",
+                f"speed-dependent slip (k = {slip.k.value:.3g} s/m)",
+                0.0,
+                math.inf,
+                along.residual_rms,
+                along.ratio,
+                1.0,
+                1.0,
+            )
+        )
     what = [f"{len(excluded)} stuck encoder span(s) left out"] if excluded else []
     what += ["speed-dependent wheel slip named"] if slip is not None else []
-    notes = (*adequacy.notes, "the constant-parameter odometry model does not explain the log "
-             "as recorded (" + "; ".join(what) + f"); with them: {adequacy.verdict}")
-    return adequacy.with_(verdict=NOT_EXPLAINED, located=(*locs, *adequacy.located),
-                          notes=notes, unexplained=adequacy.unexplained or ", ".join(what))
+    notes = (
+        *adequacy.notes,
+        "the constant-parameter odometry model does not explain the log "
+        "as recorded (" + "; ".join(what) + f"); with them: {adequacy.verdict}",
+    )
+    return adequacy.with_(
+        verdict=NOT_EXPLAINED,
+        located=(*locs, *adequacy.located),
+        notes=notes,
+        unexplained=adequacy.unexplained or ", ".join(what),
+    )
 
 
 def _calibrate_and_judge(
@@ -239,8 +271,14 @@ def _calibrate_and_judge(
     seed: int,
     discovery_on: bool,
     progress: Progress,
-) -> tuple[CalibrationResult | None, LsqFit | None, Adequacy, DiffDriveSelection | None,
-           dict[str, Any], list[str]]:
+) -> tuple[
+    CalibrationResult | None,
+    LsqFit | None,
+    Adequacy,
+    DiffDriveSelection | None,
+    dict[str, Any],
+    list[str],
+]:
     """LSQ, adequacy, discovery (stuck spans excluded), a radius change (split and estimated
     per piece), the final adequacy and intervals under misfit."""
     sections: dict[str, Any] = {}
@@ -251,19 +289,23 @@ def _calibrate_and_judge(
         return None, None, not_assessed(LSQ_MODEL, "no least-squares fit"), None, sections, []
     result, fit = lsq
     progress("adequacy")
-    first = stages.run("adequacy", lambda: assess_fit(runs, fit.params, model=LSQ_MODEL,
-                                                      offset=fit.offset))
+    first = stages.run(
+        "adequacy", lambda: assess_fit(runs, fit.params, model=LSQ_MODEL, offset=fit.offset)
+    )
     if first is None:
         _lsq_section(fit, sections)
-        return result, fit, not_assessed(LSQ_MODEL, "the adequacy check failed"), None, \
-            sections, []
+        return result, fit, not_assessed(LSQ_MODEL, "the adequacy check failed"), None, sections, []
     floor = first.channels[0].noise_floor if first.channels else 0.0
     spans = find_stuck_spans(runs, fit.params, floor)
     disc: DiffDriveSelection | None = None
     if discovery_on:
         progress("discovery")
-        disc = stages.run("discovery", lambda: discover_effects(
-            runs, nominal, calibrated=fit.params, marker=fit.offset, spans=spans))
+        disc = stages.run(
+            "discovery",
+            lambda: discover_effects(
+                runs, nominal, calibrated=fit.params, marker=fit.offset, spans=spans
+            ),
+        )
     else:
         stages.skip("discovery", "switched off")
     named_keys = {e.key for e in disc.accepted} if disc is not None else set()
@@ -274,17 +316,25 @@ def _calibrate_and_judge(
     if excluded:
         used = exclude_spans(runs, excluded)
         warnings.append(
-            "stuck or dropped wheel-encoder readings (" + ", ".join(
+            "stuck or dropped wheel-encoder readings ("
+            + ", ".join(
                 f"{s.label}: the ground truth turned {s.heading_rad:+.3g} rad the wheels did "
-                "not report" for s in excluded)
-            + "): those samples are left out of the calibration")
-        refit = stages.run("calibration.lsq_excluding_stuck",
-                           lambda: calibrate_lsq(used, seed=seed))
+                "not report"
+                for s in excluded
+            )
+            + "): those samples are left out of the calibration"
+        )
+        refit = stages.run(
+            "calibration.lsq_excluding_stuck", lambda: calibrate_lsq(used, seed=seed)
+        )
         if refit is not None:
             result, fit = refit
             result = dataclasses.replace(
-                result, method="LSQ", verdict=result.verdict + " (stuck-encoder samples "
-                "excluded: " + ", ".join(s.label for s in excluded) + ")")
+                result,
+                method="LSQ",
+                verdict=result.verdict + " (stuck-encoder samples "
+                "excluded: " + ", ".join(s.label for s in excluded) + ")",
+            )
     _lsq_section(fit, sections)
     progress("speed-dependent slip")
     slip = stages.run("calibration.slip", lambda: fit_slip(used, fit.params, fit.offset))
@@ -294,27 +344,35 @@ def _calibrate_and_judge(
         sections["wheel_slip"] = slip.to_dict()
         if slip.significant:
             k = slip.k.value
-            judged_runs, judged_params, offset = slip_corrected(runs, slip.params, k), \
-                slip.params, slip.offset
+            judged_runs, judged_params, offset = (
+                slip_corrected(runs, slip.params, k),
+                slip.params,
+                slip.offset,
+            )
             used = slip_corrected(used, slip.params, k)
             model += f" + {WHEEL_SLIP.key}"
             # the slip fit's radii and track: the LSQ bootstrap covariance is not theirs
             result = dataclasses.replace(
-                result, method="LSQ", parameters={**result.parameters, **{
-                    n: slip.with_slip[n] for n in PARAMETER_NAMES}}, covariance=None,
-                verdict=result.verdict + "; " + slip.note)
+                result,
+                method="LSQ",
+                parameters={**result.parameters, **{n: slip.with_slip[n] for n in PARAMETER_NAMES}},
+                covariance=None,
+                verdict=result.verdict + "; " + slip.note,
+            )
             warnings.append(f"{slip.note} ({WHEEL_SLIP.id})")
             if disc is not None:
                 disc = dataclasses.replace(disc, also_named=(WHEEL_SLIP.id,))
         else:
             result = dataclasses.replace(result, parameters=spanned(result.parameters, slip))
-    change = stages.run("adequacy.radius_change",
-                        lambda: radius_change(used, judged_params, offset))
+    change = stages.run(
+        "adequacy.radius_change", lambda: radius_change(used, judged_params, offset)
+    )
     changes = [change] if change is not None else []
     pieces: dict[str, list[float]] = {}
     if change is not None:
         before_runs, after_runs = split_at(used, change.t_s)
         per_piece = []
+
         def _fit_part(part: list[DriveRun]) -> Callable[[], LsqFit]:
             return lambda: fit_lsq(part, n_boot=200, seed=seed)
 
@@ -323,14 +381,18 @@ def _calibrate_and_judge(
             if f is None:
                 continue
             p = f.params
-            est = make_estimates([p.r_R, p.r_L, p.b], f.std.tolist(), True,
-                                 f"LSQ on the part {label} t = {change.t_s:.1f} s",
-                                 f.quantile())
-            per_piece.append({"part": label, "estimate": {k: e.to_dict()
-                                                            for k, e in est.items()}})
+            est = make_estimates(
+                [p.r_R, p.r_L, p.b],
+                f.std.tolist(),
+                True,
+                f"LSQ on the part {label} t = {change.t_s:.1f} s",
+                f.quantile(),
+            )
+            per_piece.append({"part": label, "estimate": {k: e.to_dict() for k, e in est.items()}})
         sections["parameter_change"] = {"change": change.to_dict(), "pieces": per_piece}
-        warnings.append(change.note + ": the log was split there and each part estimated "
-                        "(parameter_change)")
+        warnings.append(
+            change.note + ": the log was split there and each part estimated (parameter_change)"
+        )
         for pf in piece_fits(used, judged_params, offset=offset):
             mean, diff = (pf.values[n] for n in PIECE_NAMES)
             pieces.setdefault("wheel_radius_right", []).append(mean + 0.5 * diff)
@@ -339,14 +401,24 @@ def _calibrate_and_judge(
     notes = [f"{stuck_spec(s).key} excluded from the calibration" for s in excluded]
     if slip is not None and slip.significant:
         notes.append(slip.note)
-    final = stages.run("adequacy.final", lambda: assess_fit(
-        judged_runs, judged_params, model=model, offset=offset, excluded=masks,
-        before=first if (excluded or changes or judged_runs is not runs) else None,
-        changes=changes, notes=notes))
+    final = stages.run(
+        "adequacy.final",
+        lambda: assess_fit(
+            judged_runs,
+            judged_params,
+            model=model,
+            offset=offset,
+            excluded=masks,
+            before=first if (excluded or changes or judged_runs is not runs) else None,
+            changes=changes,
+            notes=notes,
+        ),
+    )
     adequacy = final if final is not None else first
     result = _widen(result, adequacy, pieces)
-    adequacy = _log_verdict(adequacy, first, excluded, slip if (
-        slip is not None and slip.significant) else None)
+    adequacy = _log_verdict(
+        adequacy, first, excluded, slip if (slip is not None and slip.significant) else None
+    )
     return result, fit, adequacy, disc, sections, warnings
 
 
@@ -358,8 +430,14 @@ def _analyze_runs(
     gyro: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None,
     side: float | None,
 ) -> tuple[
-    list[CalibrationResult], CalibrationResult | None, dict[str, Any], Any, Any,
-    dict[str, Any], Adequacy, list[str],
+    list[CalibrationResult],
+    CalibrationResult | None,
+    dict[str, Any],
+    Any,
+    Any,
+    dict[str, Any],
+    Adequacy,
+    list[str],
 ]:
     stages = Stages(config.debug)
     seed = config.seed
@@ -370,7 +448,8 @@ def _analyze_runs(
     adequacy = not_assessed(LSQ_MODEL, "no ground-truth pose with wheel angles")
     if runs:
         lsq, _fit, adequacy, disc, sec, warnings = _calibrate_and_judge(
-            runs, nominal, stages, seed, config.discovery, progress)
+            runs, nominal, stages, seed, config.discovery, progress
+        )
         sections.update(sec)
         if lsq is not None:
             methods.append(lsq)
@@ -449,8 +528,9 @@ _POSE_LAYOUTS = (
 )
 
 
-def _alternative_pose(loaded: LoadedLog, used: str, t_ns: np.ndarray
-                      ) -> tuple[str, np.ndarray, np.ndarray, np.ndarray] | None:
+def _alternative_pose(
+    loaded: LoadedLog, used: str, t_ns: np.ndarray
+) -> tuple[str, np.ndarray, np.ndarray, np.ndarray] | None:
     """Another pose topic of the log (motion capture, a localisation) that is not odometry,
     resampled at ``t_ns``; None when the log has none."""
     for topic in sorted(loaded.log.topics):
@@ -470,19 +550,18 @@ def _alternative_pose(loaded: LoadedLog, used: str, t_ns: np.ndarray
             x = f[cols[0]].to_numpy().astype(float)[order]
             y = f[cols[1]].to_numpy().astype(float)[order]
             yaw = np.unwrap(_quat_yaw(f, rot)[order])
-            return (topic, np.interp(t_ns, ts, x), np.interp(t_ns, ts, y),
-                    np.interp(t_ns, ts, yaw))
+            return (topic, np.interp(t_ns, ts, x), np.interp(t_ns, ts, y), np.interp(t_ns, ts, yaw))
     return None
 
 
-def _ground_truth(loaded: LoadedLog, run: DriveRun
-                  ) -> tuple[DriveRun | None, Provenance, dict[str, Any]]:
+def _ground_truth(
+    loaded: LoadedLog, run: DriveRun
+) -> tuple[DriveRun | None, Provenance, dict[str, Any]]:
     """The run with a pose that is ground truth: the logged one unless it is the encoders'
     dead reckoning, then another pose topic of the log that is not; None when none is."""
     src = loaded.signals.sources.get("yaw")
     topic = src.topic if src is not None else "?"
-    prov = pose_provenance(run.wheel_right, run.wheel_left, run.yaw,
-                           source=f"the pose on {topic}")
+    prov = pose_provenance(run.wheel_right, run.wheel_left, run.yaw, source=f"the pose on {topic}")
     info: dict[str, Any] = {"topic": topic, **prov.to_dict()}
     if not prov.dead_reckoning:
         info["verdict"] = "ground truth"
@@ -500,8 +579,12 @@ def _ground_truth(loaded: LoadedLog, run: DriveRun
     return None, prov, info
 
 
-def _odom_imu(loaded: LoadedLog, nominal: DiffDriveParams | None, stages: Stages, seed: int,
-              ) -> tuple[CalibrationResult | None, Adequacy | None, Any, dict[str, Any]]:
+def _odom_imu(
+    loaded: LoadedLog,
+    nominal: DiffDriveParams | None,
+    stages: Stages,
+    seed: int,
+) -> tuple[CalibrationResult | None, Adequacy | None, Any, dict[str, Any]]:
     f = loaded.frame
     if not {"odom_omega", "gyro_z"} <= set(f.columns):
         stages.skip("odometry_imu", "no wheel-odometry yaw rate and IMU yaw rate")
@@ -509,9 +592,18 @@ def _odom_imu(loaded: LoadedLog, nominal: DiffDriveParams | None, stages: Stages
     t = (f["t_ns"].to_numpy() - f["t_ns"][0]) * 1e-9
     col = {c: f[c].to_numpy().astype(float) for c in f.columns if c != "t_ns"}
     gps = (col["gps_lat"], col["gps_lon"]) if {"gps_lat", "gps_lon"} <= set(col) else None
-    res = stages.run("odometry_imu", lambda: analyze_odom_imu(
-        t, col["odom_omega"], col["gyro_z"], odom_v=col.get("odom_v"), gps=gps,
-        geometric_track=None if nominal is None else nominal.b, seed=seed))
+    res = stages.run(
+        "odometry_imu",
+        lambda: analyze_odom_imu(
+            t,
+            col["odom_omega"],
+            col["gyro_z"],
+            odom_v=col.get("odom_v"),
+            gps=gps,
+            geometric_track=None if nominal is None else nominal.b,
+            seed=seed,
+        ),
+    )
     if res is None:
         return None, None, None, {}
     params = {"yaw_rate_gain": res.gain}
@@ -522,11 +614,17 @@ def _odom_imu(loaded: LoadedLog, nominal: DiffDriveParams | None, stages: Stages
     g = res.gain
     verdict = (
         f"odometry yaw rate / gyro yaw rate = {g.value:.4g} [95 %: {g.ci95[0]:.4g}, "
-        f"{g.ci95[1]:.4g}]" + ("" if g.identifiable else " (not determined: " + g.note + ")")
+        f"{g.ci95[1]:.4g}]"
+        + ("" if g.identifiable else " (not determined: " + g.note + ")")
         + "; wheel radii not determined (no encoder angles and no independent distance"
-        + (")" if res.distance_scale is None else " but GPS)"))
-    cal = CalibrationResult(method="odometry vs gyro", parameters=params, verdict=verdict,
-                            details={"windows": res.n_windows})
+        + (")" if res.distance_scale is None else " but GPS)")
+    )
+    cal = CalibrationResult(
+        method="odometry vs gyro",
+        parameters=params,
+        verdict=verdict,
+        details={"windows": res.n_windows},
+    )
     return cal, res.adequacy, res, {"odometry_imu": res.to_dict()}
 
 
@@ -554,10 +652,14 @@ def analyze_diff_drive(
         sections["ground_truth"] = info
         if prov.dead_reckoning:
             warnings.append(
-                prov.note + (f"; {info['used_instead']} is used as the ground truth instead"
-                             if checked is not None else
-                             "; the log has no other pose (motion capture, GPS): the wheel "
-                             "radii and track are not determined by this log"))
+                prov.note
+                + (
+                    f"; {info['used_instead']} is used as the ground truth instead"
+                    if checked is not None
+                    else "; the log has no other pose (motion capture, GPS): the wheel "
+                    "radii and track are not determined by this log"
+                )
+            )
         run = checked
     runs = [run] if run is not None else []
     methods, rec, sec, disc, stages, arrays, adequacy, more = _analyze_runs(
@@ -574,9 +676,11 @@ def analyze_diff_drive(
             adequacy = ad if ad is not None else adequacy
             disc = _res
         elif "ground_truth" in sections and sections["ground_truth"]["verdict"] == (
-                "not ground truth"):
-            adequacy = not_assessed(LSQ_MODEL, "the log's pose is the wheels' own dead "
-                                    "reckoning, not ground truth")
+            "not ground truth"
+        ):
+            adequacy = not_assessed(
+                LSQ_MODEL, "the log's pose is the wheels' own dead reckoning, not ground truth"
+            )
     if nominal is not None:
         sections["nominal"] = nominal.as_dict()
     return AnalysisResult(
@@ -596,7 +700,8 @@ def analyze_diff_drive(
 
 
 def pool_diff_drive(
-    runs: Sequence[tuple[LoadedLog, AnalysisResult]], config: AnalysisConfig,
+    runs: Sequence[tuple[LoadedLog, AnalysisResult]],
+    config: AnalysisConfig,
     progress: Progress,
 ) -> AnalysisResult:
     """All runs together: one least-squares fit, UMBmark over the square runs, dead reckoning

@@ -15,11 +15,16 @@ def _ground_truth_lines(result: AnalysisResult) -> list[str]:
     if not gt:
         return []
     if gt.get("verdict") == "ground truth":
-        return [f"Ground truth: {gt['topic']} (independent of the encoders: whole-log heading "
-                f"residual {gt['heading_residual_rms_rad']:.2g} rad)"]
+        return [
+            f"Ground truth: {gt['topic']} (independent of the encoders: whole-log heading "
+            f"residual {gt['heading_residual_rms_rad']:.2g} rad)"
+        ]
     line = f"Ground truth: NOT {gt['topic']}, which is the encoders' own dead reckoning"
-    line += (f"; using {gt['used_instead']}" if gt.get("used_instead") else
-             "; no other pose in the log: radii and track not determined")
+    line += (
+        f"; using {gt['used_instead']}"
+        if gt.get("used_instead")
+        else "; no other pose in the log: radii and track not determined"
+    )
     return [line]
 
 
@@ -27,23 +32,33 @@ def _adequacy_lines(result: AnalysisResult) -> list[str]:
     lines = []
     ad = result.adequacy
     if ad is not None and ad.channels:
-        lines.append(f"Adequacy ({ad.model}): {ad.verdict}; " + ", ".join(
-            f"{c.channel} {c.judged_ratio:.2g}x its noise floor ({c.noise_floor:.3g} {c.unit})"
-            for c in ad.channels))
+        lines.append(
+            f"Adequacy ({ad.model}): {ad.verdict}; "
+            + ", ".join(
+                f"{c.channel} {c.judged_ratio:.2g}x its noise floor ({c.noise_floor:.3g} {c.unit})"
+                for c in ad.channels
+            )
+        )
     runs = [r for r in result.runs if r.adequacy is not None and r.adequacy.channels]
     if runs:
         lines.append("Adequacy per run:")
         for r in runs:
             worst = max(r.adequacy.channels, key=lambda c: c.judged_ratio)
-            lines.append(f"  {r.source.get('path', '?')}: {r.adequacy.verdict} "
-                         f"({worst.channel} {worst.judged_ratio:.2g}x)")
+            lines.append(
+                f"  {r.source.get('path', '?')}: {r.adequacy.verdict} "
+                f"({worst.channel} {worst.judged_ratio:.2g}x)"
+            )
     change = result.sections.get("parameter_change")
     if change:
         lines.append(change["change"]["note"] + "; each part estimated:")
         for part in change["pieces"]:
             est = part["estimate"]
-            lines.append(f"  {part['part']}: " + ", ".join(
-                f"{k} {v['value'] * 1e3:.3f} ± {v['std'] * 1e3:.2g} mm" for k, v in est.items()))
+            lines.append(
+                f"  {part['part']}: "
+                + ", ".join(
+                    f"{k} {v['value'] * 1e3:.3f} ± {v['std'] * 1e3:.2g} mm" for k, v in est.items()
+                )
+            )
     return lines
 
 
@@ -95,8 +110,10 @@ def _dead_reckoning_lines(result: AnalysisResult) -> list[str]:
 
     rows = dr["runs"]
     names = short_names([str(r["run"]) for r in rows])
-    lines = [f"Dead reckoning, end-point error nominal -> calibrated "
-             f"({dr.get('calibrated_with') or result.estimate.method if result.estimate else ''}):"]
+    lines = [
+        f"Dead reckoning, end-point error nominal -> calibrated "
+        f"({dr.get('calibrated_with') or result.estimate.method if result.estimate else ''}):"
+    ]
     worse = []
     for name, row in zip(names, rows, strict=True):
         nom = row.get("nominal", {}).get("end_point_error_m")
@@ -110,8 +127,10 @@ def _dead_reckoning_lines(result: AnalysisResult) -> list[str]:
             tag = "  WORSE"
         lines.append(f"  {name}: {nom:.4f} m -> {cal:.4f} m{tag}")
     if worse:
-        lines.append(f"Calibration made the end-point error worse on {len(worse)} of {len(rows)} "
-                     f"run(s): {', '.join(worse)}")
+        lines.append(
+            f"Calibration made the end-point error worse on {len(worse)} of {len(rows)} "
+            f"run(s): {', '.join(worse)}"
+        )
     return lines
 
 
@@ -119,16 +138,14 @@ def _umbmark_lines(result: AnalysisResult) -> list[str]:
     out = []
     for m in result.methods:
         if getattr(m, "method", "").startswith("UMBmark"):
-            out.append(f"{m.method}: " + "; ".join(
-                e.report() for e in m.parameters.values()))
+            out.append(f"{m.method}: " + "; ".join(e.report() for e in m.parameters.values()))
     return out
 
 
 def summary_lines(result: AnalysisResult) -> list[Any]:
     """Beside the answer in every report: where the ground truth came from, dead reckoning
     before and after (and which runs got worse), UMBmark where the runs are square."""
-    return [*_ground_truth_lines(result), *_dead_reckoning_lines(result),
-            *_umbmark_lines(result)]
+    return [*_ground_truth_lines(result), *_dead_reckoning_lines(result), *_umbmark_lines(result)]
 
 
 def pooled_summary_lines(result: AnalysisResult) -> list[Any]:

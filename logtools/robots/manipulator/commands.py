@@ -34,8 +34,10 @@ def register_simulate(group: typer.Typer) -> None:
             None, "--encoding", help="Log encoding (default: csv for *.csv, else json)."
         ),
         arm: str = typer.Option(
-            "planar2", "--arm", help="planar2 (the JKROS 2012 arm) or a URDF path / "
-            "example-robot-data name (e.g. panda)."
+            "planar2",
+            "--arm",
+            help="planar2 (the JKROS 2012 arm) or a URDF path / "
+            "example-robot-data name (e.g. panda).",
         ),
         duration: float = typer.Option(20.0, "--duration", help="Run length (s), > 1."),
         rate: float | None = typer.Option(None, "--rate", help="Rate (Hz); default 500 / 1000."),
@@ -60,15 +62,25 @@ def register_simulate(group: typer.Typer) -> None:
         from calib.errors import CalibError
 
         try:
-            run, n = write_atomically(out, lambda tmp: write_simulated_arm(
-                tmp, arm=arm, encoding=encoding or LogEncoding.for_path(out),
-                duration_s=duration, rate_hz=rate, seed=seed, torque_noise=torque_noise,
-                payload=payload, conceal=conceal,
-            ))
+            run, n = write_atomically(
+                out,
+                lambda tmp: write_simulated_arm(
+                    tmp,
+                    arm=arm,
+                    encoding=encoding or LogEncoding.for_path(out),
+                    duration_s=duration,
+                    rate_hz=rate,
+                    seed=seed,
+                    torque_noise=torque_noise,
+                    payload=payload,
+                    conceal=conceal,
+                ),
+            )
         except CalibError as err:
             raise LogcalInputError(f"--arm {arm}: {err}") from err
-        print(f"wrote {out}: {n} messages, {len(run.joint_names)} joints, {duration:g} s, "
-              f"seed {seed}")
+        print(
+            f"wrote {out}: {n} messages, {len(run.joint_names)} joints, {duration:g} s, seed {seed}"
+        )
 
 
 def register_reproduce(group: typer.Typer) -> None:

@@ -44,8 +44,9 @@ class EffortChoice:
     notes: list[str] = field(default_factory=list)
 
 
-def torque_constants(params: Mapping[str, float], joints: tuple[str, ...], where: str
-                     ) -> dict[str, float]:
+def torque_constants(
+    params: Mapping[str, float], joints: tuple[str, ...], where: str
+) -> dict[str, float]:
     """The channel map's ``[robot] torque_constant_<joint>`` entries, by joint.
 
     Raises:
@@ -55,14 +56,17 @@ def torque_constants(params: Mapping[str, float], joints: tuple[str, ...], where
     for key, value in params.items():
         if not key.startswith(TORQUE_CONSTANT):
             continue
-        joint = key[len(TORQUE_CONSTANT):]
+        joint = key[len(TORQUE_CONSTANT) :]
         if joint not in joints:
             raise LogcalInputError(
                 f"{where}: [robot] {key}: {joint!r} is not a joint of this log; expected "
-                f"{TORQUE_CONSTANT}<joint> with a joint among {', '.join(joints)}")
+                f"{TORQUE_CONSTANT}<joint> with a joint among {', '.join(joints)}"
+            )
         if not math.isfinite(value) or value == 0:
-            raise LogcalInputError(f"{where}: [robot] {key} = {value!r}: expected a nonzero "
-                                   "torque constant (N·m/A; N/A for a prismatic joint)")
+            raise LogcalInputError(
+                f"{where}: [robot] {key} = {value!r}: expected a nonzero "
+                "torque constant (N·m/A; N/A for a prismatic joint)"
+            )
         out[joint] = float(value)
     return out
 
@@ -87,7 +91,8 @@ def effort_choice(loaded: LoadedLog, config: AnalysisConfig, model: ArmModel) ->
         if not source:
             raise LogcalInputError(
                 f"{loaded.path}: --effort actuator needs the arm's URDF (its transmissions' "
-                "mechanical reductions): give --urdf PATH_OR_NAME")
+                "mechanical reductions): give --urdf PATH_OR_NAME"
+            )
         try:
             scaling = actuator_scaling(names, getattr(model, "transmissions", ()), source, kts)
         except CalibError as err:
@@ -95,9 +100,11 @@ def effort_choice(loaded: LoadedLog, config: AnalysisConfig, model: ArmModel) ->
         return EffortChoice(scaling)
     notes = []
     if kts:
-        notes.append(f"channel map [robot]: the torque constants ({', '.join(kts)}) are "
-                     "applied with --effort actuator only; the effort was taken as logged "
-                     "(joint side)")
+        notes.append(
+            f"channel map [robot]: the torque constants ({', '.join(kts)}) are "
+            "applied with --effort actuator only; the effort was taken as logged "
+            "(joint side)"
+        )
     would: dict[str, float] = {}
     try:
         found = getattr(model, "transmissions", ()) if source else ()

@@ -29,5 +29,6 @@ def info_section(options: ManipulatorOptions) -> InfoSection | None:
         raise LogcalInputError(f"--urdf {options.urdf}: {err}") from err
     rows = [{**t.to_dict(), "simple": t.simple, "line": t.describe()} for t in found]
     shown = [f"  {row['line']}" for row in rows] or ["  none"]
-    return InfoSection("urdf", {"source": str(path), "transmissions": rows},
-                       (f"Transmissions in {path}:", *shown))
+    return InfoSection(
+        "urdf", {"source": str(path), "transmissions": rows}, (f"Transmissions in {path}:", *shown)
+    )

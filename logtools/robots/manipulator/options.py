@@ -32,15 +32,23 @@ class ManipulatorOptions(RobotOptions):
     """
 
     urdf: str | None = option(
-        flag="--urdf", metavar="PATH_OR_NAME", view=True, info=True, file=True, or_name=True,
+        flag="--urdf",
+        metavar="PATH_OR_NAME",
+        view=True,
+        info=True,
+        file=True,
+        or_name=True,
         help="An arm's URDF file, or a model name of example-robot-data (e.g. panda).",
     )
     cutoff_hz: float | None = option(
-        flag="--cutoff-hz", metavar="HZ", above=0.0,
+        flag="--cutoff-hz",
+        metavar="HZ",
+        above=0.0,
         help="An arm's zero-phase low-pass cut-off for q, q', q'' and torque (Hz; default 10).",
     )
     effort: EffortSide | None = option(  # noqa: RUF009  (option() is a dataclasses.field)
-        flag="--effort", view=True,
+        flag="--effort",
+        view=True,
         help="An arm's logged effort is joint-side (default) or actuator-side: then each joint's "
         "is multiplied by its URDF transmission's mechanical reduction (and the channel map's "
         "[robot] torque_constant_<joint>, if given).",

@@ -153,8 +153,14 @@ def _model(
         )
         return Planar2Link(p, names or ("joint1", "joint2")), "planar 2-link arm (metadata)"
     named = meta.get("urdf")
-    hint = (f" (the log's metadata names {printable(named)!r}; logcal never opens a file a log "
-            "names: give it yourself if it is the right model)") if named else ""
+    hint = (
+        (
+            f" (the log's metadata names {printable(named)!r}; logcal never opens a file a log "
+            "names: give it yourself if it is the right model)"
+        )
+        if named
+        else ""
+    )
     raise LogcalInputError(
         f"{loaded.path}: an arm log with {n} joints needs its model: give --urdf PATH_OR_NAME "
         "(a URDF file or an example-robot-data name such as panda), a settings file's urdf, "
@@ -179,8 +185,9 @@ def _declared(meta: dict[str, str]) -> tuple[Term, ...] | None:
     return tuple(out)
 
 
-def _effort_units(model: ArmModel, ident: ArmIdentification,
-                  would: dict[str, float] | None = None) -> EffortScale | None:
+def _effort_units(
+    model: ArmModel, ident: ArmIdentification, would: dict[str, float] | None = None
+) -> EffortScale | None:
     """The logged effort against what the model's nominal masses need (``calib.manipulator.
     units``), on the filtered signals the identification used; ``would``: the factors of the
     URDF's transmissions, for the note when the effort was taken as logged."""
@@ -218,9 +225,9 @@ def analyze_manipulator(
     if ident is not None:
         judged = stages.run(
             "model adequacy",
-            lambda: _judge(model, ident, meta, declared, cfg, stages,
-                           config.discovery, progress,
-                           (t, q, tau)),
+            lambda: _judge(
+                model, ident, meta, declared, cfg, stages, config.discovery, progress, (t, q, tau)
+            ),
         )
     else:
         stages.skip("model adequacy", "identification did not run")
@@ -228,9 +235,13 @@ def analyze_manipulator(
     kinds = getattr(model, "joint_kinds", None)
     sections: dict[str, Any] = {
         "joints": list(model.joint_names),
-        "joint_units": dict(zip(model.joint_names,
-                                [effort_unit(k) for k in kinds()] if callable(kinds)
-                                else ["N·m"] * n, strict=True)),
+        "joint_units": dict(
+            zip(
+                model.joint_names,
+                [effort_unit(k) for k in kinds()] if callable(kinds) else ["N·m"] * n,
+                strict=True,
+            )
+        ),
         "model": {"source": model_source},
         "effort_scaling": effort.scaling.to_dict(),
     }
@@ -363,11 +374,15 @@ def _judge(
     unexplained = None
     if not final.adequacy.explains and split is None:
         unexplained = (
-            "what the named effects leave is still above the noise floor" if accepted else
-            "no catalogue effect (friction, torque offset, payload, actuation delay or lag, "
-            "joint compliance) and no parameter change explains it")
+            "what the named effects leave is still above the noise floor"
+            if accepted
+            else "no catalogue effect (friction, torque offset, payload, actuation delay or lag, "
+            "joint compliance) and no parameter change explains it"
+        )
     adequacy = final.adequacy.with_(
-        before=before if accepted else None, changes=changes, unexplained=unexplained,
+        before=before if accepted else None,
+        changes=changes,
+        unexplained=unexplained,
         notes=tuple(notes),
         verdict=final.adequacy.verdict if not changes else NOT_EXPLAINED,
     )
@@ -378,21 +393,26 @@ def _judge(
     method = est.method
     if accepted:
         params = final.whole.estimates() | {
-            e.name: e for pars in final.whole.effect_parameters.values() for e in pars.values()}
+            e.name: e for pars in final.whole.effect_parameters.values() for e in pars.values()
+        }
         method = "momentum-WLS + " + " + ".join(e.key for e in accepted)
     # what the processing cannot settle (friction shape at reversals, noise in the regressor),
     # then the parameters' stability over time pieces, then a misfit
     shifts = fitter.processing_shifts()
     if raw is not None:
         by_cut = cutoff_shifts(ident.design, *raw, cfg, ident.wls.theta)
-        shifts = {n: float(np.hypot(shifts.get(n, 0.0), d))
-                  for n, d in zip(ident.design.names, by_cut.tolist(), strict=True)}
+        shifts = {
+            n: float(np.hypot(shifts.get(n, 0.0), d))
+            for n, d in zip(ident.design.names, by_cut.tolist(), strict=True)
+        }
     if adequacy.explains and discovery:
         # the catalogue's effects the log cannot exclude, each fitted in turn
         cat = arm_catalogue(model.joint_names, cfg.terms, nominal=False)
         spread = effect_spread(fitter, accepted, cat)
-        shifts = {n: float(np.hypot(shifts.get(n, 0.0), spread.get(n, 0.0)))
-                  for n in set(shifts) | set(spread)}
+        shifts = {
+            n: float(np.hypot(shifts.get(n, 0.0), spread.get(n, 0.0)))
+            for n in set(shifts) | set(spread)
+        }
     params = with_shifts(scaled_by_pieces(params, pieces), shifts)
     if adequacy.explains:
         params = stabilised(params, pieces)
@@ -413,8 +433,13 @@ def _judge(
     verdict = _verdict(ident, adequacy)
     # the identification's covariance is of its own fit: not of one with named effects
     same_fit = not accepted and list(params) == list(est.parameters)
-    estimate = replace(est, method=method, parameters=params, verdict=verdict,
-                       covariance=est.covariance if same_fit else None)
+    estimate = replace(
+        est,
+        method=method,
+        parameters=params,
+        verdict=verdict,
+        covariance=est.covariance if same_fit else None,
+    )
     return _Judged(adequacy, disc, estimate, sections)
 
 

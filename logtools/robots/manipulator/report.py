@@ -72,11 +72,14 @@ def _adequacy_lines(result: AnalysisResult) -> list[str]:
     lines: list[str] = []
     split = result.sections.get("parameter_change")
     if split:
-        lines.append(f"Parameter change near t = {split['change']['t_s']:.1f} s: the log split "
-                     "there, each side fitted on its own:")
+        lines.append(
+            f"Parameter change near t = {split['change']['t_s']:.1f} s: the log split "
+            "there, each side fitted on its own:"
+        )
         for piece in split["pieces"]:
             vals = ", ".join(
-                f"{k} = {v['value']:.4g}" for k, v in piece["estimate"].items()
+                f"{k} = {v['value']:.4g}"
+                for k, v in piece["estimate"].items()
                 if not k.startswith(("Fc", "Fv", "Fcs", "tau0"))
             )
             lines.append(f"  t {piece['t0_s']:.1f}-{piece['t1_s']:.1f} s: {vals}")
@@ -89,11 +92,15 @@ def _scaling_lines(scaling: dict[str, Any]) -> list[str]:
     """How the logged effort was scaled per joint (only when it was: ``--effort actuator``)."""
     if scaling.get("side") != "actuator":
         return []
-    lines = [f"Effort logged actuator-side (--effort actuator), to the joint side through the "
-             f"transmissions of {scaling.get('urdf')}:"]
+    lines = [
+        f"Effort logged actuator-side (--effort actuator), to the joint side through the "
+        f"transmissions of {scaling.get('urdf')}:"
+    ]
     for name, j in (scaling.get("joints") or {}).items():
         kt = j.get("torque_constant")
-        lines.append(f"  {name}: x{j.get('factor', 1.0):g} = mechanical reduction "
-                     f"{j.get('reduction')} ({j.get('transmission')})"
-                     + (f" x torque constant {kt:g}" if kt is not None else ""))
+        lines.append(
+            f"  {name}: x{j.get('factor', 1.0):g} = mechanical reduction "
+            f"{j.get('reduction')} ({j.get('transmission')})"
+            + (f" x torque constant {kt:g}" if kt is not None else "")
+        )
     return lines

@@ -145,9 +145,7 @@ def register_simulate(group: typer.Typer) -> None:
             raise input_error(err) from err
         with _status(f"writing {out}"):
             meta = run_metadata(run, include_effects=include_effects, extra={"preset": preset})
-            n = write_atomically(
-                out, lambda tmp: write_run(tmp, run, encoding=enc, metadata=meta)
-            )
+            n = write_atomically(out, lambda tmp: write_run(tmp, run, encoding=enc, metadata=meta))
         unit = "rows" if enc is LogEncoding.CSV else "messages"
         print(
             f"wrote {out} ({enc}): {n} {unit}, {cfg.commands.duration_s:g} s, "

@@ -231,12 +231,14 @@ def _from_steering(found: FoundSignals) -> Derived:
     wheelbase = found.robot.wheelbase
     steer = found.sources["steer_cmd"]
     if wheelbase is None:
-        return Derived(notes=(
-            f"{found.path}: a steering command steer_cmd ({steer.describe()}) is there but no "
-            "wheelbase is known, so kappa_cmd = tan(steer_cmd) / wheelbase is not derived; set "
-            "[robot] wheelbase = … (m) in the channel map or 'wheelbase' in the logcal metadata "
-            "record",
-        ))
+        return Derived(
+            notes=(
+                f"{found.path}: a steering command steer_cmd ({steer.describe()}) is there but no "
+                "wheelbase is known, so kappa_cmd = tan(steer_cmd) / wheelbase is not derived; set "
+                "[robot] wheelbase = … (m) in the channel map or 'wheelbase' in the logcal "
+                "metadata record",
+            )
+        )
     frame = found.signals["steer_cmd"]
     kappa, saturated = kappa_from_steering(frame["value"].to_numpy(), wheelbase)
     notes = []
@@ -248,8 +250,11 @@ def _from_steering(found: FoundSignals) -> Derived:
             f"are saturated (|delta| >= {math.degrees(STEER_SATURATION_RAD):.0f} deg, up to "
             f"{peak:.1f} deg): tan(delta) / wheelbase runs to infinity there, so kappa_cmd is "
             "left out on those samples"
-            + ('; beyond 360 deg the values look like degrees: set unit = "deg"'
-               if peak > 360 else "")
+            + (
+                '; beyond 360 deg the values look like degrees: set unit = "deg"'
+                if peak > 360
+                else ""
+            )
         )
     expr = f"tan(steer_cmd) / {wheelbase:g}"
     out = frame.with_columns(pl.Series("value", kappa).fill_nan(None)).drop_nulls("value")
@@ -265,9 +270,7 @@ def _from_steering(found: FoundSignals) -> Derived:
 
 
 def _from_twist(found: FoundSignals) -> Derived:
-    t_ns, values = common_times(
-        {n: found.signals[n] for n in ("omega_cmd", "v_cmd")}, hold=True
-    )
+    t_ns, values = common_times({n: found.signals[n] for n in ("omega_cmd", "v_cmd")}, hold=True)
     v_cmd, omega_cmd = values["v_cmd"], values["omega_cmd"]
     ok = np.isfinite(v_cmd) & np.isfinite(omega_cmd) & (np.abs(v_cmd) > V_CMD_MIN)
     if not ok.any():
@@ -280,8 +283,7 @@ def _from_twist(found: FoundSignals) -> Derived:
     origin = SignalOrigin(
         KappaCmdKind.TWIST,
         expr,
-        f"omega_cmd / v_cmd from {w.describe()} and {v.describe()} where |v_cmd| > "
-        f"{V_CMD_MIN} m/s",
+        f"omega_cmd / v_cmd from {w.describe()} and {v.describe()} where |v_cmd| > {V_CMD_MIN} m/s",
     )
     note = (
         f"{found.path}: kappa_cmd is derived as omega_cmd / v_cmd ({w.describe()} / "

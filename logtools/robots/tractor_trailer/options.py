@@ -25,16 +25,22 @@ class TractorTrailerOptions(RobotOptions):
     """
 
     discovery_span_s: float | None = option(
-        flag="--discovery-span", metavar="SECONDS", at_least=0.0,
+        flag="--discovery-span",
+        metavar="SECONDS",
+        at_least=0.0,
         help="Seconds of a long tractor-trailer log discovery looks at, in windows spread "
         "over it (default 600; 0: all of it, slower).",
     )
     method_for_psi: str | None = option(
-        flag="--method", metavar="NAME", view=True,
+        flag="--method",
+        metavar="NAME",
+        view=True,
         help="In the rerun views, also draw psi predicted by this method (e.g. OLS1(EM1)).",
     )
     baseline: Baseline | None = option(  # noqa: RUF009  (option() is a dataclasses.field)
-        flag="--baseline", view=True, batch=True,
+        flag="--baseline",
+        view=True,
+        batch=True,
         help="Discovery baseline of the tractor-trailer: transient (default) or steady "
         "(the patent's view).",
     )

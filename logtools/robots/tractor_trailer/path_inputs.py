@@ -31,6 +31,7 @@ __all__ = [
 class RobotDidNotMoveError(InsufficientDataError):
     """No source of the path shows the robot travelling far enough to calibrate it."""
 
+
 _MIN_TRAVEL_M = 0.1  # m: less than this calibrates nothing (the robot did not move)
 _SIGNALS = {
     "pose": ("x", "y", "yaw"),

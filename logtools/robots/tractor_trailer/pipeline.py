@@ -49,9 +49,7 @@ PATH_INPUTS = "path_inputs"
 def _require(loaded: LoadedLog, names: tuple[str, ...]) -> None:
     missing = [n for n in names if n not in loaded.frame.columns]
     if missing:
-        raise MissingSignalsError(
-            loaded.path, missing, loaded.log.topic_names(), "tractor_trailer"
-        )
+        raise MissingSignalsError(loaded.path, missing, loaded.log.topic_names(), "tractor_trailer")
 
 
 def _usable_rows(frame: pl.DataFrame, cols: tuple[str, ...]) -> pl.DataFrame:
@@ -136,8 +134,10 @@ def _path_fit(
         if other.path.source == "odometry":
             alt = run(other)
             if np.trace(alt.cov_[:2, :2]) < np.trace(fit.cov_[:2, :2]):
-                alt.notes_.append("the pose is noisy (a large bias correction): odometry gave "
-                                  "the more precise fit and is used")
+                alt.notes_.append(
+                    "the pose is noisy (a large bias correction): odometry gave "
+                    "the more precise fit and is used"
+                )
                 inp, fit = other, alt
     return inp, fit
 
@@ -171,8 +171,12 @@ report says so."""
 
 
 def _span_confounds(
-    loaded: LoadedLog, estimate: CalibrationResult, path_fit: PathTransientFit,
-    spans: tuple[Any, ...], notes: list[str], stages: Stages,
+    loaded: LoadedLog,
+    estimate: CalibrationResult,
+    path_fit: PathTransientFit,
+    spans: tuple[Any, ...],
+    notes: list[str],
+    stages: Stages,
 ) -> CalibrationResult:
     """The estimate spanning explanations command-driven discovery cannot tell apart (e.g. an
     actuator dead time vs the same clock offset on the command topics): the path fit refitted
@@ -204,27 +208,44 @@ def _span_confounds(
     for choice in spans:
         notes.append(choice.confound.report())
     if rejected:
-        notes.append("the measured path rejects " + "; ".join(
-            f"{lab} (joint-angle residual {r:.3g}x the best)" for lab, r in rejected
-        ) + ": the confound is resolved by the path, not spanned")
-    alts = [(lab, res) for lab, res in kept
-            if any(abs(res.parameters[k].value - e.value) > 1e-12
-                   for k, e in estimate.parameters.items() if k in res.parameters)]
+        notes.append(
+            "the measured path rejects "
+            + "; ".join(f"{lab} (joint-angle residual {r:.3g}x the best)" for lab, r in rejected)
+            + ": the confound is resolved by the path, not spanned"
+        )
+    alts = [
+        (lab, res)
+        for lab, res in kept
+        if any(
+            abs(res.parameters[k].value - e.value) > 1e-12
+            for k, e in estimate.parameters.items()
+            if k in res.parameters
+        )
+    ]
     if not alts:
         return estimate
     params = {
-        k: span([e, *(a.parameters[k] for _, a in alts if k in a.parameters)],
-                [estimate.method, *(lab for lab, a in alts if k in a.parameters)],
-                rel_tol=0.1, scale=0.05)
+        k: span(
+            [e, *(a.parameters[k] for _, a in alts if k in a.parameters)],
+            [estimate.method, *(lab for lab, a in alts if k in a.parameters)],
+            rel_tol=0.1,
+            scale=0.05,
+        )
         for k, e in estimate.parameters.items()
     }
     total = link_sum(estimate)
     if total is not None:
         sums = [(lab, s) for lab, a in alts if (s := link_sum(a)) is not None]
-        total = span([total, *(s for _, s in sums)], [estimate.method, *(lab for lab, _ in sums)],
-                     rel_tol=0.1, scale=0.05)
+        total = span(
+            [total, *(s for _, s in sums)],
+            [estimate.method, *(lab for lab, _ in sums)],
+            rel_tol=0.1,
+            scale=0.05,
+        )
     return replace(
-        estimate, parameters=params, derived=derived_sum(total, estimate.derived),
+        estimate,
+        parameters=params,
+        derived=derived_sum(total, estimate.derived),
         verdict=estimate.verdict + " Discovery cannot tell apart explanations that imply "
         "different link lengths; the intervals span them (see the notes).",
     )
@@ -289,9 +310,11 @@ def _unexplained(
         "before trusting it.)"
     )
     return replace(
-        estimate, parameters=params,
+        estimate,
+        parameters=params,
         derived={k: undetermined(e, short) for k, e in estimate.derived.items()},
-        verdict=verdict, details={**estimate.details, "unexplained_structure": model.describe()},
+        verdict=verdict,
+        details={**estimate.details, "unexplained_structure": model.describe()},
     )
 
 
@@ -328,9 +351,7 @@ def _with_kappa_cmd_from_steering(
     wb, d0 = geometry.wheelbase.value, geometry.offset.value
     raw = loaded.signals.signals["steer_cmd"]
     derived = raw.with_columns(((pl.col("value") - d0).tan() / wb).alias("value"))
-    frame = loaded.frame.with_columns(
-        ((pl.col("steer_cmd") - d0).tan() / wb).alias("kappa_cmd")
-    )
+    frame = loaded.frame.with_columns(((pl.col("steer_cmd") - d0).tan() / wb).alias("kappa_cmd"))
     signals = replace(loaded.signals, signals={**loaded.signals.signals, "kappa_cmd": derived})
     notes.append(
         f"kappa_cmd derived as tan(steer_cmd - {d0:.4f}) / {wb:.4f} with the steering geometry "
@@ -344,8 +365,13 @@ _PATH_DISCOVERY_STAGE = "discovery along the path"
 
 
 def _path_discovery(
-    inp: PathInputs, fit: PathTransientFit, frame: pl.DataFrame, segments: list[Segment],
-    cfg: AnalysisConfig, stages: Stages, progress: Progress,
+    inp: PathInputs,
+    fit: PathTransientFit,
+    frame: pl.DataFrame,
+    segments: list[Segment],
+    cfg: AnalysisConfig,
+    stages: Stages,
+    progress: Progress,
 ) -> PathDiscovery | None:
     """Discovery along the measured path (joint-angle effects, a mid-log change), or, when it
     is switched off or the log is short, only the nominal path fit's adequacy."""
@@ -368,8 +394,9 @@ def _path_discovery(
             stages.skip(_PATH_DISCOVERY_STAGE, why)
         progress("adequacy of the path fit")
         try:
-            return judge_path_fit(inp.path, inp.t_psi_s, inp.psi_rad, inp.gaps, fit,
-                                  segments=segs, reason=why)
+            return judge_path_fit(
+                inp.path, inp.t_psi_s, inp.psi_rad, inp.gaps, fit, segments=segs, reason=why
+            )
         except (CalibError, ValueError, FloatingPointError, np.linalg.LinAlgError) as err:
             if cfg.debug:
                 raise
@@ -377,8 +404,9 @@ def _path_discovery(
     progress(_PATH_DISCOVERY_STAGE)
     return stages.run(
         _PATH_DISCOVERY_STAGE,
-        lambda: discover_along_path(inp.path, inp.t_psi_s, inp.psi_rad, inp.gaps, fit,
-                                    segments=segs, progress=progress),
+        lambda: discover_along_path(
+            inp.path, inp.t_psi_s, inp.psi_rad, inp.gaps, fit, segments=segs, progress=progress
+        ),
     )
 
 
@@ -389,13 +417,15 @@ def _path_keys(labels: list[str]) -> list[str]:
     from calib.tractor_trailer.path_effects import catalogue
 
     path = {e.key: e for e in catalogue()}
-    return [k for k in labels
-            if k in path and getattr(path[k].model, "tolerated", None) is None]
+    return [k for k in labels if k in path and getattr(path[k].model, "tolerated", None) is None]
 
 
 def _judged(
-    estimate: CalibrationResult | None, disc: PathDiscovery | None,
-    path_fit: PathTransientFit | None, used: list[str], notes: list[str],
+    estimate: CalibrationResult | None,
+    disc: PathDiscovery | None,
+    path_fit: PathTransientFit | None,
+    used: list[str],
+    notes: list[str],
 ) -> tuple[CalibrationResult | None, Any]:
     """The recommended estimate after discovery along the path (the sensor effects either
     engine accepted, confounds spanned, widened and not determined under a misfit or a change
@@ -407,23 +437,26 @@ def _judged(
         return None, not_assessed("none", "no estimate")
     if path_fit is None or not estimate.method.startswith(path_fit.name):
         return estimate, not_assessed(
-            estimate.method, "the recommended estimate is not the fit along the path; its "
-            "residual is not judged")
+            estimate.method,
+            "the recommended estimate is not the fit along the path; its residual is not judged",
+        )
     if disc is None or disc.adequacy is None:
-        return estimate, not_assessed(estimate.method, disc.reason if disc is not None else
-                                      "discovery along the path failed (see the stages)")
+        return estimate, not_assessed(
+            estimate.method,
+            disc.reason if disc is not None else "discovery along the path failed (see the stages)",
+        )
     command_keys = _path_keys(used)
     keys = list(dict.fromkeys([e.key for e in disc.accepted] + command_keys))
-    if disc.status == "ok" and disc.change is None and set(keys) != {
-        e.key for e in disc.accepted
-    }:
+    if disc.status == "ok" and disc.change is None and set(keys) != {e.key for e in disc.accepted}:
         adopt_effects(disc, keys)
     elif disc.status == "ok" and command_keys and not disc.accepted and disc.estimate is None:
-        notes.append("the joint-angle effects command-driven discovery named are kept in the "
-                     "estimate")
+        notes.append(
+            "the joint-angle effects command-driven discovery named are kept in the estimate"
+        )
     base = estimate if not disc.accepted else path_fit.result_
     out = recommended(base, disc)
     return out, disc.adequacy
+
 
 _NOSLIP_STAGE = "no-slip regression on the trailer pose"
 
@@ -447,9 +480,11 @@ def analyze_tractor_trailer(
     from calib.tractor_trailer.models.hitch_rk4 import compiled_available
 
     if not compiled_available():
-        notes.append("the compiled integrator (calib/tractor_trailer/models/_hitch_rk4.c) is not "
-                     "built here; analysed on its numpy loop, about 5x slower (pip install . "
-                     "builds it)")
+        notes.append(
+            "the compiled integrator (calib/tractor_trailer/models/_hitch_rk4.c) is not "
+            "built here; analysed on its numpy loop, about 5x slower (pip install . "
+            "builds it)"
+        )
     geometry = _steering_geometry(loaded, stages, progress, notes)
     if geometry is not None:
         loaded = _with_kappa_cmd_from_steering(loaded, geometry, notes)
@@ -520,9 +555,14 @@ def analyze_tractor_trailer(
     if still:
         estimate, why = None, [str(still)]
     elif noslip is not None and (path_fit is None or not path_fit.sound_):
-        estimate = replace(noslip.result_, verdict=noslip.result_.verdict + (
-            " (No measured tractor path: the trailer pose and the joint angle give this "
-            "estimate.)"))
+        estimate = replace(
+            noslip.result_,
+            verdict=noslip.result_.verdict
+            + (
+                " (No measured tractor path: the trailer pose and the joint angle give this "
+                "estimate.)"
+            ),
+        )
         why = []
     else:
         estimate, why = _recommend(path_fit, eiv, stages)
@@ -534,8 +574,10 @@ def analyze_tractor_trailer(
     elif estimate is None:
         stages.skip("discovery", "no calibrated link lengths to start from")
     elif "kappa_cmd" not in frame.columns:
-        stages.skip("discovery", "discovery compares against the curvature command; the log "
-                    "has none (kappa_cmd)")
+        stages.skip(
+            "discovery",
+            "discovery compares against the curvature command; the log has none (kappa_cmd)",
+        )
     else:
         from calib.tractor_trailer.discovery import discover
         from calib.tractor_trailer.discovery.windows import DEFAULT_MAX_SPAN_S
@@ -548,14 +590,21 @@ def analyze_tractor_trailer(
         discovery = stages.run(
             "discovery",
             lambda: discover(
-                frame, L1, L2, baseline="steady" if opts.baseline == "steady" else "transient",
-                segments=segments, rng=rng, signals=loaded.signals.signals, max_span_s=span,
+                frame,
+                L1,
+                L2,
+                baseline="steady" if opts.baseline == "steady" else "transient",
+                segments=segments,
+                rng=rng,
+                signals=loaded.signals.signals,
+                max_span_s=span,
             ),
         )
         status = getattr(discovery, "status", "ok")
         if discovery is not None and status != "ok":
             stages.status[-1] = StageStatus(
-                "discovery", "skipped" if status == "not_run" else "ok",
+                "discovery",
+                "skipped" if status == "not_run" else "ok",
                 f"{status}: {discovery.reason}" if discovery.reason else status,
             )
             if status == "not_run":
@@ -573,36 +622,45 @@ def analyze_tractor_trailer(
             res = joint.result_
             model = f"{res.method} + " + " + ".join(used)
             estimate = replace(
-                res, method=model,
+                res,
+                method=model,
                 details={**res.details, "model": model, "effects_included": used},
             )
     path_disc = None
     if path_out and path_fit is not None and not still:
-        path_disc = _path_discovery(path_out[0], path_fit, frame, segments, cfg, stages,
-                                    progress)
+        path_disc = _path_discovery(path_out[0], path_fit, frame, segments, cfg, stages, progress)
     estimate, adequacy = _judged(estimate, path_disc, path_fit, used, notes)
-    if confounded and estimate is not None and path_fit is not None and (
-        estimate.method.startswith(path_fit.name)
+    if (
+        confounded
+        and estimate is not None
+        and path_fit is not None
+        and (estimate.method.startswith(path_fit.name))
     ):
         progress("refits for the confounded explanations")
         estimate = _span_confounds(loaded, estimate, path_fit, confounded, notes, stages)
     judged = estimate
     estimate = _unexplained(estimate, discovery, path_fit)
     if estimate is not judged and adequacy is not None and adequacy.channels:
-        adequacy = adequacy.with_(notes=(*adequacy.notes, (
-            "command-driven discovery finds structure in the joint angle that no catalogued "
-            f"effect explains ({discovery.residual_model.describe()}); the estimate is not "  # type: ignore[union-attr]
-            "determined")))
-    if path_disc is not None and path_disc.solution is not None and estimate is not None and (
-        estimate.method.startswith(PathTransientFit.name) and path_disc.accepted
+        described = discovery.residual_model.describe()  # type: ignore[union-attr]
+        adequacy = adequacy.with_(
+            notes=(
+                *adequacy.notes,
+                (
+                    "command-driven discovery finds structure in the joint angle that no "
+                    f"catalogued effect explains ({described}); the estimate is not determined"
+                ),
+            )
+        )
+    if (
+        path_disc is not None
+        and path_disc.solution is not None
+        and estimate is not None
+        and (estimate.method.startswith(PathTransientFit.name) and path_disc.accepted)
     ):
         shown_fit = None  # the views draw the nominal fit only where it is the estimate
-    if estimate is not None and path_fit is not None and estimate.method.startswith(
-        path_fit.name
-    ):
+    if estimate is not None and path_fit is not None and estimate.method.startswith(path_fit.name):
         actuator = [
-            e.label for e in getattr(discovery, "effects", []) or []
-            if e.kind == "actuator"
+            e.label for e in getattr(discovery, "effects", []) or [] if e.kind == "actuator"
         ]
         if actuator:
             notes.append(
@@ -642,16 +700,19 @@ def analyze_tractor_trailer(
     )
     from calib.tractor_trailer.views_data import VIEWS, tractor_views_data, transient_prediction
 
-
     columns: dict[str, np.ndarray] = {
         c: loaded.frame[c].cast(pl.Float64).fill_null(np.nan).to_numpy()
-        for c in ("x", "y", "yaw", "psi", "kappa", "omega", "v") if c in loaded.frame.columns
+        for c in ("x", "y", "yaw", "psi", "kappa", "omega", "v")
+        if c in loaded.frame.columns
     }
     method = cfg.options(TractorTrailerOptions).method_for_psi
     try:
         transient = None  # the recommended transient fit's own prediction, when it is one
-        if path_out and shown_fit is not None and estimate is not None and (
-            estimate.method.startswith(shown_fit.name)
+        if (
+            path_out
+            and shown_fit is not None
+            and estimate is not None
+            and (estimate.method.startswith(shown_fit.name))
         ):
             transient = transient_prediction(shown_fit, path_out[0].t0_ns, shown_shift)
         views = tractor_views_data(columns, result, method_for_psi=method, transient=transient)
@@ -662,21 +723,19 @@ def analyze_tractor_trailer(
             raise
         views = {}
         stages.status.append(StageStatus("views data", "failed", f"{type(err).__name__}: {err}"))
-    return replace(
-        result, artifacts={PATH_INPUTS: path_out[0] if path_out else None, VIEWS: views}
-    )
+    return replace(result, artifacts={PATH_INPUTS: path_out[0] if path_out else None, VIEWS: views})
 
 
 def pool_tractor_trailer(
-    runs: Sequence[tuple[LoadedLog, AnalysisResult]], config: AnalysisConfig,
+    runs: Sequence[tuple[LoadedLog, AnalysisResult]],
+    config: AnalysisConfig,
     progress: Progress,
 ) -> AnalysisResult:
     """One transient fit along all the runs' paths (``estimate``); each run's own analysis is
     kept in ``runs`` (the plugin's ``pool``)."""
     results = [res for _, res in runs]
     inputs: list[PathInputs] = [
-        res.artifacts[PATH_INPUTS] for res in results
-        if res.artifacts.get(PATH_INPUTS) is not None
+        res.artifacts[PATH_INPUTS] for res in results if res.artifacts.get(PATH_INPUTS) is not None
     ]  # a run without path inputs says why in its own stages
     stages = Stages(config.debug)
     progress("pooled transient fit along every run's path")
@@ -692,9 +751,7 @@ def pool_tractor_trailer(
     truth = results[0].truth if all(r.truth == results[0].truth for r in results) else {}
     warnings: list[str] = []
     if len(inputs) < len(results):
-        warnings.append(
-            f"{len(results) - len(inputs)} runs have no usable path and are not pooled"
-        )
+        warnings.append(f"{len(results) - len(inputs)} runs have no usable path and are not pooled")
     return AnalysisResult(
         robot=results[0].robot,
         segments=[],

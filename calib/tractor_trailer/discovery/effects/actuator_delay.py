@@ -40,8 +40,11 @@ class ActuatorDelay(Effect):
         the joint angle): delay = offset, a dead time from their mean (at least 0); a
         first-order lag of time constant = delay (at least 1 ms)."""
         me = self.key
-        clocks = tuple(c.key for c in (ClockOffset("odom"), ClockOffset("hitch"))
-                       if set(c.channels) & set(channels))
+        clocks = tuple(
+            c.key
+            for c in (ClockOffset("odom"), ClockOffset("hitch"))
+            if set(c.channels) & set(channels)
+        )
         lag = ActuatorLag().key
 
         def to_clocks(v: Values, data: object) -> dict[str, dict[str, float]]:
@@ -63,7 +66,10 @@ class ActuatorDelay(Effect):
                 "an actuator dead time delays the yaw rate and the joint angle against the "
                 "command exactly as the same clock offset on every measured topic would; they "
                 "differ only through speed changes within the delay",
-                (me,), clocks, to_clocks, from_clocks,
+                (me,),
+                clocks,
+                to_clocks,
+                from_clocks,
                 agree="offset",
                 agree_note="the clock offsets agree with each other: one shift of every "
                 "measured topic, which is what a dead time looks like",
@@ -72,7 +78,11 @@ class ActuatorDelay(Effect):
                 "dead_time_vs_lag",
                 "a first-order steering lag of time constant tau delays slow commands like a "
                 "dead time tau; only fast command changes (steps) tell them apart",
-                (me,), (lag,), to_lag, from_lag, exact=False,
+                (me,),
+                (lag,),
+                to_lag,
+                from_lag,
+                exact=False,
             ),
         )
 

@@ -237,12 +237,17 @@ class Effect:
         truth key are ``key`` (an effect without a target has the empty target)."""
         doc = (type(self).__doc__ or self.id).strip().splitlines()[0]
         return EffectSpec(
-            self.id, self.target or "",
+            self.id,
+            self.target or "",
             self.kind or STAGE_KIND[self.stage],
-            tuple(EffectParam(p.name, p.unit, p.null, p.lower, p.upper, p.init)
-                  for p in self.params),
-            doc, confounded_with=self.confounded_with, sim_switch=self.sim_switch,
-            truth_key=self.key, model=self,
+            tuple(
+                EffectParam(p.name, p.unit, p.null, p.lower, p.upper, p.init) for p in self.params
+            ),
+            doc,
+            confounded_with=self.confounded_with,
+            sim_switch=self.sim_switch,
+            truth_key=self.key,
+            model=self,
         )
 
     @property

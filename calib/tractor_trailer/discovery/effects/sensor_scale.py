@@ -59,7 +59,8 @@ class SensorScale(Effect):
                 "joint_angle_gain_vs_link_lengths",
                 "a gain of the joint-angle sensor is taken in by L1 + L2 (psi ~ kappa (L1 + L2) "
                 "at small angles)",
-                (self.key,), (f"{PARAM}L1", f"{PARAM}L2"),
+                (self.key,),
+                (f"{PARAM}L1", f"{PARAM}L2"),
                 what="the joint-angle sensor's gain",
                 assumes="a gain of exactly 1",
                 span_within=MAX_SPAN,

@@ -63,7 +63,10 @@ class Understeer(Effect):
                 "at constant speed understeer scales the curvature by 1 / (1 + K v^2): the yaw "
                 "rate shows it as a gain error and the joint angle as slightly different link "
                 "lengths; only speed changes tell them apart",
-                (me,), (gain,), to_gain, from_gain,
+                (me,),
+                (gain,),
+                to_gain,
+                from_gain,
             ),
         )
 
