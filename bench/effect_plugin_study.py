@@ -23,9 +23,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from diff_drive import test_effect_plugin as dd  # type: ignore[import-not-found]
 from manipulator import test_effect_plugin as arm  # type: ignore[import-not-found]
 
-from calib.adequacy import select_effects
 from calib.diff_drive.effects import discover_effects
 from calib.diff_drive.odometry_lsq import fit_lsq
+from calib.discovery import select_effects
 from calib.manipulator import discovery as arm_discovery
 from calib.manipulator.simulate import Friction, Sensors, simulate_planar
 

@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "Z95",
     "autocorrelation",
     "bartlett_bandwidth",
     "detect_quantum",
@@ -21,6 +22,8 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 _MAD_TO_STD = 1.482602218505602
+Z95 = 1.959963984540054
+"""The two-sided 95 % quantile of the standard normal distribution."""
 
 
 def hf_noise_std(x: np.ndarray) -> float:

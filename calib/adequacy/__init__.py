@@ -1,22 +1,19 @@
-"""Model adequacy and discovery, shared by every robot: does the model explain the log, where
-does it not, what that does to each number, and which physics (from a robot's catalogue of
-effects) explains it instead.
+"""Model adequacy, shared by every robot: does the model explain the log, where
+does it not, and what that does to each number. Which physics explains it instead is the
+discovery engine's (:mod:`calib.discovery`).
 
 Arrays in, results out, like the rest of ``calib``. A robot hands in its residual channels
 (:class:`ResidualChannel`) and gets an :class:`Adequacy` verdict (:func:`assess`), widens its
-intervals under a misfit (:func:`under_misfit`), tests its parameters for a change mid-log
-(:func:`parameter_change`), and selects effects from its catalogue with one engine
-(:func:`select_effects` over :class:`EffectSpec` entries and a fitter of its own).
+intervals under a misfit (:func:`under_misfit`) and tests its parameters for a change mid-log
+(:func:`parameter_change`).
 """
 
 from calib.adequacy.changes import PieceFit, parameter_change
 from calib.adequacy.channel import ResidualChannel
 from calib.adequacy.combine import combine_runs
-from calib.adequacy.effects import EffectKind, EffectParam, EffectSpec
 from calib.adequacy.intervals import span, under_misfit, under_misfit_all
 from calib.adequacy.locate import Location, locate
 from calib.adequacy.noise import NoiseFloor, noise_floor
-from calib.adequacy.selection import Confound, ModelFit, Selection, Tried, select_effects
 from calib.adequacy.stability import PieceStability, piece_stability, widen_unstable
 from calib.adequacy.verdict import (
     EXPLAINS,
@@ -38,19 +35,12 @@ __all__ = [
     "NOT_EXPLAINED",
     "Adequacy",
     "ChannelAdequacy",
-    "Confound",
-    "EffectKind",
-    "EffectParam",
-    "EffectSpec",
     "Location",
-    "ModelFit",
     "NoiseFloor",
     "ParameterChange",
     "PieceFit",
     "PieceStability",
     "ResidualChannel",
-    "Selection",
-    "Tried",
     "assess",
     "combine_runs",
     "effective_samples",
@@ -59,7 +49,6 @@ __all__ = [
     "not_assessed",
     "parameter_change",
     "piece_stability",
-    "select_effects",
     "span",
     "under_misfit",
     "under_misfit_all",

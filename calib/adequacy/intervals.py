@@ -16,10 +16,9 @@ from collections.abc import Mapping, Sequence
 
 from calib.adequacy.verdict import Adequacy
 from calib.results import Estimate
+from calib.stats import Z95
 
 __all__ = ["Z95", "span", "under_misfit", "under_misfit_all"]
-
-Z95 = 1.959963984540054
 
 
 def _where(adequacy: Adequacy) -> str:

@@ -39,18 +39,19 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
-from calib.adequacy import (
+from calib.diff_drive.adequacy import StuckSpan
+from calib.diff_drive.data import DriveRun
+from calib.diff_drive.kinematics import DiffDriveParams
+from calib.diff_drive.segments import SegmentIndex, cut_segments, segment_length
+from calib.discovery import (
     EffectKind,
     EffectParam,
+    EffectRegistry,
     EffectSpec,
     ModelFit,
     Selection,
     select_effects,
 )
-from calib.diff_drive.adequacy import StuckSpan
-from calib.diff_drive.data import DriveRun
-from calib.diff_drive.kinematics import DiffDriveParams
-from calib.diff_drive.segments import SegmentIndex, cut_segments, segment_length
 from calib.results import Estimate, json_safe
 from calib.stats import long_run_variance_ratio
 
@@ -230,7 +231,14 @@ WHEEL_SLIP: EffectSpec[DriveEffectModel] = EffectSpec(
     model=_WheelSlip(),
 )
 
-_REGISTERED: list[EffectSpec[DriveEffectModel]] = []
+REGISTRY: EffectRegistry[EffectSpec[DriveEffectModel]] = EffectRegistry(
+    "diff drive",
+    key=lambda e: e.key,
+    builtin=lambda: (e.key for e in (ASYMMETRY, EFFECTIVE_TRACK, WHEEL_SLIP)),
+    check=lambda e: None if e.model is not None else "no model hook (a DriveEffectModel)",
+)
+"""Effects added to the diff drive's catalogue from outside (``calib.discovery``'s one registry
+behaviour)."""
 
 _CHAIN_ORDER = {
     EffectKind.SENSOR: 0,
@@ -244,21 +252,17 @@ what the wheels did on the ground."""
 
 def register_effect(spec: EffectSpec[DriveEffectModel]) -> EffectSpec[DriveEffectModel]:
     """Add ``spec`` (with its hook) to every catalogue built from now on; returns it."""
-    if spec.model is None:
-        raise ValueError(f"effect {spec.key}: no model hook (a DriveEffectModel)")
-    if all(e.key != spec.key for e in _REGISTERED):
-        _REGISTERED.append(spec)
-    return spec
+    return REGISTRY.register(spec)
 
 
-def unregister_effect(spec: EffectSpec[DriveEffectModel]) -> None:
-    """Take a registered effect out again (no error when it is not registered)."""
-    _REGISTERED[:] = [e for e in _REGISTERED if e.key != spec.key]
+def unregister_effect(spec: EffectSpec[DriveEffectModel] | str) -> None:
+    """Take a registered effect (or its key) out again (no error when it is not registered)."""
+    REGISTRY.unregister(spec)
 
 
 def registered_effects() -> tuple[EffectSpec[DriveEffectModel], ...]:
     """The effects added by :func:`register_effect`, in order."""
-    return tuple(_REGISTERED)
+    return REGISTRY.entries()
 
 
 def stuck_spec(span: StuckSpan) -> EffectSpec[DriveEffectModel]:
@@ -287,7 +291,7 @@ def catalogue(
         out.append(EFFECTIVE_TRACK)
     out.append(WHEEL_SLIP)
     out += [stuck_spec(s) for s in spans]
-    out += [*_REGISTERED, *extra]
+    out += [*REGISTRY.entries(), *extra]
     return out
 
 

@@ -32,20 +32,9 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from scipy.stats import t as student_t
 
-from calib.adequacy import (
-    Adequacy,
-    EffectKind,
-    EffectParam,
-    EffectSpec,
-    ModelFit,
-    ResidualChannel,
-    Selection,
-    assess,
-    not_assessed,
-    select_effects,
-    under_misfit,
-)
+from calib.adequacy import Adequacy, ResidualChannel, assess, not_assessed, under_misfit
 from calib.adequacy.intervals import Z95
+from calib.discovery import EffectKind, EffectParam, EffectSpec, ModelFit, Selection, select_effects
 from calib.errors import InsufficientDataError
 from calib.results import Estimate, json_safe
 

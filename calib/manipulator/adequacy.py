@@ -24,7 +24,6 @@ from numpy.typing import NDArray
 
 from calib.adequacy import (
     Adequacy,
-    EffectSpec,
     ParameterChange,
     PieceFit,
     ResidualChannel,
@@ -36,6 +35,7 @@ from calib.adequacy import (
     widen_unstable,
 )
 from calib.adequacy.intervals import Z95
+from calib.discovery import EffectSpec
 from calib.manipulator.discovery import ArmFit, ArmFitter, noise_timescale
 from calib.manipulator.units import effort_unit
 from calib.results import Estimate

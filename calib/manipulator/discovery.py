@@ -59,14 +59,14 @@ from scipy.integrate import cumulative_trapezoid
 from scipy.optimize import minimize_scalar
 from scipy.signal import lfilter
 
-from calib.adequacy import (
-    EXPLAINS_RATIO,
+from calib.adequacy import EXPLAINS_RATIO, noise_floor
+from calib.discovery import (
     EffectKind,
     EffectParam,
+    EffectRegistry,
     EffectSpec,
     ModelFit,
     Selection,
-    noise_floor,
     select_effects,
 )
 from calib.errors import CalibError
@@ -329,31 +329,37 @@ class _Compliance(StateEffect):
         return COMPLIANCE_STEP_RAD / max(float(np.max(np.abs(tf))), 1e-9)
 
 
-_REGISTERED: list[EffectSpec[ArmEffectModel]] = []
-
 _State: TypeAlias = tuple[tuple[EffectSpec, float], ...]
 """State effects with the values their inputs are moved by."""
 
 
+def _hook_problem(spec: EffectSpec[ArmEffectModel]) -> str | None:
+    if isinstance(spec.model, ColumnEffect | InputEffect | StateEffect):
+        return None
+    return "no model hook (a ColumnEffect, InputEffect or StateEffect)"
+
+
+REGISTRY: EffectRegistry[EffectSpec[ArmEffectModel]] = EffectRegistry(
+    "arm", key=lambda e: e.key, check=_hook_problem
+)
+"""Effects added to every arm catalogue from outside (``calib.discovery``'s one registry
+behaviour; the built-in ones are per joint, so a registered key is checked against the
+registered ones)."""
+
+
 def register_effect(spec: EffectSpec[ArmEffectModel]) -> EffectSpec[ArmEffectModel]:
     """Add ``spec`` (with its hook) to every arm catalogue built from now on; returns it."""
-    if not isinstance(spec.model, ColumnEffect | InputEffect | StateEffect):
-        raise ValueError(
-            f"effect {spec.key}: no model hook (a ColumnEffect, InputEffect or StateEffect)"
-        )
-    if all(e.key != spec.key for e in _REGISTERED):
-        _REGISTERED.append(spec)
-    return spec
+    return REGISTRY.register(spec)
 
 
-def unregister_effect(spec: EffectSpec[ArmEffectModel]) -> None:
-    """Take a registered effect out again (no error when it is not registered)."""
-    _REGISTERED[:] = [e for e in _REGISTERED if e.key != spec.key]
+def unregister_effect(spec: EffectSpec[ArmEffectModel] | str) -> None:
+    """Take a registered effect (or its key) out again (no error when it is not registered)."""
+    REGISTRY.unregister(spec)
 
 
 def registered_effects() -> tuple[EffectSpec[ArmEffectModel], ...]:
     """The effects added by :func:`register_effect`, in order."""
-    return tuple(_REGISTERED)
+    return REGISTRY.entries()
 
 
 def hook(e: EffectSpec[ArmEffectModel]) -> ArmEffectModel:
@@ -449,7 +455,7 @@ def arm_catalogue(
                     model=_Compliance(j),
                 )
             )
-    out += [*_REGISTERED, *extra]
+    out += [*REGISTRY.entries(), *extra]
     return tuple(out)
 
 

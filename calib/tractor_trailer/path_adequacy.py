@@ -16,14 +16,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from calib.adequacy import (
-    Adequacy,
-    EffectSpec,
-    NoiseFloor,
-    ResidualChannel,
-    noise_floor,
-    under_misfit,
-)
+from calib.adequacy import Adequacy, NoiseFloor, ResidualChannel, noise_floor, under_misfit
+from calib.discovery import EffectSpec
 from calib.results import CalibrationResult
 from calib.tractor_trailer.derived import derived_sum, link_sum
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit

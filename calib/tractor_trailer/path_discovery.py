@@ -39,19 +39,16 @@ import numpy as np
 from calib.adequacy import (
     EXPLAINS_RATIO,
     Adequacy,
-    EffectSpec,
-    ModelFit,
     ParameterChange,
     PieceFit,
     PieceStability,
-    Selection,
     assess,
     parameter_change,
     piece_stability,
-    select_effects,
     span,
     widen_unstable,
 )
+from calib.discovery import EffectSpec, ModelFit, Selection, select_effects
 from calib.errors import CalibError
 from calib.results import CalibrationResult, Estimate, json_safe
 from calib.tractor_trailer.derived import derived_sum, link_sum

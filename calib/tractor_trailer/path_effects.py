@@ -39,7 +39,7 @@ from typing import Any, Protocol
 import numpy as np
 from scipy.optimize import least_squares
 
-from calib.adequacy import EffectKind, EffectParam, EffectSpec
+from calib.discovery import EffectKind, EffectParam, EffectRegistry, EffectSpec
 from calib.stats import bartlett_bandwidth, hac_covariance
 from calib.tractor_trailer.estimators.drive_path import DrivePath
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
@@ -345,29 +345,38 @@ CATALOGUE: tuple[EffectSpec[PathEffectModel], ...] = (
 """The built-in effects the path discovery tries, in the order it tries them (registered ones,
 :func:`register_effect`, follow)."""
 
-_REGISTERED: list[EffectSpec[PathEffectModel]] = []
+
+def _hook_problem(spec: EffectSpec[PathEffectModel]) -> str | None:
+    if spec.model is None or len(spec.params) != 1:
+        return "needs a model hook (a PathEffectModel) and one parameter"
+    return None
+
+
+REGISTRY: EffectRegistry[EffectSpec[PathEffectModel]] = EffectRegistry(
+    "path",
+    key=lambda e: e.key,
+    builtin=lambda: (e.key for e in CATALOGUE),
+    check=_hook_problem,
+)
+"""Effects added to the path discovery's catalogue from outside (``calib.discovery``'s one
+registry behaviour)."""
 
 
 def register_effect(spec: EffectSpec[PathEffectModel]) -> EffectSpec[PathEffectModel]:
     """Add ``spec`` (its ``model`` a :class:`PathEffectModel`, one parameter) to the effects the
-    path discovery tries, after the built-in ones; returns it. Raises ValueError for a spec
-    without a hook, with other than one parameter, or whose key is taken."""
-    if spec.model is None or len(spec.params) != 1:
-        raise ValueError(f"path effect {spec.key}: needs a model hook and one parameter")
-    if any(e.key == spec.key for e in catalogue()):
-        raise ValueError(f"path effect {spec.key}: already in the catalogue")
-    _REGISTERED.append(spec)
-    return spec
+    path discovery tries, after the built-in ones; returns it (ValueError: no hook, other than
+    one parameter, or its key is taken by another effect)."""
+    return REGISTRY.register(spec)
 
 
-def unregister_effect(key: str) -> None:
+def unregister_effect(key: str | EffectSpec[PathEffectModel]) -> None:
     """Remove the registered effect ``key`` (the built-in ones stay)."""
-    _REGISTERED[:] = [e for e in _REGISTERED if e.key != key]
+    REGISTRY.unregister(key)
 
 
 def catalogue() -> tuple[EffectSpec[PathEffectModel], ...]:
     """Every effect the path discovery tries: the built-in ones, then the registered ones."""
-    return (*CATALOGUE, *_REGISTERED)
+    return (*CATALOGUE, *REGISTRY.entries())
 
 
 def effect_by_key(key: str) -> EffectSpec[PathEffectModel]:

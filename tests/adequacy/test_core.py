@@ -11,19 +11,15 @@ from calib.adequacy import (
     EXPLAINS,
     NOT_ASSESSED,
     NOT_EXPLAINED,
-    EffectKind,
-    EffectParam,
-    EffectSpec,
-    ModelFit,
     PieceFit,
     ResidualChannel,
     assess,
     noise_floor,
     parameter_change,
-    select_effects,
     span,
     under_misfit,
 )
+from calib.discovery import EffectKind, EffectParam, EffectSpec, ModelFit, select_effects
 from calib.results import Estimate
 
 T = np.arange(0.0, 60.0, 0.02)

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from indgen.tractor_kinds import tractor_log
 
-from calib.adequacy import EffectKind, EffectParam, EffectSpec
+from calib.discovery import EffectKind, EffectParam, EffectSpec
 from calib.tractor_trailer.discovery.confirm import confirm_effects, equivalences, fit_set
 from calib.tractor_trailer.discovery.confounds import find_confounds
 from calib.tractor_trailer.discovery.data import prepare_data
@@ -138,8 +138,10 @@ def test_registration_adds_and_removes_the_effect() -> None:
     try:
         assert catalogue()[-1] is QUADRATIC
         assert effect_by_key("sensor_quadratic(psi)") is QUADRATIC
+        register_effect(QUADRATIC)  # the same entry again: registered once
+        assert sum(e.key == QUADRATIC.key for e in catalogue()) == 1
         with pytest.raises(ValueError, match="already"):
-            register_effect(QUADRATIC)
+            register_effect(replace(QUADRATIC, physics="another effect under the same key"))
     finally:
         unregister_effect(QUADRATIC.key)
     assert len(catalogue()) == n

@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from calib.adequacy import EffectKind, EffectParam, EffectSpec
 from calib.diff_drive.data import DriveRun
 from calib.diff_drive.effects import (
     DriveEffect,
@@ -27,6 +26,7 @@ from calib.diff_drive.effects import (
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.odometry_lsq import fit_lsq
 from calib.diff_drive.sim import SimConfig, mixed_commands, simulate_diff_drive
+from calib.discovery import EffectKind, EffectParam, EffectSpec
 
 Array = NDArray[np.float64]
 NOM = DiffDriveParams(0.042, 0.042, 0.20)

@@ -15,7 +15,7 @@ from functools import cache
 import numpy as np
 import pytest
 
-from calib.adequacy import EffectKind, EffectParam, EffectSpec, select_effects
+from calib.discovery import EffectKind, EffectParam, EffectSpec, select_effects
 from calib.manipulator.design import Term
 from calib.manipulator.discovery import (
     ArmEffectModel,

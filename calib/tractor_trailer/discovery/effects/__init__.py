@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Literal
 
+from calib.discovery import EffectRegistry
 from calib.tractor_trailer.discovery.effects.actuator_delay import ActuatorDelay
 from calib.tractor_trailer.discovery.effects.actuator_lag import ActuatorLag
 from calib.tractor_trailer.discovery.effects.base import (
@@ -43,18 +44,40 @@ __all__ = [
     "unregister_effect",
 ]
 
-_REGISTERED: list[Callable[[], Effect]] = []
+
+def _builtin() -> list[Effect]:
+    return [
+        HitchTransient(),
+        SensorOffset("psi"),
+        SensorOffset("omega"),
+        SensorScale("omega"),
+        SensorScale("psi"),
+        ActuatorDelay(),
+        ActuatorLag(),
+        Understeer(),
+        ClockOffset("hitch"),
+        ClockOffset("odom"),
+    ]
 
 
-def register_effect(factory: Callable[[], Effect]) -> None:
-    """Add the effect ``factory()`` makes (a fresh one per catalogue: effects remember their
-    intermediate results) to every later ``catalogue``, after the built-in ones."""
-    _REGISTERED.append(factory)
+REGISTRY: EffectRegistry[Callable[[], Effect]] = EffectRegistry(
+    "tractor-trailer (command-driven)",
+    key=lambda make: make().key,
+    builtin=lambda: (e.key for e in _builtin()),
+)
+"""Factories of effects added from outside (a fresh effect per catalogue: effects remember
+their intermediate results), with ``calib.discovery``'s one registry behaviour."""
 
 
-def unregister_effect(key: str) -> None:
-    """Remove the registered effects whose ``key`` is ``key`` (the built-in ones stay)."""
-    _REGISTERED[:] = [f for f in _REGISTERED if f().key != key]
+def register_effect(factory: Callable[[], Effect]) -> Callable[[], Effect]:
+    """Add the effect ``factory()`` makes to every later ``catalogue``, after the built-in
+    ones; returns the factory (ValueError: its key is taken by another effect)."""
+    return REGISTRY.register(factory)
+
+
+def unregister_effect(key: str | Callable[[], Effect]) -> None:
+    """Remove the registered effect ``key`` (the built-in ones stay)."""
+    REGISTRY.unregister(key)
 
 
 def catalogue(
@@ -68,18 +91,6 @@ def catalogue(
     channel that was not recorded. Registered effects (``register_effect``) follow the
     built-in ones.
     """
-    effects: list[Effect] = [
-        HitchTransient(),
-        SensorOffset("psi"),
-        SensorOffset("omega"),
-        SensorScale("omega"),
-        SensorScale("psi"),
-        ActuatorDelay(),
-        ActuatorLag(),
-        Understeer(),
-        ClockOffset("hitch"),
-        ClockOffset("odom"),
-        *(make() for make in _REGISTERED),
-    ]
+    effects = [*_builtin(), *(make() for make in REGISTRY.entries())]
     effects = [e for e in effects if baseline not in e.in_baselines]
     return [e for e in effects if any(c in channels for c in e.channels)]

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline
 
-from calib.adequacy import EffectKind, EffectParam, EffectSpec
+from calib.discovery import EffectKind, EffectParam, EffectSpec
 from calib.results import json_safe
 from calib.tractor_trailer.discovery.jumps import jump_intervals
 

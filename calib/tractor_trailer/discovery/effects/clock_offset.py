@@ -7,7 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from calib.adequacy import EffectKind
+from calib.discovery import EffectKind
 from calib.tractor_trailer.discovery.effects.base import (
     Effect,
     FloatArray,
