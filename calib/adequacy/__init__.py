@@ -24,7 +24,6 @@ from calib.adequacy.verdict import (
     ChannelAdequacy,
     ParameterChange,
     assess,
-    effective_samples,
     not_assessed,
 )
 
@@ -43,7 +42,6 @@ __all__ = [
     "ResidualChannel",
     "assess",
     "combine_runs",
-    "effective_samples",
     "locate",
     "noise_floor",
     "not_assessed",

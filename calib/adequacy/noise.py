@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from calib.results import JsonRecord
-from calib.stats import detect_quantum, local_line_errors
+from calib.stats import detect_quantum, hf_noise_std_t
 
 __all__ = ["NoiseFloor", "noise_floor"]
 
@@ -44,27 +44,6 @@ class NoiseFloor(JsonRecord):
     input_std: float
     timescale_s: float
     source: str
-
-
-_MAD_TO_STD = 1.482602218505602
-TIED_SHARE = 0.3
-"""When more than this share of the local-line errors are exactly zero (a signal that mostly
-repeats its last value: a current reading 0 while a joint rests), the median absolute deviation
-collapses and the RMS of the errors is used instead."""
-
-
-def hf_noise_std_t(t: FloatArray, x: FloatArray) -> float:
-    """White-noise std of ``x`` at times ``t`` from :func:`calib.stats.local_line_errors`: a
-    robust (MAD) estimate, or the RMS where the errors are mostly exact ties."""
-    e = local_line_errors(t, x)
-    if e.size < 3:
-        return 0.0
-    finite = np.asarray(x, dtype=float)
-    finite = finite[np.isfinite(finite)]
-    scale = float(np.max(np.abs(finite))) if finite.size else 1.0
-    if np.mean(np.abs(e) <= 1e-12 * (scale or 1.0)) > TIED_SHARE:
-        return math.sqrt(float(np.mean(e * e)))
-    return _MAD_TO_STD * float(np.median(np.abs(e - np.median(e))))
 
 
 def _decimated_hf(t: FloatArray, r: FloatArray, step: int) -> float:

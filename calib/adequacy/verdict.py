@@ -26,6 +26,7 @@ from calib.adequacy.locate import Location, locate
 from calib.adequacy.noise import NoiseFloor, noise_floor
 from calib.adequacy.whiteness import ljung_box
 from calib.results import JsonRecord, json_safe
+from calib.stats import effective_samples
 
 __all__ = [
     "EXPLAINS",
@@ -37,7 +38,6 @@ __all__ = [
     "ParameterChange",
     "assess",
     "describe_misfit",
-    "effective_samples",
     "not_assessed",
 ]
 
@@ -50,21 +50,6 @@ EXPLAINS_RATIO = 1.5
 SIGNIFICANT_RATIO = 1.2
 SIGNIFICANT_Z = 5.0
 """... and while a ratio above SIGNIFICANT_RATIO is not SIGNIFICANT_Z standard errors above one."""
-
-
-def effective_samples(r: np.ndarray) -> float:
-    """n / (1 + 2 sum of the residual's autocorrelation up to its first non-positive lag)."""
-    from calib.stats import autocorrelation
-
-    x = np.asarray(r, dtype=float)
-    x = x[np.isfinite(x)]
-    n = x.size
-    if n < 8 or not np.any(x != x[0]):
-        return float(n)
-    rho = autocorrelation(x, min(n // 4, 500))[1:]
-    cut = np.nonzero(rho <= 0)[0]
-    rho = rho[: cut[0]] if cut.size else rho
-    return float(n / max(1.0, 1.0 + 2.0 * float(rho.sum())))
 
 
 @dataclass(frozen=True)

@@ -53,7 +53,13 @@ from calib.discovery import (
     select_effects,
 )
 from calib.results import Estimate, json_safe
-from calib.stats import long_run_variance_ratio
+from calib.stats import (
+    bartlett_long_run,
+    cube_root_lag,
+    long_run_variance_ratio,
+    mad_std,
+    sandwich,
+)
 
 __all__ = [
     "ASYMMETRY",
@@ -401,14 +407,7 @@ def _hac_cov(jac: Array, res: Array, n_seg: int) -> Array:
     """Newey-West covariance of the least-squares parameters, scores summed per segment."""
     p = jac.shape[1]
     scores = (jac * res[:, None]).reshape(n_seg, 3, p).sum(axis=1)
-    lag = max(1, round(n_seg ** (1 / 3)))
-    S = scores.T @ scores
-    for lo in range(1, lag + 1):
-        w = 1 - lo / (lag + 1)
-        G = scores[lo:].T @ scores[:-lo]
-        S += w * (G + G.T)
-    H = np.linalg.pinv(jac.T @ jac)
-    return np.asarray(H @ S @ H)
+    return sandwich(jac.T @ jac, bartlett_long_run(scores, cube_root_lag(n_seg)))
 
 
 class _Fitter:
@@ -620,11 +619,6 @@ class DiffDriveSelection:
         return lines
 
 
-def _mad(x: Array) -> float:
-    x = x[np.isfinite(x)]
-    return 1.4826 * float(np.median(np.abs(x - np.median(x)))) if x.size else 0.0
-
-
 def _lrv_ratio(x: Array) -> float:
     """Long-run variance (Bartlett) over variance of a segment residual series (>= 1): how
     much consecutive segments' shared errors (slip, ground-truth drift) inflate what a sum of
@@ -632,7 +626,7 @@ def _lrv_ratio(x: Array) -> float:
     x = x[np.isfinite(x)] - np.median(x[np.isfinite(x)]) if np.isfinite(x).any() else x
     if x.size < 8:
         return 1.0
-    clip = 4 * max(_mad(x), 1e-15)
+    clip = 4 * max(mad_std(x), 1e-15)
     x = np.clip(x, -clip, clip)  # a stuck span must not pass for correlation
     return max(1.0, long_run_variance_ratio(x))
 
@@ -656,9 +650,9 @@ def noise_scales(
     """Heading and position noise scales per segment: the robust (MAD) spread of what the
     calibrated model leaves, inflated by the residuals' long-run variance ratio."""
     raw = _raw_residuals(prob, calibrated, marker).reshape(-1, 3)
-    sigma_h = max(_mad(raw[:, 0]) * math.sqrt(_lrv_ratio(raw[:, 0])), 1e-9)
+    sigma_h = max(mad_std(raw[:, 0]) * math.sqrt(_lrv_ratio(raw[:, 0])), 1e-9)
     sigma_p = max(
-        _mad(raw[:, 1:].ravel()) * math.sqrt(max(_lrv_ratio(raw[:, 1]), _lrv_ratio(raw[:, 2]))),
+        mad_std(raw[:, 1:].ravel()) * math.sqrt(max(_lrv_ratio(raw[:, 1]), _lrv_ratio(raw[:, 2]))),
         1e-9,
     )
     return sigma_h, sigma_p

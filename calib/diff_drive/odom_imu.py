@@ -37,6 +37,7 @@ from calib.adequacy.intervals import Z95
 from calib.discovery import EffectKind, EffectParam, EffectSpec, ModelFit, Selection, select_effects
 from calib.errors import InsufficientDataError
 from calib.results import Estimate, json_safe
+from calib.stats import bartlett_long_run, cube_root_lag, sandwich
 
 __all__ = ["SPEED_SLIP", "TURN_SLIP", "GainEffectModel", "OdomImuResult", "analyze_odom_imu"]
 
@@ -415,14 +416,8 @@ class _GainFitter:
         except ValueError:
             return None
         J, r = np.asarray(sol.jac, float), np.asarray(sol.fun, float)
-        scores = J * r[:, None]
-        lag = max(1, round(r.size ** (1 / 3)))
-        S = scores.T @ scores
-        for k in range(1, lag + 1):
-            G = scores[k:].T @ scores[:-k]
-            S += (1 - k / (lag + 1)) * (G + G.T)
-        H = np.linalg.pinv(J.T @ J)
-        std = np.sqrt(np.maximum(np.diag(H @ S @ H), 0.0))
+        S = bartlett_long_run(J * r[:, None], cube_root_lag(r.size))
+        std = np.sqrt(np.maximum(np.diag(sandwich(J.T @ J, S)), 0.0))
         held = 0.0
         for train, test in (self.folds, self.folds[::-1]):
             try:

@@ -26,6 +26,7 @@ from enum import StrEnum
 from typing import Any, Generic, Protocol, TypeVar
 
 from calib.results import Estimate
+from calib.stats import bic_gaussian
 
 __all__ = [
     "CandidateFailedError",
@@ -142,10 +143,7 @@ class ModelFit:
         n_eff ln(sse / n) + k ln(n_eff)."""
         if self.bic_value is not None:
             return self.bic_value
-        if self.n <= 0 or not self.sse > 0:
-            return math.inf if self.n <= 0 else -math.inf
-        m = min(float(self.n), self.n_eff) if self.n_eff and self.n_eff > 0 else float(self.n)
-        return m * math.log(self.sse / self.n) + self.k * math.log(m)
+        return bic_gaussian(self.sse, self.n, self.k, self.n_eff)
 
     def z_scores(self, spec: EffectSpec[Any]) -> dict[str, float]:
         """Distance of ``spec``'s parameters from their null values in standard errors (0 where

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from calib.errors import InsufficientDataError
+from calib.stats import bartlett_long_run, sandwich
 
 __all__ = ["WLSResult", "batch_wls", "condition_number", "paper_estimator", "rls"]
 
@@ -107,13 +108,10 @@ def batch_wls(X: Array, y: Array, weights: Array | None = None) -> WLSResult:
     # Newey-West on per-time scores
     scores = (Aw * (bw - Aw @ ths)[:, None]).reshape(T, n, P).sum(axis=1)
     lag = _nw_lag(res / sigma, T)
-    S = scores.T @ scores
-    for L in range(1, lag + 1):
-        G = scores[L:].T @ scores[:-L]
-        S += (1 - L / (lag + 1)) * (G + G.T)
+    S = bartlett_long_run(scores, lag)
     H = Aw.T @ Aw
     Hinv = np.linalg.pinv(H)
-    covs = Hinv @ S @ Hinv
+    covs = sandwich(H, S)
     with np.errstate(divide="ignore", invalid="ignore"):
         vif = np.diag(Hinv) * np.diag(H)
     vif[dead] = np.inf

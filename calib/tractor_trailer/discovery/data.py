@@ -13,6 +13,7 @@ import polars as pl
 from numpy.typing import NDArray
 
 from calib.errors import InsufficientDataError
+from calib.stats import hf_noise_std
 from calib.tractor_trailer.discovery.jumps import jump_intervals
 
 __all__ = [
@@ -54,12 +55,9 @@ def block_mean(x: FloatArray, m: int) -> FloatArray:
 
 
 def robust_noise_std(y: FloatArray) -> float:
-    """White-noise standard deviation from second differences (robust to smooth signal)."""
-    d2 = np.diff(y, n=2)
-    if d2.size < 10:
-        return float("nan")
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
-    return 1.4826 * mad / np.sqrt(6.0)
+    """:func:`calib.stats.hf_noise_std` of ``y``, NaN for fewer than 12 samples (too few to
+    tell noise from signal)."""
+    return hf_noise_std(y) if y.size >= 12 else float("nan")
 
 
 def output_noise_std(y: FloatArray) -> float:

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from calib.errors import SolverError
+from calib.stats import bartlett_long_run, bic_channels, lag1_factor, sandwich
 from calib.tractor_trailer.discovery.data import RESOLUTION, DiscoveryData
 from calib.tractor_trailer.discovery.model import ModelSpec, Vector, predict
 
@@ -27,7 +28,6 @@ __all__ = [
     "covariance",
     "fit_model",
     "holdout_rms",
-    "lag1_autocorr",
     "neff_factors",
     "param_std",
 ]
@@ -153,31 +153,13 @@ def _fit(
     return fit
 
 
-def lag1_autocorr(r: FloatArray) -> float:
-    """Lag-1 autocorrelation of ``r`` (mean removed), 0 for constant input."""
-    x = r - r.mean()
-    den = float(np.dot(x, x))
-    return 0.0 if den <= 0 else float(np.dot(x[1:], x[:-1]) / den)
-
-
 def neff_factors(fit: ModelFit, mask: BoolArray | None = None) -> dict[str, float]:
     """Effective-sample factor (1 - rho)/(1 + rho) per output, rho clipped to [0, 0.995].
 
     Computed on contiguous rows of ``mask`` only (pairs that straddle a gap are skipped).
     """
     mk = fit.mask if mask is None else mask
-    pair = mk[1:] & mk[:-1]
-    out = {}
-    for c, r in fit.residuals.items():
-        if not mk.any():
-            out[c] = 1.0
-            continue
-        x = r - r[mk].mean()
-        den = float(np.sum(x[mk] ** 2))
-        rho = 0.0 if den <= 0 else float(np.sum((x[1:] * x[:-1])[pair]) / den)
-        rho = min(max(rho, 0.0), 0.995)
-        out[c] = (1.0 - rho) / (1.0 + rho)
-    return out
+    return {c: lag1_factor(r, mk) for c, r in fit.residuals.items()}
 
 
 def bic(fit: ModelFit, factors: Mapping[str, float]) -> float:
@@ -186,15 +168,7 @@ def bic(fit: ModelFit, factors: Mapping[str, float]) -> float:
     -2 log L = sum_c n_eff,c log(RSS_c / n_c); penalty k log(sum_c n_eff,c), k = number of
     parameters (the per-output variances are common to every model and left out).
     """
-    n = int(fit.mask.sum())
-    rss = fit.rss()
-    total = 0.0
-    n_eff_sum = 0.0
-    for c, s in rss.items():
-        ne = n * factors[c]
-        n_eff_sum += ne
-        total += ne * math.log(max(s, 1e-300) / n)
-    return total + len(fit.theta) * math.log(max(n_eff_sum, 2.0))
+    return bic_channels(fit.rss(), int(fit.mask.sum()), factors, len(fit.theta))
 
 
 def holdout_rms(
@@ -261,19 +235,10 @@ def _hac_covariance(
         g += jc * r[:, None]
     f_min = min(fac.values()) if fac else 1.0
     bw = int(min(n // 4, math.ceil(3.0 / max(f_min, 1e-3))))
-    s = g.T @ g
-    for lag in range(1, bw + 1):
-        w = 1.0 - lag / (bw + 1.0)
-        gamma = g[lag:].T @ g[:-lag]
-        s += w * (gamma + gamma.T)
-    jj = fit.jac.T @ fit.jac
-    d = np.sqrt(np.clip(np.diag(jj), 0.0, None))
-    d = np.where(d > 0, d, 1.0)
     try:
-        inv = np.linalg.pinv(jj / np.outer(d, d), rcond=1e-12) / np.outer(d, d)
+        out = sandwich(fit.jac.T @ fit.jac, bartlett_long_run(g, bw), equilibrate=True)
     except np.linalg.LinAlgError:  # pragma: no cover - defensive
         return None
-    out = inv @ s @ inv
     return np.asarray(out, dtype=float) if np.all(np.isfinite(out)) else None
 
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from calib.stats import hf_noise_std
+
 __all__ = ["clean_inputs", "command_scale", "decimate", "noise_sigma"]
 
 
@@ -52,7 +54,7 @@ def noise_sigma(y: np.ndarray, floor: float) -> float:
     if y.size < 5:
         return floor
     d2 = y[2:] - 2 * y[1:-1] + y[:-2]
-    mad = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6)
+    mad = hf_noise_std(y)
     a = np.sort(np.abs(d2))[: max(1, int(0.98 * d2.size))]
     trimmed = float(np.sqrt(np.mean(a * a))) / np.sqrt(6)
     return max(mad, trimmed, floor)

@@ -182,7 +182,8 @@ def _span_confounds(
     actuator dead time vs the same clock offset on the command topics): the path fit refitted
     with each explanation's joint-angle corrections; those the measured path does not reject
     (``REJECT_RMS_RATIO``) are spanned (the union of the intervals)."""
-    from calib.adequacy import effective_samples, span
+    from calib.adequacy import span
+    from calib.stats import effective_samples
 
     fits: list[tuple[str, PathTransientFit]] = []
     for choice in spans:
