@@ -414,6 +414,8 @@ def select_effects(
     while len(current.effects) < rules.max_effects:
         if checks.explained is not None and checks.explained(current):
             break
+        if all(spec.key in current.keys for spec in catalogue):
+            break
         number = len(rounds) + 1
         scored, failed = _round(eng, current, catalogue, say)
         passing = [s for s in scored if s.passes]

@@ -35,7 +35,7 @@ from calib.tractor_trailer.discovery.effects import (
 )
 from calib.tractor_trailer.discovery.fit import fit_model, neff_factors
 from calib.tractor_trailer.discovery.model import ModelSpec
-from calib.tractor_trailer.discovery.selection import SelectionRules
+from calib.tractor_trailer.discovery.selection import CommandRules
 from calib.tractor_trailer.estimators.drive_path import DrivePath
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.path_discovery import PathDiscovery, discover_along_path
@@ -313,7 +313,7 @@ def test_declared_equivalence_is_confirmed_and_a_confound(steering_gain: None) -
     factors = neff_factors(fit_model(base, data, [1.3, 2.4], data.train_mask()))
     train = fit_set(base, [by_key["steering_gain"]], data, [1.3, 2.4], {}, data.train_mask())
     conf = confirm_effects(
-        data, base, [by_key["steering_gain"]], train, pool, factors, SelectionRules()
+        data, base, [by_key["steering_gain"]], train, pool, factors, CommandRules()
     )
     assert [e.key for e in conf.effects] == ["steering_gain"]
     alt = next(a for a in conf.alternatives if a.rule == GAIN_RULE)

@@ -49,6 +49,7 @@ from typing import Any, Literal, TypeVar
 import numpy as np
 import polars as pl
 
+from calib.discovery import Selection, Tried
 from calib.errors import CalibError
 from calib.results import Estimate
 from calib.tractor_trailer.discovery.confirm import (
@@ -75,7 +76,7 @@ from calib.tractor_trailer.discovery.diagnostics import (
 )
 from calib.tractor_trailer.discovery.effects import Effect, catalogue
 from calib.tractor_trailer.discovery.fit import (
-    ModelFit,
+    CommandFit,
     fit_model,
     holdout_rms,
     neff_factors,
@@ -92,7 +93,12 @@ from calib.tractor_trailer.discovery.result import (
     SensorCorrections,
     StepFailure,
 )
-from calib.tractor_trailer.discovery.selection import SelectionRules, SelectionStep, select_effects
+from calib.tractor_trailer.discovery.selection import (
+    CommandRules,
+    accepted_effects,
+    select_effects,
+    trial_record,
+)
 from calib.tractor_trailer.discovery.signals import INPUT_UNITS, delayed, input_signals
 from calib.tractor_trailer.discovery.sparse import SparseResidualModel, fit_sparse_residual
 from calib.tractor_trailer.discovery.windows import (
@@ -106,6 +112,7 @@ from calib.tractor_trailer.results import Segment
 __all__ = [
     "DEFAULT_BASELINE",
     "AlternativeExplanation",
+    "CommandRules",
     "Confound",
     "DiscoveryResult",
     "Effect",
@@ -113,7 +120,6 @@ __all__ = [
     "ExplanationFit",
     "JointFit",
     "MismatchRegion",
-    "SelectionRules",
     "SensorCorrections",
     "SensorEffectsForFit",
     "SpanChoice",
@@ -167,25 +173,34 @@ def _effect_fit(
     )
 
 
-def _round_candidates(steps: Sequence[SelectionStep]) -> dict[str, list[str]]:
+def _round_candidates(sel: Selection | None) -> dict[str, list[str]]:
     """Per accepted effect, the candidates of its round that were material, significant
     (every parameter >= 3 standard errors from its null) and within ``EQUIVALENCE_MARGIN`` BIC
     units of it: the ones to try in its place at the end."""
     out: dict[str, list[str]] = {}
-    for s in steps:
-        acc = s.accepted
+    for r in sel.rounds if sel is not None else ():
+        acc = r.accepted
         if acc is None:
             continue
-        out[acc.effect.key] = [
-            t.effect.key
-            for t in s.trials
+        out[acc.key] = [
+            t.key
+            for t in r.tried
             if t is not acc
-            and t.effect is not acc.effect
+            and t.key != acc.key
             and t.material
             and t.delta_bic <= acc.delta_bic + EQUIVALENCE_MARGIN
-            and all(z >= 3.0 for z in t.z.values())
+            and _significant(t, 3.0)
         ]
     return out
+
+
+def _significant(t: Tried, min_z: float) -> bool:
+    """Every parameter of the tried effect at least ``min_z`` standard errors from its null."""
+    fit = t.fit
+    spec = next((s for s in fit.effects if s.key == t.key), None) if fit is not None else None
+    if fit is None or spec is None:
+        return False
+    return all(z >= min_z for z in fit.z_scores(spec).values())
 
 
 def _joint_fit(conf: Confirmed, data: DiscoveryData, baseline: str) -> JointFit:
@@ -210,7 +225,7 @@ def _joint_fit(conf: Confirmed, data: DiscoveryData, baseline: str) -> JointFit:
     )
 
 
-def _full_rate_residuals(data: DiscoveryData, before: ModelFit, after: ModelFit) -> dict:
+def _full_rate_residuals(data: DiscoveryData, before: CommandFit, after: CommandFit) -> dict:
     out: dict[str, np.ndarray] = {"t_ns": data.t_ns}
     for tag, f in (("before", before), ("after", after)):
         pred = predict(f.spec, f.theta, data, full_rate=True)
@@ -221,8 +236,8 @@ def _full_rate_residuals(data: DiscoveryData, before: ModelFit, after: ModelFit)
 
 def _diagnostics(
     data: DiscoveryData,
-    base: ModelFit,
-    final: ModelFit,
+    base: CommandFit,
+    final: CommandFit,
     inputs: dict[str, np.ndarray],
     types: list[str],
     segments: Sequence[Segment] | None,
@@ -281,7 +296,7 @@ def _diagnostics(
 
 
 def _sparse(
-    data: DiscoveryData, final: ModelFit, inputs: dict[str, np.ndarray]
+    data: DiscoveryData, final: CommandFit, inputs: dict[str, np.ndarray]
 ) -> tuple[SparseResidualModel | None, list[dict[str, Any]]]:
     """STLSQ on each output's final residual that is not white; the best one if it explains
     at least ``MIN_SPARSE_R2`` of the held-out residual variance."""
@@ -358,7 +373,7 @@ def discover(
     baseline: Literal["steady", "transient"] = DEFAULT_BASELINE,
     segments: list[Segment] | None = None,
     rng: np.random.Generator | None = None,
-    rules: SelectionRules | None = None,
+    rules: CommandRules | None = None,
     signals: Mapping[str, pl.DataFrame] | None = None,
     max_span_s: float | None = DEFAULT_MAX_SPAN_S,
 ) -> DiscoveryResult:
@@ -375,7 +390,7 @@ def discover(
         segments: command segments (times in s from the first row) for per-segment and
             per-command-type diagnostics.
         rng: unused; the procedure is deterministic (kept for a uniform estimator signature).
-        rules: acceptance thresholds (defaults in ``SelectionRules``).
+        rules: acceptance thresholds (defaults in ``CommandRules``).
         signals: optional raw logical signals (name -> ``t_ns``, ``value`` frames, as
             ``logtools``' ``ResolvedSignals.signals``): the command is then taken at its own
             samples (not as the aligned frame holds it) and each output's noise is measured on
@@ -395,7 +410,7 @@ def discover(
     del rng
     if baseline not in ("steady", "transient"):
         raise CalibError(f"discovery: baseline must be 'steady' or 'transient', got {baseline!r}")
-    rules = rules or SelectionRules()
+    rules = rules or CommandRules()
     failures: list[StepFailure] = []
     windows = _windows_of(frame, max_span_s)
     if windows is not None:
@@ -420,15 +435,14 @@ def discover(
         lambda: select_effects(data, base_spec, theta0, pool, rules),
         None,
     )
-    steps, factors = selected if selected is not None else ([], neff_factors(base_train))
-    accepted = [s.accepted for s in steps if s.accepted is not None]
-    train = accepted[-1].fit if accepted else base_train
-    acc_effects = [t.effect for t in accepted]
+    sel, factors = selected if selected is not None else (None, neff_factors(base_train))
+    acc_effects = accepted_effects(sel) if sel is not None else []
+    train = sel.final.payload if sel is not None and acc_effects else base_train
     conf = _step(
         "confirmation",
         failures,
         lambda: confirm_effects(
-            data, base_spec, acc_effects, train, pool, factors, rules, _round_candidates(steps)
+            data, base_spec, acc_effects, train, pool, factors, rules, _round_candidates(sel)
         ),
         None,
     )
@@ -479,15 +493,7 @@ def discover(
     diag["neff_factor"] = factors
     no_dict: dict[str, float] = {}
     diag["neff_factor_final"] = _step("neff", failures, lambda: neff_factors(final), no_dict)
-    diag["selection"] = [
-        {
-            "holdout_before": s.holdout_before,
-            "trials": [t.to_dict() for t in s.trials],
-            "accepted": None if s.accepted is None else s.accepted.effect.key,
-            "errors": dict(s.errors),
-        }
-        for s in steps
-    ]
+    diag["selection"] = [trial_record(r, data) for r in (sel.rounds if sel is not None else ())]
     if conf is not None:
         diag["confirmation"] = {
             "dropped": conf.dropped,

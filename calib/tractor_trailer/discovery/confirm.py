@@ -40,7 +40,7 @@ from calib.tractor_trailer.discovery.data import RESOLUTION, DiscoveryData
 from calib.tractor_trailer.discovery.effects import Effect
 from calib.tractor_trailer.discovery.effects.base import Equivalent
 from calib.tractor_trailer.discovery.fit import (
-    ModelFit,
+    CommandFit,
     bic,
     covariance,
     fit_model,
@@ -50,7 +50,7 @@ from calib.tractor_trailer.discovery.fit import (
 from calib.tractor_trailer.discovery.model import ModelSpec, Vector
 from calib.tractor_trailer.discovery.result import AlternativeExplanation
 from calib.tractor_trailer.discovery.selection import (
-    SelectionRules,
+    CommandRules,
     is_material,
     weighted_holdout,
     z_scores,
@@ -71,7 +71,7 @@ FloatArray = NDArray[np.float64]
 Values = dict[str, dict[str, float]]
 
 # BIC units within which two explanations count as equivalent (the same threshold as strong
-# evidence for an effect in ``SelectionRules.max_delta_bic``).
+# evidence for an effect in ``CommandRules.max_delta_bic``).
 EQUIVALENCE_MARGIN = 10.0
 # a tied replacement may have at most this much larger noise-weighted held-out error
 TIE_HOLDOUT_SLACK = 1.05
@@ -120,8 +120,8 @@ class Confirmed:
     the log does not tell them apart."""
 
     effects: list[Effect]
-    train: ModelFit
-    final: ModelFit
+    train: CommandFit
+    final: CommandFit
     cov: FloatArray
     evidence: dict[str, Evidence]
     alternatives: list[AlternativeExplanation] = field(default_factory=list)
@@ -130,7 +130,7 @@ class Confirmed:
     close: list[tuple[AlternativeExplanation, str]] = field(default_factory=list)
 
 
-def effect_values(fit: ModelFit) -> Values:
+def effect_values(fit: CommandFit) -> Values:
     """Fitted parameter values per effect key."""
     _, _, per = fit.spec.split(fit.theta)
     return {e.key: dict(p) for e, p in zip(fit.spec.effects, per, strict=True)}
@@ -154,7 +154,7 @@ def fit_set(
     mask: NDArray[np.bool_],
     *,
     fine: bool = False,
-) -> ModelFit:
+) -> CommandFit:
     """``effects`` added to ``baseline``, fitted with L1, L2 on ``mask`` from the lengths ``L``
     and the effects' ``values`` (their initial values where missing)."""
     spec = ModelSpec(baseline.baseline, (*baseline.effects, *effects))
@@ -162,7 +162,7 @@ def fit_set(
 
 
 def effect_ci95(
-    fit: ModelFit, data: DiscoveryData, cov: FloatArray | None = None
+    fit: CommandFit, data: DiscoveryData, cov: FloatArray | None = None
 ) -> dict[str, dict[str, tuple[float, float]]]:
     """95 % intervals of the effects' parameters of ``fit`` (``cov``: its covariance, computed
     if not given)."""
@@ -182,13 +182,13 @@ def _equivalences(
     data: DiscoveryData,
     baseline: ModelSpec,
     effects: list[Effect],
-    train: ModelFit,
+    train: CommandFit,
     pool: Sequence[Effect],
     factors: Mapping[str, float],
-    rules: SelectionRules,
+    rules: CommandRules,
 ) -> tuple[
     list[Effect],
-    ModelFit,
+    CommandFit,
     list[AlternativeExplanation],
     list[dict[str, object]],
     list[tuple[AlternativeExplanation, str]],
@@ -313,7 +313,7 @@ def _equivalences(
 COMMON_SHIFT_Z = 2.0
 
 
-def _agree(fit: ModelFit, effects: Sequence[Effect], name: str, data: DiscoveryData) -> bool:
+def _agree(fit: CommandFit, effects: Sequence[Effect], name: str, data: DiscoveryData) -> bool:
     """The parameter ``name`` of ``effects`` (two or more) in ``fit`` agrees within
     ``COMMON_SHIFT_Z`` combined standard errors (e.g. clock offsets: one shift of every measured
     topic)."""
@@ -339,7 +339,7 @@ def _alternative(
     eq: Equivalent,
     reported: Sequence[str],
     alt: Sequence[str],
-    alt_fit: ModelFit,
+    alt_fit: CommandFit,
     data: DiscoveryData,
     d_bic_alt: float,
     why: str,
@@ -362,17 +362,17 @@ def _evidence(
     data: DiscoveryData,
     baseline: ModelSpec,
     effects: list[Effect],
-    train: ModelFit,
-    final: ModelFit,
+    train: CommandFit,
+    final: CommandFit,
     cov: FloatArray,
     factors: Mapping[str, float],
-) -> tuple[dict[str, Evidence], dict[str, ModelFit]]:
+) -> tuple[dict[str, Evidence], dict[str, CommandFit]]:
     mask, test = data.train_mask(), data.test_mask()
     hold = holdout_rms(train.spec, train.theta, data, test)
     vals = effect_values(train)
     fvals = effect_values(final)
     out: dict[str, Evidence] = {}
-    without: dict[str, ModelFit] = {}
+    without: dict[str, CommandFit] = {}
     for e in effects:
         rest = [x for x in effects if x is not e]
         g = fit_set(baseline, rest, data, train.theta[:2], vals, mask)
@@ -395,10 +395,10 @@ def _prune(
     data: DiscoveryData,
     baseline: ModelSpec,
     effects: list[Effect],
-    train: ModelFit,
+    train: CommandFit,
     factors: Mapping[str, float],
     dropped: list[dict[str, object]],
-) -> tuple[list[Effect], ModelFit, ModelFit, FloatArray, dict[str, Evidence]]:
+) -> tuple[list[Effect], CommandFit, CommandFit, FloatArray, dict[str, Evidence]]:
     """Drop failing effects one at a time (weakest first) until every one passes; returns the
     effects, their training fit, the final fit over all valid rows, its covariance and the
     evidence per effect."""
@@ -427,10 +427,10 @@ def _single_swaps(
     data: DiscoveryData,
     baseline: ModelSpec,
     effects: list[Effect],
-    train: ModelFit,
+    train: CommandFit,
     pool: Sequence[Effect],
     factors: Mapping[str, float],
-    rules: SelectionRules,
+    rules: CommandRules,
     candidates: Mapping[str, Sequence[str]],
     known: set[tuple[tuple[str, ...], tuple[str, ...]]],
 ) -> list[AlternativeExplanation]:
@@ -474,10 +474,10 @@ def confirm_effects(
     data: DiscoveryData,
     baseline: ModelSpec,
     effects: list[Effect],
-    train: ModelFit,
+    train: CommandFit,
     pool: Sequence[Effect],
     factors: Mapping[str, float],
-    rules: SelectionRules,
+    rules: CommandRules,
     candidates: Mapping[str, Sequence[str]] | None = None,
 ) -> Confirmed:
     """The per-effect checks, the equivalences, the checks again if an equivalent explanation

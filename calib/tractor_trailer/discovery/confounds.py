@@ -46,7 +46,7 @@ from calib.tractor_trailer.discovery.confirm import (
 from calib.tractor_trailer.discovery.data import DiscoveryData
 from calib.tractor_trailer.discovery.effects import Effect, catalogue
 from calib.tractor_trailer.discovery.effects.base import Equivalent
-from calib.tractor_trailer.discovery.fit import ModelFit, covariance
+from calib.tractor_trailer.discovery.fit import CommandFit, covariance
 from calib.tractor_trailer.discovery.model import ModelSpec
 from calib.tractor_trailer.discovery.result import (
     AlternativeExplanation,
@@ -106,7 +106,7 @@ def _parameter_rules(
     return out
 
 
-def _explanation(fit: ModelFit, cov: np.ndarray, data: DiscoveryData) -> ExplanationFit:
+def _explanation(fit: CommandFit, cov: np.ndarray, data: DiscoveryData) -> ExplanationFit:
     vals = {n: float(fit.theta[i]) for i, n in enumerate(("L1", "L2"))}
     sd = {}
     for i, n in enumerate(("L1", "L2")):

@@ -23,7 +23,7 @@ from calib.tractor_trailer.discovery.data import RESOLUTION, DiscoveryData
 from calib.tractor_trailer.discovery.model import ModelSpec, Vector, predict
 
 __all__ = [
-    "ModelFit",
+    "CommandFit",
     "bic",
     "covariance",
     "fit_model",
@@ -37,7 +37,7 @@ BoolArray = NDArray[np.bool_]
 
 
 @dataclass(frozen=True)
-class ModelFit:
+class CommandFit:
     """A fitted spec: parameter vector, residuals (recorded - modelled) on the fitting grid
     (arrays read-only: a fit is remembered and shared, ``fit_model``)."""
 
@@ -94,7 +94,7 @@ def fit_model(
     fine: bool = False,
     tol: float = 1e-8,
     max_nfev: int | None = None,
-) -> ModelFit:
+) -> CommandFit:
     """Least-squares fit of ``spec`` on the fitting-grid rows in ``mask`` (default all).
 
     ``theta0`` is the starting vector (L1, L2 in m, then effect parameters); every start of the
@@ -117,7 +117,7 @@ def _fit(
     fine: bool,
     tol: float,
     max_nfev: int | None,
-) -> ModelFit:
+) -> CommandFit:
     specs = spec.param_specs
     lo = np.array([p.lower for p in specs])
     hi = np.array([p.upper for p in specs])
@@ -140,7 +140,7 @@ def _fit(
         )
     except (ValueError, np.linalg.LinAlgError) as err:  # pragma: no cover - defensive
         raise SolverError(f"discovery: fit of {spec.param_names} failed: {err}") from err
-    fit = ModelFit(
+    fit = CommandFit(
         spec=spec,
         theta=np.array(best.x, dtype=float),
         residuals=_residuals(spec, best.x, data, fine),
@@ -153,7 +153,7 @@ def _fit(
     return fit
 
 
-def neff_factors(fit: ModelFit, mask: BoolArray | None = None) -> dict[str, float]:
+def neff_factors(fit: CommandFit, mask: BoolArray | None = None) -> dict[str, float]:
     """Effective-sample factor (1 - rho)/(1 + rho) per output, rho clipped to [0, 0.995].
 
     Computed on contiguous rows of ``mask`` only (pairs that straddle a gap are skipped).
@@ -162,7 +162,7 @@ def neff_factors(fit: ModelFit, mask: BoolArray | None = None) -> dict[str, floa
     return {c: lag1_factor(r, mk) for c, r in fit.residuals.items()}
 
 
-def bic(fit: ModelFit, factors: Mapping[str, float]) -> float:
+def bic(fit: CommandFit, factors: Mapping[str, float]) -> float:
     """BIC with per-output unknown noise variance and effective sample sizes.
 
     -2 log L = sum_c n_eff,c log(RSS_c / n_c); penalty k log(sum_c n_eff,c), k = number of
@@ -179,7 +179,7 @@ def holdout_rms(
     return {c: float(np.sqrt(np.mean(r[mask] ** 2))) for c, r in res.items()}
 
 
-def covariance(fit: ModelFit, data: DiscoveryData, *, robust: bool = True) -> FloatArray:
+def covariance(fit: CommandFit, data: DiscoveryData, *, robust: bool = True) -> FloatArray:
     """Parameter covariance: Gauss-Newton Fisher information, each output's residual variance
     taken from the fit and inflated by (1 + rho)/(1 - rho) for its autocorrelation; each
     variance raised to the Newey-West one where that is larger (``_hac_covariance``; not with
@@ -217,7 +217,7 @@ def covariance(fit: ModelFit, data: DiscoveryData, *, robust: bool = True) -> Fl
 
 
 def _hac_covariance(
-    fit: ModelFit, data: DiscoveryData, fac: Mapping[str, float]
+    fit: CommandFit, data: DiscoveryData, fac: Mapping[str, float]
 ) -> FloatArray | None:
     """Newey-West (Bartlett) sandwich covariance of the least-squares parameters: robust to
     residuals that are correlated over many samples (a smooth misfit the model leaves), which
@@ -242,7 +242,7 @@ def _hac_covariance(
     return np.asarray(out, dtype=float) if np.all(np.isfinite(out)) else None
 
 
-def param_std(fit: ModelFit, cov: FloatArray, name: str, time_shift: bool, dt_s: float) -> float:
+def param_std(fit: CommandFit, cov: FloatArray, name: str, time_shift: bool, dt_s: float) -> float:
     """Standard error of parameter ``name``: the Fisher variance, plus for a time shift (a
     dead time, a clock offset, a lag's time constant) the resolution dt^2 / 12 (a jump is only
     known to lie within one sample period; ``DiscoveryData.time_resolution_s``)."""

@@ -1,9 +1,11 @@
-"""Greedy forward selection of catalogue effects on held-out data and BIC.
+"""The command-driven model as a fitter of the shared forward selection
+(:func:`calib.discovery.select_effects`), with this model's rules.
 
 Each round fits every remaining candidate added to the current model (training blocks, link
-lengths refitted jointly), measures the RMS on the held-out blocks and the BIC change, and
-accepts, among the candidates that pass all the rules below, the one with the lowest
-noise-weighted held-out error (every catalogue effect has one parameter):
+lengths refitted jointly, started from the current model's solution), measures the RMS on the
+held-out blocks and the BIC change, and accepts, among the candidates that pass all the rules
+below, the one with the lowest noise-weighted held-out error (every catalogue effect has one
+parameter):
 
 * material: the held-out RMS of an output the effect acts on falls by at least
   ``min_gain`` (10 %) and the noise-weighted held-out error of all outputs does not grow;
@@ -20,25 +22,42 @@ noise-weighted held-out error (every catalogue effect has one parameter):
   value; a catalogue effect that only mimics something else drifts with the conditions.
 
 When no candidate passes a round only because the strongest ones drift, pairs are tried
-(``_pair_step``): an effect can look inconstant while another it interacts with is missing.
-A pair is accepted under the same rules (BIC <= 2 x ``max_delta_bic``, both effects
+(the engine's pair rounds): an effect can look inconstant while another it interacts with is
+missing. A pair is accepted under the same rules (BIC <= 2 x ``max_delta_bic``, both effects
 significant, interior and constant) and recorded as two consecutive rounds.
+
+The engine owns the rounds; this module owns what is the tractor-trailer's: the fit of a set of
+effects (:class:`CommandFitter`), materiality on the channels an effect acts on
+(:func:`is_material`), the ranking by noise-weighted held-out error and the constancy check on
+halves of the log (:func:`_stability`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from calib.discovery import (
+    CandidateFailedError,
+    Checks,
+    EffectSpec,
+    Round,
+    Selection,
+    SelectionRules,
+)
+from calib.discovery import ModelFit as EngineFit
+from calib.discovery import select_effects as engine_select
 from calib.errors import SolverError
+from calib.results import Estimate
 from calib.tractor_trailer.discovery.data import RESOLUTION, DiscoveryData, block_mean
 from calib.tractor_trailer.discovery.effects import Effect
 from calib.tractor_trailer.discovery.fit import (
-    ModelFit,
+    CommandFit,
     bic,
     covariance,
     fit_model,
@@ -49,12 +68,12 @@ from calib.tractor_trailer.discovery.fit import (
 from calib.tractor_trailer.discovery.model import BASE_PARAMS, ModelSpec, Vector
 
 __all__ = [
-    "SelectionRules",
-    "SelectionStep",
-    "Trial",
+    "CommandFitter",
+    "CommandRules",
     "accepted_effects",
     "is_material",
     "select_effects",
+    "trial_record",
     "weighted_holdout",
     "z_scores",
 ]
@@ -64,7 +83,7 @@ PAIR_SEEDS = 2
 
 
 @dataclass(frozen=True)
-class SelectionRules:
+class CommandRules:
     """Thresholds of the acceptance rules (see the module docstring)."""
 
     min_gain: float = 0.10
@@ -74,47 +93,19 @@ class SelectionRules:
     max_split_rel: float = 0.25
     max_effects: int = 4
 
-
-@dataclass(frozen=True)
-class Trial:
-    """One candidate tried in one round."""
-
-    effect: Effect
-    fit: ModelFit
-    holdout: dict[str, float]
-    delta_bic: float
-    z: dict[str, float]
-    material: bool
-    accepted: bool = False
-    split: dict[str, list[float]] | None = None
-    stable: bool | None = None
-
-    def to_dict(self) -> dict[str, object]:
-        return {
-            "effect": self.effect.key,
-            "holdout_rms": dict(self.holdout),
-            "delta_bic": self.delta_bic,
-            "z": dict(self.z),
-            "material": self.material,
-            "accepted": self.accepted,
-            "split": self.split,
-            "stable": self.stable,
-        }
+    def engine(self) -> SelectionRules:
+        """The shared engine's rules for these thresholds."""
+        return SelectionRules(
+            max_effects=self.max_effects,
+            bic_margin=-self.max_delta_bic,
+            min_z=self.min_z,
+            require_interior=True,
+            pairs=True,
+            pair_seeds=PAIR_SEEDS,
+        )
 
 
-@dataclass(frozen=True)
-class SelectionStep:
-    """One round: the model before it, its held-out RMS, the trials, the accepted effect and
-    the candidates whose fit failed (``errors``, key -> reason; left out of the round)."""
-
-    before: ModelFit
-    holdout_before: dict[str, float]
-    trials: list[Trial] = field(default_factory=list)
-    accepted: Trial | None = None
-    errors: dict[str, str] = field(default_factory=dict)
-
-
-def z_scores(fit: ModelFit, effect: Effect, data: DiscoveryData) -> dict[str, float]:
+def z_scores(fit: CommandFit, effect: Effect, data: DiscoveryData) -> dict[str, float]:
     """Distance of the effect's parameters from their null values, in the standard errors that
     are reported (a time shift's include the time resolution; ``fit.param_std``)."""
     cov = covariance(fit, data)
@@ -144,10 +135,9 @@ def _split_masks(data: DiscoveryData) -> list[tuple[NDArray[np.bool_], NDArray[n
 
 
 def _stability(
-    trial: Trial, data: DiscoveryData, rules: SelectionRules
+    f: CommandFit, e: Effect, data: DiscoveryData, rules: CommandRules
 ) -> tuple[bool, dict[str, list[float]]]:
-    """Refit the trial's model on each half of each split; True if the effect is constant."""
-    e, f = trial.effect, trial.fit
+    """Refit ``f``'s model on each half of each split; True if the effect ``e`` is constant."""
     names = f.names
     idx = [names.index(f"{e.key}.{p.name}") for p in e.params]
     split: dict[str, list[float]] = {p.name: [] for p in e.params}
@@ -172,7 +162,7 @@ def _stability(
     return stable, split
 
 
-def _interior(fit: ModelFit, rel: float = 1e-3) -> bool:
+def _interior(fit: CommandFit, rel: float = 1e-3) -> bool:
     """True if no effect parameter is within ``rel`` of its range from a bound."""
     specs = fit.spec.param_specs[len(BASE_PARAMS) :]
     vals = fit.theta[len(BASE_PARAMS) :]
@@ -182,15 +172,15 @@ def _interior(fit: ModelFit, rel: float = 1e-3) -> bool:
     )
 
 
-def weighted_holdout(hold: dict[str, float], data: DiscoveryData) -> float:
+def weighted_holdout(hold: Mapping[str, float], data: DiscoveryData) -> float:
     """Held-out error of all outputs, each in units of its noise level on the fitting grid."""
     return sum((r / data.sigma_d[c]) ** 2 for c, r in hold.items())
 
 
 def is_material(
     channels: Sequence[str],
-    hold: dict[str, float],
-    hold_before: dict[str, float],
+    hold: Mapping[str, float],
+    hold_before: Mapping[str, float],
     data: DiscoveryData,
     min_gain: float,
 ) -> bool:
@@ -207,150 +197,156 @@ def is_material(
     return False
 
 
+class CommandFitter:
+    """The engine's :class:`~calib.discovery.Fitter` for the command-driven model: a set of
+    effects fitted with L1, L2 on the training blocks, started from the fit of the same set
+    without its last effect (the current model of the round), judged on the held-out blocks,
+    its BIC counted at the effective sample sizes of a reference model that holds every
+    candidate (so that every candidate is judged at the same rate)."""
+
+    def __init__(
+        self,
+        data: DiscoveryData,
+        baseline: ModelSpec,
+        theta0: Vector,
+        candidates: Sequence[Effect],
+    ) -> None:
+        self.data, self.baseline, self.theta0 = data, baseline, list(theta0)
+        self.train, self.test = data.train_mask(), data.test_mask()
+        ref_spec = ModelSpec(baseline.baseline, (*baseline.effects, *candidates))
+        ref_theta0 = list(theta0) + [p.init for e in candidates for p in e.params]
+        ref = fit_model(
+            ref_spec, data, ref_theta0, self.train, tol=1e-4, max_nfev=20 * len(ref_theta0)
+        )
+        self.factors = neff_factors(ref)
+        self.fits: dict[tuple[str, ...], CommandFit] = {}
+
+    def _fit(self, effects: tuple[Effect, ...]) -> CommandFit:
+        if not effects:
+            return fit_model(self.baseline, self.data, self.theta0, self.train)
+        parent = self.fits[tuple(e.key for e in effects[:-1])]
+        last = effects[-1]
+        th0 = list(parent.theta) + [p.init for p in last.params]
+        return fit_model(parent.spec.with_effect(last), self.data, th0, self.train, tol=1e-6)
+
+    def __call__(self, specs: tuple[EffectSpec[Effect], ...]) -> EngineFit:
+        effects = tuple(_effect(s) for s in specs)
+        keys = tuple(e.key for e in effects)
+        try:
+            f = self._fit(effects)
+            hold = holdout_rms(f.spec, f.theta, self.data, self.test)
+            value = bic(f, self.factors)
+            pars = _effect_estimates(f, effects, self.data)
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError, SolverError) as err:
+            raise CandidateFailedError(f"{type(err).__name__}: {err}") from err
+        if not all(math.isfinite(x) for x in (value, *hold.values())):
+            raise CandidateFailedError("non-finite fit")
+        self.fits[keys] = f
+        n, n_test = int(f.mask.sum()), int(self.test.sum())
+        sse = sum(r / self.data.sigma_d[c] ** 2 for c, r in f.rss().items())
+        return EngineFit(
+            specs,
+            {},
+            pars,
+            sse,
+            n_test * weighted_holdout(hold, self.data),
+            n * len(hold),
+            len(f.theta),
+            n_heldout=n_test * len(hold),
+            payload=f,
+            bic_value=value,
+            heldout_rms=hold,
+            at_bound=not _interior(f),
+        )
+
+    def checks(self, rules: CommandRules) -> Checks:
+        """This model's own tests for the engine (module docstring)."""
+        data = self.data
+
+        def material(cand: EngineFit, current: EngineFit, added: tuple[EffectSpec, ...]) -> bool:
+            chans = tuple(dict.fromkeys(c for s in added for c in _effect(s).channels))
+            return is_material(chans, cand.heldout_rms, current.heldout_rms, data, rules.min_gain)
+
+        def stable(fit: EngineFit, spec: EffectSpec) -> tuple[bool, Any]:
+            return _stability(fit.payload, _effect(spec), data, rules)
+
+        return Checks(
+            material=material, rank=lambda f: weighted_holdout(f.heldout_rms, data), stable=stable
+        )
+
+
+def _effect(spec: EffectSpec[Effect]) -> Effect:
+    if spec.model is None:  # pragma: no cover - every command-driven entry is its own hook
+        raise ValueError(f"command-driven effect {spec.key}: no hook")
+    return spec.model
+
+
+def _effect_estimates(
+    f: CommandFit, effects: Sequence[Effect], data: DiscoveryData
+) -> dict[str, dict[str, Estimate]]:
+    """Each effect's parameters with the standard errors that are reported (a time shift's
+    include the time resolution; ``fit.param_std``)."""
+    cov = covariance(f, data)
+    out: dict[str, dict[str, Estimate]] = {}
+    for e in effects:
+        out[e.key] = {}
+        for p in e.params:
+            name = f"{e.key}.{p.name}"
+            sd = param_std(f, cov, name, p.time_shift, data.time_resolution_s)
+            v = float(f.theta[f.names.index(name)])
+            out[e.key][p.name] = Estimate(
+                p.name, v, sd, (v - 1.96 * sd, v + 1.96 * sd), unit=p.unit
+            )
+    return out
+
+
 def select_effects(
     data: DiscoveryData,
     baseline: ModelSpec,
     theta0: Vector,
     candidates: Sequence[Effect],
-    rules: SelectionRules | None = None,
-) -> tuple[list[SelectionStep], dict[str, float]]:
-    """Greedy forward selection; returns the rounds and the effective-sample factors used."""
-    rules = rules or SelectionRules()
-    train, test = data.train_mask(), data.test_mask()
-    ref_spec = ModelSpec(baseline.baseline, (*baseline.effects, *candidates))
-    ref_theta0 = list(theta0) + [p.init for e in candidates for p in e.params]
-    ref = fit_model(ref_spec, data, ref_theta0, train, tol=1e-4, max_nfev=20 * len(ref_theta0))
-    factors = neff_factors(ref)
-    current = fit_model(baseline, data, theta0, train)
-    hold_cur = holdout_rms(baseline, current.theta, data, test)
-    remaining = list(candidates)
-    steps: list[SelectionStep] = []
-    while remaining and len(steps) < rules.max_effects:
-        trials = []
-        bic_cur = bic(current, factors)
-        errors: dict[str, str] = {}
-        for e in remaining:
-            spec = current.spec.with_effect(e)
-            th0 = list(current.theta) + [p.init for p in e.params]
-            try:
-                f = fit_model(spec, data, th0, train, tol=1e-6)
-                hold = holdout_rms(spec, f.theta, data, test)
-                z = z_scores(f, e, data)
-                d_bic = bic(f, factors) - bic_cur
-            except (ArithmeticError, ValueError, np.linalg.LinAlgError, SolverError) as err:
-                errors[e.key] = f"{type(err).__name__}: {err}"  # this candidate only
-                continue
-            if not all(math.isfinite(x) for x in (d_bic, *hold.values())):
-                errors[e.key] = "non-finite fit"
-                continue
-            material = is_material(e.channels, hold, hold_cur, data, rules.min_gain)
-            trials.append(Trial(e, f, hold, d_bic, z, material))
-        passing = [
-            t
-            for t in trials
-            if t.material
-            and t.delta_bic <= rules.max_delta_bic
-            and all(z >= rules.min_z for z in t.z.values())
-            and _interior(t.fit)
-        ]
-        best = None
-        # every candidate has one parameter: the held-out error ranks them (BIC on the
-        # training blocks can favour an effect that also bends the link lengths)
-        for t in sorted(passing, key=lambda t: (weighted_holdout(t.holdout, data), t.delta_bic)):
-            stable, split = _stability(t, data, rules)
-            checked = replace(t, split=split, stable=stable, accepted=stable)
-            trials[trials.index(t)] = checked
-            if stable:
-                best = checked
-                break
-        if best is None and len(steps) + 2 <= rules.max_effects:
-            pair = _pair_step(data, current, hold_cur, bic_cur, trials, remaining, factors, rules)
-            if pair is not None:
-                first, second, pair_trials = pair
-                steps.append(SelectionStep(current, hold_cur, trials, first, errors))
-                steps.append(SelectionStep(current, hold_cur, pair_trials, second))
-                current, hold_cur = second.fit, second.holdout
-                remaining = [e for e in remaining if e not in (first.effect, second.effect)]
-                continue
-        steps.append(SelectionStep(current, hold_cur, trials, best, errors))
-        if best is None:
-            break
-        current, hold_cur = best.fit, best.holdout
-        remaining = [e for e in remaining if e is not best.effect]
-    return steps, factors
+    rules: CommandRules | None = None,
+) -> tuple[Selection, dict[str, float]]:
+    """Greedy forward selection through the shared engine; returns its selection and the
+    effective-sample factors used (SolverError when the baseline itself cannot be fitted)."""
+    rules = rules or CommandRules()
+    fitter = CommandFitter(data, baseline, theta0, candidates)
+    sel = engine_select(
+        fitter, [e.spec for e in candidates], rules=rules.engine(), checks=fitter.checks(rules)
+    )
+    if sel is None:
+        raise SolverError("discovery: the baseline could not be fitted on the training blocks")
+    return sel, fitter.factors
 
 
-def _pair_step(
-    data: DiscoveryData,
-    current: ModelFit,
-    hold_cur: dict[str, float],
-    bic_cur: float,
-    trials: Sequence[Trial],
-    remaining: Sequence[Effect],
-    factors: dict[str, float],
-    rules: SelectionRules,
-) -> tuple[Trial, Trial, list[Trial]] | None:
-    """Two effects at once, when no single one passed a round only because it drifted with
-    the conditions: an effect can look inconstant while another one it interacts with is
-    missing (a yaw-rate gain and understeer, say). The (at most ``PAIR_SEEDS``) strongest
-    such candidates are each paired with every other candidate; the pair with the lowest
-    held-out error that passes every rule (both effects constant) is accepted.
-
-    Returns (trial of the first effect, trial of the second, the pair trials), both trials
-    holding the pair's fit, or None.
-    """
-    train, test = data.train_mask(), data.test_mask()
-    seeds = sorted(
-        (
-            t
-            for t in trials
-            if t.stable is False
-            and t.material
-            and t.delta_bic <= rules.max_delta_bic
-            and all(z >= rules.min_z for z in t.z.values())
-        ),
-        key=lambda t: weighted_holdout(t.holdout, data),
-    )[:PAIR_SEEDS]
-    found: list[tuple[float, Trial, Trial]] = []
-    pair_trials: list[Trial] = []
-    for t in seeds:
-        for e2 in remaining:
-            if e2 is t.effect:
-                continue
-            spec = t.fit.spec.with_effect(e2)
-            th0 = list(t.fit.theta) + [p.init for p in e2.params]
-            try:
-                f = fit_model(spec, data, th0, train, tol=1e-6)
-                hold = holdout_rms(spec, f.theta, data, test)
-                z1, z2 = z_scores(f, t.effect, data), z_scores(f, e2, data)
-                d_bic = bic(f, factors) - bic_cur
-            except (ArithmeticError, ValueError, np.linalg.LinAlgError, SolverError):
-                continue
-            chans = tuple(dict.fromkeys((*t.effect.channels, *e2.channels)))
-            material = is_material(chans, hold, hold_cur, data, rules.min_gain)
-            second = Trial(e2, f, hold, d_bic, z2, material)
-            pair_trials.append(second)
-            if (
-                material
-                and d_bic <= 2 * rules.max_delta_bic
-                and all(z >= rules.min_z for z in (*z1.values(), *z2.values()))
-                and _interior(f)
-            ):
-                first = Trial(t.effect, f, hold, d_bic, z1, material)
-                found.append((weighted_holdout(hold, data), first, second))
-    for _, first, second in sorted(found, key=lambda x: x[0]):
-        ok1, split1 = _stability(first, data, rules)
-        ok2, split2 = _stability(second, data, rules) if ok1 else (False, None)
-        if ok1 and ok2:
-            first = replace(first, split=split1, stable=True, accepted=True)
-            second = replace(second, split=split2, stable=True, accepted=True)
-            pair_trials[pair_trials.index(next(p for p in pair_trials if p.fit is second.fit))] = (
-                second
-            )
-            return first, second, pair_trials
-    return None
+def trial_record(r: Round, data: DiscoveryData) -> dict[str, object]:
+    """One round of the selection for the diagnostics: the held-out RMS before it, each
+    candidate (its held-out RMS, BIC change, z-scores, materiality, constancy and split
+    values), the accepted effect and the candidates whose fit failed."""
+    trials = []
+    for t in r.tried:
+        fit = t.fit
+        spec = next(s for s in fit.effects if s.key == t.key) if fit is not None else None
+        trials.append(
+            {
+                "effect": t.key,
+                "holdout_rms": dict(fit.heldout_rms) if fit is not None else {},
+                "delta_bic": t.delta_bic,
+                "z": fit.z_scores(spec) if fit is not None and spec is not None else {},
+                "material": t.material,
+                "accepted": t.accepted,
+                "split": t.detail,
+                "stable": t.stable,
+            }
+        )
+    return {
+        "holdout_before": dict(r.before.heldout_rms),
+        "trials": trials,
+        "accepted": None if r.accepted is None else r.accepted.key,
+        "errors": dict(r.failed),
+    }
 
 
-def accepted_effects(steps: Sequence[SelectionStep]) -> list[Effect]:
+def accepted_effects(sel: Selection) -> list[Effect]:
     """Effects accepted over the rounds, in order."""
-    return [s.accepted.effect for s in steps if s.accepted is not None]
+    return [_effect(s) for s in sel.final.effects]
