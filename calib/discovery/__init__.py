@@ -3,8 +3,11 @@
 A robot declares its effects (:class:`EffectSpec`, each with the model hook its fitter calls)
 in its catalogue, registers outside ones through an :class:`EffectRegistry`, and supplies a
 :class:`Fitter`; the engine selects effects forward on held-out data (:func:`select_effects`),
-and reports what it found. Parts, one module each: ``base`` (the protocols), ``registry``,
-``selection``.
+models what the catalogue leaves out from the robot's own signals (``library``, ``sparse``,
+``describe``), gives intervals that hold across the explanations (``explanations``) and reports
+what it found in one shape (``report``). Parts, one module each: ``base`` (the protocols),
+``registry``, ``selection``, ``library``, ``sparse``, ``describe``, ``explanations``,
+``report``.
 """
 
 from calib.discovery.base import (
@@ -15,7 +18,25 @@ from calib.discovery.base import (
     Fitter,
     ModelFit,
 )
+from calib.discovery.describe import (
+    DescribedTerm,
+    DescribedTerms,
+    Description,
+    Entry,
+    ResidualSpace,
+    describe,
+)
+from calib.discovery.explanations import Explanation, Spanned, across, plausible
+from calib.discovery.library import Family, Role, Signal, Term, build_library
 from calib.discovery.registry import EffectRegistry
+from calib.discovery.report import (
+    Alternative,
+    DiscoveryReport,
+    FoundEffect,
+    found_effects,
+    moved_parameters,
+    verdict_record,
+)
 from calib.discovery.selection import (
     BIC_MARGIN,
     MIN_HELDOUT_GAIN,
@@ -32,19 +53,40 @@ from calib.discovery.selection import (
 __all__ = [
     "BIC_MARGIN",
     "MIN_HELDOUT_GAIN",
+    "Alternative",
     "CandidateFailedError",
     "Checks",
     "Confound",
+    "DescribedTerm",
+    "DescribedTerms",
+    "Description",
+    "DiscoveryReport",
     "EffectKind",
     "EffectParam",
     "EffectRegistry",
     "EffectSpec",
+    "Entry",
+    "Explanation",
+    "Family",
     "Fitter",
+    "FoundEffect",
     "ModelFit",
+    "ResidualSpace",
+    "Role",
     "Round",
     "Selection",
     "SelectionRules",
+    "Signal",
+    "Spanned",
+    "Term",
     "Tried",
+    "across",
+    "build_library",
+    "describe",
+    "found_effects",
     "heldout_gain",
+    "moved_parameters",
+    "plausible",
     "select_effects",
+    "verdict_record",
 ]

@@ -12,6 +12,7 @@ from discovery_logs import ISSUE_CATALOGUE
 from discovery_simruns import null_study  # type: ignore[import-not-found]
 from sim_frame import aligned_frame_from_run  # type: ignore[import-not-found]
 
+from calib.discovery.sparse import stlsq
 from calib.errors import InsufficientDataError
 from calib.tractor_trailer.discovery import catalogue, discover
 from calib.tractor_trailer.discovery.data import CommandSignal, prepare_data
@@ -23,7 +24,6 @@ from calib.tractor_trailer.discovery.model import (
     integrate_hitch_half,
     predict,
 )
-from calib.tractor_trailer.discovery.sparse import stlsq
 from calib.tractor_trailer.models.hitch_kinematics import steady_state_psi
 from calib.tractor_trailer.results import CommandType
 from calib.tractor_trailer.sim.commands import CommandSequence, CommandSpec

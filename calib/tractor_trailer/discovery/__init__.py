@@ -50,6 +50,7 @@ import numpy as np
 import polars as pl
 
 from calib.discovery import Selection, Tried
+from calib.discovery.sparse import SparseResidualModel, fit_sparse_residual
 from calib.errors import CalibError
 from calib.results import Estimate
 from calib.tractor_trailer.discovery.confirm import (
@@ -100,7 +101,6 @@ from calib.tractor_trailer.discovery.selection import (
     trial_record,
 )
 from calib.tractor_trailer.discovery.signals import INPUT_UNITS, delayed, input_signals
-from calib.tractor_trailer.discovery.sparse import SparseResidualModel, fit_sparse_residual
 from calib.tractor_trailer.discovery.windows import (
     DEFAULT_MAX_SPAN_S,
     DataWindows,

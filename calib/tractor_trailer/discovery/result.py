@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from calib.discovery.sparse import SparseResidualModel
 from calib.results import Estimate, json_safe
 from calib.tractor_trailer.discovery.diagnostics import UNITS, MismatchRegion
 from calib.tractor_trailer.discovery.effects.base import SensorCorrections
-from calib.tractor_trailer.discovery.sparse import SparseResidualModel
 from calib.tractor_trailer.discovery.windows import DataWindows
 
 __all__ = [

@@ -1,13 +1,19 @@
-"""Sparse regression of the remaining residual on a library of candidate terms (STLSQ).
+"""Sparse regression of a residual on a library of candidate terms (STLSQ), with ensembling.
 
-Sequentially thresholded least squares (Brunton et al. 2016): solve least squares, zero the
-terms whose standardised contribution is below a threshold, refit on the rest, repeat. The
-threshold is chosen on held-out blocks (the sparsest model within 0.02 of the best held-out
-R^2), so an effect nobody catalogued is still located and described by the signals it follows.
+Sequentially thresholded least squares (Brunton et al. 2016, pysindy's ``STLSQ``): solve least
+squares, zero the terms whose standardised contribution is below a threshold, refit on the rest,
+repeat. :func:`fit_sparse_residual` chooses the threshold on held-out blocks (the sparsest
+model within 0.02 of the best held-out R^2) and describes what a residual follows.
+:func:`select_terms` is the residual model's screen (:mod:`calib.discovery.describe`): the
+threshold chosen by cross-validation over the held-out folds, then the terms kept that an
+ensemble of fits on resampled blocks of the training data selects in most of its members
+(pysindy's ``EnsembleOptimizer`` with bagging; Fasel et al. 2022), so that a term one lucky
+stretch of the log favours does not pass for physics.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -17,7 +23,14 @@ from numpy.typing import NDArray
 
 from calib.results import json_safe
 
-__all__ = ["SparseResidualModel", "SparseTerm", "fit_sparse_residual", "stlsq"]
+__all__ = [
+    "SparseResidualModel",
+    "SparseTerm",
+    "TermSelection",
+    "fit_sparse_residual",
+    "select_terms",
+    "stlsq",
+]
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -146,3 +159,92 @@ def fit_sparse_residual(
         if coef[j] != 0
     ]
     return SparseResidualModel(channel, terms, r2, ljung_box_p, thr)
+
+
+INCLUSION = 0.6
+"""A term is kept when at least this share of the ensemble's members select it."""
+ENSEMBLE = 24
+"""Members of the ensemble (fits on resampled blocks)."""
+SCREEN_THRESHOLDS: tuple[float, ...] = (0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3)
+
+
+@dataclass(frozen=True)
+class TermSelection:
+    """The screen's choice: column indices ``kept`` with their ensemble mean coefficients
+    ``coef`` and inclusion shares; the threshold chosen and the cross-validated residual sum of
+    squares of the chosen model against none (``cv_sse``, ``cv_sse_none``)."""
+
+    kept: tuple[int, ...]
+    coef: tuple[float, ...]
+    inclusion: tuple[float, ...]
+    threshold: float
+    cv_sse: float
+    cv_sse_none: float
+
+
+def _cv_sse(x: FloatArray, y: FloatArray, folds: NDArray[np.intp], threshold: float) -> float:
+    """Sum of squared held-out errors over the folds (each fold predicted by the others)."""
+    total = 0.0
+    for f in np.unique(folds[folds >= 0]):
+        tr, te = (folds >= 0) & (folds != f), folds == f
+        if tr.sum() < x.shape[1] + 2 or not te.any():
+            continue
+        coef = stlsq(x[tr], y[tr], threshold)
+        total += float(np.sum((y[te] - x[te] @ coef) ** 2))
+    return total
+
+
+def _blocks(n: int, size: int) -> list[NDArray[np.intp]]:
+    starts = range(0, n, size)
+    return [np.arange(a, min(a + size, n), dtype=np.intp) for a in starts]
+
+
+def select_terms(
+    x: FloatArray,
+    y: FloatArray,
+    folds: NDArray[np.intp],
+    *,
+    thresholds: Sequence[float] = SCREEN_THRESHOLDS,
+    members: int = ENSEMBLE,
+    block: int = 50,
+    seed: int = 0,
+) -> TermSelection | None:
+    """The terms (columns of ``x``) that model ``y``: the threshold with the least
+    cross-validated error over ``folds`` (the sparsest within one standard error of it), then
+    the terms that at least ``INCLUSION`` of ``members`` bagged fits (blocks of ``block``
+    consecutive samples drawn with replacement) select at that threshold. None when no term is
+    kept or the cross-validated error does not fall below the model without terms."""
+    ok = np.all(np.isfinite(x), axis=1) & np.isfinite(y)
+    x, y, folds = x[ok], y[ok], folds[ok]
+    if x.shape[0] < 4 * max(x.shape[1], 5):
+        return None
+    none = float(np.sum(y[folds >= 0] ** 2))
+    scores = [(thr, _cv_sse(x, y, folds, thr)) for thr in thresholds]
+    best = min(s for _, s in scores)
+    se = math.sqrt(2.0 / max(int((folds >= 0).sum()), 1)) * best
+    thr = max(t for t, s in scores if s <= best + se)
+    cv = dict(scores)[thr]
+    if not cv < none:
+        return None
+    rng = np.random.default_rng(seed)
+    blocks = _blocks(x.shape[0], block)
+    picks = np.zeros(x.shape[1])
+    coefs = np.zeros(x.shape[1])
+    for _ in range(members):
+        rows = np.concatenate([blocks[i] for i in rng.integers(0, len(blocks), len(blocks))])
+        c = stlsq(x[rows], y[rows], thr)
+        picks += c != 0
+        coefs += c
+    share = picks / members
+    kept = tuple(int(j) for j in np.flatnonzero(share >= INCLUSION))
+    if not kept:
+        return None
+    mean = coefs / np.maximum(picks, 1)
+    return TermSelection(
+        kept,
+        tuple(float(mean[j]) for j in kept),
+        tuple(float(share[j]) for j in kept),
+        float(thr),
+        cv,
+        none,
+    )
