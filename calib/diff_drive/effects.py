@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -41,15 +41,24 @@ from scipy.optimize import least_squares
 
 from calib.diff_drive.adequacy import StuckSpan
 from calib.diff_drive.data import DriveRun
+from calib.diff_drive.described import (
+    described_hook,
+    drive_grid,
+    drive_library,
+    entries,
+    residual_space,
+)
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.segments import SegmentIndex, cut_segments, segment_length
 from calib.discovery import (
+    Description,
     EffectKind,
     EffectParam,
     EffectRegistry,
     EffectSpec,
     ModelFit,
     Selection,
+    describe,
     select_effects,
 )
 from calib.results import Estimate, json_safe
@@ -63,6 +72,9 @@ from calib.stats import (
 
 __all__ = [
     "ASYMMETRY",
+    "CHAIN_ORDER",
+    "CLOCK_DRIFT",
+    "CLOCK_OFFSET",
     "EFFECTIVE_TRACK",
     "WHEEL_SLIP",
     "DiffDriveSelection",
@@ -204,6 +216,81 @@ class _Stuck(DriveEffect):
         }
 
 
+def shifted_increments(t: Array, d: Array, shift_s: Array | float) -> Array:
+    """Increments ``d`` between samples at ``t`` as they are at the ground truth's instants
+    when the encoders' stamps are late by ``shift_s`` (s, a constant or one per sample): the
+    cumulative reading interpolated at t + shift, differenced."""
+    cum = np.concatenate([[0.0], np.cumsum(d)])
+    return np.diff(np.interp(t + shift_s, t, cum))
+
+
+@dataclass(frozen=True)
+class _ClockOffset(DriveEffect):
+    """The encoders are stamped ``offset`` s late against the ground truth (in run ``run``
+    only, or every run)."""
+
+    run: int | None = None
+
+    def increments(
+        self,
+        run: int,
+        data: DriveRun,
+        dr: Array,
+        dl: Array,
+        values: Mapping[str, float],
+        p: DiffDriveParams,
+    ) -> tuple[Array, Array]:
+        c = values["offset"]
+        if not c or (self.run is not None and run != self.run):
+            return dr, dl
+        return shifted_increments(data.t, dr, c), shifted_increments(data.t, dl, c)
+
+
+@dataclass(frozen=True)
+class _ClockDrift(DriveEffect):
+    """The encoders' clock runs at (1 + drift) of the ground truth's: stamped late by
+    drift x (t - t0) (in run ``run`` only, or every run)."""
+
+    run: int | None = None
+
+    def increments(
+        self,
+        run: int,
+        data: DriveRun,
+        dr: Array,
+        dl: Array,
+        values: Mapping[str, float],
+        p: DiffDriveParams,
+    ) -> tuple[Array, Array]:
+        d = values["drift"]
+        if not d or (self.run is not None and run != self.run):
+            return dr, dl
+        s = d * (data.t - data.t[0])
+        return shifted_increments(data.t, dr, s), shifted_increments(data.t, dl, s)
+
+
+CLOCK_OFFSET: EffectSpec[DriveEffectModel] = EffectSpec(
+    "clock_offset",
+    "wheels",
+    EffectKind.CLOCK,
+    (EffectParam("offset", "s", 0.0, -2.0, 2.0, 0.0),),
+    "the wheel encoders' time stamps are off from the ground truth's by a constant (offset > 0: "
+    "the wheels are stamped late): turns show in the pose before the wheels report them",
+    confounded_with=("clock_drift(wheels)",),
+    sim_switch="clock_offset_s",
+    model=_ClockOffset(),
+)
+CLOCK_DRIFT: EffectSpec[DriveEffectModel] = EffectSpec(
+    "clock_drift",
+    "wheels",
+    EffectKind.CLOCK,
+    (EffectParam("drift", "s/s", 0.0, -0.02, 0.02, 0.0),),
+    "the wheel encoders' clock runs at another rate than the ground truth's: the offset between "
+    "them grows by drift seconds per second",
+    confounded_with=("clock_offset(wheels)",),
+    sim_switch="clock_drift",
+    model=_ClockDrift(),
+)
 ASYMMETRY: EffectSpec[DriveEffectModel] = EffectSpec(
     "wheel_radius_asymmetry",
     "wheels",
@@ -240,13 +327,15 @@ WHEEL_SLIP: EffectSpec[DriveEffectModel] = EffectSpec(
 REGISTRY: EffectRegistry[EffectSpec[DriveEffectModel]] = EffectRegistry(
     "diff drive",
     key=lambda e: e.key,
-    builtin=lambda: (e.key for e in (ASYMMETRY, EFFECTIVE_TRACK, WHEEL_SLIP)),
+    builtin=lambda: (
+        e.key for e in (ASYMMETRY, EFFECTIVE_TRACK, WHEEL_SLIP, CLOCK_OFFSET, CLOCK_DRIFT)
+    ),
     check=lambda e: None if e.model is not None else "no model hook (a DriveEffectModel)",
 )
 """Effects added to the diff drive's catalogue from outside (``calib.discovery``'s one registry
 behaviour)."""
 
-_CHAIN_ORDER = {
+CHAIN_ORDER = {
     EffectKind.SENSOR: 0,
     EffectKind.CLOCK: 0,
     EffectKind.ACTUATOR: 1,
@@ -285,17 +374,31 @@ def stuck_spec(span: StuckSpan) -> EffectSpec[DriveEffectModel]:
     )
 
 
+def run_clocks(run: int, name: str) -> tuple[EffectSpec[DriveEffectModel], ...]:
+    """The clock offset and drift of one run of several (each run's encoders and ground truth
+    may be synchronised apart)."""
+    return tuple(
+        replace(spec, target=f"wheels of {name.rsplit('/', 1)[-1]}", model=hook(run))
+        for spec, hook in ((CLOCK_OFFSET, _ClockOffset), (CLOCK_DRIFT, _ClockDrift))
+    )
+
+
 def catalogue(
     has_nominal_track: bool,
     spans: Sequence[StuckSpan] = (),
     extra: Sequence[EffectSpec[DriveEffectModel]] = (),
+    runs: Sequence[str] = (),
 ) -> list[EffectSpec[DriveEffectModel]]:
-    """The effects tested on one log: the built-in ones, the registered ones
-    (:func:`register_effect`), then ``extra``."""
+    """The effects tested on one log: the built-in ones (a clock per run when ``runs`` names
+    more than one), the registered ones (:func:`register_effect`), then ``extra``."""
     out = [ASYMMETRY]
     if has_nominal_track:
         out.append(EFFECTIVE_TRACK)
     out.append(WHEEL_SLIP)
+    if len(runs) > 1:
+        out += [c for k, name in enumerate(runs) for c in run_clocks(k, name)]
+    else:
+        out += [CLOCK_OFFSET, CLOCK_DRIFT]
     out += [stuck_spec(s) for s in spans]
     out += [*REGISTRY.entries(), *extra]
     return out
@@ -350,7 +453,7 @@ class _Problem:
     ) -> Array:
         v = self.unpack(theta, names)
         p = self.params_of(v, effects)
-        chain = sorted(effects, key=lambda e: _CHAIN_ORDER.get(e.kind, 2))
+        chain = sorted(effects, key=lambda e: CHAIN_ORDER.get(e.kind, 2))
         off = complex(v.get("lx", 0.0), v.get("ly", 0.0))
         out = np.empty((len(self.segments), 3))
         by_run: dict[int, list[int]] = {}
@@ -570,6 +673,8 @@ class DiffDriveSelection:
     also_named: tuple[str, ...] = ()
     """Effect ids named by a dedicated test outside the forward selection (the joint slip fit
     of :mod:`calib.diff_drive.slip`)."""
+    description: Description | None = None
+    """The residual model of what the selected effects leave (accepted or not)."""
 
     @property
     def named(self) -> list[str]:
@@ -677,7 +782,7 @@ def discover_effects(
     if segment_s is None:
         segment_s = segment_length(runs, 6 * CV_BLOCK)
     segments = cut_segments(runs, segment_s)
-    cat = catalogue(nominal is not None, spans, extra)
+    cat = catalogue(nominal is not None, spans, extra, [r.name for r in runs])
     if len(segments) < 4 * CV_BLOCK:
         return DiffDriveSelection(
             None,
@@ -698,7 +803,11 @@ def discover_effects(
         1.0,
     )
     prob.sigma_h, prob.sigma_p = noise_scales(prob, calibrated, marker or 0j)
-    sel = select_effects(_Fitter(prob), cat, max_effects=2 + len(spans))
+    fitter = _Fitter(prob)
+    # a clock per run may be off on its own: room for an offset and a drift in each
+    per_run = 2 * len(runs) if len(runs) > 1 else 0
+    sel = select_effects(fitter, cat, max_effects=2 + len(spans) + per_run)
+    description = _describe(fitter, sel, calibrated) if sel is not None else None
     notes = (
         []
         if nominal is not None
@@ -706,4 +815,22 @@ def discover_effects(
             "no nominal track in the log: the effective track is not tested (the track is fitted)"
         ]
     )
-    return DiffDriveSelection(sel, tuple(cat), notes)
+    return DiffDriveSelection(sel, tuple(cat), notes, description=description)
+
+
+def _describe(fitter: _Fitter, sel: Selection, calibrated: DiffDriveParams) -> Description | None:
+    """The residual model of what the selected model leaves (``calib.discovery.residual_model``)."""
+    prob = fitter.prob
+    grid = drive_grid(prob.runs)
+    effects = sel.final.effects
+    names = prob.names(effects)
+    values = sel.final.payload["values"]
+    theta = np.array([values[n] for n in names])
+    rows = np.arange(len(prob.segments), dtype=np.intp)
+    res = prob.residuals(theta, names, rows, effects)
+    ents = entries(grid, prob.segments, prob.sigma_h, prob.sigma_p)
+    space = residual_space(res, fitter.folds, len(prob.segments), ents)
+    library = drive_library(grid, sel.final.payload["params"])
+    return describe(
+        fitter, sel.final, space, library, block=3 * CV_BLOCK, hook=described_hook(grid)
+    )

@@ -4,9 +4,9 @@ A robot declares its effects (:class:`EffectSpec`, each with the model hook its 
 in its catalogue, registers outside ones through an :class:`EffectRegistry`, and supplies a
 :class:`Fitter`; the engine selects effects forward on held-out data (:func:`select_effects`),
 models what the catalogue leaves out from the robot's own signals (``library``, ``sparse``,
-``describe``), gives intervals that hold across the explanations (``explanations``) and reports
-what it found in one shape (``report``). Parts, one module each: ``base`` (the protocols),
-``registry``, ``selection``, ``library``, ``sparse``, ``describe``, ``explanations``,
+``residual_model``), gives intervals that hold across the explanations (``explanations``) and
+reports what it found in one shape (``report``). Parts, one module each: ``base`` (the protocols),
+``registry``, ``selection``, ``library``, ``sparse``, ``residual_model``, ``explanations``,
 ``report``.
 """
 
@@ -18,14 +18,6 @@ from calib.discovery.base import (
     Fitter,
     ModelFit,
 )
-from calib.discovery.describe import (
-    DescribedTerm,
-    DescribedTerms,
-    Description,
-    Entry,
-    ResidualSpace,
-    describe,
-)
 from calib.discovery.explanations import Explanation, Spanned, across, plausible
 from calib.discovery.library import Family, Role, Signal, Term, build_library
 from calib.discovery.registry import EffectRegistry
@@ -36,6 +28,14 @@ from calib.discovery.report import (
     found_effects,
     moved_parameters,
     verdict_record,
+)
+from calib.discovery.residual_model import (
+    DescribedTerm,
+    DescribedTerms,
+    Description,
+    Entry,
+    ResidualSpace,
+    describe,
 )
 from calib.discovery.selection import (
     BIC_MARGIN,

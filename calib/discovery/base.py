@@ -12,7 +12,7 @@ is added to a robot by declaring one entry, hook included, in that robot's catal
 
 A robot's fitter (:class:`Fitter`) fits its model with a set of effects and returns a
 :class:`ModelFit`; the selection (:mod:`calib.discovery.selection`), the confirmation
-(:mod:`calib.discovery.confirm`), the residual model (:mod:`calib.discovery.describe`) and the
+(:mod:`calib.discovery.confirm`), the residual model (:mod:`calib.discovery.residual_model`) and the
 reports are shared. This is pysindy's split of one model over pluggable parts: here the parts are
 the robot's fitter and catalogue, the engine the rest.
 """
@@ -53,7 +53,7 @@ class EffectKind(StrEnum):
     CLOCK = "clock"
     """A topic's time stamps are off (an offset, a drift)."""
     DESCRIBED = "described"
-    """Not a catalogue entry: terms of the residual model (:mod:`calib.discovery.describe`)
+    """Not a catalogue entry: terms of the residual model (:mod:`calib.discovery.residual_model`)
     that describe what the catalogue leaves out, in the signals they follow."""
 
 

@@ -20,7 +20,7 @@ the signals it follows (pysindy's feature libraries, with the families a drive l
 Each term carries its formula, its unit and its meaning in words, so that what the residual
 model selects reads as physics ("yaw rate term proportional to speed x |turn rate|"). The robot
 says which signals it has (:class:`Signal`, on its own sample grid) and how a term enters its
-residual channels (the engine's :mod:`calib.discovery.describe`).
+residual channels (the engine's :mod:`calib.discovery.residual_model`).
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ from typing import Any
 
 from calib.adequacy import Adequacy
 from calib.discovery.base import EffectKind, EffectSpec, ModelFit
-from calib.discovery.describe import DescribedTerm, Description
+from calib.discovery.residual_model import DescribedTerm, Description
 from calib.results import Estimate, json_safe
 
 __all__ = [
@@ -203,6 +203,10 @@ class DiscoveryReport:
             )
         out += [f"  note: {n}" for n in self.notes]
         return out
+
+    def report(self) -> list[str]:
+        """The "Model mismatch" panel's lines."""
+        return self.lines()
 
     def to_dict(self) -> dict[str, Any]:
         return json_safe(

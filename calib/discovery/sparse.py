@@ -4,7 +4,7 @@ Sequentially thresholded least squares (Brunton et al. 2016, pysindy's ``STLSQ``
 squares, zero the terms whose standardised contribution is below a threshold, refit on the rest,
 repeat. :func:`fit_sparse_residual` chooses the threshold on held-out blocks (the sparsest
 model within 0.02 of the best held-out R^2) and describes what a residual follows.
-:func:`select_terms` is the residual model's screen (:mod:`calib.discovery.describe`): the
+:func:`select_terms` is the residual model's screen (:mod:`calib.discovery.residual_model`): the
 threshold chosen by cross-validation over the held-out folds, then the terms kept that an
 ensemble of fits on resampled blocks of the training data selects in most of its members
 (pysindy's ``EnsembleOptimizer`` with bagging; Fasel et al. 2022), so that a term one lucky
@@ -216,7 +216,7 @@ def select_terms(
     kept or the cross-validated error does not fall below the model without terms."""
     ok = np.all(np.isfinite(x), axis=1) & np.isfinite(y)
     x, y, folds = x[ok], y[ok], folds[ok]
-    if x.shape[0] < 4 * max(x.shape[1], 5):
+    if x.shape[0] < 2 * max(x.shape[1], 5):
         return None
     none = float(np.sum(y[folds >= 0] ** 2))
     scores = [(thr, _cv_sse(x, y, folds, thr)) for thr in thresholds]

@@ -46,4 +46,4 @@ def test_discovery_names_concealed_effects(tmp_path: Path, options: list[str], e
     assert launch(args) == 0
     _, result = analyze_log(out)
     assert "track_width" not in result.truth
-    assert result.discovery.named == [effect]
+    assert [k.split("(")[0] for k in result.discovery.named] == [effect]

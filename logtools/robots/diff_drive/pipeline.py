@@ -38,6 +38,12 @@ from calib.diff_drive.effects import (
     discover_effects,
     stuck_spec,
 )
+from calib.diff_drive.explain import (
+    correcting_effects,
+    drive_discovery_report,
+    explained_runs,
+    span_explanations,
+)
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.odom_imu import analyze_odom_imu
 from calib.diff_drive.odometry_lsq import (
@@ -51,6 +57,7 @@ from calib.diff_drive.provenance import Provenance, pose_provenance
 from calib.diff_drive.skid import effective_track
 from calib.diff_drive.slip import SlipFit, fit_slip, slip_corrected, spanned
 from calib.diff_drive.umbmark import umbmark, umbmark_result
+from calib.discovery import DiscoveryReport
 from calib.errors import InsufficientDataError
 from calib.results import AnalysisResult, CalibrationResult
 from logtools.loaded import LoadedLog
@@ -275,7 +282,7 @@ def _calibrate_and_judge(
     CalibrationResult | None,
     LsqFit | None,
     Adequacy,
-    DiffDriveSelection | None,
+    DiscoveryReport | None,
     dict[str, Any],
     list[str],
 ]:
@@ -308,6 +315,10 @@ def _calibrate_and_judge(
         )
     else:
         stages.skip("discovery", "switched off")
+    lsq_nominal, recorded = result, runs
+    explained = _rerun_under_effects(runs, disc, stages, seed, warnings)
+    if explained is not None:
+        runs, result, fit = explained
     named_keys = {e.key for e in disc.accepted} if disc is not None else set()
     excluded = [s for s in spans if stuck_spec(s).key in named_keys]
     if disc is None and spans:  # discovery off or failed: the detection alone decides
@@ -409,17 +420,48 @@ def _calibrate_and_judge(
             model=model,
             offset=offset,
             excluded=masks,
-            before=first if (excluded or changes or judged_runs is not runs) else None,
+            before=first
+            if (excluded or changes or judged_runs is not runs or explained is not None)
+            else None,
             changes=changes,
             notes=notes,
         ),
     )
     adequacy = final if final is not None else first
-    result = _widen(result, adequacy, pieces)
+    if disc is not None and disc.selection is not None and change is None:
+        result = span_explanations(result, disc, recorded, seed)
+    else:
+        result = _widen(result, adequacy, pieces)
     adequacy = _log_verdict(
         adequacy, first, excluded, slip if (slip is not None and slip.significant) else None
     )
-    return result, fit, adequacy, disc, sections, warnings
+    named_slip = slip.k if slip is not None and slip.significant else None
+    report = drive_discovery_report(
+        disc, first, adequacy, lsq_nominal, result, LSQ_MODEL, slip=named_slip
+    )
+    return result, fit, adequacy, report if discovery_on else None, sections, warnings
+
+
+def _rerun_under_effects(
+    runs: list[DriveRun],
+    disc: DiffDriveSelection | None,
+    stages: Stages,
+    seed: int,
+    warnings: list[str],
+) -> tuple[list[DriveRun], CalibrationResult, LsqFit] | None:
+    """The calibration rerun on the data corrected by the clock and described effects
+    discovery named (``calib.diff_drive.explain``), or None when it named none."""
+    fixed = explained_runs(runs, disc) if disc is not None else None
+    if fixed is None or disc is None:
+        return None
+    labels = ", ".join(e.key for e in correcting_effects(disc))
+    redo = stages.run("calibration.lsq_under_effects", lambda: calibrate_lsq(fixed, seed=seed))
+    if redo is None:
+        return None
+    result, fit = redo
+    warnings.append(f"re-estimated under {labels}: the data corrected by them")
+    verdict = result.verdict + f" (re-estimated under {labels}, the data corrected by them)"
+    return fixed, dataclasses.replace(result, method="LSQ", verdict=verdict), fit
 
 
 def _analyze_runs(
@@ -444,7 +486,7 @@ def _analyze_runs(
     methods: list[CalibrationResult] = []
     sections: dict[str, Any] = {}
     warnings: list[str] = []
-    disc: DiffDriveSelection | None = None
+    disc: DiscoveryReport | None = None
     adequacy = not_assessed(LSQ_MODEL, "no ground-truth pose with wheel angles")
     if runs:
         lsq, _fit, adequacy, disc, sec, warnings = _calibrate_and_judge(

@@ -45,6 +45,7 @@ __all__ = [
     "DescribedTerms",
     "Description",
     "Entry",
+    "HookFactory",
     "ResidualSpace",
     "describe",
     "described_spec",
@@ -137,7 +138,7 @@ class Description:
     ``before`` (the model it was added to), ``accepted`` by the engine's rules, and what the
     screen saw (``screened``, the number of candidate columns)."""
 
-    spec: EffectSpec[DescribedTerms]
+    spec: EffectSpec[Any]
     fit: ModelFit
     before: ModelFit
     terms: tuple[DescribedTerm, ...]
@@ -190,13 +191,25 @@ def _param_name(col: _Column) -> str:
 
 def _coef_unit(col: _Column) -> str:
     u = col.term.unit
-    return col.entry.unit if u in ("", "1") else f"{col.entry.unit} per {u}"
+    if u in ("", "1"):
+        return col.entry.unit
+    return f"{col.entry.unit} per ({u})" if "·" in u or "/" in u else f"{col.entry.unit} per {u}"
+
+
+HookFactory = Callable[[Sequence[tuple[str, Entry, Term]]], Any]
+"""Builds a robot's own hook for a described effect from its (parameter name, entry, term)
+triples, where the robot's fitter needs more than residual offsets (the diff drive turns the
+terms into wheel increments, so that the data can be corrected by them)."""
 
 
 def described_spec(
-    cols: Sequence[_Column], init: Sequence[float], channels: str
-) -> EffectSpec[DescribedTerms]:
-    """One described effect holding ``cols`` (their coefficients its parameters, null 0)."""
+    cols: Sequence[_Column],
+    init: Sequence[float],
+    channels: str,
+    hook: HookFactory | None = None,
+) -> EffectSpec[Any]:
+    """One described effect holding ``cols`` (their coefficients its parameters, null 0); its
+    hook :class:`DescribedTerms`, or what ``hook`` makes of the terms."""
     names = tuple(_param_name(c) for c in cols)
     params = tuple(
         EffectParam(n, _coef_unit(c), 0.0, -1e12, 1e12, float(v))
@@ -209,7 +222,11 @@ def described_spec(
         EffectKind.DESCRIBED,
         params,
         f"not a catalogued effect: {words}",
-        model=DescribedTerms(names, np.column_stack([c.values for c in cols])),
+        model=(
+            hook([(n, c.entry, c.term) for n, c in zip(names, cols, strict=True)])
+            if hook is not None
+            else DescribedTerms(names, np.column_stack([c.values for c in cols]))
+        ),
     )
 
 
@@ -225,12 +242,17 @@ def _significant(fit: ModelFit, spec: EffectSpec[Any]) -> list[bool]:
 
 
 def _fit_kept(
-    fitter: Fitter, current: ModelFit, cols: list[_Column], init: list[float], channels: str
-) -> tuple[EffectSpec[DescribedTerms], ModelFit, list[_Column]] | None:
+    fitter: Fitter,
+    current: ModelFit,
+    cols: list[_Column],
+    init: list[float],
+    channels: str,
+    hook: HookFactory | None,
+) -> tuple[EffectSpec[Any], ModelFit, list[_Column]] | None:
     """Fit the described effect of ``cols`` and drop the insignificant terms until all are
     significant (at most ``MAX_PRUNE`` refits)."""
     for _ in range(MAX_PRUNE):
-        spec = described_spec(cols, init, channels)
+        spec = described_spec(cols, init, channels, hook)
         fit = fitter((*current.effects, spec))
         if fit is None:
             return None
@@ -253,6 +275,7 @@ def describe(
     *,
     seed: int = 0,
     block: int = 50,
+    hook: HookFactory | None = None,
 ) -> Description | None:
     """Model the residual of ``current`` (module docstring); None when the screen keeps no term
     or the joint fit fails. The description is returned whether or not it is accepted (an
@@ -269,7 +292,7 @@ def describe(
     kept = [cols[sel.kept[i]] for i in order]
     init = [sel.coef[i] for i in order]
     channels = ", ".join(dict.fromkeys(c.entry.channel for c in kept))
-    done = _fit_kept(fitter, current, kept, init, channels)
+    done = _fit_kept(fitter, current, kept, init, channels, hook)
     if done is None:
         return None
     spec, fit, kept = done
