@@ -91,6 +91,9 @@ __all__ = [
 Array = NDArray[np.float64]
 Z95 = 1.959963984540054
 CV_BLOCK = 5
+EXPLAINS_SSE = 1.5**2
+"""Held-out sum of squares per residual (noise units) up to which the model explains the log
+(the adequacy check's ratio of 1.5, squared)."""
 
 
 class DriveEffectModel(Protocol):
@@ -831,6 +834,15 @@ def _describe(fitter: _Fitter, sel: Selection, calibrated: DiffDriveParams) -> D
     ents = entries(grid, prob.segments, prob.sigma_h, prob.sigma_p)
     space = residual_space(res, fitter.folds, len(prob.segments), ents)
     library = drive_library(grid, sel.final.payload["params"])
+    n = sel.final.n_heldout if sel.final.n_heldout is not None else sel.final.n
+    # the residuals are in units of the noise scale: a model at it leaves about one per residual
+    explained = math.isfinite(sel.final.heldout_sse) and sel.final.heldout_sse <= EXPLAINS_SSE * n
     return describe(
-        fitter, sel.final, space, library, block=3 * CV_BLOCK, hook=described_hook(grid)
+        fitter,
+        sel.final,
+        space,
+        library,
+        block=3 * CV_BLOCK,
+        hook=described_hook(grid),
+        explained=explained,
     )

@@ -186,7 +186,7 @@ def _bump_terms(s: Signal, n_bumps: int) -> list[Term]:
     if ok.sum() < 10 or _spread(x) <= 0:
         return []
     centres = np.quantile(x[ok], np.linspace(0.1, 0.9, n_bumps))
-    width = _spread(x) / (2.0 * n_bumps)
+    width = _spread(x) / n_bumps
     return [
         Term(
             f"bump({s.name}, {c:.3g})",

@@ -15,7 +15,7 @@ fitted jointly with the robot's parameters, and kept only when it improves the h
    refitted; the description is accepted when the held-out sum of squares falls by at least
    ``MIN_HELDOUT_GAIN`` of what the noise floor leaves to gain and the BIC by more than
    ``BIC_MARGIN`` (the engine's own selection rules: a described term earns its place as a
-   catalogue effect does).
+   catalogue effect does), by ``EXPLAINED_GAIN`` when the model already explains the log.
 
 A described effect is not a catalogue name: it says which signals the residual follows and by
 how much (:attr:`DescribedTerm.text`), in the units of the physics it changes.
@@ -57,6 +57,15 @@ DESCRIBED_ID = "described"
 MAX_TERMS = 6
 """At most this many terms in one description (the most often selected ones)."""
 MAX_PRUNE = 4
+EXPLAINED_GAIN = 0.3
+"""The held-out gain a description must bring when the model it is added to already explains
+the log (the residual at its noise floor): small structure is then the nominal model's own
+approximation, not physics worth a name; a concealed cause that a parameter absorbed (a spring
+taken into gravity) still shows by more."""
+OWN_SHARE = 0.2
+"""A term whose column the robot's own parameters reproduce but for less than this share of its
+norm only mimics a parameter (a kinematic term proportional to the curvature is a change of the
+link lengths): it is left out of the screen."""
 
 
 @dataclass(frozen=True)
@@ -81,6 +90,10 @@ class ResidualSpace:
     residual: FloatArray
     fold: NDArray[np.intp]
     entries: Sequence[Entry]
+    nuisance: FloatArray | None = None
+    """Columns (n, p) of the robot's own parameters' effect on the residuals (the fit's
+    Jacobian, noise units): the screen looks for what the terms add beyond them, so that a term
+    that only mimics a parameter is not taken for physics."""
 
 
 @dataclass(frozen=True)
@@ -185,6 +198,16 @@ def _columns(space: ResidualSpace, library: Sequence[Term]) -> list[_Column]:
     return out
 
 
+def _beyond(x: FloatArray, nuisance: FloatArray | None) -> FloatArray:
+    """The columns of ``x`` with what ``nuisance`` spans projected out (least squares)."""
+    if nuisance is None or nuisance.size == 0:
+        return x
+    n = np.where(np.isfinite(nuisance), nuisance, 0.0)
+    coef, *_ = np.linalg.lstsq(n, x, rcond=None)
+    out: FloatArray = x - n @ coef
+    return out
+
+
 def _param_name(col: _Column) -> str:
     return f"{col.entry.name}: {col.term.name}"
 
@@ -276,6 +299,7 @@ def describe(
     seed: int = 0,
     block: int = 50,
     hook: HookFactory | None = None,
+    explained: bool = False,
 ) -> Description | None:
     """Model the residual of ``current`` (module docstring); None when the screen keeps no term
     or the joint fit fails. The description is returned whether or not it is accepted (an
@@ -283,7 +307,13 @@ def describe(
     cols = _columns(space, library)
     if not cols:
         return None
-    x = np.column_stack([c.values for c in cols])
+    raw = np.column_stack([c.values for c in cols])
+    x = _beyond(raw, space.nuisance)
+    own = np.linalg.norm(x, axis=0) >= OWN_SHARE * np.linalg.norm(raw, axis=0)
+    cols = [c for c, k in zip(cols, own, strict=True) if k]
+    if not cols:
+        return None
+    x = x[:, own]
     # residual (recorded - model) ~ X c: the terms add X c to the model's prediction
     sel = select_terms(x, space.residual, space.fold, block=block, seed=seed)
     if sel is None:
@@ -303,5 +333,6 @@ def describe(
     )
     gain = heldout_gain(current, fit)
     dbic = fit.bic - current.bic
-    ok = gain >= MIN_HELDOUT_GAIN and dbic < -BIC_MARGIN
+    need = EXPLAINED_GAIN if explained else MIN_HELDOUT_GAIN
+    ok = gain >= need and dbic < -BIC_MARGIN
     return Description(spec, fit, current, terms, gain, dbic, ok, sel, len(cols))

@@ -48,7 +48,16 @@ from calib.adequacy import (
     span,
     widen_unstable,
 )
-from calib.discovery import EffectSpec, ModelFit, Selection, select_effects
+from calib.discovery import (
+    Description,
+    EffectSpec,
+    Explanation,
+    ModelFit,
+    Selection,
+    across,
+    describe,
+    select_effects,
+)
 from calib.errors import CalibError
 from calib.results import CalibrationResult, Estimate, json_safe
 from calib.tractor_trailer.derived import derived_sum, link_sum
@@ -62,6 +71,13 @@ from calib.tractor_trailer.path_adequacy import (
     psi_channel,
     psi_floor,
     unexplained_text,
+)
+from calib.tractor_trailer.path_described import (
+    expand_described,
+    joint_jacobian,
+    path_entries,
+    path_library,
+    path_residual_space,
 )
 from calib.tractor_trailer.path_effects import (
     GAIN_TOLERANCE,
@@ -135,10 +151,15 @@ class PathDiscovery:
     held at its null within its tolerance): a short clause, and the same with what the log
     says of it and the lengths if it were left free."""
     context: Any = field(default=None, repr=False)
+    description: Description | None = None
+    """The residual model of what the selected effects leave (accepted or not)."""
 
     @property
     def accepted(self) -> tuple[EffectSpec, ...]:
-        return self.selection.accepted if self.selection is not None else ()
+        """The effects of the final model (the described one when it was kept)."""
+        base = self.selection.accepted if self.selection is not None else ()
+        d = self.description
+        return d.fit.effects if d is not None and d.accepted else base
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"engine": "path", "status": self.status, "reason": self.reason}
@@ -163,6 +184,7 @@ class PathDiscovery:
             }
             for a, b, est, ad in self.split
         ]
+        out["description"] = None if self.description is None else self.description.to_dict()
         out["alternatives"] = [k for k, _ in self.alternatives]
         out["thirds"] = self.thirds
         out["stability"] = {k: v.to_dict() for k, v in self.stability.items()}
@@ -189,6 +211,10 @@ class PathDiscovery:
                 lines.append("  no catalogued effect improves the held-out fit")
             for c in self.selection.confounds:
                 lines.append(f"  confound: {c.note}")
+        d = self.description
+        if d is not None:
+            head = "described" if d.accepted else "the residual follows (not kept)"
+            lines.append(f"  {head}: {d.text}")
         if self.change is not None:
             lines.append(f"  change mid-log: {self.change.note}")
             for a, b, est, _ in self.split:
@@ -218,28 +244,27 @@ class _Fitter:
         self.x: dict[tuple[str, ...], np.ndarray] = {(): x_nominal}
 
     def _start(self, effects: tuple[EffectSpec, ...]) -> np.ndarray:
-        """The parent model's solution (this set without its last effect) and the new
-        effect's init; the nominal solution and every init when the parent was not fitted."""
+        """The solution of the longest fitted beginning of this set (the parent model: this
+        set without its last effect) and the other effects' inits."""
         keys = tuple(e.key for e in effects)
-        parent = keys[:-1]
-        if parent in self.x:
-            xp, done = self.x[parent], len(parent)
-        else:
-            xp, done = self.x[()], 0
+        done = next(n for n in range(len(keys), -1, -1) if keys[:n] in self.x)
+        xp = self.x[keys[:done]]
         vals = list(xp[2 : 2 + done]) + [e.params[0].init for e in effects[done:]]
         return np.concatenate([xp[:2], vals, xp[2 + done :]])
 
-    def __call__(self, effects: tuple[EffectSpec, ...]) -> ModelFit | None:
-        keys = tuple(e.key for e in effects)
+    def __call__(self, specs: tuple[EffectSpec, ...]) -> ModelFit | None:
+        keys = tuple(e.key for e in specs)
         if keys in self.cache:
             return self.cache[keys]
+        # a described effect enters the joint fit as one added column per term
+        effects = tuple(x for e in specs for x in expand_described(e, self.floor))
         try:
             sol = self.model.fit(effects, self._start(effects))
             held = heldout_residual(self.model, effects, sol.x)
         except (CalibError, ValueError, FloatingPointError, np.linalg.LinAlgError):
             self.cache[keys] = None
             return None
-        self.x[keys] = sol.x
+        self.x[tuple(e.key for e in effects)] = sol.x
         for i, e in enumerate(effects):
             q = e.params[0]
             if min(sol.x[2 + i] - q.lower, q.upper - sol.x[2 + i]) < 1e-3 * (q.upper - q.lower):
@@ -251,13 +276,18 @@ class _Fitter:
             "L1": _est("L1", sol.x[0], cov[0, 0], "m"),
             "L2": _est("L2", sol.x[1], cov[1, 1], "m"),
         }
-        eff = {}
-        for i, e in enumerate(effects):
-            p = e.params[0]
-            eff[e.key] = {p.name: _est(p.name, sol.x[2 + i], cov[2 + i, 2 + i], p.unit)}
+        eff: dict[str, dict[str, Estimate]] = {}
+        flat = iter(enumerate(effects))
+        for spec in specs:
+            for p in spec.params:
+                i, e = next(flat)
+                q = e.params[0]
+                eff.setdefault(spec.key, {})[p.name] = _est(
+                    q.name, sol.x[2 + i], cov[2 + i, 2 + i], q.unit
+                )
         ok = np.isfinite(held)
         fit = ModelFit(
-            effects,
+            specs,
             params,
             eff,
             float(np.sum(sol.residual**2) / f2),
@@ -512,17 +542,38 @@ def discover_along_path(
             "but the nominal model already explains the log: the intervals span both "
             f"(nominal L1 {plain['L1'].value:.3g} m, L2 {plain['L2'].value:.3g} m)"
         )
+    say("path discovery: residual model")
+    out.description = _describe_residual(ctx, selection.final, explained(selection.final))
+    d = out.description
+    final = d.fit if d is not None and d.accepted else selection.final
     adequacy = assess(
-        [channel(selection.final)],
-        model=nominal_label(selection.accepted),
-        before=nominal if selection.accepted else None,
+        [channel(final)],
+        model=nominal_label(final.effects),
+        before=nominal if final.effects else None,
     )
     if not adequacy.explains:
         adequacy = adequacy.with_(unexplained=unexplained_text(adequacy))
     out.adequacy = adequacy
-    if selection.accepted:
-        out.estimate = _with_effects(ctx, selection.accepted, final_sol, out.notes)
+    if final.effects:
+        final_sol, _ = final.payload
+        out.solution = final_sol
+        out.estimate = _with_effects(ctx, final.effects, final_sol, out.notes)
     return out
+
+
+def _describe_residual(ctx: _Context, current: ModelFit, explained: bool) -> Description | None:
+    """The residual model of what ``current`` leaves in the joint angle
+    (``calib.discovery.residual_model``), through the path's reading and kinematics."""
+    sol, _ = current.payload
+    model, floor = ctx.model, ctx.fitter.floor
+    library = path_library(model, sol.true_psi)
+    if not library:
+        return None
+    ents = path_entries(model, sol.x, sol.true_psi, floor, library)
+    jac = joint_jacobian(model, sol.x, sol.effects)
+    space = path_residual_space(model, sol.residual, floor, ents, jac)
+    block = max(20, model.t.size // 100)
+    return describe(ctx.fitter, current, space, library, block=block, explained=explained)
 
 
 @dataclass
@@ -753,7 +804,7 @@ def recommended(estimate: CalibrationResult, disc: PathDiscovery) -> Calibration
             details={**est.details, "change": disc.change.to_dict()},
         )
     est = _spanned(est, disc.alternatives)
-    est = estimate_under_misfit(est, disc.adequacy, disc.thirds)
+    est = _across_explanations(est, disc)
     est = _widened_unstable(est, disc.stability)
     if disc.assumptions and any(e.identifiable for e in est.parameters.values()):
         est = replace(
@@ -764,6 +815,67 @@ def recommended(estimate: CalibrationResult, disc: PathDiscovery) -> Calibration
             assumptions=(*est.assumptions, *(short for short, _detail in disc.assumptions)),
         )
     return est
+
+
+def _final_fit(disc: PathDiscovery) -> ModelFit | None:
+    """The joint fit of the model discovery ends with."""
+    d, sel = disc.description, disc.selection
+    if d is not None and d.accepted:
+        return d.fit
+    return sel.final if sel is not None else None
+
+
+def _explanations(disc: PathDiscovery, est: CalibrationResult) -> list[Explanation]:
+    """The final model (its link lengths the estimate's), the nominal one when effects were
+    added, and a residual model that was not kept (what the structure left in the residual
+    does to the link lengths)."""
+    final, sel = _final_fit(disc), disc.selection
+    if final is None or sel is None:
+        return []
+    out = [Explanation("final", final, {k: est.parameters[k] for k in ("L1", "L2")})]
+    if final.effects:
+        out.append(Explanation("nominal", sel.base))
+    d = disc.description
+    if d is not None and not d.accepted:
+        out.append(Explanation("described", d.fit))
+    return out
+
+
+def _across_explanations(est: CalibrationResult, disc: PathDiscovery) -> CalibrationResult:
+    """While the final model does not explain the log: the link lengths spanning the plausible
+    explanations (``calib.discovery.across``), determined where they agree; with no other
+    explanation to compare, the misfit widening (``estimate_under_misfit``)."""
+    adequacy = disc.adequacy
+    if adequacy is None or adequacy.explains or not adequacy.channels:
+        return est
+    ex = _explanations(disc, est)
+    spanned = across(ex, ex[0], ["L1", "L2"]) if len(ex) >= 2 else {}
+    used = sorted({lab for s in spanned.values() for lab in s.values if lab != "final"})
+    if not used:
+        return estimate_under_misfit(est, adequacy, disc.thirds)
+    params = {k: spanned[k].estimate if k in spanned else e for k, e in est.parameters.items()}
+    others = [e for e in ex if e.label in used]
+    total = link_sum(est)
+    if total is not None:
+        sums = [
+            _est(
+                "L1 + L2",
+                o.estimates["L1"].value + o.estimates["L2"].value,
+                o.estimates["L1"].std ** 2 + o.estimates["L2"].std ** 2,
+                "m",
+            )
+            for o in others
+        ]
+        total = span([total, *sums], ["final", *used], rel_tol=0.1, scale=0.05)
+    agree = all(s.agree for s in spanned.values())
+    worst = max(adequacy.channels, key=lambda c: c.judged_ratio)
+    verdict = (
+        f"{est.verdict} The model ({adequacy.model}) leaves the joint angle at "
+        f"{worst.judged_ratio:.2g}x its noise floor; the intervals span the explanations that "
+        f"fit this log ({', '.join(used)}), which "
+        + ("agree." if agree else "disagree: not determined.")
+    )
+    return replace(est, parameters=params, derived=derived_sum(total, est.derived), verdict=verdict)
 
 
 def _widened_unstable(
@@ -818,7 +930,8 @@ def adopt_effects(disc: PathDiscovery, keys: Sequence[str]) -> None:
     ctx = disc.context
     if ctx is None or not keys:
         return
-    specs = tuple(effect_by_key(k) for k in keys)
+    have = {e.key: e for e in disc.accepted}
+    specs = tuple(have[k] if k in have else effect_by_key(k) for k in keys)
     fit = ctx.fitter(specs)
     if fit is None:
         disc.notes.append(
