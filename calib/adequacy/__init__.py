@@ -14,6 +14,12 @@ from calib.adequacy.combine import combine_runs
 from calib.adequacy.intervals import span, under_misfit, under_misfit_all
 from calib.adequacy.locate import Location, locate
 from calib.adequacy.noise import NoiseFloor, noise_floor
+from calib.adequacy.plausibility import (
+    Implausible,
+    PhysicalRange,
+    implausible,
+    mark_implausible,
+)
 from calib.adequacy.stability import PieceStability, piece_stability, widen_unstable
 from calib.adequacy.verdict import (
     EXPLAINS,
@@ -34,15 +40,19 @@ __all__ = [
     "NOT_EXPLAINED",
     "Adequacy",
     "ChannelAdequacy",
+    "Implausible",
     "Location",
     "NoiseFloor",
     "ParameterChange",
+    "PhysicalRange",
     "PieceFit",
     "PieceStability",
     "ResidualChannel",
     "assess",
     "combine_runs",
+    "implausible",
     "locate",
+    "mark_implausible",
     "noise_floor",
     "not_assessed",
     "parameter_change",

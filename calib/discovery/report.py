@@ -171,6 +171,8 @@ class DiscoveryReport:
     notes: tuple[str, ...] = ()
     details: Mapping[str, Any] = field(default_factory=dict)
     status: str = "ok"
+    more: tuple[str, ...] = ()
+    """The robot's own lines, shown after the findings (the engines' details)."""
 
     @property
     def named(self) -> list[str]:
@@ -202,6 +204,7 @@ class DiscoveryReport:
                 f"  alternative {alt.label}: {vals}" + (f" ({alt.note})" if alt.note else "")
             )
         out += [f"  note: {n}" for n in self.notes]
+        out += list(self.more)
         return out
 
     def report(self) -> list[str]:

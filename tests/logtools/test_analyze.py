@@ -57,8 +57,11 @@ def test_json_document_has_the_promised_fields(mixed_json: dict) -> None:
     for p in ("L1", "L2"):
         assert {"value", "ci95", "identifiable"} <= est[p].keys()
     assert {"value", "ci95"} <= est["sum_L1_L2"].keys()
-    assert {"regions", "effects", "baseline"} <= mixed_json["discovery"].keys()
-    assert mixed_json["discovery"]["windows"] is None  # a short log is looked at whole
+    disc = mixed_json["discovery"]
+    assert {"effects", "baseline", "verdict_before", "verdict_after", "details"} <= disc.keys()
+    command = disc["details"]["command_driven"]
+    assert {"regions", "effects", "baseline"} <= command.keys()
+    assert command["windows"] is None  # a short log is looked at whole
 
 
 def test_every_patent_method_is_reported_for_the_whole_log(mixed_json: dict) -> None:

@@ -86,11 +86,11 @@ from calib.tractor_trailer.discovery.fit import (
 from calib.tractor_trailer.discovery.model import BASE_PARAMS, ModelSpec, predict
 from calib.tractor_trailer.discovery.result import (
     AlternativeExplanation,
-    Confound,
     DiscoveryResult,
     EffectFit,
     ExplanationFit,
     JointFit,
+    LengthConfound,
     SensorCorrections,
     StepFailure,
 )
@@ -113,12 +113,12 @@ __all__ = [
     "DEFAULT_BASELINE",
     "AlternativeExplanation",
     "CommandRules",
-    "Confound",
     "DiscoveryResult",
     "Effect",
     "EffectFit",
     "ExplanationFit",
     "JointFit",
+    "LengthConfound",
     "MismatchRegion",
     "SensorCorrections",
     "SensorEffectsForFit",
@@ -456,7 +456,7 @@ def discover(
     alternatives = list(conf.alternatives) if conf is not None else []
     effects: list[EffectFit] = []
     joint = None
-    confounds: list[Confound] = []
+    confounds: list[LengthConfound] = []
     if conf is not None:
         effects = [
             _effect_fit(e, conf, data, [a.label for a in alternatives if e.key in a.reported])

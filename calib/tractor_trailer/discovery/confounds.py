@@ -50,9 +50,9 @@ from calib.tractor_trailer.discovery.fit import CommandFit, covariance
 from calib.tractor_trailer.discovery.model import ModelSpec
 from calib.tractor_trailer.discovery.result import (
     AlternativeExplanation,
-    Confound,
     DiscoveryResult,
     ExplanationFit,
+    LengthConfound,
     SensorCorrections,
 )
 
@@ -142,7 +142,7 @@ def _alternative_confound(
     reported: ExplanationFit,
     alt: AlternativeExplanation,
     close: str,
-) -> Confound | None:
+) -> LengthConfound | None:
     """``alt`` as a confound if it implies other link lengths or joint-angle corrections;
     ``close``: why BIC's choice does not settle it (empty: ``alt`` is within the margin)."""
     if not all(k in by_key for k in alt.alternative):
@@ -169,7 +169,7 @@ def _alternative_confound(
         what.append("they imply link lengths that differ by more than their standard errors")
     if corr:
         what.append("they correct the joint-angle sensor differently")
-    return Confound(
+    return LengthConfound(
         rule=alt.rule,
         reported=reported,
         alternative=other,
@@ -187,7 +187,7 @@ def _unpinned_confound(
     effect: Effect,
     eq: Equivalent,
     reported: ExplanationFit,
-) -> Confound | None:
+) -> LengthConfound | None:
     """``effect``, declared equivalent to robot parameters by ``eq``, as a confound of them if
     left free beside the reported effects it widens their intervals by more than
     ``UNPINNED_STD_RATIO`` (the log does not pin it)."""
@@ -213,7 +213,7 @@ def _unpinned_confound(
         f"{free.effect_ci95[effect.key][n][1]:.3f}]"
         for n, v in free.effect_parameters[effect.key].items()
     )
-    return Confound(
+    return LengthConfound(
         rule=eq.rule,
         reported=reported,
         alternative=free,
@@ -232,14 +232,14 @@ def find_confounds(
     baseline: ModelSpec,
     conf: Confirmed,
     pool: Sequence[Effect],
-) -> list[Confound]:
+) -> list[LengthConfound]:
     """The confounds of the link lengths in a confirmed result (module docstring): each
     alternative and close explanation that implies other link lengths or other joint-angle
     corrections, then each effect of ``pool`` declared equivalent to the link lengths (the
     joint-angle gain) if the log does not pin it."""
     by_key = {e.key: e for e in pool}
     reported = _explanation(conf.final, conf.cov, data)
-    out: list[Confound] = []
+    out: list[LengthConfound] = []
     seen: set[tuple[str, ...]] = set()
     for alt, close in [(a, "") for a in conf.alternatives] + list(conf.close):
         if alt.alternative in seen:
@@ -267,7 +267,7 @@ class SpanChoice:
     confound of one effect with the link lengths (the joint-angle gain), that effect's key
     (the options put its parameter at the ends of its interval); empty for two explanations."""
 
-    confound: Confound
+    confound: LengthConfound
     options: tuple[SensorCorrections, ...]
     lengths: Mapping[str, tuple[float, float]]
     spannable: bool
@@ -307,7 +307,7 @@ class SensorEffectsForFit:
 
 
 def _free_options(
-    c: Confound, effect: Effect, eq: Equivalent, tolerance: float | None
+    c: LengthConfound, effect: Effect, eq: Equivalent, tolerance: float | None
 ) -> tuple[tuple[SensorCorrections, ...], bool, tuple[float, float]]:
     """The reported explanation's corrections as they are and with ``effect``'s parameter at
     each end of its interval (cut to its null +/- ``tolerance``); whether that spans what the

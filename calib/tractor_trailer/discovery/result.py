@@ -18,11 +18,11 @@ from calib.tractor_trailer.discovery.windows import DataWindows
 __all__ = [
     "BASELINE_DESCRIPTIONS",
     "AlternativeExplanation",
-    "Confound",
     "DiscoveryResult",
     "EffectFit",
     "ExplanationFit",
     "JointFit",
+    "LengthConfound",
     "SensorCorrections",
     "StepFailure",
 ]
@@ -136,7 +136,7 @@ class ExplanationFit:
 
 
 @dataclass(frozen=True)
-class Confound:
+class LengthConfound:
     """Two explanations this log does not tell apart that imply different link lengths, or
     different corrections of the joint-angle sensor (which a fit of L1, L2 along the measured
     path would take in). An estimate of L1, L2 must then span both (refit with each side's
@@ -377,7 +377,7 @@ class DiscoveryResult:
     link_lengths: Mapping[str, float] = field(default_factory=dict)
     joint_fit: JointFit | None = None
     alternatives: list[AlternativeExplanation] = field(default_factory=list)
-    confounds: list[Confound] = field(default_factory=list)
+    confounds: list[LengthConfound] = field(default_factory=list)
     status: str = "ok"
     reason: str | None = None
     failures: list[StepFailure] = field(default_factory=list)

@@ -18,7 +18,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from calib.adequacy import NOT_EXPLAINED, Adequacy, Location, not_assessed, under_misfit
+from calib.adequacy import (
+    NOT_EXPLAINED,
+    Adequacy,
+    Location,
+    implausible,
+    mark_implausible,
+    not_assessed,
+    under_misfit,
+)
 from calib.diff_drive.adequacy import (
     PIECE_NAMES,
     StuckSpan,
@@ -53,6 +61,7 @@ from calib.diff_drive.odometry_lsq import (
     fit_lsq,
     make_estimates,
 )
+from calib.diff_drive.plausible import RANGES as DRIVE_RANGES
 from calib.diff_drive.provenance import Provenance, pose_provenance
 from calib.diff_drive.skid import effective_track
 from calib.diff_drive.slip import SlipFit, fit_slip, slip_corrected, spanned
@@ -435,6 +444,10 @@ def _calibrate_and_judge(
     adequacy = _log_verdict(
         adequacy, first, excluded, slip if (slip is not None and slip.significant) else None
     )
+    found = implausible(result, adequacy, DRIVE_RANGES)
+    if found:
+        result = mark_implausible(result, found)
+        warnings += [f"implausible: {f.text}" for f in found]
     named_slip = slip.k if slip is not None and slip.significant else None
     report = drive_discovery_report(
         disc, first, adequacy, lsq_nominal, result, LSQ_MODEL, slip=named_slip

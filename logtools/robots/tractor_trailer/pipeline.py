@@ -15,13 +15,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import polars as pl
 
+from calib.adequacy import implausible, mark_implausible
 from calib.errors import CalibError
 from calib.results import AnalysisResult, CalibrationResult, StageStatus
 from calib.tractor_trailer.derived import derived_sum, link_sum
+from calib.tractor_trailer.discovery.result import DiscoveryResult
 from calib.tractor_trailer.estimators.noslip import NoSlipRegression
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.estimators.steering import SteeringGeometry
+from calib.tractor_trailer.explain import tractor_discovery_report
 from calib.tractor_trailer.path_discovery import PathDiscovery
+from calib.tractor_trailer.plausible import RANGES as TRACTOR_RANGES
 from calib.tractor_trailer.results import CommandType, MethodResult, Segment
 from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.loaded import LoadedLog
@@ -640,7 +644,9 @@ def analyze_tractor_trailer(
         progress("refits for the confounded explanations")
         estimate = _span_confounds(loaded, estimate, path_fit, confounded, notes, stages)
     judged = estimate
-    estimate = _unexplained(estimate, discovery, path_fit)
+    if path_disc is None or path_disc.status != "ok":
+        # the path's residual model judges the joint angle when it ran; else the command side
+        estimate = _unexplained(estimate, discovery, path_fit)
     if estimate is not judged and adequacy is not None and adequacy.channels:
         described = discovery.residual_model.describe()  # type: ignore[union-attr]
         adequacy = adequacy.with_(
@@ -679,13 +685,20 @@ def analyze_tractor_trailer(
         source["path_source"] = path_out[0].path.source
     if geometry is not None:
         source["steering_geometry"] = geometry.to_dict()
+    found = implausible(estimate, adequacy, TRACTOR_RANGES)
+    if found and estimate is not None:
+        estimate = mark_implausible(estimate, found)
+        notes += [f"implausible: {f.text}" for f in found]
     sections: dict[str, Any] = {}
-    shown: Any = discovery
     if path_disc is not None and path_disc.status == "ok":
-        if discovery is None:
-            shown = path_disc
-        else:
-            sections["path_discovery"] = path_disc
+        sections["path_discovery"] = path_disc
+    shown: Any = tractor_discovery_report(
+        path_disc,
+        discovery if isinstance(discovery, DiscoveryResult) else None,
+        adequacy,
+        path_fit.result_ if path_fit is not None else None,
+        estimate,
+    )
     result = AnalysisResult(
         robot=str(loaded.robot),
         segments=segments,

@@ -123,7 +123,7 @@ class Equivalent:
     """An explanation that changes the recordings (nearly) as the declaring effect does
     (``Effect.equivalents``).
 
-    ``rule``: its name in reports (``AlternativeExplanation.rule``, ``Confound.rule``);
+    ``rule``: its name in reports (``AlternativeExplanation.rule``, ``LengthConfound.rule``);
     ``note``: why the two look alike and what tells them apart. ``mine``: keys of the
     declaring side (the declaring effect's, with any that go with it); ``theirs``: keys of the
     other side, effects or robot parameters (``PARAM`` + name).
