@@ -8,6 +8,7 @@ whether any estimate is still "determined" under a misfit (that would be a defec
 that cannot be analysed says why (the rosbag2 test files hold no drive signals).
 
     python bench/adequacy_real.py [--shared DIR] [--json out.json]
+    python bench/adequacy_real.py --compare before.json after.json   # a before -> after table
 """
 
 from __future__ import annotations
@@ -84,6 +85,12 @@ def row(name: str, paths: list[Path], extra: dict[str, Any]) -> dict[str, Any]:
         if isinstance(v, dict) and "identifiable" in v and v["identifiable"]
     ]
     confident_over_misfit = adequacy.get("verdict") == "does not explain" and bool(determined)
+    described = [
+        str(e.get("physics"))
+        for e in disc.get("effects") or []
+        if isinstance(e, dict) and e.get("status") == "described"
+    ]
+    before = disc.get("verdict_before") if isinstance(disc.get("verdict_before"), dict) else {}
     return {
         "recording": name,
         "robot": d["robot"],
@@ -98,15 +105,60 @@ def row(name: str, paths: list[Path], extra: dict[str, Any]) -> dict[str, Any]:
         "changes": [c.get("note") for c in adequacy.get("changes") or []],
         "determined": determined,
         "determined_over_misfit": confident_over_misfit,
+        "described": described,
+        "remaining": disc.get("remaining") or None,
+        "ratio_before": (before or {}).get("ratio"),
+        "parameters": _parameters(est),
         "cpu_s": time.process_time() - t0,
     }
+
+
+def _parameters(est: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """Each estimated quantity's value, 95 % interval and whether it is determined."""
+    return {
+        k: {"value": v.get("value"), "ci95": v.get("ci95"), "determined": v.get("identifiable")}
+        for k, v in est.items()
+        if isinstance(v, dict) and "value" in v and "ci95" in v
+    }
+
+
+def _interval(p: dict[str, Any]) -> str:
+    lo, hi = (p.get("ci95") or [None, None])[:2]
+    if lo is None or hi is None or p.get("value") is None:
+        return "-"
+    tag = "" if p.get("determined") else " (not determined)"
+    return f"{p['value']:.4g} [{lo:.4g}, {hi:.4g}]{tag}"
+
+
+def compare(before: Path, after: Path) -> int:
+    """A before -> after table of two ``--json`` captures (the same recordings)."""
+    old = {r["recording"]: r for r in json.loads(before.read_text())}
+    for r in json.loads(after.read_text()):
+        b = old.get(r["recording"], {})
+
+        def ratio(x: dict[str, Any]) -> str:
+            v = x.get("ratio")
+            return f"{v:.3g}x" if isinstance(v, (int, float)) else "-"
+
+        print(f"{r['recording']}: {b.get('verdict', '-')} {ratio(b)} -> {r['verdict']} {ratio(r)}")
+        found = list(r.get("named") or []) + [f"described: {d}" for d in r.get("described") or []]
+        print(f"    found: {'; '.join(map(str, found)) or '-'}")
+        for k, p in (r.get("parameters") or {}).items():
+            q = (b.get("parameters") or {}).get(k, {})
+            print(f"    {k}: {_interval(q)} -> {_interval(p)}")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--shared", type=Path, default=ROOT)
     ap.add_argument("--json", type=Path)
+    ap.add_argument(
+        "--compare", type=Path, nargs=2, metavar=("BEFORE", "AFTER"), help="two --json captures"
+    )
     args = ap.parse_args(argv)
+    if args.compare:
+        return compare(*args.compare)
     rows = []
     for name, paths, extra in recordings(args.shared):
         r = row(name, paths, extra)

@@ -140,6 +140,15 @@ def verdict_record(a: Adequacy | None) -> dict[str, Any] | None:
     )
 
 
+def _implied_text(e: Estimate) -> str:
+    """A value an alternative explanation implies, with its own interval (never a calibrated
+    answer: only the recommended estimate, which spans the explanations, is one)."""
+    lo, hi = e.ci95
+    if not (math.isfinite(e.value) and math.isfinite(lo) and math.isfinite(hi)):
+        return f"{e.name} not fixed by this explanation"
+    return f"{e.name} = {e.value:.4g} {e.unit} [{lo:.4g}, {hi:.4g}]".replace("  ", " ")
+
+
 def _ratio_text(a: Adequacy | None) -> str:
     rec = verdict_record(a)
     if rec is None:
@@ -199,9 +208,10 @@ class DiscoveryReport:
         if self.remaining:
             out.append(f"  remaining: {self.remaining}")
         for alt in self.alternatives:
-            vals = ", ".join(e.report() for e in alt.parameters.values())
+            vals = ", ".join(_implied_text(e) for e in alt.parameters.values())
             out.append(
-                f"  alternative {alt.label}: {vals}" + (f" ({alt.note})" if alt.note else "")
+                f"  alternative {alt.label} would imply {vals}"
+                + (f" ({alt.note})" if alt.note else "")
             )
         out += [f"  note: {n}" for n in self.notes]
         out += list(self.more)

@@ -79,9 +79,17 @@ def _alternatives(
         }
         out.append(Alternative(str(label), lengths, "along the measured path"))
     for c in command.confounds if command is not None else ():
-        for ex in (c.reported, c.alternative):
-            lengths = {k: _implied(k, v, ex.std.get(k, math.nan)) for k, v in ex.parameters.items()}
-            out.append(Alternative(ex.label, lengths, c.why))
+        ex = c.alternative  # the reported side is the recommended estimate's explanation
+        lengths = {k: _implied(k, v, ex.std.get(k, math.nan)) for k, v in ex.parameters.items()}
+        out.append(Alternative(ex.label, lengths, f"against {c.reported.label}: {c.why}"))
+    return tuple(out)
+
+
+def _notes(command: DiscoveryResult | None, notes: Sequence[str]) -> tuple[str, ...]:
+    """The caller's notes, then what part of a long log the command-driven discovery used."""
+    out = list(notes)
+    if command is not None and command.windows is not None:
+        out.append(command.windows.note())
     return tuple(out)
 
 
@@ -139,7 +147,7 @@ def tractor_discovery_report(
         _alternatives(path, command),
         tuple(c.to_dict() for c in command.confounds) if command is not None else (),
         moved,
-        tuple(notes),
+        _notes(command, notes),
         details,
         "ok" if (path is not None and path.status == "ok") or command is not None else "not_run",
         more=tuple(more),

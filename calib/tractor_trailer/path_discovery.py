@@ -767,11 +767,18 @@ def _spanned(
     if all(e.identifiable for e in params.values()) and (total is None or total.identifiable):
         return replace(est, parameters=params, derived=derived_sum(total, est.derived))
     why = "; ".join(f"{k}" for k, _ in alternatives)
+    loose = [k for k, e in params.items() if not e.identifiable]
+    held = [k for k, e in params.items() if e.identifiable]
+    agreed = "".join(
+        f" {k} = {params[k].value:.3f} m [{params[k].ci95[0]:.3f}, {params[k].ci95[1]:.3f}] "
+        "is determined: every explanation agrees on it."
+        for k in held
+    )
     verdict = (
-        f"Not determined: the log cannot tell these link lengths from other explanations "
-        f"({why}), which imply different ones; the intervals span them. The fit "
-        f"alone says L1 = {est.parameters['L1'].value:.3f} m, L2 = "
-        f"{est.parameters['L2'].value:.3f} m."
+        f"Not determined: {', '.join(loose) or 'L1 + L2'}: the log cannot tell "
+        f"{'it' if len(loose) <= 1 else 'them'} from other explanations ({why}), which imply "
+        f"different values; the intervals span them.{agreed} The fit alone says L1 = "
+        f"{est.parameters['L1'].value:.3f} m, L2 = {est.parameters['L2'].value:.3f} m."
     )
     return replace(est, parameters=params, derived=derived_sum(total, est.derived), verdict=verdict)
 

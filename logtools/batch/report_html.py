@@ -68,6 +68,13 @@ def _p(p: Any) -> str:
     return "p &lt; 0.0001" if p < 1e-4 else f"p = {p:.2g}"
 
 
+def _effect_value(name: str, est: Any) -> str:
+    """One effect parameter as "name = value unit [lo, hi]" (an Estimate record)."""
+    est = est if isinstance(est, Mapping) else {}
+    lo, hi = (est.get("ci95") or [None, None])[:2]
+    return f"{_e(name)} = {_num(est.get('value'))} {_e(est.get('unit') or '')} {_ci(lo, hi)}"
+
+
 def _ci(lo: Any, hi: Any) -> str:
     if _num(lo) == "-" or _num(hi) == "-":
         return "-"
@@ -406,20 +413,18 @@ def _log_page(r: Mapping[str, Any], batch_options: str | None = None) -> bytes:
         effects = [e for e in disc.get("effects") or [] if isinstance(e, Mapping)]
         body.append(
             f"<p>status {_e(disc.get('status'))}; {len(effects)} effect(s) "
-            f"{_e(disc.get('reason') or '')}</p>"
+            f"{_e(disc.get('remaining') or '')}</p>"
         )
         body.append(
             _table(
-                ["effect", "parameters [95 %]", "explanation"],
+                ["effect", "parameters [95 %]", "physics"],
                 [
                     [
-                        _e(e.get("label")),
+                        _e(f"{e.get('status') or 'named'} {e.get('key') or e.get('id')}"),
                         "; ".join(
-                            f"{_e(k)} = {_num(v)} {_e((e.get('units') or {}).get(k, ''))} "
-                            f"{_ci(*((e.get('ci95') or {}).get(k) or [None, None]))}"
-                            for k, v in (e.get("parameters") or {}).items()
+                            _effect_value(k, v) for k, v in (e.get("parameters") or {}).items()
                         ),
-                        _e(e.get("explanation")),
+                        _e(e.get("physics")),
                     ]
                     for e in effects
                 ],

@@ -127,6 +127,8 @@ def parameter_rows(result: Mapping[str, Any]) -> list[dict[str, Any]]:
 
 
 def _effect_rows(result: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """One row per parameter of each effect of the discovery (the shared shape of
+    ``calib.discovery.DiscoveryReport``: named and described effects alike)."""
     disc = result.get("discovery")
     if not isinstance(disc, Mapping):
         return []
@@ -135,41 +137,30 @@ def _effect_rows(result: Mapping[str, Any]) -> list[dict[str, Any]]:
         if not isinstance(e, Mapping):
             continue
         pars = e.get("parameters") or {}
-        one = len(pars) == 1
-        pname = next(iter(pars), None)
-        ci = (e.get("ci95") or {}).get(pname) if one else None
-        rows.append(
-            {
-                "kind": "effect",
-                "estimator": "discovery",
-                "segment": "all",
-                "parameter": str(e.get("label") or e.get("id")),
-                "value": _num(pars[pname]) if one and pname is not None else None,
-                "std": _num((e.get("std") or {}).get(pname)) if one else None,
-                "ci95_lo": _num(ci[0]) if ci else None,
-                "ci95_hi": _num(ci[1]) if ci else None,
-                "identifiable": True,
-                "unit": (e.get("units") or {}).get(pname) if one else None,
-                "std_kind": _STD_ERROR,
-                "note": e.get("explanation") or None,
-                "detail": json.dumps(
-                    {
-                        k: e.get(k)
-                        for k in (
-                            "parameters",
-                            "std",
-                            "ci95",
-                            "units",
-                            "rms_before",
-                            "rms_after",
-                            "delta_bic",
-                            "alternatives",
-                        )
-                    },
-                    sort_keys=True,
-                ),
-            }
+        detail = json.dumps(
+            {k: e.get(k) for k in ("status", "channel", "heldout_gain", "delta_bic", "terms")},
+            sort_keys=True,
         )
+        for pname, est in pars.items():
+            est = est if isinstance(est, Mapping) else {}
+            ci = est.get("ci95") or [None, None]
+            rows.append(
+                {
+                    "kind": "effect",
+                    "estimator": f"discovery ({e.get('status') or 'named'})",
+                    "segment": "all",
+                    "parameter": f"{e.get('key') or e.get('id')}: {pname}",
+                    "value": _num(est.get("value")),
+                    "std": _num(est.get("std")),
+                    "ci95_lo": _num(ci[0]),
+                    "ci95_hi": _num(ci[1]),
+                    "identifiable": bool(est.get("identifiable", True)),
+                    "unit": est.get("unit"),
+                    "std_kind": _STD_ERROR,
+                    "note": e.get("physics") or None,
+                    "detail": detail,
+                }
+            )
     return rows
 
 

@@ -92,8 +92,10 @@ def test_recommended_estimate_matches_the_simulated_truth(mixed_json: dict) -> N
 
 
 def test_default_baseline_is_transient_and_names_nothing_on_a_clean_run(mixed_json: dict) -> None:
-    assert mixed_json["discovery"]["baseline"] == "transient"
-    assert mixed_json["discovery"]["effects"] == []
+    command = mixed_json["discovery"]["details"]["command_driven"]
+    assert command["baseline"] == "transient"
+    assert command["effects"] == []
+    assert mixed_json["discovery"]["named"] == []
 
 
 @pytest.mark.slow
@@ -128,7 +130,8 @@ def test_discovery_span_limits_what_discovery_looks_at(capsys: pytest.CaptureFix
         ]
     )
     assert code == 0
-    win = json.loads(capsys.readouterr().out)["discovery"]["windows"]
+    disc = json.loads(capsys.readouterr().out)["discovery"]
+    win = disc["details"]["command_driven"]["windows"]
     assert win["used_s"] == pytest.approx(100.0)
     assert win["total_s"] > 100.0
     assert win["windows_s"][0][0] == 0.0

@@ -62,7 +62,7 @@ def test_without_a_curvature_command(tmp_path: Path) -> None:
     st_ = _status(res)
     assert st_["segmentation"][0] == "skipped"
     assert "kappa_cmd" in st_["segmentation"][1]
-    assert st_["discovery"][0] == "skipped"
+    assert st_["command-driven discovery"][0] == "skipped"
     assert st_["transient fit along the path"][0] == "ok"
     assert st_["least-squares methods"][0] == "ok"
     assert res.estimate is not None
@@ -99,7 +99,7 @@ def test_a_failing_stage_is_recorded_and_the_rest_report(
     monkeypatch.setattr(calib.tractor_trailer.discovery, "discover", boom)
     res = analyze_loaded(_log(tmp_path), config=FAST)
     st_ = _status(res)
-    assert st_["discovery"] == ("failed", "LinAlgError: singular matrix")
+    assert st_["command-driven discovery"] == ("failed", "LinAlgError: singular matrix")
     assert res.estimate is not None
     assert res.to_dict()["stages"]
 

@@ -54,7 +54,7 @@ def test_four_runs_pooled_and_a_run_that_did_not_move(tmp_path: Path) -> None:
     for run in res.runs[:4]:
         assert run.source["path_source"] == "pose"
         stages = {s.stage: s for s in run.stages}
-        assert stages["discovery"].status in ("ok", "skipped")
+        assert stages["command-driven discovery"].status in ("ok", "skipped")
     doc = res.to_dict()
     assert doc["estimate"]["L2"]["value"] == pytest.approx(L2.value)
     assert len(doc["runs"]) == 5

@@ -367,6 +367,8 @@ def _with_kappa_cmd_from_steering(
 
 _PATH_STAGE = "transient fit along the path"
 _PATH_DISCOVERY_STAGE = "discovery along the path"
+_COMMAND_STAGE = "command-driven discovery"
+"""Discovery against the curvature command (``--no-discovery`` skips both as "discovery")."""
 
 
 def _path_discovery(
@@ -577,10 +579,10 @@ def analyze_tractor_trailer(
     if not cfg.discovery:
         stages.skip("discovery", "switched off (--no-discovery)")
     elif estimate is None:
-        stages.skip("discovery", "no calibrated link lengths to start from")
+        stages.skip(_COMMAND_STAGE, "no calibrated link lengths to start from")
     elif "kappa_cmd" not in frame.columns:
         stages.skip(
-            "discovery",
+            _COMMAND_STAGE,
             "discovery compares against the curvature command; the log has none (kappa_cmd)",
         )
     else:
@@ -593,7 +595,7 @@ def analyze_tractor_trailer(
         L1 = estimate.parameters["L1"].value
         L2 = estimate.parameters["L2"].value
         discovery = stages.run(
-            "discovery",
+            _COMMAND_STAGE,
             lambda: discover(
                 frame,
                 L1,
@@ -608,7 +610,7 @@ def analyze_tractor_trailer(
         status = getattr(discovery, "status", "ok")
         if discovery is not None and status != "ok":
             stages.status[-1] = StageStatus(
-                "discovery",
+                _COMMAND_STAGE,
                 "skipped" if status == "not_run" else "ok",
                 f"{status}: {discovery.reason}" if discovery.reason else status,
             )
@@ -692,13 +694,16 @@ def analyze_tractor_trailer(
     sections: dict[str, Any] = {}
     if path_disc is not None and path_disc.status == "ok":
         sections["path_discovery"] = path_disc
-    shown: Any = tractor_discovery_report(
-        path_disc,
-        discovery if isinstance(discovery, DiscoveryResult) else None,
-        adequacy,
-        path_fit.result_ if path_fit is not None else None,
-        estimate,
-    )
+    command = discovery if isinstance(discovery, DiscoveryResult) else None
+    shown: Any = None  # neither engine ran (--no-discovery, or nothing to start from)
+    if (path_disc is not None and path_disc.status == "ok") or command is not None:
+        shown = tractor_discovery_report(
+            path_disc,
+            command,
+            adequacy,
+            path_fit.result_ if path_fit is not None else None,
+            estimate,
+        )
     result = AnalysisResult(
         robot=str(loaded.robot),
         segments=segments,
