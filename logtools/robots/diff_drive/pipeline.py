@@ -3,7 +3,8 @@ gyro's effective track, dead reckoning before / after, the adequacy of the calib
 discovery through the shared engine (stuck encoder readings excluded, a radius change split),
 for one log or several runs. A pose that is the wheels' own dead reckoning is not taken as
 ground truth; a log of wheel odometry and an IMU (no encoders, no ground truth) gets what it
-determines: the yaw-rate gain against the gyro.
+determines: the yaw-rate gain against the gyro. The pipeline reads, runs the stages and
+reports; the judgement of the calibration is :mod:`calib.diff_drive.judgement`'s.
 
 Imported on first analysis (not by the plugin declaration in ``__init__``): it pulls in
 :mod:`calib.diff_drive`'s estimators and scipy, which resolving a log's signals never needs.

@@ -1,7 +1,8 @@
 """The tractor-trailer's analysis: steering geometry -> segmentation -> path-driven transient
 fit -> no-slip regression -> the patent's least-squares methods -> steady-state and time-domain
 estimators -> discovery -> joint refit with the sensor effects discovery named; and the pooled
-transient fit over several runs.
+transient fit over several runs. The pipeline reads, runs the stages and reports; what to
+recommend and how to judge it is :mod:`calib.tractor_trailer.judgement`'s.
 
 The library never prints: progress goes to the callback ``progress(stage: str)``.
 """
