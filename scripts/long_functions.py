@@ -39,7 +39,7 @@ def long_functions(dirs: Sequence[Path], limit: int) -> list[tuple[int, str, str
     ``dirs``, longest first."""
     out: list[tuple[int, str, str, int]] = []
     for d in dirs:
-        for path in sorted(d.rglob("*.py")):
+        for path in [d] if d.is_file() else sorted(d.rglob("*.py")):
             tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
             rel = str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
             out += [(n, rel, name, line) for name, line, n in _functions(tree) if n > limit]

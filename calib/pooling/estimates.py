@@ -16,7 +16,7 @@ import numpy as np
 
 from calib.adequacy import under_misfit
 from calib.adequacy.verdict import Adequacy
-from calib.pooling.gls import pool_gls, pool_univariate
+from calib.pooling.gls import Pooled, pool_gls, pool_univariate
 from calib.pooling.meta import pool_estimates
 from calib.results import CalibrationResult, Estimate, as_matrix, correlations_of, json_safe
 
@@ -160,22 +160,7 @@ def pool_jointly(
         marginal = pool_univariate(vals[:, j], np.sqrt(covs[:, j, j]), random="never")
         if marginal.heterogeneous:
             marginal_bad.append(n)
-        if k == 0 or not math.isfinite(sd):
-            note = f"no {one} determines it"
-        elif het:
-            note = (
-                f"the {len(ests)} {what} disagree beyond their errors ({test}, I2 = "
-                f"{100 * i2:.0f} %): {pooled.method}, an interval that includes the spread"
-            )
-        elif pooled.df > 0 and pooled.inflation > 1.0:
-            note = (
-                f"{k} {what} agree within their errors ({test}); {pooled.method}: the "
-                f"spread between them widens the variances up to x{pooled.inflation:.3g}"
-            )
-        elif pooled.df > 0:
-            note = f"{k} {what} agree within their errors ({test}); {pooled.method}"
-        else:
-            note = f"one {one}"
+        note = _joint_note(pooled, k, sd, len(ests), what, test, i2)
         determined = any(e is not None and e.identifiable for e in own)
         half = 1.959963984540054 * sd
         out[n] = Estimate(
@@ -208,23 +193,60 @@ def pool_jointly(
                 "parameter_p_heterogeneity": marginal.p_value,
             }
         )
-    among = "the windows of the log" if what == "windows" else f"the {what}"
     if het:
-        for n in marginal_bad:
-            p_n = stats[n]["parameter_p_heterogeneity"]
-            warnings.append(
-                f"{n} differs between {among} beyond their errors (Cochran's Q "
-                f"p = {p_n:.2g}): a part that changed or wore, or physics the "
-                f"model leaves out; each {one}'s own estimate is in runs"
-            )
-        if not marginal_bad:
-            warnings.append(
-                f"{', '.join(names)} differ jointly between {among} beyond "
-                f"their errors ({test}), though none does on its own: a part that "
-                f"changed or wore, or physics the model leaves out; each {one}'s "
-                "own estimate is in runs"
-            )
+        warnings = _joint_warnings(names, marginal_bad, stats, what, test)
     return out, pooled.cov, stats, warnings
+
+
+def _joint_note(
+    pooled: Pooled, k: int, sd: float, n_pieces: int, what: str, test: str, i2: float
+) -> str:
+    """How one parameter was pooled jointly (``k`` pieces inform it, ``sd`` its pooled std,
+    ``test`` the heterogeneity test's words), for its estimate's note."""
+    if k == 0 or not math.isfinite(sd):
+        return f"no {what[:-1]} determines it"
+    if pooled.heterogeneous:
+        return (
+            f"the {n_pieces} {what} disagree beyond their errors ({test}, I2 = "
+            f"{100 * i2:.0f} %): {pooled.method}, an interval that includes the spread"
+        )
+    if pooled.df > 0 and pooled.inflation > 1.0:
+        return (
+            f"{k} {what} agree within their errors ({test}); {pooled.method}: the "
+            f"spread between them widens the variances up to x{pooled.inflation:.3g}"
+        )
+    if pooled.df > 0:
+        return f"{k} {what} agree within their errors ({test}); {pooled.method}"
+    return f"one {what[:-1]}"
+
+
+def _joint_warnings(
+    names: Sequence[str],
+    marginal_bad: Sequence[str],
+    stats: Mapping[str, Mapping[str, Any]],
+    what: str,
+    test: str,
+) -> list[str]:
+    """The warnings when the pieces disagree jointly: each parameter that differs on its own
+    (``marginal_bad``), else the parameters together."""
+    one = what[:-1]
+    among = "the windows of the log" if what == "windows" else f"the {what}"
+    warnings = []
+    for n in marginal_bad:
+        p_n = stats[n]["parameter_p_heterogeneity"]
+        warnings.append(
+            f"{n} differs between {among} beyond their errors (Cochran's Q "
+            f"p = {p_n:.2g}): a part that changed or wore, or physics the "
+            f"model leaves out; each {one}'s own estimate is in runs"
+        )
+    if not marginal_bad:
+        warnings.append(
+            f"{', '.join(names)} differ jointly between {among} beyond "
+            f"their errors ({test}), though none does on its own: a part that "
+            f"changed or wore, or physics the model leaves out; each {one}'s "
+            "own estimate is in runs"
+        )
+    return warnings
 
 
 def pool_pieces(
