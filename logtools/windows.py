@@ -9,7 +9,7 @@ is that of one window whatever the log's length.
 
 Why not the robot's own pooled fit (``RobotPlugin.pool``)? It refits every run's samples at
 once, which is what the windows are there to avoid. The windows' estimates are pooled here
-instead, by their values and covariances (:func:`calib.pooling.pool_gls`): generalised least
+instead, by their values and covariances (:func:`calib.pooling.gls.pool_gls`): generalised least
 squares over all parameters at once, the generalised Cochran's Q test of whether the windows
 agree, and where they disagree beyond their errors random effects (the multivariate
 DerSimonian-Laird between-window covariance; a single widening factor Q/df where some window
@@ -20,7 +20,7 @@ does not determine (no finite std) takes no part from it. The pooled result carr
 covariance, and the robot recomputes its derived quantities from it (``RobotPlugin.
 derive_pooled``, e.g. the tractor's L1 + L2 from the pooled L1, L2 and their covariance). When
 some window has no covariance, each parameter is pooled on its own instead (inverse-variance
-weighting, :func:`logtools.batch.pooling.pool_estimates`, the batch's meta-analysis), and so is
+weighting, :func:`calib.pooling.meta.pool_estimates`, the batch's meta-analysis), and so is
 each derived quantity; the pooled result then has no covariance.
 
 A single change of the parameters between consecutive windows (a trailer swapped mid-log) is
@@ -36,23 +36,15 @@ import ctypes.util
 import gc
 import math
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
-import numpy as np
-
-from calib.adequacy import PieceFit, parameter_change, under_misfit
+from calib.adequacy import PieceFit, parameter_change
 from calib.adequacy.combine import combine_runs
-from calib.adequacy.verdict import NOT_EXPLAINED, Adequacy
-from calib.results import (
-    AnalysisResult,
-    CalibrationResult,
-    Estimate,
-    as_matrix,
-    correlations_of,
-    json_safe,
-)
+from calib.adequacy.verdict import NOT_EXPLAINED
+from calib.pooling.estimates import DeriveFn, one_method, pool_pieces, pooled_estimate
+from calib.results import AnalysisResult, CalibrationResult, json_safe
 from logtools.errors import LogcalInputError
 from logtools.readers import LogExtent, log_extent, read_log
 
@@ -249,265 +241,21 @@ def window_result(
     )
 
 
+def _estimates_and_labels(
+    pieces: Sequence[AnalysisResult],
+) -> tuple[list[CalibrationResult], list[str]]:
+    """The estimates of ``pieces`` (each with one) and the labels that name them."""
+    return [r.estimate for r in pieces if r.estimate is not None], [
+        window_label(r) for r in pieces if r.estimate is not None
+    ]
+
+
 def window_label(result: AnalysisResult) -> str:
     """``window 3 (7200-10800 s)`` for a window's result, else its path."""
     w = result.source.get("window")
     if not isinstance(w, Mapping):
         return str(result.source.get("path", ""))
     return f"window {w['index']} ({w['start_s']:.0f}-{w['end_s']:.0f} s)"
-
-
-DeriveFn = Callable[[CalibrationResult, Sequence[CalibrationResult]], Mapping[str, Estimate]]
-"""A robot's derived quantities of a pooled estimate (``RobotPlugin.derive_pooled``): given the
-pooled result (parameters and covariance) and the pieces' own results, the quantities under
-their keys."""
-
-
-def _pooled_estimates(
-    windows: Sequence[AnalysisResult],
-    kind: str,
-    what: str = "windows",
-) -> tuple[dict[str, Estimate], dict[str, dict[str, Any]], list[str]]:
-    """Each parameter (``kind`` "parameters") or derived quantity ("derived") pooled on its own
-    over the windows (``what``: "windows" or "runs"): the estimates, the meta-analysis per
-    name, and warnings for names whose windows disagree."""
-    from logtools.batch.pooling import pool_estimates
-
-    names: list[str] = []
-    for r in windows:
-        for n in getattr(r.estimate, kind, {}) if r.estimate is not None else {}:
-            if n not in names:
-                names.append(n)
-    labels = [window_label(r) for r in windows]
-    out: dict[str, Estimate] = {}
-    stats: dict[str, dict[str, Any]] = {}
-    warnings: list[str] = []
-    for n in names:
-        ests = [
-            getattr(r.estimate, kind, {}).get(n) if r.estimate is not None else None
-            for r in windows
-        ]
-        first = next(e for e in ests if e is not None)
-        unit = first.unit
-        # every window with a finite std takes part, a not determined one with the wide
-        # interval its own analysis gave it (so it weighs little); whether the pooled value
-        # is determined follows the windows that determine it
-        pe = pool_estimates(
-            n,
-            unit,
-            labels,
-            [e.value if e else None for e in ests],
-            [e.std if e else None for e in ests],
-            [True] * len(ests),
-        )
-        determined = [e for e in ests if e is not None and e.identifiable]
-        k = pe.n_logs
-        if k == 0:
-            note = f"no {what[:-1]} determines it"
-        elif pe.heterogeneous:
-            note = (
-                f"the {k} {what} disagree beyond their errors (Cochran's Q p = "
-                f"{pe.p_heterogeneity:.2g}, I2 = {100 * (pe.i2 or 0):.0f} %, between-"
-                f"{what[:-1]} std {pe.tau:.3g} {unit}): random-effects interval, which "
-                "includes the spread"
-            )
-            warnings.append(
-                f"{n} differs between the windows of the log beyond their errors "
-                f"(Cochran's Q p = {pe.p_heterogeneity:.2g}): a part that changed "
-                "or wore, or physics the model leaves out; each window's own "
-                "estimate is in runs"
-            )
-        else:
-            note = f"{k} {what} agree within their errors" + (
-                f" (Cochran's Q p = {pe.p_heterogeneity:.2g})"
-                if pe.p_heterogeneity is not None
-                else ""
-            )
-        e = pe.estimate
-        out[n] = Estimate(
-            first.name, e.value, e.std, e.ci95, bool(determined) and k > 0, unit, note
-        )
-        stats[n] = pe.to_dict()
-    return out, stats, warnings
-
-
-def _piece_covariance(est: CalibrationResult, names: Sequence[str]) -> np.ndarray:
-    """``est``'s covariance over ``names`` with its correlations and its reported standard
-    errors (NaN for a name it lacks or does not determine to a finite std)."""
-    own = list(est.parameters)
-    corr = np.array(correlations_of(as_matrix(est.covariance or ())), dtype=float)
-    p = len(names)
-    sd = np.array(
-        [est.parameters[n].std if n in est.parameters else math.nan for n in names], dtype=float
-    )
-    cov = np.full((p, p), math.nan)
-    for a, na in enumerate(names):
-        for b, nb in enumerate(names):
-            if a == b:
-                cov[a, a] = sd[a] ** 2
-            elif na in est.parameters and nb in est.parameters:
-                cov[a, b] = corr[own.index(na), own.index(nb)] * sd[a] * sd[b]
-    return cov
-
-
-def _joint_pooled(
-    pieces: Sequence[AnalysisResult],
-    names: Sequence[str],
-    what: str,
-) -> tuple[dict[str, Estimate], np.ndarray, dict[str, dict[str, Any]], list[str]]:
-    """The parameters ``names`` pooled jointly over ``pieces`` (each with an estimate and a
-    covariance) by :func:`calib.pooling.pool_gls`: the estimates, the pooled covariance, the
-    pooling per name and warnings where the pieces disagree."""
-    from calib.pooling import pool_gls, pool_univariate
-
-    ests = [r.estimate for r in pieces if r.estimate is not None]
-    labels = [window_label(r) for r in pieces if r.estimate is not None]
-    vals = np.array(
-        [[e.parameters[n].value if n in e.parameters else math.nan for n in names] for e in ests],
-        dtype=float,
-    )
-    covs = np.array([_piece_covariance(e, names) for e in ests])
-    pooled = pool_gls(vals, covs)
-    one = what[:-1]
-    het = pooled.heterogeneous
-    i2 = max(0.0, (pooled.q - pooled.df) / pooled.q) if pooled.q > 0 else 0.0
-    test = (
-        f"generalised Cochran's Q over {', '.join(names)} p = {pooled.p_value:.2g}, df {pooled.df}"
-        if pooled.df > 0
-        else ""
-    )
-    out: dict[str, Estimate] = {}
-    stats: dict[str, dict[str, Any]] = {}
-    warnings: list[str] = []
-    marginal_bad: list[str] = []
-    for j, n in enumerate(names):
-        own = [e.parameters.get(n) for e in ests]
-        first = next(e for e in own if e is not None)
-        informing = [
-            i
-            for i in range(len(ests))
-            if math.isfinite(covs[i, j, j]) and covs[i, j, j] > 0 and math.isfinite(vals[i, j])
-        ]
-        k = int(pooled.pieces[j])
-        sd = pooled.cov[j, j] ** 0.5 if math.isfinite(pooled.cov[j, j]) else math.nan
-        value = float(pooled.value[j])
-        marginal = pool_univariate(vals[:, j], np.sqrt(covs[:, j, j]), random="never")
-        if marginal.heterogeneous:
-            marginal_bad.append(n)
-        if k == 0 or not math.isfinite(sd):
-            note = f"no {one} determines it"
-        elif het:
-            note = (
-                f"the {len(ests)} {what} disagree beyond their errors ({test}, I2 = "
-                f"{100 * i2:.0f} %): {pooled.method}, an interval that includes the spread"
-            )
-        elif pooled.df > 0 and pooled.inflation > 1.0:
-            note = (
-                f"{k} {what} agree within their errors ({test}); {pooled.method}: the "
-                f"spread between them widens the variances up to x{pooled.inflation:.3g}"
-            )
-        elif pooled.df > 0:
-            note = f"{k} {what} agree within their errors ({test}); {pooled.method}"
-        else:
-            note = f"one {one}"
-        determined = any(e is not None and e.identifiable for e in own)
-        half = 1.959963984540054 * sd
-        out[n] = Estimate(
-            first.name,
-            value,
-            sd,
-            (value - half, value + half),
-            determined and k > 0 and math.isfinite(sd),
-            first.unit,
-            note,
-        )
-        stats[n] = json_safe(
-            {
-                "estimate": out[n].to_dict(),
-                "method": pooled.method,
-                "n_logs": k,
-                "left_out": [
-                    f"{lab}: not determined by this {one}"
-                    for i, lab in enumerate(labels)
-                    if i not in informing
-                ],
-                "joint": list(names),
-                "q": pooled.q,
-                "df": pooled.df,
-                "p_heterogeneity": pooled.p_value,
-                "i2": i2,
-                "heterogeneous": het,
-                "inflation": pooled.inflation,
-                "parameter_q": marginal.q,
-                "parameter_p_heterogeneity": marginal.p_value,
-            }
-        )
-    among = "the windows of the log" if what == "windows" else f"the {what}"
-    if het:
-        for n in marginal_bad:
-            p_n = stats[n]["parameter_p_heterogeneity"]
-            warnings.append(
-                f"{n} differs between {among} beyond their errors (Cochran's Q "
-                f"p = {p_n:.2g}): a part that changed or wore, or physics the "
-                f"model leaves out; each {one}'s own estimate is in runs"
-            )
-        if not marginal_bad:
-            warnings.append(
-                f"{', '.join(names)} differ jointly between {among} beyond "
-                f"their errors ({test}), though none does on its own: a part that "
-                f"changed or wore, or physics the model leaves out; each {one}'s "
-                "own estimate is in runs"
-            )
-    return out, pooled.cov, stats, warnings
-
-
-def _pool_pieces(
-    pieces: Sequence[AnalysisResult],
-    what: str,
-    derive: DeriveFn | None,
-) -> tuple[dict[str, Estimate], dict[str, Estimate], np.ndarray | None, dict[str, Any], list[str]]:
-    """The parameters and derived quantities of ``pieces`` (each with an estimate) pooled:
-    jointly with the pooled covariance when every piece has a covariance, the derived ones then
-    recomputed by ``derive`` (the robot's; without it, pooled on their own); else each on its
-    own, with no covariance. Returns parameters, derived, covariance, pooling per name and
-    warnings."""
-    ests = [r.estimate for r in pieces if r.estimate is not None]
-    if len(ests) == 1:  # nothing to pool: the piece's own estimates, intervals as it gave them
-        one = ests[0]
-        cov = None if one.covariance is None else np.asarray(one.covariance, dtype=float)
-        return (
-            dict(one.parameters),
-            dict(one.derived),
-            cov,
-            {
-                n: {"method": f"the only {what[:-1]}'s own estimate"}
-                for n in (*one.parameters, *one.derived)
-            },
-            [],
-        )
-    names: list[str] = []
-    for e in ests:
-        names += [n for n in e.parameters if n not in names]
-    if not names or any(e.covariance is None for e in ests):
-        params, stats, warns = _pooled_estimates(pieces, "parameters", what)
-        derived, dstats, dwarns = _pooled_estimates(pieces, "derived", what)
-        return params, derived, None, {**stats, **dstats}, warns + dwarns
-    params, cov, stats, warns = _joint_pooled(pieces, names, what)
-    if derive is None:
-        derived, dstats, dwarns = _pooled_estimates(pieces, "derived", what)
-        return params, derived, cov, {**stats, **dstats}, warns + dwarns
-    base = CalibrationResult(
-        method="pooled", parameters=params, verdict="", covariance=as_matrix(cov)
-    )
-    derived = dict(derive(base, ests))
-    for n, d in derived.items():
-        stats[n] = json_safe(
-            {
-                "estimate": d.to_dict(),
-                "method": "computed by the robot from the pooled parameters and their covariance",
-            }
-        )
-    return params, derived, cov, stats, warns
 
 
 def _change(windows: Sequence[AnalysisResult], names: Sequence[str]) -> Any:
@@ -567,9 +315,10 @@ def pool_windows(
     if not with_estimate:
         adequacy = combine_runs(labelled, "each window's model")
     else:
-        params, derived, cov, stats, more = _pool_pieces(with_estimate, "windows", derive)
+        ests, names = _estimates_and_labels(with_estimate)
+        params, derived, cov, stats, more = pool_pieces(ests, names, "windows", derive)
         warnings += more
-        model = _one_method(with_estimate, "each window's method")
+        model = one_method(ests, "each window's method")
         adequacy = combine_runs(labelled, model)
         change = _change(with_estimate, list(params))
         if change is not None:
@@ -583,8 +332,8 @@ def pool_windows(
                     f"one parameter set does not hold over the windows: {change.note}",
                 ),
             )
-        estimate = _pooled_estimate(
-            params, derived, cov, with_estimate, len(windows), adequacy, model, "window"
+        estimate = pooled_estimate(
+            params, derived, cov, ests, len(windows), adequacy, model, "window"
         )
     truths = [dict(r.truth) for r in windows]
     source = {
@@ -616,35 +365,6 @@ def pool_windows(
     )
 
 
-def _not_determined(
-    estimates: Mapping[str, Estimate], adequacy: Adequacy, pieces: Sequence[Mapping[str, Estimate]]
-) -> dict[str, Estimate]:
-    """The pooled estimates when the model does not explain the pieces: not determined, widened
-    as a whole log's are (:func:`calib.adequacy.under_misfit`: the standard error by the
-    misfit factor, combined with the spread of the pieces' own values). Pooling divides the
-    pieces' errors by their number, but a misfit that biases every piece alike does not
-    average out; the spread and the factor keep the interval from narrowing over it."""
-    out = {}
-    for n, e in estimates.items():
-        values = [p[n].value for p in pieces if n in p and math.isfinite(p[n].value)]
-        out[n] = under_misfit(e, adequacy, pieces=values, why=adequacy.summary)
-    return out
-
-
-def _how(cov: np.ndarray | None, what: str) -> str:
-    """How the pooled estimate was obtained, for its verdict."""
-    if cov is None:
-        return (
-            f"each parameter by inverse-variance weighting (random effects where the {what} "
-            "disagree); correlations between parameters are not pooled (some "
-            f"{what[:-1]} has no covariance)."
-        )
-    return (
-        "all parameters jointly by generalised least squares over their covariances "
-        f"(random effects where the {what} disagree)."
-    )
-
-
 def pool_runs(
     results: Sequence[AnalysisResult], *, derive: DeriveFn | None = None
 ) -> AnalysisResult:
@@ -664,13 +384,12 @@ def pool_runs(
     if not with_estimate:
         adequacy = combine_runs(labelled, "each run's model")
     else:
-        params, derived, cov, stats, more = _pool_pieces(with_estimate, "runs", derive)
+        ests, names = _estimates_and_labels(with_estimate)
+        params, derived, cov, stats, more = pool_pieces(ests, names, "runs", derive)
         warnings += [w.replace("the windows of the log", "the runs") for w in more]
-        model = _one_method(with_estimate, "each run's method")
+        model = one_method(ests, "each run's method")
         adequacy = combine_runs(labelled, model)
-        estimate = _pooled_estimate(
-            params, derived, cov, with_estimate, len(results), adequacy, model, "run"
-        )
+        estimate = pooled_estimate(params, derived, cov, ests, len(results), adequacy, model, "run")
     truths = [dict(r.truth) for r in results]
     return AnalysisResult(
         robot=results[0].robot,
@@ -683,59 +402,3 @@ def pool_runs(
         warnings=warnings,
         runs=list(results),
     )
-
-
-def _one_method(pieces: Sequence[AnalysisResult], several: str) -> str:
-    """The method every piece's estimate used, or ``several`` when they differ."""
-    methods = {r.estimate.method for r in pieces if r.estimate is not None}
-    return next(iter(methods)) if len(methods) == 1 else several
-
-
-def _pooled_estimate(
-    params: dict[str, Estimate],
-    derived: dict[str, Estimate],
-    cov: np.ndarray | None,
-    pieces: Sequence[AnalysisResult],
-    n_total: int,
-    adequacy: Adequacy,
-    model: str,
-    what: str,
-) -> CalibrationResult:
-    """The pooled estimate of ``pieces`` (of ``n_total`` windows or runs, ``what``): not
-    determined where the pooled model does not explain them, with the assumptions every
-    piece's intervals make."""
-    verdict = (
-        f"{len(pieces)} of {n_total} {what}s pooled, " + _how(cov, f"{what}s")
-        if len(pieces) > 1
-        else f"1 of {n_total} {what}s with an estimate: its own estimate, not pooled."
-    )
-    if adequacy.channels and not adequacy.explains:
-        ests = [r.estimate for r in pieces if r.estimate is not None]
-        params = _not_determined(params, adequacy, [e.parameters for e in ests])
-        derived = _not_determined(derived, adequacy, [e.derived for e in ests])
-        verdict += " " + adequacy.summary
-    assumed = _shared_assumptions([r.estimate for r in pieces if r.estimate])
-    if any(e.identifiable for e in params.values()):
-        verdict = _assuming(verdict, assumed, what)
-    return CalibrationResult(
-        method=f"{model} pooled over {len(pieces)} {what}s",
-        parameters=params,
-        derived=derived,
-        verdict=verdict,
-        covariance=None if cov is None else as_matrix(cov),
-        assumptions=assumed,
-    )
-
-
-def _shared_assumptions(pieces: Sequence[CalibrationResult]) -> tuple[str, ...]:
-    """The assumptions every piece's estimate makes (in the first piece's order)."""
-    if not pieces:
-        return ()
-    return tuple(a for a in pieces[0].assumptions if all(a in p.assumptions for p in pieces))
-
-
-def _assuming(verdict: str, assumptions: Sequence[str], what: str) -> str:
-    """``verdict`` and, when there are any, the assumptions each piece's intervals made."""
-    if not assumptions:
-        return verdict
-    return f"{verdict} These intervals assume {'; '.join(assumptions)}, as each {what}'s do."

@@ -284,7 +284,8 @@ def _effect(eid: str, target: str | None, **pars: float) -> EffectFit:
 
 def test_fold_without_confounds_takes_the_named_joint_angle_effects() -> None:
     """Named joint-angle offset and clock offset with no confound: both are folded (the shape
-    of the pipeline's ``_sensor_effects``); actuator and yaw-rate effects are not."""
+    of ``calib.tractor_trailer.judgement.folded_effects``); actuator and yaw-rate effects are
+    not."""
     res = DiscoveryResult(
         baseline="transient",
         regions=[],

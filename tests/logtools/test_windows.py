@@ -458,8 +458,8 @@ def test_without_the_robots_hook_derived_quantities_are_pooled_on_their_own() ->
 def test_one_window_keeps_its_own_estimate() -> None:
     """Pooling a single window changes nothing: its parameters (intervals as the robot gave
     them, widened or one-sided) and covariance are the pooled estimate's."""
-    from calib.results import AnalysisResult, CalibrationResult, Estimate
-    from logtools.windows import _pool_pieces
+    from calib.pooling.estimates import pool_pieces
+    from calib.results import CalibrationResult, Estimate
 
     est = CalibrationResult(
         method="m",
@@ -470,8 +470,7 @@ def test_one_window_keeps_its_own_estimate() -> None:
         },
         covariance=((25.0, 0.1), (0.1, 0.01)),
     )
-    piece = AnalysisResult(robot="r", segments=[], methods=[], estimate=est)
-    params, derived, cov, _stats, warns = _pool_pieces([piece], "windows", None)
+    params, derived, cov, _stats, warns = pool_pieces([est], ["w"], "windows", None)
     assert params == dict(est.parameters)
     assert derived == {}
     assert cov is not None

@@ -280,7 +280,7 @@ class SensorEffectsForFit:
 
     ``fold``: joint-angle corrections of named effects no confound involves: fit them jointly
     into the recommended estimate (``fold.as_tuple()`` is (psi offset?, psi clock shift s,
-    labels), the shape of the tractor-trailer pipeline's ``_sensor_effects``; ``psi_scale``
+    labels), the shape of the ``calib.tractor_trailer.judgement.folded_effects``; ``psi_scale``
     divides the recorded joint angle). ``span``: one entry per confound (``SpanChoice``);
     each option already includes ``fold``. ``undetermined``: reasons the link lengths are not
     determined by this log whatever the fit (empty: span and report).

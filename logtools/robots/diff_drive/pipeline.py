@@ -3,7 +3,8 @@ gyro's effective track, dead reckoning before / after, the adequacy of the calib
 discovery through the shared engine (stuck encoder readings excluded, a radius change split),
 for one log or several runs. A pose that is the wheels' own dead reckoning is not taken as
 ground truth; a log of wheel odometry and an IMU (no encoders, no ground truth) gets what it
-determines: the yaw-rate gain against the gyro.
+determines: the yaw-rate gain against the gyro. The pipeline reads, runs the stages and
+reports; the judgement of the calibration is :mod:`calib.diff_drive.judgement`'s.
 
 Imported on first analysis (not by the plugin declaration in ``__init__``): it pulls in
 :mod:`calib.diff_drive`'s estimators and scipy, which resolving a log's signals never needs.
@@ -14,27 +15,18 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from calib.adequacy import (
-    NOT_EXPLAINED,
-    Adequacy,
-    Location,
-    implausible,
-    mark_implausible,
-    not_assessed,
-    under_misfit,
-)
+from calib.adequacy import Adequacy, ParameterChange, not_assessed
 from calib.diff_drive.adequacy import (
-    PIECE_NAMES,
     StuckSpan,
     assess_fit,
     exclude_spans,
     exclusion_masks,
     find_stuck_spans,
-    piece_fits,
     radius_change,
     split_at,
 )
@@ -46,11 +38,15 @@ from calib.diff_drive.effects import (
     discover_effects,
     stuck_spec,
 )
-from calib.diff_drive.explain import (
-    correcting_effects,
-    drive_discovery_report,
-    explained_runs,
-    span_explanations,
+from calib.diff_drive.explain import correcting_effects, drive_discovery_report, explained_runs
+from calib.diff_drive.judgement import (
+    LSQ_MODEL,
+    excluded_stuck_spans,
+    judge_plausible,
+    judged_estimate,
+    log_verdict,
+    model_label,
+    radius_pieces,
 )
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.odom_imu import analyze_odom_imu
@@ -61,7 +57,6 @@ from calib.diff_drive.odometry_lsq import (
     fit_lsq,
     make_estimates,
 )
-from calib.diff_drive.plausible import RANGES as DRIVE_RANGES
 from calib.diff_drive.provenance import Provenance, pose_provenance
 from calib.diff_drive.skid import effective_track
 from calib.diff_drive.slip import SlipFit, fit_slip, slip_corrected, spanned
@@ -183,9 +178,6 @@ def _params_of(result: CalibrationResult) -> DiffDriveParams:
     )
 
 
-LSQ_MODEL = "LSQ (r_R, r_L, b)"
-
-
 def _lsq_section(fit: LsqFit, sections: dict[str, Any]) -> None:
     if fit.offset is not None:
         sx, sy = fit.offset_std
@@ -198,86 +190,17 @@ def _lsq_section(fit: LsqFit, sections: dict[str, Any]) -> None:
         }
 
 
-def _widen(
-    result: CalibrationResult, adequacy: Adequacy, pieces: Mapping[str, Sequence[float]]
-) -> CalibrationResult:
-    """``result`` with every radius and the track as a model that does not explain the log
-    allows (:func:`calib.adequacy.under_misfit`)."""
-    if adequacy.explains or not adequacy.channels:
-        return result
-    params = {
-        k: under_misfit(e, adequacy, pieces=pieces.get(k, ())) for k, e in result.parameters.items()
-    }
-    return dataclasses.replace(
-        result,
-        parameters=params,
-        verdict=result.verdict + "; the model does not explain the log: intervals widened, "
-        "not determined",
-    )
+@dataclass(frozen=True)
+class _Judged:
+    """What the final adequacy judges: the runs (corrected by a named slip), the parameters and
+    the marker offset, the model's label; and the runs a radius change is sought on (``used``:
+    stuck spans left out, a named slip corrected)."""
 
-
-def _model_label(excluded: Sequence[StuckSpan]) -> str:
-    if not excluded:
-        return LSQ_MODEL
-    return LSQ_MODEL + ", samples of " + ", ".join(s.label for s in excluded) + " excluded"
-
-
-def _log_verdict(
-    adequacy: Adequacy, first: Adequacy, excluded: Sequence[StuckSpan], slip: SlipFit | None
-) -> Adequacy:
-    """The log's verdict: samples left out (a stuck encoder) or a named slip mean that the
-    constant-parameter odometry model does not explain the log as recorded, even when the model
-    with them explains the rest; the places are named. The estimates were judged (and widened)
-    on the model with them, before this."""
-    if not excluded and slip is None:
-        return adequacy
-    ch = {c.channel: c for c in (first.channels or adequacy.channels)}
-    head = ch.get("heading increment")
-    along = ch.get("along-track displacement")
-    locs: list[Location] = []
-    total = max((float(c.n) for c in ch.values()), default=1.0)
-    for s in excluded:
-        floor = head.noise_floor if head is not None and head.noise_floor > 0 else math.nan
-        locs.append(
-            Location(
-                "heading increment",
-                "time",
-                f"stuck encoder {s.label}",
-                s.t0_s,
-                s.t1_s,
-                abs(s.heading_rad),
-                abs(s.heading_rad) / floor,
-                1.0,
-                min(1.0, (s.t1_s - s.t0_s) / max(total * 0.5, 1e-9)),
-            )
-        )
-    if slip is not None and along is not None:
-        locs.append(
-            Location(
-                "along-track displacement",
-                "speed (m/s)",
-                f"speed-dependent slip (k = {slip.k.value:.3g} s/m)",
-                0.0,
-                math.inf,
-                along.residual_rms,
-                along.ratio,
-                1.0,
-                1.0,
-            )
-        )
-    what = [f"{len(excluded)} stuck encoder span(s) left out"] if excluded else []
-    what += ["speed-dependent wheel slip named"] if slip is not None else []
-    notes = (
-        *adequacy.notes,
-        "the constant-parameter odometry model does not explain the log "
-        "as recorded (" + "; ".join(what) + f"); with them: {adequacy.verdict}",
-    )
-    return adequacy.with_(
-        verdict=NOT_EXPLAINED,
-        located=(*locs, *adequacy.located),
-        notes=notes,
-        unexplained=adequacy.unexplained or ", ".join(what),
-    )
+    runs: list[DriveRun]
+    params: DiffDriveParams
+    offset: complex | None
+    model: str
+    used: list[DriveRun]
 
 
 def _calibrate_and_judge(
@@ -296,7 +219,8 @@ def _calibrate_and_judge(
     list[str],
 ]:
     """LSQ, adequacy, discovery (stuck spans excluded), a radius change (split and estimated
-    per piece), the final adequacy and intervals under misfit."""
+    per piece), the final adequacy and intervals under misfit (the judgement is
+    :mod:`calib.diff_drive.judgement`'s)."""
     sections: dict[str, Any] = {}
     warnings: list[str] = []
     progress("least-squares odometry calibration")
@@ -313,146 +237,217 @@ def _calibrate_and_judge(
         return result, fit, not_assessed(LSQ_MODEL, "the adequacy check failed"), None, sections, []
     floor = first.channels[0].noise_floor if first.channels else 0.0
     spans = find_stuck_spans(runs, fit.params, floor)
-    disc: DiffDriveSelection | None = None
-    if discovery_on:
-        progress("discovery")
-        disc = stages.run(
-            "discovery",
-            lambda: discover_effects(
-                runs, nominal, calibrated=fit.params, marker=fit.offset, spans=spans
-            ),
-        )
-    else:
-        stages.skip("discovery", "switched off")
+    disc = _discovery(runs, nominal, fit, spans, stages, discovery_on, progress)
     lsq_nominal, recorded = result, runs
     explained = _rerun_under_effects(runs, disc, stages, seed, warnings)
     if explained is not None:
         runs, result, fit = explained
-    named_keys = {e.key for e in disc.accepted} if disc is not None else set()
-    excluded = [s for s in spans if stuck_spec(s).key in named_keys]
-    if disc is None and spans:  # discovery off or failed: the detection alone decides
-        excluded = list(spans)
-    used = runs
-    if excluded:
-        used = exclude_spans(runs, excluded)
-        warnings.append(
-            "stuck or dropped wheel-encoder readings ("
-            + ", ".join(
-                f"{s.label}: the ground truth turned {s.heading_rad:+.3g} rad the wheels did "
-                "not report"
-                for s in excluded
-            )
-            + "): those samples are left out of the calibration"
-        )
-        refit = stages.run(
-            "calibration.lsq_excluding_stuck", lambda: calibrate_lsq(used, seed=seed)
-        )
-        if refit is not None:
-            result, fit = refit
-            result = dataclasses.replace(
-                result,
-                method="LSQ",
-                verdict=result.verdict + " (stuck-encoder samples "
-                "excluded: " + ", ".join(s.label for s in excluded) + ")",
-            )
+    excluded = excluded_stuck_spans(spans, disc)
+    used, result, fit = _excluding_stuck(runs, excluded, result, fit, stages, seed, warnings)
     _lsq_section(fit, sections)
     progress("speed-dependent slip")
     slip = stages.run("calibration.slip", lambda: fit_slip(used, fit.params, fit.offset))
-    judged_runs, judged_params, offset = runs, fit.params, fit.offset
-    model = _model_label(excluded)
+    judged = _Judged(runs, fit.params, fit.offset, model_label(excluded), used)
     if slip is not None:
         sections["wheel_slip"] = slip.to_dict()
-        if slip.significant:
-            k = slip.k.value
-            judged_runs, judged_params, offset = (
-                slip_corrected(runs, slip.params, k),
-                slip.params,
-                slip.offset,
-            )
-            used = slip_corrected(used, slip.params, k)
-            model += f" + {WHEEL_SLIP.key}"
-            # the slip fit's radii and track: the LSQ bootstrap covariance is not theirs
-            result = dataclasses.replace(
-                result,
-                method="LSQ",
-                parameters={**result.parameters, **{n: slip.with_slip[n] for n in PARAMETER_NAMES}},
-                covariance=None,
-                verdict=result.verdict + "; " + slip.note,
-            )
-            warnings.append(f"{slip.note} ({WHEEL_SLIP.id})")
-            if disc is not None:
-                disc = dataclasses.replace(disc, also_named=(WHEEL_SLIP.id,))
-        else:
-            result = dataclasses.replace(result, parameters=spanned(result.parameters, slip))
-    change = stages.run(
-        "adequacy.radius_change", lambda: radius_change(used, judged_params, offset)
+        judged, result, disc = _with_slip(judged, slip, result, disc, warnings)
+    change, pieces = _radius_change(judged, stages, seed, sections, warnings)
+    rerun = explained is not None
+    adequacy = _final_adequacy(runs, judged, first, excluded, change, slip, rerun, stages)
+    result = judged_estimate(result, disc, change, adequacy, pieces, recorded, seed)
+    named = slip if slip is not None and slip.significant else None
+    adequacy = log_verdict(adequacy, first, excluded, named)
+    result, found = judge_plausible(result, adequacy)
+    warnings += found
+    report = drive_discovery_report(
+        disc,
+        first,
+        adequacy,
+        lsq_nominal,
+        result,
+        LSQ_MODEL,
+        slip=named.k if named is not None else None,
     )
-    changes = [change] if change is not None else []
-    pieces: dict[str, list[float]] = {}
-    if change is not None:
-        before_runs, after_runs = split_at(used, change.t_s)
-        per_piece = []
+    return result, fit, adequacy, report if discovery_on else None, sections, warnings
 
-        def _fit_part(part: list[DriveRun]) -> Callable[[], LsqFit]:
-            return lambda: fit_lsq(part, n_boot=200, seed=seed)
 
-        for label, part in (("before", before_runs), ("after", after_runs)):
-            f = stages.run(f"calibration.lsq_{label}_change", _fit_part(part))
-            if f is None:
-                continue
-            p = f.params
-            est = make_estimates(
-                [p.r_R, p.r_L, p.b],
-                f.std.tolist(),
-                True,
-                f"LSQ on the part {label} t = {change.t_s:.1f} s",
-                f.quantile(),
-            )
-            per_piece.append({"part": label, "estimate": {k: e.to_dict() for k, e in est.items()}})
-        sections["parameter_change"] = {"change": change.to_dict(), "pieces": per_piece}
-        warnings.append(
-            change.note + ": the log was split there and each part estimated (parameter_change)"
+def _discovery(
+    runs: list[DriveRun],
+    nominal: DiffDriveParams | None,
+    fit: LsqFit,
+    spans: list[StuckSpan],
+    stages: Stages,
+    discovery_on: bool,
+    progress: Progress,
+) -> DiffDriveSelection | None:
+    """Discovery through the shared engine from the calibrated parameters (None when switched
+    off or failed; the stage says which)."""
+    if not discovery_on:
+        stages.skip("discovery", "switched off")
+        return None
+    progress("discovery")
+    return stages.run(
+        "discovery",
+        lambda: discover_effects(
+            runs, nominal, calibrated=fit.params, marker=fit.offset, spans=spans
+        ),
+    )
+
+
+def _excluding_stuck(
+    runs: list[DriveRun],
+    excluded: Sequence[StuckSpan],
+    result: CalibrationResult,
+    fit: LsqFit,
+    stages: Stages,
+    seed: int,
+    warnings: list[str],
+) -> tuple[list[DriveRun], CalibrationResult, LsqFit]:
+    """The runs with the stuck encoder spans ``excluded`` cut out, and the calibration refitted
+    on them (the estimate and fit as they were when there are none or the refit failed)."""
+    if not excluded:
+        return runs, result, fit
+    used = exclude_spans(runs, excluded)
+    warnings.append(
+        "stuck or dropped wheel-encoder readings ("
+        + ", ".join(
+            f"{s.label}: the ground truth turned {s.heading_rad:+.3g} rad the wheels did not report"
+            for s in excluded
         )
-        for pf in piece_fits(used, judged_params, offset=offset):
-            mean, diff = (pf.values[n] for n in PIECE_NAMES)
-            pieces.setdefault("wheel_radius_right", []).append(mean + 0.5 * diff)
-            pieces.setdefault("wheel_radius_left", []).append(mean - 0.5 * diff)
+        + "): those samples are left out of the calibration"
+    )
+    refit = stages.run("calibration.lsq_excluding_stuck", lambda: calibrate_lsq(used, seed=seed))
+    if refit is None:
+        return used, result, fit
+    result, fit = refit
+    result = dataclasses.replace(
+        result,
+        method="LSQ",
+        verdict=result.verdict + " (stuck-encoder samples "
+        "excluded: " + ", ".join(s.label for s in excluded) + ")",
+    )
+    return used, result, fit
+
+
+def _with_slip(
+    judged: _Judged,
+    slip: SlipFit,
+    result: CalibrationResult,
+    disc: DiffDriveSelection | None,
+    warnings: list[str],
+) -> tuple[_Judged, CalibrationResult, DiffDriveSelection | None]:
+    """A significant speed-dependent slip: the data corrected by it, the slip fit's radii and
+    track as the estimate (no covariance: the LSQ bootstrap's is not theirs), the slip named in
+    discovery; an insignificant one: the estimate spanning it."""
+    if not slip.significant:
+        return (
+            judged,
+            dataclasses.replace(result, parameters=spanned(result.parameters, slip)),
+            disc,
+        )
+    k = slip.k.value
+    judged = _Judged(
+        slip_corrected(judged.runs, slip.params, k),
+        slip.params,
+        slip.offset,
+        judged.model + f" + {WHEEL_SLIP.key}",
+        slip_corrected(judged.used, slip.params, k),
+    )
+    result = dataclasses.replace(
+        result,
+        method="LSQ",
+        parameters={**result.parameters, **{n: slip.with_slip[n] for n in PARAMETER_NAMES}},
+        covariance=None,
+        verdict=result.verdict + "; " + slip.note,
+    )
+    warnings.append(f"{slip.note} ({WHEEL_SLIP.id})")
+    if disc is not None:
+        disc = dataclasses.replace(disc, also_named=(WHEEL_SLIP.id,))
+    return judged, result, disc
+
+
+def _radius_change(
+    judged: _Judged,
+    stages: Stages,
+    seed: int,
+    sections: dict[str, Any],
+    warnings: list[str],
+) -> tuple[ParameterChange | None, dict[str, list[float]]]:
+    """A change of the wheel radii mid-log: the log split there and each part estimated
+    (``sections["parameter_change"]``), and the radii on consecutive pieces for the intervals;
+    (None, {}) when one set describes the log."""
+    used, params, offset = judged.used, judged.params, judged.offset
+    change = stages.run("adequacy.radius_change", lambda: radius_change(used, params, offset))
+    if change is None:
+        return None, {}
+    per_piece = _per_part_estimates(used, change, stages, seed)
+    sections["parameter_change"] = {"change": change.to_dict(), "pieces": per_piece}
+    warnings.append(
+        change.note + ": the log was split there and each part estimated (parameter_change)"
+    )
+    return change, radius_pieces(used, params, offset)
+
+
+def _per_part_estimates(
+    used: list[DriveRun], change: ParameterChange, stages: Stages, seed: int
+) -> list[dict[str, Any]]:
+    """The LSQ estimate on each side of the radius change (a part whose fit fails is left
+    out; its stage says why)."""
+    before_runs, after_runs = split_at(used, change.t_s)
+    per_piece = []
+
+    def _fit_part(part: list[DriveRun]) -> Callable[[], LsqFit]:
+        return lambda: fit_lsq(part, n_boot=200, seed=seed)
+
+    for label, part in (("before", before_runs), ("after", after_runs)):
+        f = stages.run(f"calibration.lsq_{label}_change", _fit_part(part))
+        if f is None:
+            continue
+        p = f.params
+        est = make_estimates(
+            [p.r_R, p.r_L, p.b],
+            f.std.tolist(),
+            True,
+            f"LSQ on the part {label} t = {change.t_s:.1f} s",
+            f.quantile(),
+        )
+        per_piece.append({"part": label, "estimate": {k: e.to_dict() for k, e in est.items()}})
+    return per_piece
+
+
+def _final_adequacy(
+    runs: list[DriveRun],
+    judged: _Judged,
+    first: Adequacy,
+    excluded: Sequence[StuckSpan],
+    change: ParameterChange | None,
+    slip: SlipFit | None,
+    rerun: bool,
+    stages: Stages,
+) -> Adequacy:
+    """The adequacy of the model judged (stuck spans masked, a named slip and a radius change
+    in its notes), against the first adequacy when anything changed since (``rerun``: the
+    calibration was rerun under discovery's effects); the first when it fails."""
+    changes = [change] if change is not None else []
     masks = exclusion_masks(runs, excluded) if excluded else None
     notes = [f"{stuck_spec(s).key} excluded from the calibration" for s in excluded]
     if slip is not None and slip.significant:
         notes.append(slip.note)
+    changed = bool(excluded or changes or judged.runs is not runs or rerun)
     final = stages.run(
         "adequacy.final",
         lambda: assess_fit(
-            judged_runs,
-            judged_params,
-            model=model,
-            offset=offset,
+            judged.runs,
+            judged.params,
+            model=judged.model,
+            offset=judged.offset,
             excluded=masks,
-            before=first
-            if (excluded or changes or judged_runs is not runs or explained is not None)
-            else None,
+            before=first if changed else None,
             changes=changes,
             notes=notes,
         ),
     )
-    adequacy = final if final is not None else first
-    if disc is not None and disc.selection is not None and change is None:
-        result = span_explanations(result, disc, recorded, seed)
-    else:
-        result = _widen(result, adequacy, pieces)
-    adequacy = _log_verdict(
-        adequacy, first, excluded, slip if (slip is not None and slip.significant) else None
-    )
-    found = implausible(result, adequacy, DRIVE_RANGES)
-    if found:
-        result = mark_implausible(result, found)
-        warnings += [f"implausible: {f.text}" for f in found]
-    named_slip = slip.k if slip is not None and slip.significant else None
-    report = drive_discovery_report(
-        disc, first, adequacy, lsq_nominal, result, LSQ_MODEL, slip=named_slip
-    )
-    return result, fit, adequacy, report if discovery_on else None, sections, warnings
+    return final if final is not None else first
 
 
 def _rerun_under_effects(

@@ -232,16 +232,9 @@ def analyze_manipulator(
     else:
         stages.skip("model adequacy", "identification did not run")
         stages.skip("discovery", "identification did not run")
-    kinds = getattr(model, "joint_kinds", None)
     sections: dict[str, Any] = {
         "joints": list(model.joint_names),
-        "joint_units": dict(
-            zip(
-                model.joint_names,
-                [effort_unit(k) for k in kinds()] if callable(kinds) else ["N·m"] * n,
-                strict=True,
-            )
-        ),
+        "joint_units": _joint_units(model, n),
         "model": {"source": model_source},
         "effort_scaling": effort.scaling.to_dict(),
     }
@@ -251,30 +244,10 @@ def analyze_manipulator(
     estimate = None
     truth_base: dict[str, float] = {}
     if ident is not None:
-        h = ident.holdout
-        names = model.joint_names
         methods, estimate = ident.methods, ident.recommended
         if judged is not None:
             estimate = judged.estimate
-        sections |= {
-            "excitation": {
-                "condition_number": ident.condition_number,
-                "condition_number_acceleration": ident.methods[1].details.get("condition_number"),
-                "n_base_parameters": len(ident.design.base),
-                "n_determined": int(ident.wls.identifiable.sum()),
-            },
-            "torque_rms_holdout": dict(zip(names, h.rms.tolist(), strict=True)),
-            "torque_rms_holdout_ratio": h.ratio,
-            "torque_rms": dict(zip(names, h.torque_rms.tolist(), strict=True)),
-            "feasibility": ident.feasibility.to_dict(),
-            "model": {
-                "source": model_source,
-                "terms": [str(x) for x in ident.design.terms],
-                "cutoff_hz": ident.sig.cutoff_hz,
-                "rate_hz": ident.sig.rate_hz,
-                "notes": list(getattr(model, "notes", ())) + ident.notes,
-            },
-        }
+        sections |= _identification_sections(model, ident, model_source)
         if judged is not None:
             sections |= judged.sections
         units = stages.run("effort units", lambda: _effort_units(model, ident, effort.would))
@@ -285,18 +258,7 @@ def analyze_manipulator(
         truth_base = _truth_base(ident, loaded.truth)
         if truth_base:
             sections["truth_base"] = truth_base
-        step = max(1, len(ident.sig) // _MAX_DRAW)
-        artifacts = {
-            "t_s": ident.sig.t_s[::step],
-            "points": model.points(ident.sig.q[::step]),
-            "holdout_t_s": h.t_s,
-            "holdout_measured": h.measured,
-            "holdout_predicted": h.predicted,
-            "trajectory_t_s": ident.trajectory_t,
-            "trajectories": ident.trajectory,
-            "parameter_names": list(ident.design.names),
-            "joint_names": list(names),
-        }
+        artifacts = _draw_artifacts(model, ident)
     return AnalysisResult(
         robot="manipulator",
         segments=[],
@@ -311,6 +273,64 @@ def analyze_manipulator(
         sections=sections,
         artifacts=artifacts,
     )
+
+
+def _joint_units(model: ArmModel, n: int) -> dict[str, str]:
+    """Each joint's effort unit (N·m for a revolute joint, N for a prismatic one)."""
+    kinds = getattr(model, "joint_kinds", None)
+    return dict(
+        zip(
+            model.joint_names,
+            [effort_unit(k) for k in kinds()] if callable(kinds) else ["N·m"] * n,
+            strict=True,
+        )
+    )
+
+
+def _identification_sections(
+    model: ArmModel, ident: ArmIdentification, model_source: str
+) -> dict[str, Any]:
+    """The identification's JSON sections: excitation, held-out torque error, feasibility and
+    the model identified."""
+    h = ident.holdout
+    names = model.joint_names
+    return {
+        "excitation": {
+            "condition_number": ident.condition_number,
+            "condition_number_acceleration": ident.methods[1].details.get("condition_number"),
+            "n_base_parameters": len(ident.design.base),
+            "n_determined": int(ident.wls.identifiable.sum()),
+        },
+        "torque_rms_holdout": dict(zip(names, h.rms.tolist(), strict=True)),
+        "torque_rms_holdout_ratio": h.ratio,
+        "torque_rms": dict(zip(names, h.torque_rms.tolist(), strict=True)),
+        "feasibility": ident.feasibility.to_dict(),
+        "model": {
+            "source": model_source,
+            "terms": [str(x) for x in ident.design.terms],
+            "cutoff_hz": ident.sig.cutoff_hz,
+            "rate_hz": ident.sig.rate_hz,
+            "notes": list(getattr(model, "notes", ())) + ident.notes,
+        },
+    }
+
+
+def _draw_artifacts(model: ArmModel, ident: ArmIdentification) -> dict[str, Any]:
+    """What the views draw: the arm's points at most ``_MAX_DRAW`` times, the held-out torque
+    measured and predicted, the excitation trajectories."""
+    h = ident.holdout
+    step = max(1, len(ident.sig) // _MAX_DRAW)
+    return {
+        "t_s": ident.sig.t_s[::step],
+        "points": model.points(ident.sig.q[::step]),
+        "holdout_t_s": h.t_s,
+        "holdout_measured": h.measured,
+        "holdout_predicted": h.predicted,
+        "trajectory_t_s": ident.trajectory_t,
+        "trajectories": ident.trajectory,
+        "parameter_names": list(ident.design.names),
+        "joint_names": list(model.joint_names),
+    }
 
 
 @dataclass(frozen=True)

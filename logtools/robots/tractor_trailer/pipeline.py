@@ -1,7 +1,8 @@
 """The tractor-trailer's analysis: steering geometry -> segmentation -> path-driven transient
 fit -> no-slip regression -> the patent's least-squares methods -> steady-state and time-domain
 estimators -> discovery -> joint refit with the sensor effects discovery named; and the pooled
-transient fit over several runs.
+transient fit over several runs. The pipeline reads, runs the stages and reports; what to
+recommend and how to judge it is :mod:`calib.tractor_trailer.judgement`'s.
 
 The library never prints: progress goes to the callback ``progress(stage: str)``.
 """
@@ -9,24 +10,37 @@ The library never prints: progress goes to the callback ``progress(stage: str)``
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import polars as pl
 
-from calib.adequacy import implausible, mark_implausible
+from calib.adequacy import Adequacy
 from calib.errors import CalibError
 from calib.results import AnalysisResult, CalibrationResult, StageStatus
-from calib.tractor_trailer.derived import derived_sum, link_sum
+from calib.tractor_trailer.discovery.confounds import SpanChoice
+from calib.tractor_trailer.discovery.effects.base import SensorCorrections
 from calib.tractor_trailer.discovery.result import DiscoveryResult
 from calib.tractor_trailer.estimators.noslip import NoSlipRegression
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
 from calib.tractor_trailer.estimators.steering import SteeringGeometry
 from calib.tractor_trailer.explain import tractor_discovery_report
+from calib.tractor_trailer.judgement import (
+    FoldedEffects,
+    actuator_note,
+    confound_explanations,
+    folded_effects,
+    follows_path,
+    judge_along_path,
+    judge_plausible,
+    judge_unexplained,
+    recommended_estimate,
+    span_confounds,
+)
 from calib.tractor_trailer.path_discovery import PathDiscovery
-from calib.tractor_trailer.plausible import RANGES as TRACTOR_RANGES
 from calib.tractor_trailer.results import CommandType, MethodResult, Segment
+from calib.tractor_trailer.views_data import VIEWS
 from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.loaded import LoadedLog
 from logtools.robots.tractor_trailer.options import TractorTrailerOptions
@@ -146,181 +160,20 @@ def _path_fit(
     return inp, fit
 
 
-def _sensor_effects(discovery: object) -> tuple[bool, float, list[str], tuple[Any, ...]]:
-    """From command-driven discovery: (fit a joint-angle offset, joint-angle clock offset (s),
-    labels used, the confounds the estimate must span). Only the joint-angle effects that no
-    confound involves are folded into the fit
-    (``calib.tractor_trailer.discovery.sensor_effects_for_fit``);
-    an actuator dead time that the log cannot tell from clock offsets is spanned, never folded
-    as offsets. An effect confounded with the link lengths themselves (the joint-angle gain,
-    ``SpanChoice.free_effect``) is judged along the measured path (path discovery), so the
-    command side's confound of it is left to it. Effects on the actuator do not enter a
-    path-driven fit."""
-    from calib.tractor_trailer.discovery import DiscoveryResult, sensor_effects_for_fit
+def _confound_refits(
+    loaded: LoadedLog, spans: Sequence[SpanChoice], stages: Stages
+) -> list[tuple[str, PathTransientFit | None]]:
+    """The path fit refitted with each confounded explanation's joint-angle corrections (None
+    where a refit failed; its stage says why), for :func:`calib.tractor_trailer.judgement.
+    span_confounds` to judge."""
+    refits: list[tuple[str, PathTransientFit | None]] = []
+    for label, option in confound_explanations(spans):
 
-    if not isinstance(discovery, DiscoveryResult):
-        return False, 0.0, [], ()
-    plan = sensor_effects_for_fit(discovery)
-    offset, shift, labels = plan.fold.as_tuple()
-    spans = tuple(ch for ch in plan.span if not ch.free_effect)
-    return offset, shift, list(labels), spans
+        def fit(o: SensorCorrections = option) -> PathTransientFit:
+            return _path_fit(loaded, psi_offset=o.psi_offset, psi_shift_s=o.psi_shift_s)[1]
 
-
-REJECT_CHI2 = 10.83
-"""An explanation whose joint-angle corrections raise the path fit's sum of squares over the
-best of them by more than this (chi-square, one degree of freedom, p = 0.001, counted at the
-residual's effective sample size) is rejected by the measured path: the path sees the joint
-angle's clock and offset directly, so the command-driven confound is resolved there, and the
-report says so."""
-
-
-def _span_confounds(
-    loaded: LoadedLog,
-    estimate: CalibrationResult,
-    path_fit: PathTransientFit,
-    spans: tuple[Any, ...],
-    notes: list[str],
-    stages: Stages,
-) -> CalibrationResult:
-    """The estimate spanning explanations command-driven discovery cannot tell apart (e.g. an
-    actuator dead time vs the same clock offset on the command topics): the path fit refitted
-    with each explanation's joint-angle corrections; those the measured path does not reject
-    (``REJECT_RMS_RATIO``) are spanned (the union of the intervals)."""
-    from calib.adequacy import span
-    from calib.stats import effective_samples
-
-    fits: list[tuple[str, PathTransientFit]] = []
-    for choice in spans:
-        for option in choice.options:
-            label = " + ".join(option.labels) or "no joint-angle correction"
-
-            def fit(o: Any = option) -> PathTransientFit:
-                return _path_fit(loaded, psi_offset=o.psi_offset, psi_shift_s=o.psi_shift_s)[1]
-
-            refit = stages.run(f"refit for the confound ({label})", fit)
-            if refit is not None and refit.sound_:
-                fits.append((label, refit))
-    if not fits:
-        return estimate
-    best = min([path_fit.residual_rms_, *(f.residual_rms_ for _, f in fits)])
-    n_eff = effective_samples(np.asarray(path_fit.residual_, dtype=float))
-
-    def rejected_by_path(f: PathTransientFit) -> bool:
-        return bool(n_eff * ((f.residual_rms_ / best) ** 2 - 1.0) > REJECT_CHI2)
-
-    kept = [(lab, f.result_) for lab, f in fits if not rejected_by_path(f)]
-    rejected = [(lab, f.residual_rms_ / best) for lab, f in fits if rejected_by_path(f)]
-    for choice in spans:
-        notes.append(choice.confound.report())
-    if rejected:
-        notes.append(
-            "the measured path rejects "
-            + "; ".join(f"{lab} (joint-angle residual {r:.3g}x the best)" for lab, r in rejected)
-            + ": the confound is resolved by the path, not spanned"
-        )
-    alts = [
-        (lab, res)
-        for lab, res in kept
-        if any(
-            abs(res.parameters[k].value - e.value) > 1e-12
-            for k, e in estimate.parameters.items()
-            if k in res.parameters
-        )
-    ]
-    if not alts:
-        return estimate
-    params = {
-        k: span(
-            [e, *(a.parameters[k] for _, a in alts if k in a.parameters)],
-            [estimate.method, *(lab for lab, a in alts if k in a.parameters)],
-            rel_tol=0.1,
-            scale=0.05,
-        )
-        for k, e in estimate.parameters.items()
-    }
-    total = link_sum(estimate)
-    if total is not None:
-        sums = [(lab, s) for lab, a in alts if (s := link_sum(a)) is not None]
-        total = span(
-            [total, *(s for _, s in sums)],
-            [estimate.method, *(lab for lab, _ in sums)],
-            rel_tol=0.1,
-            scale=0.05,
-        )
-    return replace(
-        estimate,
-        parameters=params,
-        derived=derived_sum(total, estimate.derived),
-        verdict=estimate.verdict + " Discovery cannot tell apart explanations that imply "
-        "different link lengths; the intervals span them (see the notes).",
-    )
-
-
-def _recommend(
-    path_fit: PathTransientFit | None,
-    eiv: CalibrationResult | None,
-    stages: Stages,
-) -> tuple[CalibrationResult | None, list[str]]:
-    """The path-driven transient fit when it is sound, else the steady-state estimate with the
-    reason in its verdict."""
-    notes: list[str] = []
-    reason = ""
-    if path_fit is not None:
-        res = path_fit.result_
-        if path_fit.sound_:
-            return res, notes
-        why = []
-        if not path_fit.converged_:
-            why.append("the optimiser did not converge")
-        if path_fit.on_bound_:
-            why.append("estimate on a bound of " + ", ".join(path_fit.on_bound_))
-        reason = "transient fit along the path not used: " + (
-            "; ".join(why) or "no finite covariance"
-        )
-    else:
-        failed = [s for s in stages.status if s.stage == _PATH_STAGE and s.status != "ok"]
-        reason = "transient fit along the path not possible" + (
-            f": {failed[0].reason}" if failed else ""
-        )
-    if eiv is None:
-        if path_fit is not None:
-            res = path_fit.result_
-            return replace(res, verdict=res.verdict + f" ({reason}.)"), [reason]
-        return None, [reason]
-    notes.append(reason)
-    return replace(eiv, verdict=f"{eiv.verdict} ({reason}.)"), notes
-
-
-def _unexplained(
-    estimate: CalibrationResult | None, discovery: object, path_fit: PathTransientFit | None
-) -> CalibrationResult | None:
-    """Not determined when discovery finds structure in the joint angle's residual that no
-    effect of its catalogue explains: the model then leaves out physics that biases L1, L2."""
-    model = getattr(discovery, "residual_model", None)
-    if estimate is None or path_fit is None or model is None or model.channel != "psi":
-        return estimate
-    if not estimate.method.startswith(path_fit.name):
-        return estimate
-    from calib.tractor_trailer.estimators.identifiability import undetermined
-
-    why = (
-        "the joint angle keeps structure no catalogued effect explains "
-        f"({model.describe()}); the model leaves out physics that biases L1 and L2"
-    )
-    short = "the model leaves out physics discovery finds in the joint angle (see below)"
-    params = {k: undetermined(e, short) for k, e in estimate.parameters.items()}
-    fitted = ", ".join(f"{k} = {e.value:.3f} m" for k, e in estimate.parameters.items())
-    verdict = (
-        f"Not determined: {why}. (The fit alone says {fitted}; model what discovery describes "
-        "before trusting it.)"
-    )
-    return replace(
-        estimate,
-        parameters=params,
-        derived={k: undetermined(e, short) for k, e in estimate.derived.items()},
-        verdict=verdict,
-        details={**estimate.details, "unexplained_structure": model.describe()},
-    )
+        refits.append((label, stages.run(f"refit for the confound ({label})", fit)))
+    return refits
 
 
 def _steering_geometry(
@@ -417,54 +270,6 @@ def _path_discovery(
     )
 
 
-def _path_keys(labels: list[str]) -> list[str]:
-    """The effects command-driven discovery named (``labels``) that the path discovery also
-    catalogues (same key), less those its hooks leave to the path to judge (``tolerated``: the
-    joint-angle gain)."""
-    from calib.tractor_trailer.path_effects import catalogue
-
-    path = {e.key: e for e in catalogue()}
-    return [k for k in labels if k in path and getattr(path[k].model, "tolerated", None) is None]
-
-
-def _judged(
-    estimate: CalibrationResult | None,
-    disc: PathDiscovery | None,
-    path_fit: PathTransientFit | None,
-    used: list[str],
-    notes: list[str],
-) -> tuple[CalibrationResult | None, Any]:
-    """The recommended estimate after discovery along the path (the sensor effects either
-    engine accepted, confounds spanned, widened and not determined under a misfit or a change
-    mid-log) and the adequacy of its model."""
-    from calib.adequacy import not_assessed
-    from calib.tractor_trailer.path_discovery import adopt_effects, recommended
-
-    if estimate is None:
-        return None, not_assessed("none", "no estimate")
-    if path_fit is None or not estimate.method.startswith(path_fit.name):
-        return estimate, not_assessed(
-            estimate.method,
-            "the recommended estimate is not the fit along the path; its residual is not judged",
-        )
-    if disc is None or disc.adequacy is None:
-        return estimate, not_assessed(
-            estimate.method,
-            disc.reason if disc is not None else "discovery along the path failed (see the stages)",
-        )
-    command_keys = _path_keys(used)
-    keys = list(dict.fromkeys([e.key for e in disc.accepted] + command_keys))
-    if disc.status == "ok" and disc.change is None and set(keys) != {e.key for e in disc.accepted}:
-        adopt_effects(disc, keys)
-    elif disc.status == "ok" and command_keys and not disc.accepted and disc.estimate is None:
-        notes.append(
-            "the joint-angle effects command-driven discovery named are kept in the estimate"
-        )
-    base = estimate if not disc.accepted else path_fit.result_
-    out = recommended(base, disc)
-    return out, disc.adequacy
-
-
 _NOSLIP_STAGE = "no-slip regression on the trailer pose"
 
 
@@ -473,211 +278,375 @@ def _noslip_fit(loaded: LoadedLog) -> NoSlipRegression:
     return NoSlipRegression().fit(t, x2, y2, yaw2, psi)
 
 
+@dataclass
+class _Run:
+    """What every step of one log's analysis shares: the configuration, the stages, the random
+    stream, the progress callback and the notes (the result's warnings, in the order they
+    arise)."""
+
+    cfg: AnalysisConfig
+    stages: Stages
+    rng: np.random.Generator
+    progress: Progress
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class _Calibrations:
+    """The calibrations before discovery: every method's result, the no-slip regression on the
+    trailer pose, the steady-state EIV estimate, and why there is none when the robot did not
+    move."""
+
+    methods: list[MethodResult]
+    noslip: NoSlipRegression | None
+    eiv: CalibrationResult | None
+    did_not_move: str | None
+
+
 def analyze_tractor_trailer(
     loaded: LoadedLog, config: AnalysisConfig, progress: Progress
 ) -> AnalysisResult:
     """Analyse one tractor-trailer log (the plugin's ``analyze``); ``config`` is an
     ``AnalysisConfig``. The transient fit's path inputs are kept in
     ``artifacts[PATH_INPUTS]`` so that pooling reuses them."""
-    cfg = config
     _require(loaded, ("psi",))
-    stages = Stages(cfg.debug)
-    rng = np.random.default_rng(cfg.seed)
-    notes: list[str] = []
+    run = _Run(config, Stages(config.debug), np.random.default_rng(config.seed), progress)
+    _note_integrator(run)
+    loaded, geometry = _with_steering_geometry(loaded, run)
+    frame, t_s = _usable_frame(loaded)
+    segments = _segmentation(frame, t_s, run)
+    path_out = _transient_fit_along_path(loaded, run)
+    path_fit = path_out[1] if path_out else None
+    cal = _calibrations(loaded, frame, t_s, segments, path_fit, run)
+    estimate, why = recommended_estimate(
+        cal.did_not_move, cal.noslip, path_fit, cal.eiv, _stage_failure(run.stages, _PATH_STAGE)
+    )
+    run.notes += why
+    discovery = _command_discovery(loaded, frame, segments, estimate, run)
+    folded = folded_effects(discovery)
+    estimate, shown_fit, shown_shift = _joint_refit(loaded, estimate, path_fit, folded, run)
+    path_disc = None
+    if path_out and path_fit is not None and cal.did_not_move is None:
+        path_disc = _path_discovery(
+            path_out[0], path_fit, frame, segments, run.cfg, run.stages, run.progress
+        )
+    estimate, adequacy = _judgement(loaded, estimate, path_fit, path_disc, discovery, folded, run)
+    if _nominal_not_drawn(path_disc, estimate):
+        shown_fit = None  # the views draw the nominal fit only where it is the estimate
+    note = actuator_note(estimate, path_fit, discovery)
+    if note is not None:
+        run.notes.append(note)
+    source = _source(loaded, frame, t_s, path_out, geometry)
+    estimate, found = judge_plausible(estimate, adequacy)
+    run.notes += found
+    ok_path_disc = path_disc if path_disc is not None and path_disc.status == "ok" else None
+    result = AnalysisResult(
+        robot=str(loaded.robot),
+        segments=segments,
+        methods=cal.methods,
+        estimate=estimate,
+        discovery=_discovery_shown(path_disc, discovery, adequacy, path_fit, estimate),
+        adequacy=adequacy,
+        sections={} if ok_path_disc is None else {"path_discovery": ok_path_disc},
+        truth=dict(loaded.truth),
+        source=source,
+        warnings=[str(p) for p in loaded.problems] + run.notes,
+        stages=run.stages.status,
+    )
+    views = _views_data(loaded, run, result, path_out, (shown_fit, shown_shift))
+    return replace(result, artifacts={PATH_INPUTS: path_out[0] if path_out else None, VIEWS: views})
+
+
+def _note_integrator(run: _Run) -> None:
+    """A note when the compiled integrator is not built (the analysis is about 5x slower)."""
     from calib.tractor_trailer.models.hitch_rk4 import compiled_available
 
     if not compiled_available():
-        notes.append(
+        run.notes.append(
             "the compiled integrator (calib/tractor_trailer/models/_hitch_rk4.c) is not "
             "built here; analysed on its numpy loop, about 5x slower (pip install . "
             "builds it)"
         )
-    geometry = _steering_geometry(loaded, stages, progress, notes)
+
+
+def _with_steering_geometry(
+    loaded: LoadedLog, run: _Run
+) -> tuple[LoadedLog, SteeringGeometry | None]:
+    """The steering geometry the log determines, and the log with a curvature command derived
+    from it where it has only a steering command."""
+    geometry = _steering_geometry(loaded, run.stages, run.progress, run.notes)
     if geometry is not None:
-        loaded = _with_kappa_cmd_from_steering(loaded, geometry, notes)
+        loaded = _with_kappa_cmd_from_steering(loaded, geometry, run.notes)
+    return loaded, geometry
+
+
+def _usable_frame(loaded: LoadedLog) -> tuple[pl.DataFrame, np.ndarray]:
+    """The rows with a finite joint angle (and curvature, where the log has one) and their
+    times (s) from the first."""
     has_kappa = "kappa" in loaded.frame.columns
     frame = _usable_rows(loaded.frame, ("psi", "kappa") if has_kappa else ("psi",))
     t_s = (frame["t_ns"].to_numpy() - frame["t_ns"][0]) / 1e9 if frame.height else np.zeros(0)
+    return frame, t_s
 
-    progress("segmenting by command type")
-    segments: list[Segment] = []
+
+def _segmentation(frame: pl.DataFrame, t_s: np.ndarray, run: _Run) -> list[Segment]:
+    """The log's segments by command type (none without a curvature command or rows)."""
+    run.progress("segmenting by command type")
     if "kappa_cmd" not in frame.columns:
-        stages.skip("segmentation", "no curvature command (kappa_cmd) in the log")
-    elif frame.height < 10:
-        stages.skip("segmentation", f"{frame.height} usable rows; need 10")
-    else:
-        segments = stages.run("segmentation", lambda: _segments(t_s, frame)) or []
+        run.stages.skip("segmentation", "no curvature command (kappa_cmd) in the log")
+        return []
+    if frame.height < 10:
+        run.stages.skip("segmentation", f"{frame.height} usable rows; need 10")
+        return []
+    return run.stages.run("segmentation", lambda: _segments(t_s, frame)) or []
 
-    progress(_PATH_STAGE)
-    path_out = stages.run(_PATH_STAGE, lambda: _path_fit(loaded))
-    path_fit = path_out[1] if path_out else None
+
+def _transient_fit_along_path(
+    loaded: LoadedLog, run: _Run
+) -> tuple[PathInputs, PathTransientFit] | None:
+    """The transient fit along the log's path and its inputs (None: the stage says why)."""
+    run.progress(_PATH_STAGE)
+    path_out = run.stages.run(_PATH_STAGE, lambda: _path_fit(loaded))
     if path_out:
-        notes += path_out[0].notes + path_out[1].notes_
+        run.notes += path_out[0].notes + path_out[1].notes_
+    return path_out
 
+
+def _calibrations(
+    loaded: LoadedLog,
+    frame: pl.DataFrame,
+    t_s: np.ndarray,
+    segments: list[Segment],
+    path_fit: PathTransientFit | None,
+    run: _Run,
+) -> _Calibrations:
+    """The no-slip regression on the trailer pose, the least-squares methods and the
+    steady-state and time-domain estimators (skipped, with why, when the robot did not move or
+    there is no measured curvature), and the fit along the path's own method row."""
     methods: list[MethodResult] = []
     noslip = None
     if {"x2", "y2", "yaw2"} <= set(loaded.signals.signals):
-        progress(_NOSLIP_STAGE)
-        noslip = stages.run(_NOSLIP_STAGE, lambda: _noslip_fit(loaded))
+        run.progress(_NOSLIP_STAGE)
+        noslip = run.stages.run(_NOSLIP_STAGE, lambda: _noslip_fit(loaded))
         if noslip is not None:
             methods.append(noslip.method_result_)
+    still = run.stages.errors.get(_PATH_STAGE)
+    did_not_move = str(still) if isinstance(still, RobotDidNotMoveError) else None
     eiv = None
-    still = stages.errors.get(_PATH_STAGE)
-    if not isinstance(still, RobotDidNotMoveError):
-        still = None
-    if still:
-        stages.skip("least-squares methods", "the robot did not move")
-        stages.skip("steady-state and time-domain estimators", "the robot did not move")
-    elif not has_kappa:
-        reason = "no measured curvature (kappa needs v and omega, or a pose path)"
-        stages.skip("least-squares methods", reason)
-        stages.skip("steady-state and time-domain estimators", reason)
-    elif frame.height < 10:
-        reason = f"{frame.height} rows have both psi and kappa; need 10"
-        stages.skip("least-squares methods", reason)
-        stages.skip("steady-state and time-domain estimators", reason)
+    skip = _why_no_steady_state(frame, did_not_move is not None)
+    if skip is not None:
+        run.stages.skip("least-squares methods", skip)
+        run.stages.skip("steady-state and time-domain estimators", skip)
     else:
-        kappa = frame["kappa"].to_numpy()
-        psi = frame["psi"].to_numpy()
-        v = frame["v"].to_numpy() if "v" in frame.columns else None
-        tables = stages.run(
-            "least-squares methods",
-            lambda: _method_tables(kappa, psi, segments, cfg, rng, progress),
-        )
-        if tables:
-            methods += tables[0]
-            notes += tables[1]
-        from calib.tractor_trailer.estimators.recommend import calibrate_link_lengths
-
-        progress("steady-state and time-domain estimators")
-        own = stages.run(
-            "steady-state and time-domain estimators",
-            lambda: calibrate_link_lengths(t_s, kappa, psi, v, segments=segments, rng=rng),
-        )
-        if own:
-            eiv = own[0] if own[0].method == "EIV-ML" else None
-            methods += list(own[1])
+        more, eiv = _steady_state(frame, t_s, segments, run)
+        methods += more
     if path_fit is not None:
         methods.append(path_fit.method_result_)
-    if still:
-        estimate, why = None, [str(still)]
-    elif noslip is not None and (path_fit is None or not path_fit.sound_):
-        estimate = replace(
-            noslip.result_,
-            verdict=noslip.result_.verdict
-            + (
-                " (No measured tractor path: the trailer pose and the joint angle give this "
-                "estimate.)"
-            ),
-        )
-        why = []
-    else:
-        estimate, why = _recommend(path_fit, eiv, stages)
-    notes += why
+    return _Calibrations(methods, noslip, eiv, did_not_move)
 
-    discovery = None
-    if not cfg.discovery:
-        stages.skip("discovery", "switched off (--no-discovery)")
-    elif estimate is None:
-        stages.skip(_COMMAND_STAGE, "no calibrated link lengths to start from")
-    elif "kappa_cmd" not in frame.columns:
-        stages.skip(
+
+def _why_no_steady_state(frame: pl.DataFrame, did_not_move: bool) -> str | None:
+    """Why the least-squares methods and steady-state estimators cannot run (None: they can)."""
+    if did_not_move:
+        return "the robot did not move"
+    if "kappa" not in frame.columns:
+        return "no measured curvature (kappa needs v and omega, or a pose path)"
+    if frame.height < 10:
+        return f"{frame.height} rows have both psi and kappa; need 10"
+    return None
+
+
+def _steady_state(
+    frame: pl.DataFrame, t_s: np.ndarray, segments: list[Segment], run: _Run
+) -> tuple[list[MethodResult], CalibrationResult | None]:
+    """The patent's least-squares methods and the steady-state and time-domain estimators on
+    the measured curvature: their method rows and the EIV estimate (None when it is not the
+    one recommended among them)."""
+    from calib.tractor_trailer.estimators.recommend import calibrate_link_lengths
+
+    kappa = frame["kappa"].to_numpy()
+    psi = frame["psi"].to_numpy()
+    v = frame["v"].to_numpy() if "v" in frame.columns else None
+    methods: list[MethodResult] = []
+    tables = run.stages.run(
+        "least-squares methods",
+        lambda: _method_tables(kappa, psi, segments, run.cfg, run.rng, run.progress),
+    )
+    if tables:
+        methods += tables[0]
+        run.notes += tables[1]
+    run.progress("steady-state and time-domain estimators")
+    own = run.stages.run(
+        "steady-state and time-domain estimators",
+        lambda: calibrate_link_lengths(t_s, kappa, psi, v, segments=segments, rng=run.rng),
+    )
+    eiv = None
+    if own:
+        eiv = own[0] if own[0].method == "EIV-ML" else None
+        methods += list(own[1])
+    return methods, eiv
+
+
+def _stage_failure(stages: Stages, stage: str) -> str | None:
+    """Why ``stage`` did not end "ok" (None: it did, or it did not run)."""
+    failed = [s for s in stages.status if s.stage == stage and s.status != "ok"]
+    return failed[0].reason if failed else None
+
+
+def _command_discovery(
+    loaded: LoadedLog,
+    frame: pl.DataFrame,
+    segments: list[Segment],
+    estimate: CalibrationResult | None,
+    run: _Run,
+) -> Any:
+    """Discovery against the curvature command from the recommended link lengths (None, with
+    the stage skipped, when switched off, without an estimate or without a command)."""
+    if not run.cfg.discovery:
+        run.stages.skip("discovery", "switched off (--no-discovery)")
+        return None
+    if estimate is None:
+        run.stages.skip(_COMMAND_STAGE, "no calibrated link lengths to start from")
+        return None
+    if "kappa_cmd" not in frame.columns:
+        run.stages.skip(
             _COMMAND_STAGE,
             "discovery compares against the curvature command; the log has none (kappa_cmd)",
         )
-    else:
-        from calib.tractor_trailer.discovery import discover
-        from calib.tractor_trailer.discovery.windows import DEFAULT_MAX_SPAN_S
+        return None
+    return _run_command_discovery(loaded, frame, segments, estimate, run)
 
-        progress("model-mismatch discovery")
-        opts = cfg.options(TractorTrailerOptions)
-        span = DEFAULT_MAX_SPAN_S if opts.discovery_span_s is None else opts.discovery_span_s
-        L1 = estimate.parameters["L1"].value
-        L2 = estimate.parameters["L2"].value
-        discovery = stages.run(
+
+def _run_command_discovery(
+    loaded: LoadedLog,
+    frame: pl.DataFrame,
+    segments: list[Segment],
+    estimate: CalibrationResult,
+    run: _Run,
+) -> Any:
+    """The command-driven discovery stage; a result that did not run is None (its stage
+    skipped with discovery's reason), one that ran partly keeps its status in the stage."""
+    from calib.tractor_trailer.discovery import discover
+    from calib.tractor_trailer.discovery.windows import DEFAULT_MAX_SPAN_S
+
+    run.progress("model-mismatch discovery")
+    opts = run.cfg.options(TractorTrailerOptions)
+    span = DEFAULT_MAX_SPAN_S if opts.discovery_span_s is None else opts.discovery_span_s
+    L1 = estimate.parameters["L1"].value
+    L2 = estimate.parameters["L2"].value
+    discovery = run.stages.run(
+        _COMMAND_STAGE,
+        lambda: discover(
+            frame,
+            L1,
+            L2,
+            baseline="steady" if opts.baseline == "steady" else "transient",
+            segments=segments,
+            rng=run.rng,
+            signals=loaded.signals.signals,
+            max_span_s=span,
+        ),
+    )
+    status = getattr(discovery, "status", "ok")
+    if discovery is not None and status != "ok":
+        run.stages.status[-1] = StageStatus(
             _COMMAND_STAGE,
-            lambda: discover(
-                frame,
-                L1,
-                L2,
-                baseline="steady" if opts.baseline == "steady" else "transient",
-                segments=segments,
-                rng=rng,
-                signals=loaded.signals.signals,
-                max_span_s=span,
-            ),
+            "skipped" if status == "not_run" else "ok",
+            f"{status}: {discovery.reason}" if discovery.reason else status,
         )
-        status = getattr(discovery, "status", "ok")
-        if discovery is not None and status != "ok":
-            stages.status[-1] = StageStatus(
-                _COMMAND_STAGE,
-                "skipped" if status == "not_run" else "ok",
-                f"{status}: {discovery.reason}" if discovery.reason else status,
-            )
-            if status == "not_run":
-                discovery = None
-    offset, shift, used, confounded = _sensor_effects(discovery)
-    shown_fit, shown_shift = path_fit, 0.0  # the fit whose prediction the views draw
-    if used and path_fit is not None:
-        progress("refit with the effects discovery named")
-        joint = stages.run(
-            "joint refit with discovered sensor effects",
-            lambda: _path_fit(loaded, psi_offset=offset, psi_shift_s=shift)[1],
-        )
-        if joint is not None and joint.sound_:
-            shown_fit, shown_shift = joint, shift
-            res = joint.result_
-            model = f"{res.method} + " + " + ".join(used)
-            estimate = replace(
-                res,
-                method=model,
-                details={**res.details, "model": model, "effects_included": used},
-            )
-    path_disc = None
-    if path_out and path_fit is not None and not still:
-        path_disc = _path_discovery(path_out[0], path_fit, frame, segments, cfg, stages, progress)
-    estimate, adequacy = _judged(estimate, path_disc, path_fit, used, notes)
-    if (
-        confounded
-        and estimate is not None
-        and path_fit is not None
-        and (estimate.method.startswith(path_fit.name))
-    ):
-        progress("refits for the confounded explanations")
-        estimate = _span_confounds(loaded, estimate, path_fit, confounded, notes, stages)
-    judged = estimate
-    if path_disc is None or path_disc.status != "ok":
-        # the path's residual model judges the joint angle when it ran; else the command side
-        estimate = _unexplained(estimate, discovery, path_fit)
-    if estimate is not judged and adequacy is not None and adequacy.channels:
-        described = discovery.residual_model.describe()  # type: ignore[union-attr]
-        adequacy = adequacy.with_(
-            notes=(
-                *adequacy.notes,
-                (
-                    "command-driven discovery finds structure in the joint angle that no "
-                    f"catalogued effect explains ({described}); the estimate is not determined"
-                ),
-            )
-        )
-    if (
+        if status == "not_run":
+            return None
+    return discovery
+
+
+def _joint_refit(
+    loaded: LoadedLog,
+    estimate: CalibrationResult | None,
+    path_fit: PathTransientFit | None,
+    folded: FoldedEffects,
+    run: _Run,
+) -> tuple[CalibrationResult | None, PathTransientFit | None, float]:
+    """The fit along the path refitted with the sensor effects command-driven discovery named
+    (when there are any and the refit is sound): the estimate, and the fit and joint-angle
+    clock shift whose prediction the views draw."""
+    if not folded.labels or path_fit is None:
+        return estimate, path_fit, 0.0
+    run.progress("refit with the effects discovery named")
+    joint = run.stages.run(
+        "joint refit with discovered sensor effects",
+        lambda: _path_fit(loaded, psi_offset=folded.psi_offset, psi_shift_s=folded.psi_shift_s)[1],
+    )
+    if joint is None or not joint.sound_:
+        return estimate, path_fit, 0.0
+    res = joint.result_
+    model = f"{res.method} + " + " + ".join(folded.labels)
+    joint_estimate = replace(
+        res,
+        method=model,
+        details={**res.details, "model": model, "effects_included": folded.labels},
+    )
+    return joint_estimate, joint, folded.psi_shift_s
+
+
+def _judgement(
+    loaded: LoadedLog,
+    estimate: CalibrationResult | None,
+    path_fit: PathTransientFit | None,
+    path_disc: PathDiscovery | None,
+    discovery: object,
+    folded: FoldedEffects,
+    run: _Run,
+) -> tuple[CalibrationResult | None, Adequacy]:
+    """The estimate judged after both discoveries (:mod:`calib.tractor_trailer.judgement`):
+    along the path, spanning the confounded explanations the path does not reject (the refits
+    made here), not determined where the joint angle keeps unexplained structure."""
+    estimate, adequacy, notes = judge_along_path(estimate, path_disc, path_fit, folded.labels)
+    run.notes += notes
+    if folded.spans and path_fit is not None and estimate is not None:
+        estimate = _spanning_confounds(loaded, estimate, path_fit, folded.spans, run)
+    path_ran = path_disc is not None and path_disc.status == "ok"
+    return judge_unexplained(estimate, adequacy, discovery, path_fit, path_ran)
+
+
+def _spanning_confounds(
+    loaded: LoadedLog,
+    estimate: CalibrationResult,
+    path_fit: PathTransientFit,
+    spans: tuple[SpanChoice, ...],
+    run: _Run,
+) -> CalibrationResult:
+    """The estimate spanning the confounded explanations the measured path does not reject,
+    when it is the fit along the path (the refits made here, the judgement calib's)."""
+    if not follows_path(estimate, path_fit):
+        return estimate
+    run.progress("refits for the confounded explanations")
+    refits = _confound_refits(loaded, spans, run.stages)
+    estimate, notes = span_confounds(estimate, path_fit, refits, spans)
+    run.notes += notes
+    return estimate
+
+
+def _nominal_not_drawn(path_disc: PathDiscovery | None, estimate: CalibrationResult | None) -> bool:
+    """Whether path discovery's accepted effects replace the nominal fit as the estimate (the
+    views then do not draw the nominal fit's prediction)."""
+    return (
         path_disc is not None
         and path_disc.solution is not None
         and estimate is not None
-        and (estimate.method.startswith(PathTransientFit.name) and path_disc.accepted)
-    ):
-        shown_fit = None  # the views draw the nominal fit only where it is the estimate
-    if estimate is not None and path_fit is not None and estimate.method.startswith(path_fit.name):
-        actuator = [
-            e.label for e in getattr(discovery, "effects", []) or [] if e.kind == "actuator"
-        ]
-        if actuator:
-            notes.append(
-                "the recommended estimate follows the measured path, so the actuator effects "
-                f"discovery named ({', '.join(actuator)}) do not bias it"
-            )
+        and (estimate.method.startswith(PathTransientFit.name) and bool(path_disc.accepted))
+    )
 
-    source = {
+
+def _source(
+    loaded: LoadedLog,
+    frame: pl.DataFrame,
+    t_s: np.ndarray,
+    path_out: tuple[PathInputs, PathTransientFit] | None,
+    geometry: SteeringGeometry | None,
+) -> dict[str, Any]:
+    """What the analysis read: the log, its usable samples and duration, the signals' topics,
+    the path's source and the steering geometry."""
+    source: dict[str, Any] = {
         "path": str(loaded.path),
         "samples": frame.height,
         "duration_s": float(t_s[-1]) if t_s.size else 0.0,
@@ -687,62 +656,72 @@ def analyze_tractor_trailer(
         source["path_source"] = path_out[0].path.source
     if geometry is not None:
         source["steering_geometry"] = geometry.to_dict()
-    found = implausible(estimate, adequacy, TRACTOR_RANGES)
-    if found and estimate is not None:
-        estimate = mark_implausible(estimate, found)
-        notes += [f"implausible: {f.text}" for f in found]
-    sections: dict[str, Any] = {}
-    if path_disc is not None and path_disc.status == "ok":
-        sections["path_discovery"] = path_disc
+    return source
+
+
+def _discovery_shown(
+    path_disc: PathDiscovery | None,
+    discovery: object,
+    adequacy: Adequacy,
+    path_fit: PathTransientFit | None,
+    estimate: CalibrationResult | None,
+) -> Any:
+    """The discovery report in the shared shape, from discovery along the path (``path_disc``)
+    and command-driven discovery; None when neither engine ran (--no-discovery, or nothing to
+    start from)."""
     command = discovery if isinstance(discovery, DiscoveryResult) else None
-    shown: Any = None  # neither engine ran (--no-discovery, or nothing to start from)
-    if (path_disc is not None and path_disc.status == "ok") or command is not None:
-        shown = tractor_discovery_report(
-            path_disc,
-            command,
-            adequacy,
-            path_fit.result_ if path_fit is not None else None,
-            estimate,
-        )
-    result = AnalysisResult(
-        robot=str(loaded.robot),
-        segments=segments,
-        methods=methods,
-        estimate=estimate,
-        discovery=shown,
-        adequacy=adequacy,
-        sections=sections,
-        truth=dict(loaded.truth),
-        source=source,
-        warnings=[str(p) for p in loaded.problems] + notes,
-        stages=stages.status,
-    )
-    from calib.tractor_trailer.views_data import VIEWS, tractor_views_data, transient_prediction
+    if (path_disc is None or path_disc.status != "ok") and command is None:
+        return None
+    nominal = path_fit.result_ if path_fit is not None else None
+    return tractor_discovery_report(path_disc, command, adequacy, nominal, estimate)
+
+
+def _transient_drawn(
+    path_out: tuple[PathInputs, PathTransientFit] | None,
+    shown_fit: PathTransientFit | None,
+    shown_shift: float,
+    estimate: CalibrationResult | None,
+) -> Any:
+    """The recommended transient fit's own prediction for the views, when it is one."""
+    from calib.tractor_trailer.views_data import transient_prediction
+
+    if not path_out or shown_fit is None or estimate is None:
+        return None
+    if not estimate.method.startswith(shown_fit.name):
+        return None
+    return transient_prediction(shown_fit, path_out[0].t0_ns, shown_shift)
+
+
+def _views_data(
+    loaded: LoadedLog,
+    run: _Run,
+    result: AnalysisResult,
+    path_out: tuple[PathInputs, PathTransientFit] | None,
+    shown: tuple[PathTransientFit | None, float],
+) -> Any:
+    """The drawing data of the views (``shown``: the fit whose prediction they draw and its
+    joint-angle clock shift); a failure stays inside its own stage ("views data"), except a
+    ``--method`` that names no method of this analysis (exit 2)."""
+    from calib.tractor_trailer.views_data import tractor_views_data
 
     columns: dict[str, np.ndarray] = {
         c: loaded.frame[c].cast(pl.Float64).fill_null(np.nan).to_numpy()
         for c in ("x", "y", "yaw", "psi", "kappa", "omega", "v")
         if c in loaded.frame.columns
     }
-    method = cfg.options(TractorTrailerOptions).method_for_psi
+    method = run.cfg.options(TractorTrailerOptions).method_for_psi
     try:
-        transient = None  # the recommended transient fit's own prediction, when it is one
-        if (
-            path_out
-            and shown_fit is not None
-            and estimate is not None
-            and (estimate.method.startswith(shown_fit.name))
-        ):
-            transient = transient_prediction(shown_fit, path_out[0].t0_ns, shown_shift)
-        views = tractor_views_data(columns, result, method_for_psi=method, transient=transient)
+        transient = _transient_drawn(path_out, shown[0], shown[1], result.estimate)
+        return tractor_views_data(columns, result, method_for_psi=method, transient=transient)
     except KeyError as err:  # the user's --method names no method of this analysis: exit 2
         raise LogcalInputError(f"--method {method!r}: {err.args[0]}") from None
     except Exception as err:  # drawing data: a failure stays inside its own stage
-        if cfg.debug:
+        if run.cfg.debug:
             raise
-        views = {}
-        stages.status.append(StageStatus("views data", "failed", f"{type(err).__name__}: {err}"))
-    return replace(result, artifacts={PATH_INPUTS: path_out[0] if path_out else None, VIEWS: views})
+        run.stages.status.append(
+            StageStatus("views data", "failed", f"{type(err).__name__}: {err}")
+        )
+        return {}
 
 
 def pool_tractor_trailer(

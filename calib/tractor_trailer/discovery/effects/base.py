@@ -104,7 +104,7 @@ class SensorCorrections:
 
     def as_tuple(self) -> tuple[bool, float, list[str]]:
         """(fit a joint-angle offset, joint-angle clock shift in s, labels): the shape of the
-        tractor-trailer pipeline's ``_sensor_effects``."""
+        ``calib.tractor_trailer.judgement.folded_effects``."""
         return self.psi_offset, self.psi_shift_s, list(self.labels)
 
     def to_dict(self) -> dict[str, Any]:
