@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from calib.adequacy import NOT_EXPLAINED, Adequacy
+from calib.discovery import DiscoveryReport
 from calib.errors import CalibError
 from calib.manipulator.adequacy import (
     assess_arm,
@@ -28,6 +29,7 @@ from calib.manipulator.adequacy import (
 )
 from calib.manipulator.design import Term
 from calib.manipulator.discovery import ArmDiscovery, ArmFitter, arm_catalogue, run_discovery
+from calib.manipulator.explain import arm_discovery_report
 from calib.manipulator.identify import (
     ArmIdentification,
     IdentifyConfig,
@@ -319,7 +321,7 @@ class _Judged:
     verdict allows, and the JSON sections (split at a parameter change, confounds)."""
 
     adequacy: Adequacy
-    discovery: ArmDiscovery | None
+    discovery: DiscoveryReport
     estimate: CalibrationResult
     sections: dict[str, Any]
 
@@ -440,7 +442,15 @@ def _judge(
         verdict=verdict,
         covariance=est.covariance if same_fit else None,
     )
-    return _Judged(adequacy, disc, estimate, sections)
+    report = arm_discovery_report(
+        disc,
+        before,
+        adequacy,
+        est,
+        estimate,
+        not_run="" if discovery else "discovery not run (--no-discovery)",
+    )
+    return _Judged(adequacy, report, estimate, sections)
 
 
 def _verdict(ident: ArmIdentification, adequacy: Adequacy) -> str:
