@@ -26,9 +26,10 @@ from calib.discovery import (
     moved_parameters,
 )
 from calib.manipulator.discovery import ArmDiscovery
+from calib.manipulator.discovery.described import physics_hint
 from calib.results import CalibrationResult, Estimate
 
-__all__ = ["IMPLIED", "arm_discovery_report", "baseline_text"]
+__all__ = ["IMPLIED", "PartialEffect", "arm_discovery_report", "baseline_text", "final_fit"]
 
 IMPLIED = "the value this explanation implies (its own interval; not a calibrated answer)"
 
@@ -58,23 +59,60 @@ def _alternatives(disc: ArmDiscovery) -> tuple[Alternative, ...]:
     return tuple(out)
 
 
-def _named(disc: ArmDiscovery) -> list[FoundEffect]:
+class PartialEffect(FoundEffect):
+    """A catalogue effect the selection kept whose model, with it, still does not explain the
+    log: it fits part of the residual, but what it fits may be other physics (play taken for a
+    payload, a spring for gravity), so it is not given its name."""
+
+    def line(self) -> str:
+        vals = ", ".join(e.report() for e in self.parameters.values())
+        return (
+            f"fits part of the residual, not named: {self.key}: {vals} (the model with it does "
+            "not explain the log)"
+        )
+
+
+def final_fit(disc: ArmDiscovery) -> ModelFit | None:
+    """The model discovery ends with: after the residual model and the effects it made
+    redundant, else the selection's."""
+    if disc.final is not None:
+        return disc.final
+    d = disc.description
+    if d is not None and d.accepted:
+        return d.fit
+    return None if disc.selection is None else disc.selection.final
+
+
+def _catalogue_effects(disc: ArmDiscovery, fit: ModelFit, explains: bool) -> list[FoundEffect]:
     sel = disc.selection
     if sel is None:
         return []
     gains = {t.key: (t.heldout_gain, t.delta_bic) for t in sel.tried if t.accepted}
-    return [
-        FoundEffect.named(s, sel.final, *gains.get(s.key, (math.nan, math.nan)))
-        for s in sel.final.effects
-    ]
+    out: list[FoundEffect] = []
+    for s in sel.final.effects:
+        if s.key in disc.dropped:
+            continue
+        e = FoundEffect.named(s, fit, *gains.get(s.key, (math.nan, math.nan)))
+        out.append(e if explains else PartialEffect(**{**vars(e), "status": "partial"}))
+    return out
 
 
-def final_fit(disc: ArmDiscovery, description: Description | None) -> ModelFit | None:
-    """The model discovery ends with: the selection's, with the described effect when it was
-    accepted."""
-    if description is not None and description.accepted:
-        return description.fit
-    return None if disc.selection is None else disc.selection.final
+def _described_effect(d: Description, fit: ModelFit) -> FoundEffect:
+    """The kept description with its coefficients as the final fit has them, each term with
+    what it most likely is (:func:`physics_hint`)."""
+    pars = fit.effect_parameters.get(d.spec.key, {})
+    terms = tuple(
+        replace(t, coefficient=pars.get(t.coefficient.name, t.coefficient)) for t in d.terms
+    )
+    base = FoundEffect.described(d)
+    hints = [f"{t.term.name}: {h}" for t in terms if (h := physics_hint(t.term))]
+    physics = base.physics + (f" (likely {'; '.join(hints)})" if hints else "")
+    return replace(
+        base,
+        physics=physics,
+        parameters={t.coefficient.name: t.coefficient for t in terms},
+        terms=terms,
+    )
 
 
 def _remaining(description: Description | None, after: Adequacy | None) -> str:
@@ -83,6 +121,13 @@ def _remaining(description: Description | None, after: Adequacy | None) -> str:
     if description is not None and not description.accepted:
         return f"the torque residual follows {description.text} (not enough to be kept)"
     return after.unexplained or ""
+
+
+def _notes(disc: ArmDiscovery) -> list[str]:
+    return [
+        f"{k} was selected, but the residual model makes it redundant: not named"
+        for k in disc.dropped
+    ]
 
 
 def arm_discovery_report(
@@ -111,16 +156,15 @@ def arm_discovery_report(
             details={} if disc is None else disc.to_dict(),
         )
     sel = disc.selection
-    effects = _named(disc)
+    fit = final_fit(disc) or sel.final
+    explains = after is None or after.explains
+    effects = _catalogue_effects(disc, fit, explains)
     if description is not None and description.accepted:
-        effects.append(FoundEffect.described(description))
-    fit = final_fit(disc, description) or sel.final
+        effects.append(_described_effect(description, fit))
     moved: Mapping[str, tuple[Estimate, Estimate]] = {}
     if estimate_before is not None and estimate_after is not None:
         moved = moved_parameters(estimate_before.parameters, estimate_after.parameters)
     details: dict[str, Any] = disc.to_dict()
-    if description is not None:
-        details["residual_model"] = description.to_dict()
     return DiscoveryReport(
         "manipulator",
         baseline_text(disc),
@@ -133,7 +177,7 @@ def arm_discovery_report(
         _alternatives(disc),
         tuple(c.to_dict() for c in sel.confounds),
         moved,
-        tuple(notes),
+        (*notes, *_notes(disc)),
         details,
         more=tuple(f"  {u}" for u in disc.untestable),
     )

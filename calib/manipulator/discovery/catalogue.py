@@ -9,7 +9,7 @@ from collections.abc import Sequence
 
 from calib.discovery import EffectKind, EffectParam, EffectRegistry, EffectSpec
 from calib.manipulator.design import ALTERNATIVES, Term, term_name, term_unit
-from calib.manipulator.discovery.columns import PayloadColumn, TermColumn
+from calib.manipulator.discovery.columns import PayloadColumn, SpringColumn, TermColumn
 from calib.manipulator.discovery.hooks import (
     ArmEffectModel,
     ColumnEffect,
@@ -17,7 +17,7 @@ from calib.manipulator.discovery.hooks import (
     StateEffect,
 )
 from calib.manipulator.discovery.inputs import DelayInput, LagInput
-from calib.manipulator.discovery.states import ComplianceState
+from calib.manipulator.discovery.states import ComplianceState, PlayState
 
 __all__ = [
     "COMPLIANCE",
@@ -26,7 +26,9 @@ __all__ = [
     "LAG",
     "LAG_BOUNDS",
     "MAX_COMPLIANCE_JOINTS",
+    "PLAY",
     "REGISTRY",
+    "SPRING",
     "TOOL_TARGET",
     "TORQUE_TARGET",
     "arm_catalogue",
@@ -38,6 +40,8 @@ __all__ = [
 DELAY = "actuator_delay"
 LAG = "actuator_lag"
 COMPLIANCE = "joint_compliance"
+SPRING = "joint_spring"
+PLAY = "gear_play"
 TORQUE_TARGET = "tau"
 TOOL_TARGET = "tool"
 DELAY_BOUNDS = (-0.05, 0.1)
@@ -116,6 +120,20 @@ def arm_catalogue(
                     model=TermColumn(term, j),
                 )
             )
+    for j in joints:
+        out.append(
+            EffectSpec(
+                SPRING,
+                j,
+                EffectKind.DYNAMICS,
+                (EffectParam(f"k[{j}]", "N*m/rad", 0.0, -math.inf, math.inf, 0.0),),
+                "a spring on the joint: a torque linear in its angle (a gravity compensator, a "
+                "cable or hose, a return spring)",
+                (f"{Term.OFFSET}({j})", f"{Term.PAYLOAD}({TOOL_TARGET})"),
+                truth_key=f"k[{j}]",
+                model=SpringColumn(j),
+            )
+        )
     if nominal:
         out.append(
             EffectSpec(
@@ -124,7 +142,7 @@ def arm_catalogue(
                 EffectKind.DYNAMICS,
                 (EffectParam("payload", "kg", 0.0, -math.inf, math.inf, 0.0),),
                 "a point mass held at the tool point",
-                tuple(f"{COMPLIANCE}({j})" for j in joints),
+                tuple(f"{e}({j})" for e in (COMPLIANCE, PLAY, SPRING) for j in joints),
                 sim_switch="payload",
                 truth_key="payload",
                 model=PayloadColumn(),
@@ -169,6 +187,20 @@ def arm_catalogue(
                     sim_switch="compliance",
                     truth_key=f"c[{j}]",
                     model=ComplianceState(j),
+                )
+            )
+        for j in joints:
+            out.append(
+                EffectSpec(
+                    PLAY,
+                    j,
+                    EffectKind.DYNAMICS,
+                    (EffectParam(f"b[{j}]", "rad", 0.0, -math.inf, math.inf, 0.0),),
+                    "play in the joint's gear: the encoder reads the motor side, the link sits "
+                    "on the flank the torque pushes it against, b behind (q - b sign(tau))",
+                    (f"{COMPLIANCE}({j})", f"{Term.PAYLOAD}({TOOL_TARGET})"),
+                    truth_key=f"b[{j}]",
+                    model=PlayState(j),
                 )
             )
     out += [*REGISTRY.entries(), *extra]

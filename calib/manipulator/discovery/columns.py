@@ -1,5 +1,6 @@
 """Column effects of the arm's catalogue: a model term's column on one joint (friction, an
-offset) and a point mass at the tool point (against a nominal rigid body only)."""
+offset), a spring on one joint and a point mass at the tool point (against a nominal rigid body
+only)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 from calib.manipulator.design import ALTERNATIVES, Term, term_column, term_name
 from calib.manipulator.discovery.hooks import Array, Column, ColumnEffect, FitterView
 
-__all__ = ["PayloadColumn", "TermColumn"]
+__all__ = ["PayloadColumn", "SpringColumn", "TermColumn"]
 
 
 @dataclass(frozen=True)
@@ -66,3 +67,17 @@ class PayloadColumn(ColumnEffect):
 
     def body_change(self, fitter: FitterView) -> Array | None:
         return np.asarray(fitter.model.payload_increment(), dtype=float)
+
+
+@dataclass(frozen=True)
+class SpringColumn(ColumnEffect):
+    """A spring on one joint: a torque linear in its angle, ``k q_J`` (a gravity compensator, a
+    cable or hose, a return spring), the rest position's torque left to an offset."""
+
+    joint: str
+
+    def column(self, fitter: FitterView) -> Column | None:
+        j = fitter.model.joint_names.index(self.joint)
+        col = np.zeros((fitter.N, fitter.n, 1))
+        col[:, j, 0] = fitter.sig.q[:, j]
+        return Column(np.zeros_like(col), col, col)

@@ -6,14 +6,24 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from calib.discovery import EffectSpec, ModelFit, Selection, select_effects
+from calib.discovery import (
+    BIC_MARGIN,
+    MIN_HELDOUT_GAIN,
+    Description,
+    EffectSpec,
+    ModelFit,
+    Selection,
+    heldout_gain,
+    select_effects,
+)
 from calib.errors import CalibError
 from calib.manipulator.design import Term
 from calib.manipulator.discovery.catalogue import MAX_COMPLIANCE_JOINTS, arm_catalogue
+from calib.manipulator.discovery.described import describe_arm
 from calib.manipulator.discovery.fitter import ArmFit, ArmFitter
 from calib.manipulator.discovery.hooks import Array, hook
 from calib.manipulator.identify import IdentifyConfig
@@ -78,10 +88,23 @@ class ArmDiscovery:
     untestable: list[str] = field(default_factory=list)
     selection: Selection | None = None
     confound_notes: list[str] = field(default_factory=list)
+    description: Description | None = None
+    """The residual model of what the selected effects leave (kept or not)."""
+    dropped: tuple[str, ...] = ()
+    """Keys of selected effects the kept description makes redundant (not named)."""
+    final: ModelFit | None = None
+    """The model discovery ends with (None: the selection's)."""
 
     @property
     def accepted(self) -> tuple[EffectSpec, ...]:
         return () if self.selection is None else self.selection.accepted
+
+    @property
+    def final_effects(self) -> tuple[EffectSpec, ...]:
+        """The accepted catalogue effects, then the described one when it was kept."""
+        d = self.description
+        kept = tuple(e for e in self.accepted if e.key not in self.dropped)
+        return (*kept, *((d.spec,) if d is not None and d.accepted else ()))
 
     def to_dict(self) -> dict[str, object]:
         return {
@@ -96,6 +119,8 @@ class ArmDiscovery:
             else [c.to_dict() for c in self.selection.confounds],
             "selection": None if self.selection is None else self.selection.to_dict(),
             "untestable": list(self.untestable),
+            "residual_model": None if self.description is None else self.description.to_dict(),
+            "dropped": list(self.dropped),
         }
 
     def report(self) -> list[str]:
@@ -188,8 +213,11 @@ def run_discovery(
     *,
     max_effects: int = 2,
     progress: Callable[[str], None] | None = None,
+    residual_model: bool = True,
 ) -> ArmDiscovery:
-    """Forward selection over the arm's catalogue through the shared engine."""
+    """Forward selection over the arm's catalogue through the shared engine, then the residual
+    model of what the selected effects leave (``residual_model``;
+    :mod:`calib.manipulator.discovery.described`)."""
     joints = fitter.model.joint_names
     untestable: list[str] = []
     if fitter.nominal is None:
@@ -212,9 +240,43 @@ def run_discovery(
     effects = sel.final.effects
     path: list[ModelFit | None] = [fitter(effects[: i + 1]) for i in range(len(effects) - 1)]
     path.append(sel.final)
-    return discovery_from_selection(
+    disc = discovery_from_selection(
         sel, fitter.baseline, fitter.nominal is not None, untestable, path, cat
     )
+    if not residual_model:
+        return disc
+    if progress is not None:
+        progress("discovery: residual model")
+    d = describe_arm(fitter, sel.final, explained=fitter.explained(sel.final))
+    if d is None or not d.accepted:
+        return replace(disc, description=d)
+    kept, final = _still_needed(fitter, sel.final.effects, d.spec, d.fit)
+    dropped = tuple(e.key for e in sel.final.effects if e not in kept)
+    return replace(disc, description=d, dropped=dropped, final=final)
+
+
+def _still_needed(
+    fitter: ArmFitter,
+    effects: Sequence[EffectSpec],
+    described: EffectSpec,
+    fit: ModelFit,
+) -> tuple[tuple[EffectSpec, ...], ModelFit]:
+    """The selected ``effects`` a kept description leaves needed, and the final fit: each in
+    turn (the last first) is left out while the model with the description is not worse without
+    it by the selection's own rules (a held-out gain of ``MIN_HELDOUT_GAIN`` and a BIC margin):
+    an effect the description makes redundant was a stand-in for it, not a name."""
+    kept = list(effects)
+    for e in reversed(effects):
+        rest = tuple(x for x in kept if x is not e)
+        without = fitter((*rest, described))
+        if without is None:
+            continue
+        needed = heldout_gain(without, fit) >= MIN_HELDOUT_GAIN and fit.bic - without.bic < -(
+            BIC_MARGIN
+        )
+        if not needed:
+            kept, fit = list(rest), without
+    return tuple(kept), fit
 
 
 def discover_arm(

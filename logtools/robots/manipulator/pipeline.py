@@ -361,7 +361,7 @@ def _judge(
     else:
         stages.skip("discovery", "--no-discovery")
     # a payload is regrouped into the fitted body; a term the fitted model already has is there
-    accepted = fitter.addable(disc.accepted if disc else ())
+    accepted = fitter.addable(disc.final_effects if disc else ())
     changes = (split.change,) if split is not None else ()
     final = first
     if accepted:
@@ -376,10 +376,11 @@ def _judge(
     unexplained = None
     if not final.adequacy.explains and split is None:
         unexplained = (
-            "what the named effects leave is still above the noise floor"
+            "what the named and described effects leave is still above the noise floor"
             if accepted
             else "no catalogue effect (friction, torque offset, payload, actuation delay or lag, "
-            "joint compliance) and no parameter change explains it"
+            "joint compliance), no residual model of the joints' own signals and no parameter "
+            "change explains it"
         )
     adequacy = final.adequacy.with_(
         before=before if accepted else None,
@@ -448,6 +449,7 @@ def _judge(
         adequacy,
         est,
         estimate,
+        description=None if disc is None else disc.description,
         not_run="" if discovery else "discovery not run (--no-discovery)",
     )
     return _Judged(adequacy, report, estimate, sections)
