@@ -124,10 +124,18 @@ def _remaining(description: Description | None, after: Adequacy | None) -> str:
 
 
 def _notes(disc: ArmDiscovery) -> list[str]:
-    return [
+    out = [
         f"{k} was selected, but the residual model makes it redundant: not named"
         for k in disc.dropped
     ]
+    d = disc.description
+    if d is not None and d.accepted:
+        out += [
+            f"described term {t.term.name} on the {t.entry}: likely {h}"
+            for t in d.terms
+            if (h := physics_hint(t.term))
+        ]
+    return out
 
 
 def arm_discovery_report(
