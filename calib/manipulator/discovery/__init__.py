@@ -21,7 +21,16 @@ effect is a joint's):
   ``q_J - c tau_J`` (``c = 1/k``, rad/(N·m)). The regressor is linearised in ``c`` about the fitted
   parameters (a Gauss-Newton column, ``-d(Y theta)/dq_J tau_J``, by a central difference along
   the torque), which the batch WLS fits with everything else. A compliant joint and a payload
-  both change the gravity torque with the load, so they are declared confounded.
+  both change the gravity torque with the load, so they are declared confounded;
+* ``joint_spring(J)``: a torque ``k q_J`` (a gravity compensator, a cable, a return spring), so
+  that a spring is not absorbed into a gravity parameter or an offset;
+* ``gear_play(J)``: play in the joint's gear, the encoder on the motor side: the link sits on the
+  flank the torque pushes it against, ``b`` behind (``q_J - b sign(tau_J)``, smoothed), so that
+  play is not taken for a payload.
+
+What the catalogue leaves is modelled from the arm's own signals (``described``): terms of each
+joint's q, qd, qdd added to its torque, refitted with the dynamic parameters. A catalogue name is
+given in the report only when the final model explains the log (:mod:`calib.manipulator.explain`).
 
 Each entry carries how it changes the model (its ``model``, an :data:`ArmEffectModel`), through
 one of three mechanisms the fitter knows, never through its id:
@@ -47,7 +56,9 @@ confounds (explanations within the BIC margin that imply different parameters).
 
 Parts, one module each: ``hooks`` (the three mechanisms and the fitter view), ``columns``,
 ``inputs``, ``states`` (the catalogue's effects by mechanism), ``catalogue`` (the entries and the
-registry), ``fitter`` (:class:`ArmFitter`), ``run`` (the selection and its result).
+registry), ``fitter`` (:class:`ArmFitter`), ``described`` (the residual model of what the
+catalogue leaves, through :func:`calib.discovery.describe`), ``run`` (the selection, the residual
+model and the result).
 """
 
 from calib.manipulator.discovery.catalogue import (
@@ -55,11 +66,14 @@ from calib.manipulator.discovery.catalogue import (
     DELAY,
     LAG,
     MAX_COMPLIANCE_JOINTS,
+    PLAY,
+    SPRING,
     arm_catalogue,
     register_effect,
     registered_effects,
     unregister_effect,
 )
+from calib.manipulator.discovery.described import describe_arm
 from calib.manipulator.discovery.fitter import ArmFit, ArmFitter, joint_floors, noise_timescale
 from calib.manipulator.discovery.hooks import (
     ArmEffect,
@@ -85,6 +99,8 @@ __all__ = [
     "DELAY",
     "LAG",
     "MAX_COMPLIANCE_JOINTS",
+    "PLAY",
+    "SPRING",
     "ArmDiscovery",
     "ArmEffect",
     "ArmEffectModel",
@@ -97,6 +113,7 @@ __all__ = [
     "InputEffect",
     "StateEffect",
     "arm_catalogue",
+    "describe_arm",
     "discover_arm",
     "discovery_from_selection",
     "effect_estimates",
