@@ -14,7 +14,8 @@ a Jackal, most mobile robots): no encoder angles, no ground-truth pose.
 * **Adequacy**: the gyro's yaw-change residual of the constant-gain model (held out: two folds
   of alternating time blocks), located by turn rate and speed; **discovery** through
   :func:`calib.discovery.select_effects` with ``turn_slip`` (G grows with |turn rate|: the wheels
-  slide more the faster the robot turns) and ``speed_slip`` (G grows with speed). Each
+  slide more the faster the robot turns), ``speed_slip`` (G grows with speed) and ``icr_slip``
+  (the ICR model of a skid steer: G grows jointly with speed and turn rate). Each
   effect's hook (a :class:`GainEffectModel`) says what it adds to the gain
   G = (1 + sum of constant parts) (1 + sum of growth parts); the fitter never reads an id.
 
@@ -25,11 +26,18 @@ fitter), ``gps`` (the distance scale), ``result`` (the result and its report), `
 """
 
 from calib.diff_drive.odom_imu.analysis import analyze_odom_imu
-from calib.diff_drive.odom_imu.effects import GAIN, SPEED_SLIP, TURN_SLIP, GainEffectModel
+from calib.diff_drive.odom_imu.effects import (
+    GAIN,
+    ICR_SLIP,
+    SPEED_SLIP,
+    TURN_SLIP,
+    GainEffectModel,
+)
 from calib.diff_drive.odom_imu.result import OdomImuResult
 
 __all__ = [
     "GAIN",
+    "ICR_SLIP",
     "SPEED_SLIP",
     "TURN_SLIP",
     "GainEffectModel",

@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from calib.adequacy import ResidualChannel, assess, not_assessed
-from calib.diff_drive.odom_imu.effects import GAIN, SPEED_SLIP, TURN_SLIP
+from calib.diff_drive.odom_imu.effects import GAIN, ICR_SLIP, SPEED_SLIP, TURN_SLIP
 from calib.diff_drive.odom_imu.fitter import GainFitter
 from calib.diff_drive.odom_imu.gain import (
     N_BOOT,
@@ -145,7 +145,7 @@ def analyze_odom_imu(
     notes: list[str] = []
     selection = None
     try:
-        cat = [GAIN, TURN_SLIP, SPEED_SLIP] if odom_v is not None else [GAIN, TURN_SLIP]
+        cat = [GAIN, TURN_SLIP, SPEED_SLIP, ICR_SLIP] if odom_v is not None else [GAIN, TURN_SLIP]
         selection = select_effects(GainFitter(w, use, max(sigma, 1e-9), cat), cat, max_effects=3)
     except (ValueError, np.linalg.LinAlgError) as err:
         notes.append(f"discovery did not run: {err}")

@@ -4,7 +4,25 @@ G = (1 + sum of constant parts) (1 + sum of growth parts); the fitter never read
 
 * ``effective_track``: a constant gain (skid steer: effective track = geometric track x G);
 * ``turn_slip``: G grows with |turn rate| (the wheels slide more the faster the robot turns);
-* ``speed_slip``: G grows with speed.
+* ``speed_slip``: G grows with speed;
+* ``icr_slip``: skid-steer slip depending jointly on speed and turn rate, the tracks'
+  instantaneous centres of rotation (ICRs) moving outwards (below).
+
+**The ICR model** (in the line of Mandow et al. 2007, "Experimental kinematics for wheeled
+skid-steer mobile robots", IROS): a skid-steer's kinematics are a differential drive's with each
+side's wheel contact replaced by the instantaneous centre of rotation of that side's tread,
+at lateral positions y_L and y_R in the body frame; the body yaw rate is
+omega = (v_R - v_L) / (y_L - y_R) and, with ICRs symmetric about the centre line
+(y_L = -y_R), the forward speed is (v_R + v_L) / 2 as the odometry says. The odometry divides
+the same wheel speed difference by the geometric track b, so the yaw-rate gain is
+G = (y_L - y_R) / b = b_eff / b. Mandow et al. found the ICRs fixed for a given vehicle and
+floor at moderate speeds; they move outwards as the tyres' lateral forces grow: with the turn
+rate (the scrub moment that resists turning grows with the sideways sliding speed of the
+wheels, about |omega| times the half wheelbase) and with the centripetal acceleration v |omega|
+(the lateral load transfer and the sideways friction the tyres must supply). Hence
+b_eff = b G0 (1 + a |omega| + c |v| |omega|), G0 the gain of a slow turn. The covariates are
+the odometry's own speed and turn rate (what the wheels do, from which the slip follows); a
+log without ground truth sees only the yaw-rate gain, not the ICRs' longitudinal offset.
 """
 
 from __future__ import annotations
@@ -19,7 +37,16 @@ from numpy.typing import NDArray
 from calib.diff_drive.odom_imu.windows import Windows
 from calib.discovery import EffectKind, EffectParam, EffectSpec
 
-__all__ = ["GAIN", "SPEED_SLIP", "TURN_SLIP", "Constant", "GainEffectModel", "Growth"]
+__all__ = [
+    "GAIN",
+    "ICR_SLIP",
+    "SPEED_SLIP",
+    "TURN_SLIP",
+    "Constant",
+    "GainEffectModel",
+    "Growth",
+    "IcrGrowth",
+]
 
 Array = NDArray[np.float64]
 
@@ -28,21 +55,40 @@ class GainEffectModel(Protocol):
     """How one effect changes the yaw-rate gain: the hook of its
     :class:`~calib.adequacy.EffectSpec` (``values``: its own parameters by name)."""
 
+    @property
+    def covers(self) -> tuple[str, ...]:
+        """The parts of the gain it fits ("1": the constant; "rate", "speed", "speed*rate": a
+        growth with that covariate): two effects that fit one part are one effect twice
+        (nested), not a model."""
+        ...
+
     def gain(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
     ) -> tuple[float | Array, float | Array]:
         """What it adds to G's constant part and to its growth part on windows ``rows``."""
         ...
 
+    def added_yaw(
+        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
+    ) -> float | Array:
+        """What it adds to the gyro's yaw change on windows ``rows`` (rad), besides the gain."""
+        ...
+
 
 @dataclass(frozen=True)
 class Constant:
     param: str
+    covers: tuple[str, ...] = ("1",)
 
     def gain(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
     ) -> tuple[float | Array, float | Array]:
         return values[self.param], 0.0
+
+    def added_yaw(
+        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
+    ) -> float | Array:
+        return 0.0
 
 
 @dataclass(frozen=True)
@@ -51,11 +97,40 @@ class Growth:
     covariate: str
     """The :class:`Windows` field the gain grows with."""
 
+    @property
+    def covers(self) -> tuple[str, ...]:
+        return (self.covariate,)
+
     def gain(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
     ) -> tuple[float | Array, float | Array]:
         x: Array = getattr(w, self.covariate)[rows]
         return 0.0, values[self.param] * x
+
+    def added_yaw(
+        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
+    ) -> float | Array:
+        return 0.0
+
+
+@dataclass(frozen=True)
+class IcrGrowth:
+    """The ICR model's growth of the gain: a |omega| + c |v| |omega| (module docstring)."""
+
+    turn: str
+    joint: str
+    covers: tuple[str, ...] = ("rate", "speed*rate")
+
+    def gain(
+        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
+    ) -> tuple[float | Array, float | Array]:
+        rate, speed = w.rate[rows], w.speed[rows]
+        return 0.0, values[self.turn] * rate + values[self.joint] * speed * rate
+
+    def added_yaw(
+        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
+    ) -> float | Array:
+        return 0.0
 
 
 TURN_SLIP: EffectSpec[GainEffectModel] = EffectSpec(
@@ -85,4 +160,19 @@ GAIN: EffectSpec[GainEffectModel] = EffectSpec(
     "the robot turns slower than its wheel odometry says (skid steer: effective track = "
     "geometric track x gain)",
     model=Constant("gain_minus_1"),
+)
+ICR_SLIP: EffectSpec[GainEffectModel] = EffectSpec(
+    "icr_slip",
+    "track",
+    EffectKind.DYNAMICS,
+    (
+        EffectParam("per_rad_s", "s/rad", 0.0, -0.9, 20.0, 0.0),
+        EffectParam("per_m_rad", "s^2/(m rad)", 0.0, -5.0, 50.0, 0.0),
+    ),
+    "skid-steer slip: the treads' centres of rotation move outwards with the turn rate and the "
+    "centripetal acceleration, so the effective track grows jointly with speed and turn rate "
+    "(b_eff = b G0 (1 + a |omega| + c |v| |omega|), the ICR model of Mandow et al. 2007)",
+    confounded_with=("turn_slip(track)", "speed_slip(track)"),
+    sim_switch="icr_turn, icr_joint (calib.diff_drive.sim.OdomImuSimConfig)",
+    model=IcrGrowth("per_rad_s", "per_m_rad"),
 )

@@ -1,12 +1,15 @@
 """The fitter discovery calls on the odometry + IMU windows: the gyro's yaw change predicted as
-the odometry's divided by the gain the effects make, plus a gyro bias x duration, in units of
-the residual's noise floor; its held-out sum of squares over two folds of alternating time
-blocks; Newey-West (Bartlett) standard errors over windows."""
+the odometry's divided by the gain the effects make, plus what an effect adds to it directly (a
+described term), plus a gyro bias x duration, in units of the residual's noise floor; its
+held-out sum of squares over two folds of alternating time blocks; Newey-West (Bartlett)
+standard errors over windows. Two effects that fit one part of the gain (``covers``) are not
+fitted together: the set is one effect twice."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -15,18 +18,42 @@ from scipy.optimize import least_squares
 
 from calib.diff_drive.odom_imu.effects import GainEffectModel
 from calib.diff_drive.odom_imu.windows import FOLD_S, Windows
-from calib.discovery import EffectSpec, ModelFit
+from calib.discovery import CandidateFailedError, EffectSpec, ModelFit
 from calib.results import Estimate
 from calib.stats import bartlett_long_run, cube_root_lag, sandwich
 
-__all__ = ["GainFitter"]
+__all__ = ["GainFitter", "GainPayload"]
 
 Array = NDArray[np.float64]
 
 
+@dataclass(frozen=True)
+class GainPayload:
+    """What a fit keeps for the re-report: the fitted values by name (``"bias"``,
+    ``"key:param"``), their Newey-West covariance (in ``names`` order)."""
+
+    names: tuple[str, ...]
+    values: Mapping[str, float]
+    cov: Array = field(repr=False)
+
+    def std(self, name: str) -> float:
+        i = self.names.index(name)
+        return float(math.sqrt(max(float(self.cov[i, i]), 0.0)))
+
+
+def _nested(effects: Sequence[EffectSpec[GainEffectModel]]) -> str | None:
+    seen: dict[str, str] = {}
+    for e in effects:
+        for part in getattr(e.model, "covers", ()):
+            if part in seen:
+                return f"{e.key} and {seen[part]} both fit the gain's part {part!r} (nested)"
+            seen[part] = e.key
+    return None
+
+
 class GainFitter:
     """Nominal: the odometry's yaw rate is the true one (G = 1) up to a gyro bias; effects:
-    a constant gain, its growth with |turn rate| and with speed."""
+    a constant gain, its growth with |turn rate|, with speed, jointly (ICR), described terms."""
 
     def __init__(
         self,
@@ -42,6 +69,40 @@ class GainFitter:
         """The catalogue's order, in which the parts of the gain are summed (whatever order
         the selection added the effects in)."""
 
+    def gain(
+        self,
+        values: Mapping[str, float],
+        rows: NDArray[np.intp],
+        effects: Sequence[EffectSpec[GainEffectModel]],
+    ) -> float | Array:
+        """The gain the effects make on windows ``rows`` (``values`` by ``key:param``)."""
+        const: float | Array = 0.0
+        grow: float | Array = 1.0
+        for e in sorted(effects, key=lambda e: self.order.get(e.key, len(self.order))):
+            if e.model is None:
+                raise ValueError(f"effect {e.key}: no model hook (a GainEffectModel)")
+            c, d = e.model.gain(
+                {p.name: values[f"{e.key}:{p.name}"] for p in e.params}, self.w, rows
+            )
+            const, grow = const + c, grow + d
+        return (1 + const) * grow
+
+    def predicted(
+        self,
+        values: Mapping[str, float],
+        rows: NDArray[np.intp],
+        effects: Sequence[EffectSpec[GainEffectModel]],
+    ) -> Array:
+        """The gyro's yaw change (rad) the model predicts on windows ``rows``."""
+        w = self.w
+        g = self.gain(values, rows, effects)
+        pred = w.odo[rows] / np.maximum(g, 1e-3) + values["bias"] * w.dt[rows]
+        for e in effects:
+            if e.model is not None:
+                own = {p.name: values[f"{e.key}:{p.name}"] for p in e.params}
+                pred = pred + e.model.added_yaw(own, w, rows)
+        return np.asarray(pred, dtype=float)
+
     def _res(
         self,
         th: Array,
@@ -50,17 +111,8 @@ class GainFitter:
         effects: Sequence[EffectSpec[GainEffectModel]],
     ) -> Array:
         v = dict(zip(names, th, strict=True))
-        w = self.w
-        const: float | Array = 0.0
-        grow: float | Array = 1.0
-        for e in sorted(effects, key=lambda e: self.order.get(e.key, len(self.order))):
-            if e.model is None:
-                raise ValueError(f"effect {e.key}: no model hook (a GainEffectModel)")
-            c, d = e.model.gain({p.name: v[f"{e.key}:{p.name}"] for p in e.params}, w, rows)
-            const, grow = const + c, grow + d
-        g = (1 + const) * grow
-        pred = w.odo[rows] / np.maximum(g, 1e-3) + v["bias"] * w.dt[rows]
-        return np.asarray((w.gyro[rows] - pred) / self.sigma, dtype=float)
+        pred = self.predicted(v, rows, effects)
+        return np.asarray((self.w.gyro[rows] - pred) / self.sigma, dtype=float)
 
     def _solve(
         self, names: list[str], effects: Sequence[EffectSpec], rows: NDArray[np.intp]
@@ -68,18 +120,47 @@ class GainFitter:
         spec = {f"{e.key}:{p.name}": p for e in effects for p in e.params}
         lo = np.array([spec[n].lower if n in spec else -np.inf for n in names])
         hi = np.array([spec[n].upper if n in spec else np.inf for n in names])
-        x0 = np.zeros(len(names))
+        x0 = np.array([spec[n].init if n in spec else 0.0 for n in names])
+        x0 = np.clip(x0, lo, hi)
         return least_squares(lambda th: self._res(th, names, rows, effects), x0, bounds=(lo, hi))
 
+    @staticmethod
+    def names(effects: Sequence[EffectSpec]) -> list[str]:
+        return ["bias"] + [f"{e.key}:{p.name}" for e in effects for p in e.params]
+
+    def heldout_residual(self, fit: ModelFit) -> Array:
+        """Per window (rad), the gyro's yaw change minus what the model fitted on the other
+        fold's turning windows predicts (NaN where a fold cannot be fitted)."""
+        effects = fit.effects
+        names = self.names(effects)
+        w = self.w
+        out = np.full(w.t.size, math.nan)
+        blocks = ((w.t - w.t[0]) // FOLD_S).astype(int) % 2
+        for f, train in ((1, self.folds[0]), (0, self.folds[1])):
+            if train.size < 8:
+                continue
+            try:
+                sol = self._solve(names, effects, train)
+            except ValueError:
+                continue
+            test = np.flatnonzero(blocks == f).astype(np.intp)
+            v = dict(zip(names, map(float, sol.x), strict=True))
+            out[test] = w.gyro[test] - self.predicted(v, test, effects)
+        return out
+
     def __call__(self, effects: tuple[EffectSpec, ...]) -> ModelFit | None:
-        names = ["bias"] + [f"{e.key}:{p.name}" for e in effects for p in e.params]
+        why = _nested(effects)
+        if why is not None:
+            raise CandidateFailedError(why)
+        names = self.names(effects)
         try:
             sol = self._solve(names, effects, self.use)
         except ValueError:
             return None
         J, r = np.asarray(sol.jac, float), np.asarray(sol.fun, float)
         S = bartlett_long_run(J * r[:, None], cube_root_lag(r.size))
-        std = np.sqrt(np.maximum(np.diag(sandwich(J.T @ J, S)), 0.0))
+        cov = sandwich(J.T @ J, S)
+        std = np.sqrt(np.maximum(np.diag(cov), 0.0))
         held = 0.0
         for train, test in (self.folds, self.folds[::-1]):
             try:
@@ -113,6 +194,7 @@ class GainFitter:
                 "rad/s",
             )
         }
+        values = dict(zip(names, map(float, sol.x), strict=True))
         return ModelFit(
             effects,
             pars,
@@ -121,5 +203,5 @@ class GainFitter:
             held,
             r.size,
             len(names),
-            payload=dict(zip(names, map(float, sol.x), strict=True)),
+            payload=GainPayload(tuple(names), values, np.asarray(cov, dtype=float)),
         )
