@@ -46,3 +46,48 @@ def test_nested_effects_are_not_fitted_together() -> None:
     fitter = GainFitter(w, use, 0.02)
     with pytest.raises(CandidateFailedError, match="nested"):
         fitter((TURN_SLIP, ICR_SLIP))
+
+
+def test_after_discovery_the_gain_is_re_estimated_under_the_law() -> None:
+    sim = simulate_odom_imu(OdomImuSimConfig(gain=1.2, icr_turn=0.2, icr_joint=0.8), seed=2)
+    r = analyze_odom_imu(sim.t, sim.odom_omega, sim.gyro_z, odom_v=sim.odom_v)
+    assert r.adequacy.verdict == "does not explain"  # a constant gain does not
+    assert r.final_adequacy.verdict == "explains"  # the law does
+    g = r.recommended_gain()
+    assert g.identifiable
+    # the turn-weighted mean of the true gain over the samples that turn
+    turn = np.abs(sim.odom_omega) >= 0.05
+    true_mean = np.sum(np.abs(sim.odom_omega[turn])) / np.sum(np.abs(sim.omega_true[turn]))
+    assert g.value == pytest.approx(true_mean, rel=0.01)
+    pars = r.law_parameters()
+    assert {"icr_slip.per_rad_s", "icr_slip.per_m_rad", "yaw_rate_gain_slow_turn"} <= set(pars)
+    assert pars["yaw_rate_gain_slow_turn"].value == pytest.approx(1.2, abs=0.02)
+
+
+def test_a_gain_outside_the_catalogue_is_described() -> None:
+    sim = simulate_odom_imu(OdomImuSimConfig(gain=1.2), seed=1)
+    # a gyro reading that differs between left and right turns: no catalogue effect has it
+    gyro = sim.gyro_z + 0.08 * np.abs(sim.omega_true)
+    r = analyze_odom_imu(sim.t, sim.odom_omega, gyro, odom_v=sim.odom_v)
+    assert r.explained is not None
+    d = r.explained.description
+    assert d is not None
+    assert d.accepted
+    assert [t.term.name for t in d.terms] == ["|omega|"]
+    # 0.08 |true rate| = 0.08 / 1.2 |odometry rate|
+    assert d.terms[0].coefficient.value == pytest.approx(0.08 / 1.2, rel=0.05)
+    assert r.final_adequacy.verdict == "explains"
+    assert r.recommended_gain().value == pytest.approx(1.2, abs=0.01)
+
+
+def test_the_discovery_report_has_the_shared_shape() -> None:
+    from calib.diff_drive.odom_imu.report import odom_imu_discovery_report
+
+    sim = simulate_odom_imu(OdomImuSimConfig(gain=1.2, icr_turn=0.2, icr_joint=0.8), seed=1)
+    r = analyze_odom_imu(sim.t, sim.odom_omega, sim.gyro_z, odom_v=sim.odom_v)
+    doc = odom_imu_discovery_report(r).to_dict()
+    assert doc["engine"] == "calib.discovery"
+    assert set(doc["named"]) == {"icr_slip(track)", "effective_track(track)"}
+    assert doc["verdict_after"]["verdict"] == "explains"
+    assert doc["moved"]["yaw_rate_gain"]["after"]["identifiable"] is True
+    assert doc["details"]["law"]["verdict"] == "explains"

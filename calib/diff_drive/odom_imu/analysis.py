@@ -9,6 +9,7 @@ from numpy.typing import NDArray
 
 from calib.adequacy import ResidualChannel, assess, not_assessed
 from calib.diff_drive.odom_imu.effects import GAIN, ICR_SLIP, SPEED_SLIP, TURN_SLIP
+from calib.diff_drive.odom_imu.explain import explain
 from calib.diff_drive.odom_imu.fitter import GainFitter
 from calib.diff_drive.odom_imu.gain import (
     N_BOOT,
@@ -144,9 +145,13 @@ def analyze_odom_imu(
     sigma = (adequacy.channels[0].noise_floor if adequacy.channels else 0.0) or float(np.std(resid))
     notes: list[str] = []
     selection = None
+    explained = None
     try:
         cat = [GAIN, TURN_SLIP, SPEED_SLIP, ICR_SLIP] if odom_v is not None else [GAIN, TURN_SLIP]
-        selection = select_effects(GainFitter(w, use, max(sigma, 1e-9), cat), cat, max_effects=3)
+        fitter = GainFitter(w, use, max(sigma, 1e-9), cat)
+        selection = select_effects(fitter, cat, max_effects=3)
+        if selection is not None:
+            explained = explain(fitter, selection, t, vv, odo, adequacy.explains)
     except (ValueError, np.linalg.LinAlgError) as err:
         notes.append(f"discovery did not run: {err}")
     if shift:
@@ -160,5 +165,16 @@ def analyze_odom_imu(
     elif gps is None:
         notes.append("no GPS: the distance scale (wheel radius) is not determined")
     return OdomImuResult(
-        gain, bias_e, shift, eff, by_turn, by_speed, dist, adequacy, selection, int(use.size), notes
+        gain,
+        bias_e,
+        shift,
+        eff,
+        by_turn,
+        by_speed,
+        dist,
+        adequacy,
+        selection,
+        int(use.size),
+        notes,
+        explained,
     )

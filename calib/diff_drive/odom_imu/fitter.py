@@ -30,11 +30,14 @@ Array = NDArray[np.float64]
 @dataclass(frozen=True)
 class GainPayload:
     """What a fit keeps for the re-report: the fitted values by name (``"bias"``,
-    ``"key:param"``), their Newey-West covariance (in ``names`` order)."""
+    ``"key:param"``), their Newey-West covariance (in ``names`` order), the residual (noise
+    units) on the fitted windows and its Jacobian."""
 
     names: tuple[str, ...]
     values: Mapping[str, float]
     cov: Array = field(repr=False)
+    residual: Array = field(repr=False)
+    jac: Array = field(repr=False)
 
     def std(self, name: str) -> float:
         i = self.names.index(name)
@@ -203,5 +206,5 @@ class GainFitter:
             held,
             r.size,
             len(names),
-            payload=GainPayload(tuple(names), values, np.asarray(cov, dtype=float)),
+            payload=GainPayload(tuple(names), values, np.asarray(cov, dtype=float), r, J),
         )
