@@ -245,12 +245,12 @@ class OdomImuSimConfig:
     """A skid steer logged by its wheel odometry and a gyro.
 
     The odometry reports the speed v and turn rate omega_odo the wheels give with the
-    geometric track; the robot turns at omega_odo / G with
-    G = gain (1 + turn_slip |omega_odo| + speed_slip |v| + icr_turn |omega_odo|
-    + icr_joint |v| |omega_odo|): ``gain`` the effective / geometric track of a slow turn,
-    ``turn_slip`` (s/rad) and ``speed_slip`` (s/m) the single-covariate growths, ``icr_turn``
-    (s/rad) and ``icr_joint`` (s^2/(m rad)) the ICR model's (treads' centres of rotation moving
-    outwards with turn rate and centripetal acceleration). The gyro reads the true rate plus
+    geometric track; the robot turns at omega_odo (1 - icr_turn |omega_odo| - icr_joint |v|
+    |omega_odo|) / G with G = gain (1 + turn_slip |omega_odo| + speed_slip |v|): ``gain`` the
+    effective / geometric track of a slow turn, ``turn_slip`` (s/rad) and ``speed_slip`` (s/m)
+    the single-covariate growths, ``icr_turn`` (s/rad) and ``icr_joint`` (s^2/(m rad)) the ICR
+    model's share of the turn lost (treads' centres of rotation moving outwards with turn rate
+    and centripetal acceleration). The gyro reads the true rate plus
     ``gyro_bias`` and white noise; commands are piecewise linear between random knots every
     ``knot_s`` (|omega_odo| up to ``max_turn``, v from 0 to ``max_speed``)."""
 
@@ -293,13 +293,8 @@ def simulate_odom_imu(config: OdomImuSimConfig, seed: int = 0) -> OdomImuSim:
     w_odo = np.interp(t, knots, rng.uniform(-c.max_turn, c.max_turn, knots.size))
     v = np.interp(t, knots, rng.uniform(0.0, c.max_speed, knots.size))
     rate, speed = np.abs(w_odo), np.abs(v)
-    g = c.gain * (
-        1
-        + c.turn_slip * rate
-        + c.speed_slip * speed
-        + c.icr_turn * rate
-        + c.icr_joint * speed * rate
-    )
+    kept = 1 - c.icr_turn * rate - c.icr_joint * speed * rate
+    g = c.gain * (1 + c.turn_slip * rate + c.speed_slip * speed) / kept
     w_true = w_odo / g
     return OdomImuSim(
         t,

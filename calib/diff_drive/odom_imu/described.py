@@ -85,11 +85,17 @@ class DescribedYaw:
 
     terms: tuple[tuple[str, Array], ...] = field(repr=False)
     covers: tuple[str, ...] = ()
+    form: str = "described"
 
     def gain(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
     ) -> tuple[float | Array, float | Array]:
         return 0.0, 0.0
+
+    def slip(
+        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
+    ) -> float | Array:
+        return 0.0
 
     def added_yaw(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]

@@ -9,20 +9,26 @@ G = (1 + sum of constant parts) (1 + sum of growth parts); the fitter never read
   instantaneous centres of rotation (ICRs) moving outwards (below).
 
 **The ICR model** (in the line of Mandow et al. 2007, "Experimental kinematics for wheeled
-skid-steer mobile robots", IROS): a skid-steer's kinematics are a differential drive's with each
-side's wheel contact replaced by the instantaneous centre of rotation of that side's tread,
-at lateral positions y_L and y_R in the body frame; the body yaw rate is
+skid-steer mobile robots", IROS): a skid steer's kinematics are a differential drive's with each
+side's wheel contact replaced by the instantaneous centre of rotation (ICR) of that side's
+tread, at lateral positions y_L and y_R in the body frame; the body yaw rate is
 omega = (v_R - v_L) / (y_L - y_R) and, with ICRs symmetric about the centre line
 (y_L = -y_R), the forward speed is (v_R + v_L) / 2 as the odometry says. The odometry divides
 the same wheel speed difference by the geometric track b, so the yaw-rate gain is
-G = (y_L - y_R) / b = b_eff / b. Mandow et al. found the ICRs fixed for a given vehicle and
-floor at moderate speeds; they move outwards as the tyres' lateral forces grow: with the turn
-rate (the scrub moment that resists turning grows with the sideways sliding speed of the
-wheels, about |omega| times the half wheelbase) and with the centripetal acceleration v |omega|
-(the lateral load transfer and the sideways friction the tyres must supply). Hence
-b_eff = b G0 (1 + a |omega| + c |v| |omega|), G0 the gain of a slow turn. The covariates are
-the odometry's own speed and turn rate (what the wheels do, from which the slip follows); a
-log without ground truth sees only the yaw-rate gain, not the ICRs' longitudinal offset.
+G = (y_L - y_R) / b = b_eff / b, and the gyro sees the odometry's turn times b / b_eff.
+Mandow et al. found the ICRs fixed for a given vehicle and floor at moderate speeds; they move
+outwards as the treads slip more, and the slip grows with the forces the tyres must supply
+sideways: the scrub that resists turning (growing with the turn rate) and the centripetal force
+(growing with v |omega|). Written as the share of the turn lost,
+b / b_eff = (1 / G0) (1 - a |omega| - c |v| |omega|), i.e.
+b_eff = b G0 / (1 - a |omega| - c |v| |omega|), G0 the gain of a slow turn: the effect holds
+all three (the ICRs' spacing and their motion are one model; ``effective_track`` is its
+special case a = c = 0, so the two are never fitted together). The slip form is linear in a
+and c (a share of the turn that reaches all of it where the robot stops turning, with no pole in
+the fit), and to first order it is the growth b_eff = b G0 (1 + a |omega| + c |v| |omega|). The
+covariates are the odometry's own speed and turn rate (what the wheels do, from which the slip
+follows); a log without ground truth sees only the yaw-rate gain, not the ICRs' longitudinal
+offset.
 """
 
 from __future__ import annotations
@@ -45,7 +51,7 @@ __all__ = [
     "Constant",
     "GainEffectModel",
     "Growth",
-    "IcrGrowth",
+    "IcrSlip",
 ]
 
 Array = NDArray[np.float64]
@@ -68,6 +74,19 @@ class GainEffectModel(Protocol):
         """What it adds to G's constant part and to its growth part on windows ``rows``."""
         ...
 
+    @property
+    def form(self) -> str:
+        """Where its parameters enter: "constant" (G0), "growth" (G's growth part) or "slip"
+        (the fraction of the turn lost), for the law's formula."""
+        ...
+
+    def slip(
+        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
+    ) -> float | Array:
+        """The fraction of the odometry's turn it loses on windows ``rows``: the gyro sees
+        odometry x (1 - sum of slips) / G."""
+        ...
+
     def added_yaw(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
     ) -> float | Array:
@@ -79,11 +98,17 @@ class GainEffectModel(Protocol):
 class Constant:
     param: str
     covers: tuple[str, ...] = ("1",)
+    form: str = "constant"
 
     def gain(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
     ) -> tuple[float | Array, float | Array]:
         return values[self.param], 0.0
+
+    def slip(
+        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
+    ) -> float | Array:
+        return 0.0
 
     def added_yaw(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
@@ -97,6 +122,8 @@ class Growth:
     covariate: str
     """The :class:`Windows` field the gain grows with."""
 
+    form: str = "growth"
+
     @property
     def covers(self) -> tuple[str, ...]:
         return (self.covariate,)
@@ -107,6 +134,11 @@ class Growth:
         x: Array = getattr(w, self.covariate)[rows]
         return 0.0, values[self.param] * x
 
+    def slip(
+        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
+    ) -> float | Array:
+        return 0.0
+
     def added_yaw(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
     ) -> float | Array:
@@ -114,18 +146,28 @@ class Growth:
 
 
 @dataclass(frozen=True)
-class IcrGrowth:
-    """The ICR model's growth of the gain: a |omega| + c |v| |omega| (module docstring)."""
+class IcrSlip:
+    """The ICR model: the treads' ICRs G0 b apart in a slow turn (``rest``: G0 - 1, the constant
+    part) and the share a |omega| + c |v| |omega| of the turn lost as they move outwards (module
+    docstring)."""
 
+    rest: str
     turn: str
     joint: str
-    covers: tuple[str, ...] = ("rate", "speed*rate")
+    covers: tuple[str, ...] = ("1", "rate", "speed*rate")
+    form: str = "slip"
 
     def gain(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
     ) -> tuple[float | Array, float | Array]:
+        return values[self.rest], 0.0
+
+    def slip(
+        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
+    ) -> float | Array:
         rate, speed = w.rate[rows], w.speed[rows]
-        return 0.0, values[self.turn] * rate + values[self.joint] * speed * rate
+        out: Array = values[self.turn] * rate + values[self.joint] * speed * rate
+        return out
 
     def added_yaw(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
@@ -166,13 +208,15 @@ ICR_SLIP: EffectSpec[GainEffectModel] = EffectSpec(
     "track",
     EffectKind.DYNAMICS,
     (
-        EffectParam("per_rad_s", "s/rad", 0.0, -0.9, 20.0, 0.0),
-        EffectParam("per_m_rad", "s^2/(m rad)", 0.0, -5.0, 50.0, 0.0),
+        EffectParam("gain_minus_1", "1", 0.0, -0.9, 20.0, 0.0),
+        EffectParam("per_rad_s", "s/rad", 0.0, -5.0, 5.0, 0.0),
+        EffectParam("per_m_rad", "s^2/(m rad)", 0.0, -5.0, 5.0, 0.0),
     ),
-    "skid-steer slip: the treads' centres of rotation move outwards with the turn rate and the "
-    "centripetal acceleration, so the effective track grows jointly with speed and turn rate "
-    "(b_eff = b G0 (1 + a |omega| + c |v| |omega|), the ICR model of Mandow et al. 2007)",
-    confounded_with=("turn_slip(track)", "speed_slip(track)"),
+    "skid-steer slip: the treads' centres of rotation move outwards as the turn rate and the "
+    "centripetal acceleration grow, so the robot loses a share of its turn that depends "
+    "jointly on speed and turn rate (b_eff = b G0 / (1 - a |omega| - c |v| |omega|), the ICR "
+    "model of Mandow et al. 2007)",
+    confounded_with=("effective_track(track)", "turn_slip(track)", "speed_slip(track)"),
     sim_switch="icr_turn, icr_joint (calib.diff_drive.sim.OdomImuSimConfig)",
-    model=IcrGrowth("per_rad_s", "per_m_rad"),
+    model=IcrSlip("gain_minus_1", "per_rad_s", "per_m_rad"),
 )

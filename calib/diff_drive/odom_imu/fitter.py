@@ -72,23 +72,25 @@ class GainFitter:
         """The catalogue's order, in which the parts of the gain are summed (whatever order
         the selection added the effects in)."""
 
-    def gain(
+    def slope(
         self,
         values: Mapping[str, float],
         rows: NDArray[np.intp],
         effects: Sequence[EffectSpec[GainEffectModel]],
     ) -> float | Array:
-        """The gain the effects make on windows ``rows`` (``values`` by ``key:param``)."""
+        """Gyro yaw change per odometry yaw change on windows ``rows``: (1 - slip) / G."""
         const: float | Array = 0.0
         grow: float | Array = 1.0
+        slip: float | Array = 0.0
         for e in sorted(effects, key=lambda e: self.order.get(e.key, len(self.order))):
             if e.model is None:
                 raise ValueError(f"effect {e.key}: no model hook (a GainEffectModel)")
-            c, d = e.model.gain(
-                {p.name: values[f"{e.key}:{p.name}"] for p in e.params}, self.w, rows
-            )
+            own = {p.name: values[f"{e.key}:{p.name}"] for p in e.params}
+            c, d = e.model.gain(own, self.w, rows)
             const, grow = const + c, grow + d
-        return (1 + const) * grow
+            slip = slip + e.model.slip(own, self.w, rows)
+        out: float | Array = (1 - slip) / np.maximum((1 + const) * grow, 1e-3)
+        return out
 
     def predicted(
         self,
@@ -98,8 +100,18 @@ class GainFitter:
     ) -> Array:
         """The gyro's yaw change (rad) the model predicts on windows ``rows``."""
         w = self.w
-        g = self.gain(values, rows, effects)
-        pred = w.odo[rows] / np.maximum(g, 1e-3) + values["bias"] * w.dt[rows]
+        const: float | Array = 0.0
+        grow: float | Array = 1.0
+        slip: float | Array = 0.0
+        for e in sorted(effects, key=lambda e: self.order.get(e.key, len(self.order))):
+            if e.model is None:
+                raise ValueError(f"effect {e.key}: no model hook (a GainEffectModel)")
+            own = {p.name: values[f"{e.key}:{p.name}"] for p in e.params}
+            c, d = e.model.gain(own, w, rows)
+            const, grow = const + c, grow + d
+            slip = slip + e.model.slip(own, w, rows)
+        g = (1 + const) * grow
+        pred = w.odo[rows] * (1 - slip) / np.maximum(g, 1e-3) + values["bias"] * w.dt[rows]
         for e in effects:
             if e.model is not None:
                 own = {p.name: values[f"{e.key}:{p.name}"] for p in e.params}

@@ -33,12 +33,15 @@ _SYMBOL = {"rate": "|omega|", "speed": "|v|", "speed*rate": "|v| |omega|"}
 
 
 def law_formula(fit: ModelFit) -> str:
-    """The gain of ``fit``'s effects in one formula, G = G0 (1 + ...), described terms noted."""
+    """The gain of ``fit``'s effects in one formula, G = G0 (1 + ...) / (1 - ...), described
+    terms noted."""
     const = 0.0
     grow: list[str] = []
+    slip: list[str] = []
     described = False
     for e in fit.effects:
-        if str(e.kind) == str(EffectKind.DESCRIBED):
+        form = getattr(e.model, "form", "")
+        if form == "described" or str(e.kind) == str(EffectKind.DESCRIBED):
             described = True
             continue
         pars = fit.effect_parameters.get(e.key, {})
@@ -47,10 +50,16 @@ def law_formula(fit: ModelFit) -> str:
             if part == "1":
                 const += val
             else:
-                sign = "-" if val < 0 else "+"
-                grow.append(f"{sign} {abs(val):.3g} {_SYMBOL.get(part, part)}")
-    g0 = f"{1 + const:.4g}"
-    text = f"G = {g0}" + (f" (1 {' '.join(grow)})" if grow else "")
+                # a growth adds + val x; a slip loses val x of the turn: written 1 - val x
+                sign = ("-" if val < 0 else "+") if form == "growth" else ("+" if val < 0 else "-")
+                (grow if form == "growth" else slip).append(
+                    f"{sign} {abs(val):.3g} {_SYMBOL.get(part, part)}"
+                )
+    text = f"G = {1 + const:.4g}"
+    if grow:
+        text += f" (1 {' '.join(grow)})"
+    if slip:
+        text += f" / (1 {' '.join(slip)})"
     return text + (" + the described yaw-rate terms" if described else "")
 
 
@@ -80,10 +89,12 @@ class GainLaw:
             if m.identifiable
             else " (the model with it does not explain the log: no single gain is determined)"
         )
-        out = [
-            f"gain law: {self.formula}; over the windows that turn G runs {self.lowest:.4g} to "
-            f"{self.highest:.4g}{mean}",
-        ]
+        span = (
+            f"{self.lowest:.4g} to {self.highest:.4g}"
+            if math.isfinite(self.highest)
+            else f"{self.lowest:.4g} upward (the law has the robot not turning on some of them)"
+        )
+        out = [f"gain law: {self.formula}; over the windows that turn G runs {span}{mean}"]
         if self.at_slow_turn is not None and self.at_slow_turn.identifiable:
             out.append("slow-turn gain " + self.at_slow_turn.report())
         return out
@@ -103,12 +114,18 @@ class GainLaw:
         )
 
 
-def _mean_gain(fitter: GainFitter, fit: ModelFit, values: Mapping[str, float]) -> float:
+def _slopes(fitter: GainFitter, fit: ModelFit, values: Mapping[str, float]) -> Array:
     rows = fitter.use
-    g = np.maximum(np.asarray(fitter.gain(values, rows, fit.effects), float), 1e-3)
-    g = np.broadcast_to(g, rows.shape)
-    turn = np.abs(fitter.w.odo[rows])
-    return float(np.sum(turn) / np.sum(turn / g))
+    out: Array = np.broadcast_to(
+        np.asarray(fitter.slope(values, rows, fit.effects), float), rows.shape
+    )
+    return out
+
+
+def _mean_gain(fitter: GainFitter, fit: ModelFit, values: Mapping[str, float]) -> float:
+    turn = np.abs(fitter.w.odo[fitter.use])
+    seen = float(np.sum(turn * _slopes(fitter, fit, values)))
+    return float(np.sum(turn)) / seen if seen > 0 else math.inf
 
 
 def _delta_std(fitter: GainFitter, fit: ModelFit, pay: GainPayload) -> float:
@@ -151,9 +168,9 @@ def gain_law(fitter: GainFitter, fit: ModelFit) -> GainLaw:
     """The law of ``fit`` (a fit of ``fitter``) re-reported (module docstring)."""
     pay: GainPayload = fit.payload
     formula = law_formula(fit)
-    g = np.broadcast_to(
-        np.asarray(fitter.gain(pay.values, fitter.use, fit.effects), float), fitter.use.shape
-    )
+    slopes = _slopes(fitter, fit, pay.values)
+    lowest = 1.0 / float(np.max(slopes)) if float(np.max(slopes)) > 0 else math.inf
+    highest = 1.0 / float(np.min(slopes)) if float(np.min(slopes)) > 0 else math.inf
     mean = _mean_gain(fitter, fit, pay.values)
     std = _delta_std(fitter, fit, pay)
     adequacy, rms = _adequacy(fitter, fit, f"yaw-rate gain law {formula} + gyro bias")
@@ -162,7 +179,7 @@ def gain_law(fitter: GainFitter, fit: ModelFit) -> GainLaw:
         mean,
         std,
         (mean - Z95 * std, mean + Z95 * std),
-        math.isfinite(std) and adequacy.explains,
+        math.isfinite(std) and math.isfinite(mean) and adequacy.explains,
         "1",
         f"turn-weighted mean over {fitter.use.size} windows that turn under {formula} "
         "(delta method, Newey-West covariance)",
@@ -170,7 +187,7 @@ def gain_law(fitter: GainFitter, fit: ModelFit) -> GainLaw:
     slow = None
     for e in fit.effects:
         covers = getattr(e.model, "covers", ())
-        if covers == ("1",):
+        if covers and covers[0] == "1":  # the effect's first parameter is G0 - 1
             p = fit.effect_parameters[e.key][e.params[0].name]
             slow = Estimate(
                 "yaw_rate_gain_slow_turn",
@@ -181,4 +198,4 @@ def gain_law(fitter: GainFitter, fit: ModelFit) -> GainLaw:
                 "1",
                 "G0: the gain as speed and turn rate go to zero",
             )
-    return GainLaw(fit, formula, mean_e, float(np.min(g)), float(np.max(g)), slow, adequacy, rms)
+    return GainLaw(fit, formula, mean_e, lowest, highest, slow, adequacy, rms)

@@ -67,8 +67,9 @@ class OdomImuResult:
                 (law.lowest, law.highest),
                 False,
                 "1",
-                f"the gain varies over this log as {law.formula}, from {law.lowest:.4g} to "
-                f"{law.highest:.4g} over the windows that turn; no single value holds"
+                f"the gain varies over this log as {law.formula}, from "
+                + allowed_range(Estimate("g", math.nan, math.nan, (law.lowest, law.highest)))
+                + " over the windows that turn; no single value holds"
                 + (f" (the model with it leaves {worst})" if worst else ""),
             )
         g = self.gain
