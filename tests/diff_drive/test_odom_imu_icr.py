@@ -81,6 +81,10 @@ def test_a_gain_outside_the_catalogue_is_described() -> None:
     assert d.terms[0].coefficient.value == pytest.approx(0.08 / 1.2, rel=0.05)
     assert r.final_adequacy.verdict == "explains"
     assert r.recommended_gain().value == pytest.approx(1.2, abs=0.01)
+    # the selection had named icr_slip for what the described term explains: once the term is
+    # kept, the ICR model is replaced by the constant gain it contains, and a note says so
+    assert r.named == ["effective_track"]
+    assert any("icr_slip(track) replaced by effective_track(track)" in n for n in r.notes)
 
 
 def test_the_discovery_report_has_the_shared_shape() -> None:

@@ -151,7 +151,8 @@ def analyze_odom_imu(
         fitter = GainFitter(w, use, max(sigma, 1e-9), cat)
         selection = select_effects(fitter, cat, max_effects=3)
         if selection is not None:
-            explained = explain(fitter, selection, t, vv, odo, adequacy.explains)
+            explained = explain(fitter, selection, t, vv, odo, adequacy.explains, cat)
+            notes += list(explained.dropped)
     except (ValueError, np.linalg.LinAlgError) as err:
         notes.append(f"discovery did not run: {err}")
     if shift:

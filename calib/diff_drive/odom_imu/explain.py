@@ -5,7 +5,8 @@ final model and for each confound's alternative."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -14,7 +15,18 @@ from calib.diff_drive.odom_imu.described import described_hook, entry, library, 
 from calib.diff_drive.odom_imu.fitter import GainFitter, GainPayload
 from calib.diff_drive.odom_imu.law import GainLaw, gain_law
 from calib.diff_drive.odom_imu.windows import FOLD_S, WINDOW_S
-from calib.discovery import Description, ModelFit, Selection, describe
+from calib.discovery import (
+    BIC_MARGIN,
+    MIN_HELDOUT_GAIN,
+    CandidateFailedError,
+    Description,
+    EffectKind,
+    EffectSpec,
+    ModelFit,
+    Selection,
+    describe,
+    heldout_gain,
+)
 
 __all__ = ["Explained", "explain"]
 
@@ -31,6 +43,9 @@ class Explained:
     description: Description | None
     law: GainLaw | None
     alternatives: dict[str, GainLaw]
+    dropped: tuple[str, ...] = ()
+    """Named effects the kept description made redundant (removed, or replaced by a simpler
+    catalogue effect), as notes."""
 
 
 def _describe(
@@ -54,6 +69,63 @@ def _describe(
         return None
 
 
+def _covers(e: EffectSpec) -> set[str]:
+    return set(getattr(e.model, "covers", ()))
+
+
+def _without(
+    fitter: GainFitter, current: ModelFit, catalogue: Sequence[EffectSpec]
+) -> tuple[ModelFit, str] | None:
+    """The first named effect of ``current`` that does not earn its place beside the described
+    one: removed, or replaced by the simplest catalogue effect that fits part of what it fits,
+    when the model without it is as good on held-out data (``current`` removes less than
+    ``MIN_HELDOUT_GAIN`` of its excess) and by the BIC (``current`` not lower by
+    ``BIC_MARGIN``)."""
+    named = [e for e in current.effects if str(e.kind) != str(EffectKind.DESCRIBED)]
+    for e in named:
+        inner = sorted(
+            (s for s in catalogue if _covers(s) and _covers(s) < _covers(e)),
+            key=lambda s: len(s.params),
+        )
+        for s in (None, *inner):
+            effects = tuple(x for x in current.effects if x is not e)
+            if s is not None:
+                effects = (s, *effects)
+            try:
+                fit = fitter(effects)
+            except CandidateFailedError:
+                continue
+            if fit is None:
+                continue
+            if (
+                heldout_gain(fit, current) < MIN_HELDOUT_GAIN
+                and current.bic - fit.bic > -BIC_MARGIN
+            ):
+                how = "dropped" if s is None else f"replaced by {s.key}"
+                return fit, f"{e.key} {how}: the described terms explain what it took"
+    return None
+
+
+def _simpler(
+    fitter: GainFitter, d: Description, catalogue: Sequence[EffectSpec]
+) -> tuple[Description, tuple[str, ...]]:
+    """``d`` with the named effects it made redundant taken out (:func:`_without`, repeated)."""
+    current, notes = d.fit, []
+    for _ in range(len(current.effects)):
+        step = _without(fitter, current, catalogue)
+        if step is None:
+            break
+        current, why = step
+        notes.append(why)
+    if current is d.fit:
+        return d, ()
+    pars = current.effect_parameters.get(d.spec.key, {})
+    terms = tuple(
+        replace(t, coefficient=pars.get(t.coefficient.name, t.coefficient)) for t in d.terms
+    )
+    return replace(d, fit=current, terms=terms), tuple(notes)
+
+
 def explain(
     fitter: GainFitter,
     sel: Selection,
@@ -61,14 +133,19 @@ def explain(
     v: Array,
     omega: Array,
     constant_explains: bool,
+    catalogue: Sequence[EffectSpec] = (),
 ) -> Explained:
     """Describe what ``sel``'s final model leaves and re-report the law (module docstring);
     ``t``, ``v``, ``omega``: the samples the windows were cut from; ``constant_explains``: the
-    constant-gain model already explains the log (a description must then bring more)."""
+    constant-gain model already explains the log (a description must then bring more);
+    ``catalogue``: the effects a named one may be replaced by once a description is kept."""
     law0 = gain_law(fitter, sel.final) if sel.final.effects else None
     explained = law0.explains if law0 is not None else constant_explains
     d = _describe(fitter, sel.final, t, v, omega, explained)
+    dropped: tuple[str, ...] = ()
+    if d is not None and d.accepted:
+        d, dropped = _simpler(fitter, d, catalogue)
     final = d.fit if d is not None and d.accepted else sel.final
     law = law0 if final is sel.final else gain_law(fitter, final)
     alts = {c.alternative: gain_law(fitter, c.alternative_fit) for c in sel.confounds}
-    return Explained(final, d, law, alts)
+    return Explained(final, d, law, alts, dropped)

@@ -11,7 +11,7 @@ from collections.abc import Mapping
 
 from calib.diff_drive.odom_imu.law import GainLaw
 from calib.diff_drive.odom_imu.result import OdomImuResult
-from calib.discovery import Alternative, DiscoveryReport, FoundEffect, Selection
+from calib.discovery import Alternative, DiscoveryReport, EffectKind, FoundEffect, Selection
 from calib.results import Estimate
 
 __all__ = ["BASELINE", "odom_imu_discovery_report"]
@@ -54,7 +54,8 @@ def odom_imu_discovery_report(res: OdomImuResult) -> DiscoveryReport:
     gains = _gains(sel)
     effects = [
         FoundEffect.named(e, fit, *gains.get(e.key, (math.nan, math.nan)))
-        for e in sel.final.effects
+        for e in fit.effects
+        if str(e.kind) != str(EffectKind.DESCRIBED)
     ]
     d = ex.description
     if d is not None and d.accepted:

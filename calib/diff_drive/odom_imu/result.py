@@ -44,6 +44,13 @@ class OdomImuResult:
 
     @property
     def named(self) -> list[str]:
+        """The catalogue effects of the model discovery ends with."""
+        if self.explained is not None:
+            return [
+                e.id
+                for e in self.explained.final.effects
+                if str(e.kind) != str(EffectKind.DESCRIBED)
+            ]
         return [] if self.selection is None else [e.id for e in self.selection.accepted]
 
     @property
