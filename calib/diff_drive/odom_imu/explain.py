@@ -1,7 +1,10 @@
-"""After selection: the residual the selected gain law leaves modelled from the log's own signals
-(:func:`calib.discovery.describe`, kept by the engine's rules), and the gain law of the model
-that ends discovery re-estimated and re-reported (:mod:`calib.diff_drive.odom_imu.law`), for the
-final model and for each confound's alternative."""
+"""After selection: the named effects that do not earn their place beside the others taken out
+(backward elimination under the engine's rules: an effect goes, or gives way to a simpler one it
+contains, when the model without it is as good held out and by the BIC), the residual the gain
+law leaves modelled from the log's own signals (:func:`calib.discovery.describe`, kept by the
+engine's rules), and the gain law of the model that ends discovery re-estimated and
+re-reported (:mod:`calib.diff_drive.odom_imu.law`), for the final model and for each confound's
+alternative."""
 
 from __future__ import annotations
 
@@ -44,8 +47,8 @@ class Explained:
     law: GainLaw | None
     alternatives: dict[str, GainLaw]
     dropped: tuple[str, ...] = ()
-    """Named effects the kept description made redundant (removed, or replaced by a simpler
-    catalogue effect), as notes."""
+    """Named effects the rest of the final model made redundant (removed, or replaced by a
+    simpler catalogue effect), as notes."""
 
 
 def _describe(
@@ -76,8 +79,8 @@ def _covers(e: EffectSpec) -> set[str]:
 def _without(
     fitter: GainFitter, current: ModelFit, catalogue: Sequence[EffectSpec]
 ) -> tuple[ModelFit, str] | None:
-    """The first named effect of ``current`` that does not earn its place beside the described
-    one: removed, or replaced by the simplest catalogue effect that fits part of what it fits,
+    """The first named effect of ``current`` that does not earn its place beside the others:
+    removed, or replaced by the simplest catalogue effect that fits part of what it fits,
     when the model without it is as good on held-out data (``current`` removes less than
     ``MIN_HELDOUT_GAIN`` of its excess) and by the BIC (``current`` not lower by
     ``BIC_MARGIN``)."""
@@ -102,28 +105,39 @@ def _without(
                 and current.bic - fit.bic > -BIC_MARGIN
             ):
                 how = "dropped" if s is None else f"replaced by {s.key}"
-                return fit, f"{e.key} {how}: the described terms explain what it took"
+                return fit, f"{e.key} {how}: the rest of the model explains what it took"
     return None
 
 
-def _simpler(
-    fitter: GainFitter, d: Description, catalogue: Sequence[EffectSpec]
-) -> tuple[Description, tuple[str, ...]]:
-    """``d`` with the named effects it made redundant taken out (:func:`_without`, repeated)."""
-    current, notes = d.fit, []
+def _pruned(
+    fitter: GainFitter, fit: ModelFit, catalogue: Sequence[EffectSpec]
+) -> tuple[ModelFit, tuple[str, ...]]:
+    """``fit`` with the named effects that do not earn their place taken out
+    (:func:`_without`, repeated): forward selection adds the ICR model, which holds a constant
+    gain, where the log's physics is a constant gain and a growth the ICR model lacks, and the
+    growth added next makes its slip terms redundant."""
+    current, notes = fit, []
     for _ in range(len(current.effects)):
         step = _without(fitter, current, catalogue)
         if step is None:
             break
         current, why = step
         notes.append(why)
+    return current, tuple(notes)
+
+
+def _simpler(
+    fitter: GainFitter, d: Description, catalogue: Sequence[EffectSpec]
+) -> tuple[Description, tuple[str, ...]]:
+    """``d`` with the named effects it made redundant taken out (:func:`_pruned`)."""
+    current, notes = _pruned(fitter, d.fit, catalogue)
     if current is d.fit:
         return d, ()
     pars = current.effect_parameters.get(d.spec.key, {})
     terms = tuple(
         replace(t, coefficient=pars.get(t.coefficient.name, t.coefficient)) for t in d.terms
     )
-    return replace(d, fit=current, terms=terms), tuple(notes)
+    return replace(d, fit=current, terms=terms), notes
 
 
 def explain(
@@ -139,13 +153,14 @@ def explain(
     ``t``, ``v``, ``omega``: the samples the windows were cut from; ``constant_explains``: the
     constant-gain model already explains the log (a description must then bring more);
     ``catalogue``: the effects a named one may be replaced by once a description is kept."""
-    law0 = gain_law(fitter, sel.final) if sel.final.effects else None
+    selected, dropped = _pruned(fitter, sel.final, catalogue)
+    law0 = gain_law(fitter, selected) if selected.effects else None
     explained = law0.explains if law0 is not None else constant_explains
-    d = _describe(fitter, sel.final, t, v, omega, explained)
-    dropped: tuple[str, ...] = ()
+    d = _describe(fitter, selected, t, v, omega, explained)
     if d is not None and d.accepted:
-        d, dropped = _simpler(fitter, d, catalogue)
-    final = d.fit if d is not None and d.accepted else sel.final
-    law = law0 if final is sel.final else gain_law(fitter, final)
+        d, more = _simpler(fitter, d, catalogue)
+        dropped += more
+    final = d.fit if d is not None and d.accepted else selected
+    law = law0 if final is selected else gain_law(fitter, final)
     alts = {c.alternative: gain_law(fitter, c.alternative_fit) for c in sel.confounds}
     return Explained(final, d, law, alts, dropped)
