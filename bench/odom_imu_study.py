@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib.diff_drive.odom_imu import analyze_odom_imu
+from calib.diff_drive.odom_imu.windows import MIN_TURN_RAD_S, windows
 from calib.diff_drive.sim import OdomImuSimConfig, simulate_odom_imu
 
 
@@ -64,9 +65,12 @@ KINDS = (
 )
 
 
-def _true_mean_gain(odo: np.ndarray, true: np.ndarray) -> float:
-    turn = np.abs(odo) >= 0.05
-    return float(np.sum(np.abs(odo[turn])) / np.sum(np.abs(true[turn])))
+def _true_mean_gain(t: np.ndarray, odo: np.ndarray, true: np.ndarray, v: np.ndarray) -> float:
+    """The turn-weighted mean gain as the analysis defines it: total |odometry yaw change| over
+    total |true yaw change| on the windows that turn."""
+    w = windows(t, odo, true, v)
+    use = w.rate >= MIN_TURN_RAD_S
+    return float(np.sum(np.abs(w.odo[use])) / np.sum(np.abs(w.gyro[use])))
 
 
 def main() -> None:
@@ -96,7 +100,7 @@ def main() -> None:
             g = r.recommended_gain()
             if g.identifiable and math.isfinite(g.value):
                 reported += 1
-                truth = _true_mean_gain(sim.odom_omega, sim.omega_true)
+                truth = _true_mean_gain(sim.t, sim.odom_omega, sim.omega_true, sim.odom_v)
                 covers += g.ci95[0] <= truth <= g.ci95[1]
         n = args.n
         print(

@@ -80,20 +80,24 @@ def _without(
     fitter: GainFitter, current: ModelFit, catalogue: Sequence[EffectSpec]
 ) -> tuple[ModelFit, str] | None:
     """The first named effect of ``current`` that does not earn its place beside the others:
-    removed, or replaced by the simplest catalogue effect that fits part of what it fits,
+    removed, or replaced by the simplest catalogue effect (or two) fitting part of what it fits,
     when the model without it is as good on held-out data (``current`` removes less than
     ``MIN_HELDOUT_GAIN`` of its excess) and by the BIC (``current`` not lower by
     ``BIC_MARGIN``)."""
     named = [e for e in current.effects if str(e.kind) != str(EffectKind.DESCRIBED)]
     for e in named:
-        inner = sorted(
-            (s for s in catalogue if _covers(s) and _covers(s) < _covers(e)),
-            key=lambda s: len(s.params),
-        )
-        for s in (None, *inner):
-            effects = tuple(x for x in current.effects if x is not e)
-            if s is not None:
-                effects = (s, *effects)
+        inner = [s for s in catalogue if _covers(s) and _covers(s) < _covers(e)]
+        # one simpler effect, or two that split what it fits between them
+        subs: list[tuple[EffectSpec, ...]] = [(s,) for s in inner]
+        subs += [
+            (a, b)
+            for i, a in enumerate(inner)
+            for b in inner[i + 1 :]
+            if not _covers(a) & _covers(b) and _covers(a) | _covers(b) < _covers(e)
+        ]
+        subs.sort(key=lambda sub: sum(len(x.params) for x in sub))
+        for sub in [(), *subs]:
+            effects = (*sub, *(x for x in current.effects if x is not e))
             try:
                 fit = fitter(effects)
             except CandidateFailedError:
@@ -104,7 +108,7 @@ def _without(
                 heldout_gain(fit, current) < MIN_HELDOUT_GAIN
                 and current.bic - fit.bic > -BIC_MARGIN
             ):
-                how = "dropped" if s is None else f"replaced by {s.key}"
+                how = "dropped" if not sub else "replaced by " + " + ".join(x.key for x in sub)
                 return fit, f"{e.key} {how}: the rest of the model explains what it took"
     return None
 
