@@ -129,6 +129,18 @@ class GainFitter:
         pred = self.predicted(v, rows, effects)
         return np.asarray((self.w.gyro[rows] - pred) / self.sigma, dtype=float)
 
+    def values_on(
+        self, effects: Sequence[EffectSpec], rows: NDArray[np.intp]
+    ) -> dict[str, float] | None:
+        """The fitted values (by name) of ``effects`` on windows ``rows`` (a resample, say);
+        None when the fit fails."""
+        names = self.names(effects)
+        try:
+            sol = self._solve(names, effects, rows)
+        except ValueError:
+            return None
+        return dict(zip(names, map(float, sol.x), strict=True))
+
     def _solve(
         self, names: list[str], effects: Sequence[EffectSpec], rows: NDArray[np.intp]
     ) -> Any:
