@@ -6,6 +6,8 @@ passed as plain ``Text`` (never markup), so ``Fc[joint1]`` prints as written."""
 
 from __future__ import annotations
 
+import math
+
 from rich.console import Console, Group, RenderableType
 from rich.panel import Panel
 from rich.table import Table
@@ -41,6 +43,8 @@ def short_names(paths: list[str]) -> list[str]:
 
 
 def _cell(e: Estimate) -> str:
+    if not math.isfinite(e.value):
+        return "- *"  # no value (not determined; the report says the range the data allow)
     if not e.identifiable:
         return f"{e.value:.4g} *"
     return f"{e.value:.4g}\n[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
