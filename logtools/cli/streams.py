@@ -189,7 +189,9 @@ def _fd_open(fd: int) -> bool:
 
 def guard_streams() -> None:
     """Reconfigure stdout and stderr with :data:`FALLBACK`; wrap stdout (its failures raise
-    :class:`StdoutError`); stand in for a closed stdout. Idempotent."""
+    :class:`StdoutError`); stand in for a closed stdout. Idempotent; called at the start of
+    each run of the CLI (a broken pipe of an earlier in-process run is forgotten)."""
+    _BROKEN_PIPE.clear()
     if sys.stdout is None or not _fd_open(1):
         sys.stdout = _ClosedStdout()
     elif not isinstance(sys.stdout, _GuardedStdout | _ClosedStdout) and hasattr(
