@@ -207,5 +207,12 @@ def _render_pooled(result: AnalysisResult, detail: str) -> RenderableType:
 def print_analysis(
     result: AnalysisResult, console: Console | None = None, detail: str = "methods"
 ) -> None:
-    """Print ``render_analysis`` to ``console`` (default: stdout)."""
-    (console or Console()).print(render_analysis(result, detail))
+    """Print ``render_analysis`` to ``console`` (default: stdout), no NaN shown as a number
+    (:func:`~logtools.safe_text.no_nan`)."""
+    from logtools.safe_text import no_nan
+
+    console = console or Console()
+    with console.capture() as captured:
+        console.print(render_analysis(result, detail))
+    console.file.write(no_nan(captured.get()))
+    console.file.flush()

@@ -110,9 +110,10 @@ def _dead_reckoning_lines(result: AnalysisResult) -> list[str]:
 
     rows = dr["runs"]
     names = short_names([str(r["run"]) for r in rows])
+    method = dr.get("calibrated_with") or (result.estimate.method if result.estimate else "")
     lines = [
-        f"Dead reckoning, end-point error nominal -> calibrated "
-        f"({dr.get('calibrated_with') or result.estimate.method if result.estimate else ''}):"
+        "Dead reckoning, end-point error nominal -> calibrated"
+        + (f" ({method}):" if method else ":")
     ]
     worse = []
     for name, row in zip(names, rows, strict=True):
