@@ -34,6 +34,7 @@ Metrics, each with a Wilson 95 % interval, and their targets (issue 30, "Must sh
 
     python bench/explanation_study.py --n 60 --seed 1 [--jobs 1] [--kinds a,b] [--new-only]
         [--include-held-out] [--json out.json]
+    python bench/explanation_study.py --from-json out.json   # re-tabulate, names rescored
 """
 
 from __future__ import annotations
@@ -62,6 +63,7 @@ from indgen.kinds import (  # noqa: E402
     KINDS,
     NEW_KINDS,
     ROBOTS,
+    is_correct_name,
 )
 
 __all__ = [
@@ -70,6 +72,7 @@ __all__ = [
     "analyse_record",
     "main",
     "modelled_and_improved",
+    "rescore_names",
     "run_one",
     "run_study",
     "summarise",
@@ -197,15 +200,30 @@ def _intervals(
     return out, unknown
 
 
+def _correct_names(robot: str, kind: str | None) -> set[str]:
+    """The catalogue keys that name a log of ``robot`` with ``kind`` correctly."""
+    correct = set(BASELINE_NAMES.get(robot, ()))
+    if kind is not None:
+        correct |= set(KINDS[kind].accepted_names)
+    return correct
+
+
+def rescore_names(rec: dict[str, Any]) -> dict[str, Any]:
+    """``rec``'s accepted and false names recomputed from its named keys under the current
+    ``accepted_names`` (for ``--from-json``: re-tabulate stored records without rerunning)."""
+    if rec.get("error") is None:
+        correct = _correct_names(rec["robot"], rec["kind"])
+        rec["accepted_names"] = sorted(correct)
+        rec["false_names"] = [k for k in rec["named"] if not is_correct_name(k, correct)]
+    return rec
+
+
 def analyse_record(
     rec: dict[str, Any], doc: dict[str, Any], truth: dict[str, Any]
 ) -> dict[str, Any]:
     """``rec`` (a spec) completed with what the study reads from the result ``doc``."""
     view = _shared_view(doc)
-    kind = rec["kind"]
-    correct = set(BASELINE_NAMES.get(rec["robot"], ()))
-    if kind is not None:
-        correct |= set(KINDS[kind].accepted_names)
+    correct = _correct_names(rec["robot"], rec["kind"])
     named = [e["key"] for e in view["effects"] if e["status"] == "named"]
     described_effects = [e["key"] for e in view["effects"] if e["status"] == "described"]
     intervals, unknown = _intervals(doc, view, truth)
@@ -223,10 +241,22 @@ def analyse_record(
         heldout_before=view["heldout_before"],
         heldout_after=view["heldout_after"],
         verdict=ad.get("verdict", "not assessed"),
+        effects=[
+            {
+                "key": e["key"],
+                "status": e["status"],
+                "parameters": {
+                    n: {"value": p.get("value"), "ci95": p.get("ci95")}
+                    for n, p in e["parameters"].items()
+                    if isinstance(p, dict)
+                },
+            }
+            for e in view["effects"]
+        ],
         found=bool(view["effects"]),
         improved=view["heldout_after"] < view["heldout_before"],
         explains_after=va.get("verdict") == "explains",
-        false_names=[k for k in named if k not in correct],
+        false_names=[k for k in named if not is_correct_name(k, correct)],
         accepted_names=sorted(correct),
         intervals=intervals,
         intervals_without_truth=unknown,
@@ -246,6 +276,11 @@ def run_one(spec: dict[str, Any], repeats: int = 10) -> dict[str, Any]:
         rec["effect_size"] = truth["max_effect_size"]
         rec["heldout_effect_size"] = truth["heldout_effect_size"]
         rec["truth_kind"] = truth.get("kind")
+        rec["truth"] = {
+            k: v
+            for k, v in truth.items()
+            if k not in ("effect_size", "params", "refit", "refit_effect_channels")
+        }
         analyse_record(rec, doc, truth)
         rec["error"] = None
     except Exception as err:  # a crash is a result of the study, not of the script
@@ -434,7 +469,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--json", default=None, help="write records and summary to this file")
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--repeats", type=int, default=10, help="AnalysisConfig.repeats")
+    ap.add_argument(
+        "--from-json",
+        default=None,
+        help="re-tabulate the records of an earlier --json run (names rescored) instead of running",
+    )
     a = ap.parse_args(argv)
+    if a.from_json:
+        stored = json.loads(Path(a.from_json).read_text())
+        records = [rescore_names(r) for r in stored["records"]]
+        print_table(summarise(records), 0.0)
+        return 0
     robots = [r.strip() for r in a.robots.split(",") if r.strip()]
     kinds = [k.strip() for k in a.kinds.split(",")] if a.kinds else None
     if a.new_only:

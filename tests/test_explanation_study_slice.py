@@ -158,6 +158,18 @@ def test_record_reads_names_and_intervals_as_defined(study: ModuleType) -> None:
     assert clean["false_names"] == ["backlash(psi)"]
 
 
+def test_a_wildcard_accepted_name_takes_any_target(study: ModuleType) -> None:
+    rec = {
+        "robot": "diff_drive",
+        "kind": "stuck_encoder",
+        "error": None,
+        "named": ["encoder_stuck(wheel_right t 13.4-14.0 s)", "wheel_slip(wheels)"],
+    }
+    assert study.rescore_names(rec)["false_names"] == ["wheel_slip(wheels)"]
+    rec["kind"] = None  # on a clean log the span is a false name
+    assert study.rescore_names(rec)["false_names"] == rec["named"]
+
+
 def test_unbounded_interval_ends_count_as_unbounded(study: ModuleType) -> None:
     doc = _doc([], est_ci=(1.2, 1.3), alt_ident=True)
     doc["estimate"]["L1"]["ci95"] = [1.2, None]

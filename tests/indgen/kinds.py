@@ -22,6 +22,7 @@ __all__ = [
     "ROBOTS",
     "KindDef",
     "draw_magnitude",
+    "is_correct_name",
     "kinds_of",
 ]
 
@@ -44,8 +45,9 @@ class KindDef:
     doc: str
     accepted_names: tuple[str, ...] = ()
     """logcal catalogue effect keys that are a correct name for this physics (empty: only a
-    described residual, or no name, is correct). Written from the catalogues' meanings
-    (``EffectSpec.physics``), not from what logcal happens to report."""
+    described residual, or no name, is correct; ``id(*)``: that effect with any target).
+    Written from the catalogues' meanings (``EffectSpec.physics``), not from what logcal
+    happens to report."""
 
 
 KINDS: dict[str, KindDef] = {
@@ -134,6 +136,7 @@ KINDS: dict[str, KindDef] = {
             ("wheel_left", "wheel_right"),
             "one wheel encoder is stuck for a span: its increments read 0 (the reading "
             "stays behind by the missed rotation afterwards)",
+            accepted_names=("encoder_stuck(*)",),
         ),
         KindDef(
             "dropped_increments",
@@ -146,6 +149,7 @@ KINDS: dict[str, KindDef] = {
             ("wheel_left", "wheel_right"),
             "the encoder driver loses each reading's increment with probability p (a "
             "delta protocol): the cumulative angle of that wheel falls behind at random",
+            accepted_names=("encoder_stuck(*)",),
         ),
         KindDef(
             "wheel_slip",
@@ -254,9 +258,10 @@ KINDS: dict[str, KindDef] = {
             0.1,
             False,
             ("psi",),
-            "magnetic/friction hysteresis of the hitch-angle sensor (a Duhem model, not a dead "
-            "band): z' = |psi'| / a (sign psi' - z), psi_rec = psi - h z, a (0.01-0.05 rad) the "
-            "angle over which the reading relaxes after a reversal",
+            "friction hysteresis of the hitch-angle sensor, a smooth play (a Duhem model): z' = "
+            "|psi'| / a (sign psi' - z), psi_rec = psi - h z, a = 2.5-5 h the angle over which "
+            "the reading relaxes after a reversal (so the reading never runs backwards)",
+            accepted_names=("backlash(psi)",),
         ),
         KindDef(
             "hitch_ripple",
@@ -415,7 +420,7 @@ then four of the thirteen added for the explanation study)."""
 
 BASELINE_NAMES: dict[str, tuple[str, ...]] = {
     "tractor_trailer": (),
-    "diff_drive": ("wheel_radius_asymmetry(wheels)",),
+    "diff_drive": ("wheel_radius_asymmetry(wheels)", "effective_track(track)"),
     "arm": tuple(
         f"{term}({j})"
         for term in ("coulomb_friction", "coulomb_friction_smooth", "viscous_friction")
@@ -423,8 +428,19 @@ BASELINE_NAMES: dict[str, tuple[str, ...]] = {
     ),
 }
 """logcal catalogue keys that are correct on every log of a robot's generator, clean or not:
-the diff drive's wheels always differ in radius (up to 3 %), the arm's joints always have
-Coulomb and viscous friction (a smoothed Coulomb term is the same physics)."""
+the diff drive's wheels always differ in radius (up to 3 %) and its nominal track (metadata) is
+off the true one by up to 5 % (logcal's ``effective_track(track)`` is b / b_nominal - 1); the
+arm's joints always have Coulomb and viscous friction (a smoothed Coulomb term is the same
+physics)."""
+
+
+def is_correct_name(key: str, correct: tuple[str, ...] | frozenset[str] | set[str]) -> bool:
+    """Whether catalogue key ``key`` is one of ``correct``: equal, or ``correct`` holds
+    ``id(*)`` (any target of that effect id, e.g. ``encoder_stuck(*)`` for a span's label)."""
+    if key in correct:
+        return True
+    return f"{key.split('(', 1)[0]}(*)" in correct
+
 
 NEW_KINDS = (
     "tyre_saturation",

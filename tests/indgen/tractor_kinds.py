@@ -138,7 +138,7 @@ def _hitch(
     if kind == "hitch_backlash" and m > 0:
         return backlash(psi, m)
     if kind == "hitch_hysteresis" and m > 0:
-        return hysteresis(psi, m, extra["relax_rad"])
+        return hysteresis(psi, m, m * extra["relax_per_h"])
     if kind == "hitch_ripple":
         return np.asarray(
             psi + m * np.sin(extra["ripple_n"] * psi + extra["ripple_phase"]), dtype=float
@@ -185,7 +185,7 @@ def tractor_log(
     c = m if kind == "trailer_slip" else 0.0
     nrng = np.random.default_rng([seed, 98])  # the added kinds' own draws (older ones unchanged)
     extra = {
-        "relax_rad": float(nrng.uniform(0.01, 0.05)),
+        "relax_per_h": float(nrng.uniform(2.5, 5.0)),
         "ripple_n": float(nrng.integers(4, 13)),
         "ripple_phase": float(nrng.uniform(0.0, 2 * np.pi)),
     }
@@ -267,7 +267,7 @@ def tractor_log(
     if kind == "hitch_backlash":
         truth["hitch_dead_band_rad"] = m
     if kind == "hitch_hysteresis":
-        truth["hysteresis_relax_rad"] = extra["relax_rad"]
+        truth["hysteresis_relax_rad"] = m * extra["relax_per_h"]
     if kind == "hitch_ripple":
         truth |= {"ripple_n": int(extra["ripple_n"]), "ripple_phase": extra["ripple_phase"]}
     csv = {
