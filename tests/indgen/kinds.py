@@ -241,13 +241,15 @@ KINDS: dict[str, KindDef] = {
             "tyre_saturation",
             "tractor_trailer",
             "c",
-            "s/m",
-            0.05,
-            5.0,
+            "rad",
+            0.1,
+            30.0,
             False,
             ("psi",),
-            "the trailer's tyres leave their linear range: the axle's side slip grows with the "
-            "square of the lateral acceleration a = v^2 kappa: psi' gets -c v a |a| / g",
+            "the trailer's tyres leave their linear range: the axle's slip angle grows with the "
+            "square of the lateral acceleration a = v^2 kappa and saturates at 0.15 rad, alpha = "
+            "0.15 tanh(c (a/g) |a/g| / 0.15), psi' gets -v alpha / L2 (c: slip angle at 1 g if it "
+            "did not saturate; large c: slippery ground, the tyres saturate at a fraction of g)",
         ),
         KindDef(
             "hitch_hysteresis",

@@ -9,10 +9,10 @@ The scenario (L1, L2, command and speed profiles, topic rates, dropouts, stalls)
 
 with kappa = kappa_cmd(t), v = speed(t) (no catalogue effects: no delay, lag, offsets), L2(t)
 the trailer (changing at t_swap for ``trailer_swap``) and c the ``trailer_slip``
-(``tyre_saturation`` adds -c v a |a| / g, a = v^2 kappa). Sensor kinds (backlash,
-nonlinearity, gain, clock drift, hysteresis, ripple, low-pass) act on the recorded hitch angle
-only. Noise is drawn from streams seeded by (seed, topic) that do not depend on the kind, so the
-recording without the kind (magnitude 0) shares every random draw.
+(``tyre_saturation``: the trailer axle's slip angle alpha, psi' gets -v alpha / L2). Sensor
+kinds (backlash, nonlinearity, gain, clock drift, hysteresis, ripple, low-pass) act on the
+recorded hitch angle only. Noise is drawn from streams seeded by (seed, topic) that do not
+depend on the kind, so the recording without the kind (magnitude 0) shares every random draw.
 """
 
 from __future__ import annotations
@@ -43,6 +43,9 @@ _STD = {
 _DENSE_HZ = 500.0
 G = 9.81
 """Gravity (m/s^2): ``tyre_saturation``'s lateral acceleration is counted in g."""
+SLIP_MAX = 0.15
+"""The largest side-slip angle (rad) of the trailer's tyres under ``tyre_saturation`` (beyond
+it the axle slides: the slip angle saturates)."""
 
 
 def backlash(u: FloatArray, width: float) -> FloatArray:
@@ -84,8 +87,8 @@ def _integrate(
             w = v * k
             dpsi = w - (v * math.sin(s[3]) - L1 * w * math.cos(s[3])) / L2 - c * v * v * k
             if tyre:
-                a_lat = v * v * k
-                dpsi -= tyre * v * a_lat * abs(a_lat) / G
+                a_g = v * v * k / G
+                dpsi -= v * SLIP_MAX * math.tanh(tyre * a_g * abs(a_g) / SLIP_MAX) / L2
             return [v * math.cos(s[2]), v * math.sin(s[2]), w, dpsi]
 
         sol = solve_ivp(rhs, (a, b), y0, method="DOP853", rtol=1e-9, atol=1e-11, dense_output=True)
