@@ -1,53 +1,113 @@
-"""Logical signal names: LOG_FORMAT.md's, the per-joint ``q1``, ``qd1``, ``tau1``, … of
-``/joint_states``, and those the robot plugins declare (with their units and default sources).
+"""Logical signal names: the shared core's (:data:`logtools.signals.SHARED_SIGNALS`), those the
+robot plugins declare (``RobotPlugin.signals``: units, default sources, what the resolution must
+know of each), and the per-element signals of a ``JointState``-like array (``q1``, ``qd1``,
+``tau1``, … of ``/joint_states``).
+
+The shared resolution reads every signal's properties here and names no robot's signal itself:
+a robot brings its vocabulary in its plugin's declaration.
 """
 
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 
 from logtools.robots import plugins
-from logtools.signals import SIGNAL_UNITS, SignalSource
+from logtools.robots.base import RobotPlugin
+from logtools.signals import SHARED_SIGNALS, SignalSource, SignalSpec
 
 __all__ = [
     "JOINT_ARRAYS",
     "JOINT_SIGNAL",
     "JOINT_TOPIC",
     "JOINT_UNITS",
-    "LOGICAL_SIGNALS",
+    "command_signals",
     "is_logical_signal",
+    "logical_signals",
     "plugin_sources",
     "plugin_units",
     "si_unit",
+    "signal_spec",
+    "vocabulary",
 ]
-
-LOGICAL_SIGNALS: tuple[str, ...] = (*(s for s in SIGNAL_UNITS if s != "kappa"), "q", "qd", "tau")
-"""Logged signals (``kappa`` is derived, never logged); q/qd/tau stand for q1, q2, … per joint."""
 
 JOINT_TOPIC = "/joint_states"
 JOINT_ARRAYS = {"position": "q", "velocity": "qd", "effort": "tau"}
 JOINT_SIGNAL = re.compile(r"^(q|qd|tau)([1-9]\d*)$")
 JOINT_UNITS = {"q": "rad", "qd": "rad/s", "tau": "N·m"}
 
+_cache: tuple[tuple[RobotPlugin, ...], dict[str, SignalSpec]] | None = None
+
+
+def vocabulary() -> dict[str, SignalSpec]:
+    """Every logical signal by name: the shared core's first, then each plugin's in plugin order.
+
+    A signal declared more than once keeps its first unit and meaning; its flags are those any
+    declaration sets, its default sources every declaration's in order (each once)."""
+    global _cache
+    current = plugins()
+    if _cache is not None and _same_plugins(_cache[0], current):
+        return _cache[1]
+    merged: dict[str, SignalSpec] = {}
+    for spec in (*SHARED_SIGNALS, *(s for p in current for s in p.signals)):
+        merged[spec.name] = _merge(merged[spec.name], spec) if spec.name in merged else spec
+    _cache = (current, merged)
+    return merged
+
+
+def _same_plugins(a: tuple[RobotPlugin, ...], b: tuple[RobotPlugin, ...]) -> bool:
+    return len(a) == len(b) and all(x is y for x, y in zip(a, b, strict=True))
+
+
+def _merge(first: SignalSpec, other: SignalSpec) -> SignalSpec:
+    """``first`` with the flags and sources ``other`` adds."""
+    sources = (*first.sources, *(s for s in other.sources if s not in first.sources))
+    return replace(
+        first,
+        required=first.required,
+        sources=sources,
+        command=first.command or other.command,
+        empty_when_zero=first.empty_when_zero or other.empty_when_zero,
+        within_turn=first.within_turn or other.within_turn,
+        heading=first.heading or other.heading,
+        heading_rate=first.heading_rate or other.heading_rate,
+        joint_words=first.joint_words or other.joint_words,
+        body=first.body or other.body,
+    )
+
+
+def signal_spec(name: str) -> SignalSpec | None:
+    """The declaration of ``name`` (a joint's ``q3`` by its family ``q``); None if none."""
+    found = vocabulary().get(name)
+    if found is None and (m := JOINT_SIGNAL.match(name)):
+        found = vocabulary().get(m.group(1))
+    return found
+
+
+def logical_signals() -> tuple[str, ...]:
+    """Names of the logged signals (a joint family ``q`` stands for ``q1``, ``q2``, …)."""
+    return tuple(vocabulary())
+
+
+def command_signals() -> frozenset[str]:
+    """Signals that are commands: held between samples, and allowed to be constant."""
+    return frozenset(n for n, s in vocabulary().items() if s.command)
+
 
 def plugin_sources() -> dict[str, list[SignalSource]]:
     """Default sources the robot plugins declare (``SignalSpec.sources``), after ours."""
-    out: dict[str, list[SignalSource]] = {}
-    for p in plugins():
-        for spec in p.signals:
-            out.setdefault(spec.name, []).extend(spec.sources)
-    return out
+    return {n: list(s.sources) for n, s in vocabulary().items() if s.sources}
 
 
 def plugin_units() -> dict[str, str]:
-    """Units of the signals the robot plugins declare beyond LOG_FORMAT.md's."""
-    return {s.name: s.unit for p in plugins() for s in p.signals}
+    """Units of every declared signal."""
+    return {n: s.unit for n, s in vocabulary().items()}
 
 
 def is_logical_signal(name: str) -> bool:
     """True for a logical signal name, including per-joint names like ``q1`` or ``tau2`` and
     the signals a robot plugin declares."""
-    return name in LOGICAL_SIGNALS or JOINT_SIGNAL.match(name) is not None or name in plugin_units()
+    return name in vocabulary() or JOINT_SIGNAL.match(name) is not None
 
 
 def si_unit(name: str) -> str | None:
@@ -55,4 +115,5 @@ def si_unit(name: str) -> str | None:
     m = JOINT_SIGNAL.match(name)
     if m:
         return JOINT_UNITS[m.group(1)]
-    return SIGNAL_UNITS.get(name) or plugin_units().get(name)
+    spec = vocabulary().get(name)
+    return spec.unit if spec is not None else None

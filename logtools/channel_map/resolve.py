@@ -9,15 +9,15 @@ their logical names. Entries of a channel map (:mod:`logtools.channel_map.toml`)
 
 Measured signals that carry nothing (a speed, rate or angle that is zero in every sample, like
 the twist of an ``Odometry`` filled only with a pose) are detected, reported with topic and
-field, and not used: the next default source is tried, and ``kappa`` then comes from the pose
-path instead of 0/0. Commands may be constant; so may a nonzero speed or yaw rate, and a
-position (a robot may spin in place).
+field, and not used: the next default source is tried (which signals an all-zero record means
+empty is declared with each signal, ``SignalSpec.empty_when_zero``). Commands may be constant;
+so may a nonzero speed or yaw rate, and a position (a robot may spin in place).
 
 After the formulas, every robot plugin's derived signals (``RobotPlugin.derived_signals``) are
-asked for the signals the log lacks (the tractor-trailer's ``kappa_cmd`` from a steering command
-and the wheelbase, or from a velocity command); :attr:`ResolvedSignals.origins` says how each
-derived signal was obtained. The wheelbase is the channel map's ``[robot] wheelbase``, else the
-``logcal`` metadata record's ``wheelbase``.
+asked for the signals the log lacks (e.g. a command derived from another command and a
+nominal dimension); :attr:`ResolvedSignals.origins` says how each derived signal was obtained.
+The wheelbase is the channel map's ``[robot] wheelbase``, else the ``logcal`` metadata record's
+``wheelbase``.
 """
 
 from __future__ import annotations
@@ -41,9 +41,11 @@ from logtools.channel_map.names import (
     JOINT_SIGNAL,
     JOINT_TOPIC,
     JOINT_UNITS,
-    LOGICAL_SIGNALS,
     is_logical_signal,
+    logical_signals,
     plugin_sources,
+    signal_spec,
+    vocabulary,
 )
 from logtools.channel_map.toml import ChannelMap, parse_formula
 from logtools.errors import ChannelMapEntryError, SignalValueError
@@ -54,7 +56,6 @@ from logtools.readers import CSV_TOPIC, TIME_COLUMN, LogData
 from logtools.robots import plugins
 from logtools.robots.base import FoundSignals
 from logtools.signals import (
-    SIGNAL_UNITS,
     Formula,
     FormulaError,
     OriginKind,
@@ -73,7 +74,6 @@ __all__ = [
 
 FLAT_MIN_SAMPLES = 5
 """A signal needs at least this many samples to be called constant."""
-_ZERO_MEANS_EMPTY = ("v", "omega", "psi", "steer", "wheel_left", "wheel_right", "yaw", "yaw2")
 
 PLAUSIBLE_LIMITS: dict[str, float] = {
     "m/s": 1e3,
@@ -123,15 +123,16 @@ def resolve_signals(
     state.evaluate_formulas(derived)
     state.derive(cmap.off)
     signals, sources, notes = state.signals, state.sources, state.notes
-    for yaw, rate in (("yaw", "omega"), ("yaw2", None)):
-        if yaw in signals:
-            notes += check_yaw_units(
-                signals[yaw],
-                signals.get(rate) if rate else None,
-                path=log.path,
-                source=sources[yaw],
-            )
-    missing = [s for s in LOGICAL_SIGNALS if s not in signals and not _any_joint(s, signals)]
+    for heading in (s for s in vocabulary().values() if s.heading and s.name in signals):
+        rate = heading.heading_rate
+        notes += check_yaw_units(
+            signals[heading.name],
+            signals.get(rate) if rate else None,
+            path=log.path,
+            source=sources[heading.name],
+            name=heading.name,
+        )
+    missing = [s for s in logical_signals() if s not in signals and not _any_joint(s, signals)]
     return ResolvedSignals(
         signals,
         sources,
@@ -163,7 +164,14 @@ class _Resolution:
         """Clean and keep the signal; False (and a record) when it is empty or carries nothing.
 
         Outliers are excluded (and recorded); values beyond :data:`PLAUSIBLE_LIMITS` refused."""
-        cleaned, repaired = clean_signal(frame, path=self.log.path, name=name, source=src)
+        spec = signal_spec(name)
+        cleaned, repaired = clean_signal(
+            frame,
+            path=self.log.path,
+            name=name,
+            source=src,
+            within_turn=spec is not None and spec.within_turn,
+        )
         self.notes += repaired
         if not cleaned.height:
             return False
@@ -187,17 +195,16 @@ class _Resolution:
                 if c != TIME_COLUMN and is_logical_signal(c) and c not in skip:
                     self.take(c, signal_frame(frame, pl.col(c)), SignalSource(CSV_TOPIC, c))
             return
-        # a topic the map reads the trailer's pose from does not also give the tractor's pose
-        # by the default names (a trailer tracked on /odom is not the tractor)
-        trailer_topics = {s.topic for n, s in user.items() if n in ("x2", "y2", "yaw2")}
         candidates_by_name = default_candidates(self.cmap.tf_frame)
         for name, extra in plugin_sources().items():
             candidates_by_name.setdefault(name, []).extend(extra)
+        other_bodies = _topics_of_other_bodies(user)
         for name, candidates in candidates_by_name.items():
             if name in skip:
                 continue
+            body = _body(name)
             for src in candidates:
-                if name in ("x", "y", "yaw") and src.topic in trailer_topics:
+                if body is not None and src.topic in other_bodies.get(body, ()):
                     continue
                 found = extract_default(log, name, src)
                 if found is not None and self.take(name, *found):
@@ -347,12 +354,26 @@ def _flatness(name: str, frame: pl.DataFrame, src: SignalSource) -> FlatSignal |
     unconnected encoder, an orientation never filled in). Commands, positions (a robot may spin
     in place) and joint signals are never flagged, nor a nonzero constant (a circle driven at
     constant speed)."""
-    if name not in _ZERO_MEANS_EMPTY or frame.height < FLAT_MIN_SAMPLES:
+    spec = signal_spec(name)
+    if spec is None or not spec.empty_when_zero or frame.height < FLAT_MIN_SAMPLES:
         return None
     values = frame["value"].to_numpy()
     if np.any(np.abs(values) > 1e-12):
         return None
     return FlatSignal(name, src.topic, src.field, 0.0, frame.height)
+
+
+def _body(name: str) -> str | None:
+    spec = signal_spec(name)
+    return spec.body if spec is not None else None
+
+
+def _topics_of_other_bodies(user: Mapping[str, SignalSource]) -> dict[str, set[str]]:
+    """Per body, the topics the channel map reads another body's pose from: those give this
+    body's pose by no default name (a second body tracked on ``/odom`` is not the base)."""
+    mapped = {(b, s.topic) for n, s in user.items() if (b := _body(n)) is not None}
+    bodies = {b for b, _ in mapped} | {s.body for s in vocabulary().values() if s.body is not None}
+    return {b: {t for other, t in mapped if other != b} for b in bodies}
 
 
 def _joint_family_mapped(name: str, user: Mapping[str, SignalSource]) -> bool:
@@ -366,7 +387,8 @@ def _joint_family_mapped(name: str, user: Mapping[str, SignalSource]) -> bool:
 def _check_plausible(path: str, name: str, frame: pl.DataFrame, src: SignalSource) -> None:
     """Refuse a signal holding values no robot produces in its SI unit (see PLAUSIBLE_LIMITS)."""
     family = m.group(1) if (m := JOINT_SIGNAL.match(name)) else name
-    unit = SIGNAL_UNITS.get(family) or JOINT_UNITS.get(family)
+    spec = signal_spec(name)
+    unit = JOINT_UNITS.get(family) or (spec.unit if spec is not None else None)
     limit = PLAUSIBLE_LIMITS.get(unit or "")
     if limit is None or not frame.height:
         return

@@ -39,8 +39,8 @@ from pathlib import Path
 from typing import Any
 
 from logtools import toml_bounded
-from logtools.channel_map.extract import TRANSFORMS
-from logtools.channel_map.names import LOGICAL_SIGNALS, is_logical_signal, si_unit
+from logtools.channel_map.names import JOINT_UNITS, is_logical_signal, logical_signals, si_unit
+from logtools.channel_map.transforms import TRANSFORMS
 from logtools.errors import ChannelMapEntryError, ChannelMapError
 from logtools.robots import UnknownRobotError, plugin_for
 from logtools.signals import (
@@ -297,13 +297,18 @@ def _is_number(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+def _named_signals() -> list[str]:
+    """The logical signals a channel map may name as they are (joint families by element)."""
+    return [n for n in logical_signals() if n not in JOINT_UNITS]
+
+
 def _entry(file: str, name: str, entry: object, robot: RobotConfig) -> SignalSource | None:
     key = f"signals.{name}"
     if not is_logical_signal(name):
         raise ChannelMapEntryError(
             file,
             key,
-            f"{name!r} is not a logical signal; expected one of {', '.join(LOGICAL_SIGNALS[:-3])}, "
+            f"{name!r} is not a logical signal; expected one of {', '.join(_named_signals())}, "
             "or q1, qd1, tau1, … per joint.",
         )
     if not isinstance(entry, dict):
@@ -344,9 +349,9 @@ def _entry(file: str, name: str, entry: object, robot: RobotConfig) -> SignalSou
             f"{key}.transform",
             f"transform {transform!r} is unknown; expected one of {', '.join(TRANSFORMS)}.",
         )
-    if transform == "deg_to_rad" and unit is not None:
+    if transform is not None and TRANSFORMS[transform].converts_unit and unit is not None:
         raise ChannelMapEntryError(
-            file, f"{key}.unit", 'and transform = "deg_to_rad" both convert; keep one of them.'
+            file, f"{key}.unit", f'and transform = "{transform}" both convert; keep one of them.'
         )
     stamp = entry.get("stamp", "log")
     if stamp not in ("log", "header"):

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from logtools.robots.options import RobotOptions
-from logtools.signals import SignalSource
+from logtools.signals import SignalSource, SignalSpec
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -111,21 +111,6 @@ class SamplesFn(Protocol):
     the same bytes on every run (fixed presets and seeds; ``python -m logtools.sample_logs``)."""
 
     def __call__(self, out_dir: Path, /) -> list[Path]: ...
-
-
-@dataclass(frozen=True)
-class SignalSpec:
-    """One logical signal a robot reads: canonical name, SI unit and meaning (LOG_FORMAT.md).
-
-    ``sources`` are default topic/field places to find it (tried after LOG_FORMAT.md's own, in
-    order); a CSV column of the signal's name is always read.
-    """
-
-    name: str
-    unit: str
-    meaning: str
-    required: bool = False
-    sources: tuple[SignalSource, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -44,6 +44,7 @@ from enum import StrEnum
 import numpy as np
 import polars as pl
 
+from calib.kinematics.bicycle import bicycle_curvature
 from calib.smoothing import savgol_filter
 from logtools.align import common_times
 from logtools.errors import LogcalInputError
@@ -101,7 +102,7 @@ def kappa_from_steering(
         raise LogcalInputError(f"the wheelbase must be a positive length (m), got {wheelbase}")
     d = np.asarray(delta, dtype=float)
     saturated = np.abs(d) >= saturation_rad
-    kappa = np.tan(d) / wheelbase
+    kappa = bicycle_curvature(d, wheelbase)
     kappa[saturated] = np.nan
     return kappa, saturated
 
