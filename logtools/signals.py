@@ -34,6 +34,7 @@ __all__ = [
     "FormulaError",
     "OriginKind",
     "RobotConfig",
+    "RobotKey",
     "SignalOrigin",
     "SignalSource",
     "SignalSpec",
@@ -170,29 +171,56 @@ class SignalOrigin:
 
 
 @dataclass(frozen=True)
+class RobotKey:
+    """A key of the channel map's ``[robot]`` table that a robot declares
+    (``RobotPlugin.robot_keys``) because it is more than a nominal number: a text, a length
+    that must be positive, a number the ``logcal`` metadata record may give.
+
+    Attributes:
+        name: the key.
+        meaning: what it holds, for messages ("a URDF path or a model name").
+        text: a string (a file, a model name), not a number.
+        positive: a number that must be > 0 (in ``unit``).
+        unit: the number's unit, for messages.
+        from_metadata: when the channel map lacks it, the ``logcal`` metadata record's entry of
+            that name gives it.
+    """
+
+    name: str
+    meaning: str
+    text: bool = False
+    positive: bool = False
+    unit: str = "m"
+    from_metadata: bool = False
+
+
+@dataclass(frozen=True)
 class RobotConfig:
     """The ``[robot]`` table of a channel map.
 
     Attributes:
         type: robot type (a plugin's name, see ``logtools.robots``), None: from the log's
             metadata or its signals.
-        wheelbase: distance (m) from the steered axle to the fixed axle of a car-like tractor;
-            turns a steering angle into a curvature, kappa = tan(delta) / wheelbase.
-        params: other nominal parameters by name (``L1``, ``L2``, …; m or rad).
-        urdf: an arm's URDF file or ``example-robot-data`` model name.
+        params: nominal numbers by name (m or rad; the keys a robot declares, see
+            :class:`RobotKey`, checked as it says).
+        texts: text entries by name (the keys a robot declares as text).
     """
 
     type: str | None = None
-    wheelbase: float | None = None
     params: dict[str, float] = dc_field(default_factory=dict)
-    urdf: str | None = None
+    texts: dict[str, str] = dc_field(default_factory=dict)
 
     def constants(self) -> dict[str, float]:
-        """Named numbers a formula may use: ``wheelbase`` and the nominal parameters."""
-        out = dict(self.params)
-        if self.wheelbase is not None:
-            out["wheelbase"] = self.wheelbase
-        return out
+        """Named numbers a formula may use: the table's numbers."""
+        return dict(self.params)
+
+    def number(self, name: str) -> float | None:
+        """The number ``name`` of the table; None without it."""
+        return self.params.get(name)
+
+    def text(self, name: str) -> str | None:
+        """The text entry ``name`` of the table; None without it."""
+        return self.texts.get(name)
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from dataclasses import replace
 
 from logtools.robots import plugins
 from logtools.robots.base import RobotPlugin
-from logtools.signals import SHARED_SIGNALS, SignalSource, SignalSpec
+from logtools.signals import SHARED_SIGNALS, RobotKey, SignalSource, SignalSpec
 
 __all__ = [
     "JOINT_ARRAYS",
@@ -26,6 +26,7 @@ __all__ = [
     "logical_signals",
     "plugin_sources",
     "plugin_units",
+    "robot_keys",
     "si_unit",
     "signal_spec",
     "vocabulary",
@@ -74,6 +75,16 @@ def _merge(first: SignalSpec, other: SignalSpec) -> SignalSpec:
         joint_words=first.joint_words or other.joint_words,
         body=first.body or other.body,
     )
+
+
+def robot_keys() -> dict[str, RobotKey]:
+    """The ``[robot]`` keys the plugins declare (``RobotPlugin.robot_keys``), the first
+    declaration of a name kept."""
+    out: dict[str, RobotKey] = {}
+    for p in plugins():
+        for key in p.robot_keys:
+            out.setdefault(key.name, key)
+    return out
 
 
 def signal_spec(name: str) -> SignalSpec | None:

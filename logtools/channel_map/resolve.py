@@ -16,14 +16,15 @@ so may a nonzero speed or yaw rate, and a position (a robot may spin in place).
 After the formulas, every robot plugin's derived signals (``RobotPlugin.derived_signals``) are
 asked for the signals the log lacks (e.g. a command derived from another command and a
 nominal dimension); :attr:`ResolvedSignals.origins` says how each derived signal was obtained.
-The wheelbase is the channel map's ``[robot] wheelbase``, else the ``logcal`` metadata record's
-``wheelbase``.
+A number a robot declares ``RobotKey.from_metadata`` is the channel map's ``[robot]`` entry,
+else the ``logcal`` metadata record's entry of that name.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 import polars as pl
@@ -44,6 +45,7 @@ from logtools.channel_map.names import (
     is_logical_signal,
     logical_signals,
     plugin_sources,
+    robot_keys,
     signal_spec,
     vocabulary,
 )
@@ -60,6 +62,7 @@ from logtools.signals import (
     FormulaError,
     OriginKind,
     RobotConfig,
+    RobotKey,
     SignalOrigin,
     SignalSource,
     default_candidates,
@@ -155,7 +158,7 @@ class _Resolution:
         self.notes: list[str] = []
         self.flat: list[FlatSignal] = []
         self.origins: dict[str, SignalOrigin] = {}
-        self.robot, self.wheelbase_from = _robot_config(log, cmap, self.notes)
+        self.robot, self.params_from = _robot_config(log, cmap, self.notes)
         self.outliers: list[Problem] = []
         firsts = [i.first_ns for i in log.info.values() if i.first_ns is not None]
         self.origin = min(firsts, default=0)
@@ -312,41 +315,48 @@ class _Resolution:
 
     def found(self) -> FoundSignals:
         """The signals found so far, as a derivation sees them."""
-        return FoundSignals(
-            self.log.path, self.signals, self.sources, self.robot, self.wheelbase_from
-        )
+        return FoundSignals(self.log.path, self.signals, self.sources, self.robot, self.params_from)
 
 
-def _robot_config(log: LogData, cmap: ChannelMap, notes: list[str]) -> tuple[RobotConfig, str]:
-    """The channel map's [robot] table with the wheelbase completed from the metadata record."""
-    robot = cmap.robot
-    text = log.metadata.get("logcal", {}).get("wheelbase")
-    meta: float | None = None
-    if text is not None:
-        try:
-            meta = float(text)
-        except ValueError:
-            meta = None
-        if meta is None or not (math.isfinite(meta) and meta > 0):
-            notes.append(
-                f"{log.path}: the logcal metadata record's wheelbase {text!r} is not a positive "
-                "number; ignored"
-            )
-            meta = None
-    if robot.wheelbase is not None:
-        where = f"the channel map {cmap.path}".rstrip() + " [robot] wheelbase"
-        if meta is not None and not math.isclose(meta, robot.wheelbase, rel_tol=1e-9):
-            notes.append(
-                f"{log.path}: the channel map's wheelbase {robot.wheelbase:g} m differs from the "
-                f"logcal metadata record's {meta:g} m; the channel map's is used"
-            )
-        return robot, where
-    if meta is not None:
-        return (
-            RobotConfig(robot.type, meta, dict(robot.params)),
-            "the logcal metadata record",
+def _robot_config(
+    log: LogData, cmap: ChannelMap, notes: list[str]
+) -> tuple[RobotConfig, dict[str, str]]:
+    """The channel map's [robot] table completed from the ``logcal`` metadata record (the keys
+    a robot declares ``from_metadata``), and where each of those numbers came from."""
+    robot, where = cmap.robot, {}
+    for key in (k for k in robot_keys().values() if k.from_metadata and not k.text):
+        meta = _metadata_number(log, key, notes)
+        given = robot.number(key.name)
+        if given is not None:
+            where[key.name] = f"the channel map {cmap.path}".rstrip() + f" [robot] {key.name}"
+            if meta is not None and not math.isclose(meta, given, rel_tol=1e-9):
+                notes.append(
+                    f"{log.path}: the channel map's {key.name} {given:g} {key.unit} differs from "
+                    f"the logcal metadata record's {meta:g} {key.unit}; the channel map's is used"
+                )
+        elif meta is not None:
+            robot = replace(robot, params={**robot.params, key.name: meta})
+            where[key.name] = "the logcal metadata record"
+    return robot, where
+
+
+def _metadata_number(log: LogData, key: RobotKey, notes: list[str]) -> float | None:
+    """The ``logcal`` metadata record's number ``key.name``; None (with a note when it is there
+    but not a usable number)."""
+    text = log.metadata.get("logcal", {}).get(key.name)
+    if text is None:
+        return None
+    try:
+        meta: float | None = float(text)
+    except ValueError:
+        meta = None
+    if meta is None or not math.isfinite(meta) or (key.positive and meta <= 0):
+        what = "a positive number" if key.positive else "a number"
+        notes.append(
+            f"{log.path}: the logcal metadata record's {key.name} {text!r} is not {what}; ignored"
         )
-    return robot, ""
+        return None
+    return meta
 
 
 def _flatness(name: str, frame: pl.DataFrame, src: SignalSource) -> FlatSignal | None:

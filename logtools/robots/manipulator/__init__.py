@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 from logtools.robots.base import RobotPlugin, SignalSpec, lazy
 from logtools.robots.manipulator.options import ManipulatorOptions
+from logtools.signals import RobotKey
 
 if TYPE_CHECKING:
     from logtools.robots.base import Views
@@ -54,6 +55,7 @@ PLUGIN = RobotPlugin(
     info="logtools.robots.manipulator.info:info_section",
     simulate="logtools.robots.manipulator.commands:register_simulate",
     reproduce="logtools.robots.manipulator.commands:register_reproduce",
+    robot_keys=(RobotKey("urdf", "a URDF path or a model name", text=True),),
 )
 
 if TYPE_CHECKING:  # the views and info hook named above fill their signatures (mypy only)

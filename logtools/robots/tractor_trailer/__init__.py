@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 from logtools.robots.base import RobotPlugin, SignalDerivation, SignalSpec, lazy
 from logtools.robots.tractor_trailer.options import TractorTrailerOptions
-from logtools.signals import SignalSource
+from logtools.signals import RobotKey, SignalSource
 
 if TYPE_CHECKING:
     import polars as pl
@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from logtools.signals import RobotConfig
     from viz.tractor_trailer.views import tractor_trailer_rrd
 
-__all__ = ["JSON_SOURCES", "PLUGIN", "ROS2_SOURCES", "TractorTrailerOptions"]
+__all__ = ["JSON_SOURCES", "PLUGIN", "ROS2_SOURCES", "WHEELBASE", "TractorTrailerOptions"]
 
 # the pipeline imports calib's estimators (scipy): named by import path and imported on first
 # analysis (``lazy``), so that `logcal info` and robot inference stay fast; polars too is imported
@@ -43,6 +43,9 @@ ROS2_SOURCES: dict[str, SignalSource] = {
 
 _TRAILER = "trailer"
 
+WHEELBASE = "wheelbase"
+"""The ``[robot]`` key (and metadata entry) of the tractor's wheelbase (m)."""
+
 
 def _identify(signals: frozenset[str]) -> str | None:
     return "signal psi" if "psi" in signals else None
@@ -54,9 +57,10 @@ def _prepare(frame: pl.DataFrame, robot: RobotConfig) -> pl.DataFrame:
 
     has_odom = {"v", "omega"} <= set(frame.columns)
     has_pose = {"x", "y"} <= set(frame.columns)
-    has_steer = "steer" in frame.columns and robot.wheelbase is not None
+    wheelbase = robot.number(WHEELBASE)
+    has_steer = "steer" in frame.columns and wheelbase is not None
     if has_odom or has_pose or has_steer:
-        return derive_kappa(frame, wheelbase=robot.wheelbase)
+        return derive_kappa(frame, wheelbase=wheelbase)
     return frame
 
 
@@ -123,6 +127,15 @@ PLUGIN = RobotPlugin(
     simulate="logtools.robots.tractor_trailer.commands:register_simulate",
     reproduce="logtools.robots.tractor_trailer.commands:register_reproduce",
     samples="logtools.robots.tractor_trailer.samples:write_samples",
+    robot_keys=(
+        RobotKey(
+            WHEELBASE,
+            "the distance from the steered axle to the fixed axle of a car-like tractor "
+            "(kappa = tan(delta) / wheelbase)",
+            positive=True,
+            from_metadata=True,
+        ),
+    ),
 )
 
 if TYPE_CHECKING:  # the functions named above fill their signatures (checked by mypy only)

@@ -229,7 +229,7 @@ def derive_kappa_cmd(found: FoundSignals) -> Derived:
 
 
 def _from_steering(found: FoundSignals) -> Derived:
-    wheelbase = found.robot.wheelbase
+    wheelbase = found.robot.number("wheelbase")
     steer = found.sources["steer_cmd"]
     if wheelbase is None:
         return Derived(
@@ -265,7 +265,7 @@ def _from_steering(found: FoundSignals) -> Derived:
         KappaCmdKind.STEERING,
         expr,
         f"tan(steer_cmd) / wheelbase from the steering command {steer.describe()}, wheelbase "
-        f"{wheelbase:g} m from {found.wheelbase_from}",
+        f"{wheelbase:g} m from {found.params_from.get('wheelbase', '')}",
     )
     return Derived(out, SignalSource(DERIVED_TOPIC, expr, formula=expr), origin, tuple(notes))
 
