@@ -151,7 +151,7 @@ class SignalOrigin:
     Attributes:
         kind: ``logged``, ``formula`` (:class:`OriginKind`) or the derivation's own kind.
         source: ``topic:field`` when logged, else the expression evaluated (e.g.
-            ``tan(steer_cmd) / 0.42``).
+            ``v_cmd / 0.42``).
         description: one sentence for reports (the inputs, the constants and where they came
             from).
     """
@@ -178,7 +178,7 @@ class RobotKey:
 
     Attributes:
         name: the key.
-        meaning: what it holds, for messages ("a URDF path or a model name").
+        meaning: what it holds, for messages ("a file path or a model name").
         text: a string (a file, a model name), not a number.
         positive: a number that must be > 0 (in ``unit``).
         unit: the number's unit, for messages.

@@ -232,7 +232,7 @@ def screenshot_rrd(
             leads its own process group, then the browser's processes), so a caller can check
             that they are gone.
         ready_colors: names in ``viz.style.COLORS`` whose presence means "drawn" (a robot's
-            own, e.g. ``viz.tractor_trailer.style.READY_COLORS``); the final
+            own, declared in its style module); the final
             capture must show each, none touching the window's edge (:func:`panel_problems`).
         progress: called with one line per step (viewer, browser, waiting, capture).
 

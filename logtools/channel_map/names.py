@@ -22,6 +22,7 @@ __all__ = [
     "JOINT_TOPIC",
     "JOINT_UNITS",
     "command_signals",
+    "heading_signals",
     "is_logical_signal",
     "logical_signals",
     "plugin_sources",
@@ -103,6 +104,11 @@ def logical_signals() -> tuple[str, ...]:
 def command_signals() -> frozenset[str]:
     """Signals that are commands: held between samples, and allowed to be constant."""
     return frozenset(n for n, s in vocabulary().items() if s.command)
+
+
+def heading_signals() -> frozenset[str]:
+    """Signals that are headings: unwrapped to interpolate, wrapped to [-pi, pi) after."""
+    return frozenset(n for n, s in vocabulary().items() if s.heading)
 
 
 def plugin_sources() -> dict[str, list[SignalSource]]:

@@ -42,6 +42,7 @@ from logtools.channel_map.names import (
     JOINT_SIGNAL,
     JOINT_TOPIC,
     JOINT_UNITS,
+    command_signals,
     is_logical_signal,
     logical_signals,
     plugin_sources,
@@ -256,7 +257,7 @@ class _Resolution:
                 f"{' (' + why + ')' if why else ''}. Signals found: "
                 f"{', '.join(sorted(self.signals)) or '(none)'}.",
             )
-        t_ns, arrays = common_times({n: self.signals[n] for n in inputs})
+        t_ns, arrays = common_times({n: self.signals[n] for n in inputs}, held=command_signals())
         values: dict[str, np.ndarray | float] = dict(arrays)
         values.update({c: v for c, v in constants.items() if c in formula.names})
         try:
