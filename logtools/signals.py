@@ -233,7 +233,7 @@ class SignalSpec:
     :func:`default_candidates`, in order); a CSV column of the signal's name is always read.
 
     Attributes:
-        name: the signal's name (a joint family ``q`` stands for ``q1``, ``q2``, …).
+        name: the signal's name (a family of per-element signals stands for NAME1, NAME2, …).
         unit: its SI unit.
         meaning: one phrase for ``logcal info`` and the docs.
         required: the robot cannot be analysed without it.
@@ -252,6 +252,9 @@ class SignalSpec:
         body: for a pose signal, the body whose pose it is (``base`` for ``x``, ``y``,
             ``yaw``): a topic the channel map reads one body's pose from gives no other body's
             pose by the default names. None: not a pose.
+        per_element: the signal is a family of per-element signals ``NAME1``, ``NAME2``, …
+            (one per joint), read from this array of the joint-state topic (``position``:
+            ``position.0`` is ``NAME1``). None: a single signal.
     """
 
     name: str
@@ -266,6 +269,7 @@ class SignalSpec:
     heading_rate: str | None = None
     joint_words: tuple[str, ...] = ()
     body: str | None = None
+    per_element: str | None = None
 
 
 BASE_BODY = "base"

@@ -19,7 +19,6 @@ What resolution gives, :class:`ResolvedSignals`, is a record of :mod:`logtools.l
 from __future__ import annotations
 
 from logtools.channel_map.names import (
-    JOINT_ARRAYS,
     JOINT_TOPIC,
     is_logical_signal,
     logical_signals,
@@ -41,7 +40,6 @@ from logtools.channel_map.transforms import (
 from logtools.loaded import FlatSignal, ResolvedSignals
 
 __all__ = [
-    "JOINT_ARRAYS",
     "JOINT_TOPIC",
     "PLAUSIBLE_LIMITS",
     "TRANSFORMS",

@@ -1,7 +1,7 @@
 """Logical signal names: the shared core's (:data:`logtools.signals.SHARED_SIGNALS`), those the
 robot plugins declare (``RobotPlugin.signals``: units, default sources, what the resolution must
-know of each), and the per-element signals of a ``JointState``-like array (``q1``, ``qd1``,
-``tau1``, … of ``/joint_states``).
+know of each), and the per-element signals of a family a plugin declares
+(``SignalSpec.per_element``: ``NAME1``, ``NAME2``, … from an array of ``/joint_states``).
 
 The shared resolution reads every signal's properties here and names no robot's signal itself:
 a robot brings its vocabulary in its plugin's declaration.
@@ -17,13 +17,13 @@ from logtools.robots.base import RobotPlugin
 from logtools.signals import SHARED_SIGNALS, RobotKey, SignalSource, SignalSpec
 
 __all__ = [
-    "JOINT_ARRAYS",
-    "JOINT_SIGNAL",
     "JOINT_TOPIC",
-    "JOINT_UNITS",
     "command_signals",
+    "element_families",
+    "element_family",
     "heading_signals",
     "is_logical_signal",
+    "joint_arrays",
     "logical_signals",
     "plugin_sources",
     "plugin_units",
@@ -34,9 +34,9 @@ __all__ = [
 ]
 
 JOINT_TOPIC = "/joint_states"
-JOINT_ARRAYS = {"position": "q", "velocity": "qd", "effort": "tau"}
-JOINT_SIGNAL = re.compile(r"^(q|qd|tau)([1-9]\d*)$")
-JOINT_UNITS = {"q": "rad", "qd": "rad/s", "tau": "N·m"}
+"""The standard ROS topic of ``sensor_msgs/JointState`` (arrays ``name``, ``position``, …)."""
+
+_ELEMENT = re.compile(r"^(.*\D)([1-9]\d*)$")
 
 _cache: tuple[tuple[RobotPlugin, ...], dict[str, SignalSpec]] | None = None
 
@@ -88,16 +88,32 @@ def robot_keys() -> dict[str, RobotKey]:
     return out
 
 
+def element_families() -> dict[str, SignalSpec]:
+    """The declared families of per-element signals (``SignalSpec.per_element``) by name."""
+    return {n: s for n, s in vocabulary().items() if s.per_element is not None}
+
+
+def element_family(name: str) -> str | None:
+    """The family of a per-element signal (``NAME3`` -> ``NAME``); None for another name."""
+    m = _ELEMENT.match(name)
+    return m.group(1) if m is not None and m.group(1) in element_families() else None
+
+
+def joint_arrays() -> dict[str, str]:
+    """Array of the joint-state topic -> the family of signals its elements are."""
+    return {s.per_element: n for n, s in element_families().items() if s.per_element}
+
+
 def signal_spec(name: str) -> SignalSpec | None:
-    """The declaration of ``name`` (a joint's ``q3`` by its family ``q``); None if none."""
+    """The declaration of ``name`` (a per-element signal's by its family); None if none."""
     found = vocabulary().get(name)
-    if found is None and (m := JOINT_SIGNAL.match(name)):
-        found = vocabulary().get(m.group(1))
+    if found is None and (family := element_family(name)) is not None:
+        found = vocabulary().get(family)
     return found
 
 
 def logical_signals() -> tuple[str, ...]:
-    """Names of the logged signals (a joint family ``q`` stands for ``q1``, ``q2``, …)."""
+    """Names of the logged signals (a family stands for its elements ``NAME1``, …)."""
     return tuple(vocabulary())
 
 
@@ -122,15 +138,11 @@ def plugin_units() -> dict[str, str]:
 
 
 def is_logical_signal(name: str) -> bool:
-    """True for a logical signal name, including per-joint names like ``q1`` or ``tau2`` and
-    the signals a robot plugin declares."""
-    return name in vocabulary() or JOINT_SIGNAL.match(name) is not None
+    """True for a declared logical signal, or an element of a declared family (``NAME2``)."""
+    return name in vocabulary() or element_family(name) is not None
 
 
 def si_unit(name: str) -> str | None:
-    """The SI unit of a logical signal (a joint's by its family); None for another name."""
-    m = JOINT_SIGNAL.match(name)
-    if m:
-        return JOINT_UNITS[m.group(1)]
-    spec = vocabulary().get(name)
+    """The SI unit of a logical signal (an element's by its family); None for another name."""
+    spec = signal_spec(name)
     return spec.unit if spec is not None else None

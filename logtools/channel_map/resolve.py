@@ -38,12 +38,12 @@ from logtools.channel_map.extract import (
     topic_frame,
 )
 from logtools.channel_map.names import (
-    JOINT_ARRAYS,
-    JOINT_SIGNAL,
     JOINT_TOPIC,
-    JOINT_UNITS,
     command_signals,
+    element_families,
+    element_family,
     is_logical_signal,
+    joint_arrays,
     logical_signals,
     plugin_sources,
     robot_keys,
@@ -216,10 +216,11 @@ class _Resolution:
         joints = topic_frame(log, JOINT_TOPIC)
         if joints is None:
             return
+        arrays = joint_arrays()
         for col in joints.columns:
             array, _, index = col.rpartition(".")
-            if array in JOINT_ARRAYS and index.isdigit():
-                name = f"{JOINT_ARRAYS[array]}{int(index) + 1}"
+            if array in arrays and index.isdigit():
+                name = f"{arrays[array]}{int(index) + 1}"
                 if name not in skip and not _joint_family_mapped(name, user):
                     self.take(
                         name, signal_frame(joints, pl.col(col)), SignalSource(JOINT_TOPIC, col)
@@ -388,18 +389,16 @@ def _topics_of_other_bodies(user: Mapping[str, SignalSource]) -> dict[str, set[s
 
 
 def _joint_family_mapped(name: str, user: Mapping[str, SignalSource]) -> bool:
-    """A user map naming any of q1, q2, … replaces the default q signals altogether."""
-    m = JOINT_SIGNAL.match(name)
-    return m is not None and any(
-        (u := JOINT_SIGNAL.match(k)) and u.group(1) == m.group(1) for k in user
-    )
+    """A user map naming any element of a family (``NAME1``, ``NAME2``, …) replaces the
+    family's default elements altogether."""
+    family = element_family(name)
+    return family is not None and any(element_family(k) == family for k in user)
 
 
 def _check_plausible(path: str, name: str, frame: pl.DataFrame, src: SignalSource) -> None:
     """Refuse a signal holding values no robot produces in its SI unit (see PLAUSIBLE_LIMITS)."""
-    family = m.group(1) if (m := JOINT_SIGNAL.match(name)) else name
     spec = signal_spec(name)
-    unit = JOINT_UNITS.get(family) or (spec.unit if spec is not None else None)
+    unit = spec.unit if spec is not None else None
     limit = PLAUSIBLE_LIMITS.get(unit or "")
     if limit is None or not frame.height:
         return
@@ -416,6 +415,4 @@ def _check_plausible(path: str, name: str, frame: pl.DataFrame, src: SignalSourc
 
 
 def _any_joint(family: str, signals: Mapping[str, pl.DataFrame]) -> bool:
-    return family in ("q", "qd", "tau") and any(
-        (m := JOINT_SIGNAL.match(k)) and m.group(1) == family for k in signals
-    )
+    return family in element_families() and any(element_family(k) == family for k in signals)

@@ -40,7 +40,7 @@ from typing import Any
 
 from logtools import toml_bounded
 from logtools.channel_map.names import (
-    JOINT_UNITS,
+    element_families,
     is_logical_signal,
     logical_signals,
     robot_keys,
@@ -305,7 +305,13 @@ def _is_number(value: object) -> bool:
 
 def _named_signals() -> list[str]:
     """The logical signals a channel map may name as they are (joint families by element)."""
-    return [n for n in logical_signals() if n not in JOINT_UNITS]
+    return [n for n in logical_signals() if n not in element_families()]
+
+
+def _elements_text() -> str:
+    """``, or q1, qd1, … per joint`` for the declared families of per-element signals."""
+    families = list(element_families())
+    return f", or {', '.join(f'{f}1' for f in families)}, … per joint" if families else ""
 
 
 def _entry(file: str, name: str, entry: object, robot: RobotConfig) -> SignalSource | None:
@@ -314,8 +320,8 @@ def _entry(file: str, name: str, entry: object, robot: RobotConfig) -> SignalSou
         raise ChannelMapEntryError(
             file,
             key,
-            f"{name!r} is not a logical signal; expected one of {', '.join(_named_signals())}, "
-            "or q1, qd1, tau1, … per joint.",
+            f"{name!r} is not a logical signal; expected one of {', '.join(_named_signals())}"
+            f"{_elements_text()}.",
         )
     if not isinstance(entry, dict):
         raise ChannelMapEntryError(file, key, "must be a table with topic and field.")
