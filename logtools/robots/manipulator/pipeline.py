@@ -133,7 +133,9 @@ def _model(
     instructions: a URDF the log's own metadata names is never opened (it is only quoted in the
     message asking for ``--urdf``)."""
     robot_cfg = loaded.robot_config if hasattr(loaded, "robot_config") else None
-    urdf = config.options(ManipulatorOptions).urdf or getattr(robot_cfg, "urdf", None)
+    urdf = config.options(ManipulatorOptions).urdf or (
+        robot_cfg.text("urdf") if robot_cfg is not None else None
+    )
     names = _joint_names(loaded, meta, n)
     if urdf:
         from calib.manipulator.serial import load_serial_arm
