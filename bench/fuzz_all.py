@@ -4,7 +4,9 @@ channel maps, log metadata, batch archives (names, symlinks, settings, manifests
 requests to ``logcal serve``, with one total input count.
 
 The builders are those of ``fuzz_parsers.py``, ``fuzz_logs.py`` and ``fuzz_archives.py``
-(plus URDFs and ``logcal.toml`` robot options, here). Each input is built and run inside a
+(plus URDFs and ``logcal.toml`` robot options, here), and issue 34's classes in
+``fuzz_ends.py``: MCAP statistics that lie, hostile rosbag2 structures, and a full, closed,
+broken or narrow (ASCII, latin-1) stdout. Each input is built and run inside a
 worker process under ``RLIMIT_AS`` (``--mem-gib``), a CPU-time bound (``--timeout-s``, so that
 a loaded machine does not turn slow inputs into hangs) and a wall-clock alarm (``--wall-s``,
 for waits); the driver kills a worker that does not answer in ``wall + 15`` s and starts
@@ -83,6 +85,9 @@ CLASSES = (
     "archive",
     "settings",
     "serve",
+    "lying_mcap",
+    "bag2_struct",
+    "stdout",
 )
 SECRET_VAR = "LOGCAL_FUZZ_SECRET"
 SECRET = "s3cr3t-4a7f-never-in-outputs"
@@ -550,6 +555,19 @@ def run_input(cls: str, rng: random.Random, seeds: Seeds, base: Path) -> tuple[s
         path, names, n = build_urdf(rng, case)
         PHASE[0] = "run"
         return run_urdf(path, names, n)
+    if cls in ("lying_mcap", "bag2_struct", "stdout"):  # issue 34 (bench/fuzz_ends.py)
+        import fuzz_ends  # type: ignore[import-not-found]
+
+        if cls == "stdout":
+            PHASE[0] = "run"
+            return fuzz_ends.run_stdout(rng, seeds.logs["csv"], case)
+        if cls == "lying_mcap":
+            path = fuzz_ends.build_lying_mcap(rng, seeds.logs["mcap_json"], case)
+            PHASE[0] = "run"
+            return fuzz_ends.run_lying_mcap(rng, path)
+        path = fuzz_ends.build_bag2_struct(rng, base / "seeds", case)
+        PHASE[0] = "run"
+        return run_reader(path, None)
     path, cmap = build_reader(cls, rng, seeds, case)
     PHASE[0] = "run"
     return run_reader(path, cmap)

@@ -9,8 +9,11 @@ drive log).
 Writes go to a temporary file beside the target created by ``tempfile.mkstemp``: a random name
 opened with ``O_CREAT | O_EXCL`` (a link or file planted at that name makes the creation fail
 and another name is drawn; it is never followed), then written and renamed over the target
-(``os.replace`` replaces a link at the target, it never writes through it). An interrupted run
-never leaves a half-written target; its temporary ``.<name>.partial-XXXXXXXX<suffix>`` stays.
+(``os.replace`` replaces a link at the target, it never writes through it). The temporary file
+is flushed to the disk (``fsync``) before the rename and the folder after it, so that a kill or
+a power cut leaves the old target or the new one, never a mix or an empty file. An interrupted
+run never leaves a half-written target; its temporary ``.<name>.partial-XXXXXXXX<suffix>``
+stays (a failed write removes it).
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ __all__ = [
     "PARTIAL_MARK",
     "OutputPathError",
     "check_output",
+    "fsync_folder",
+    "fsync_path",
     "special_devices",
     "special_filesystem",
     "write_atomically",
@@ -147,10 +152,34 @@ def _umask() -> int:
     return mask
 
 
+def fsync_path(path: Path) -> None:
+    """Flush the file ``path`` to the disk (its data and size)."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def fsync_folder(folder: Path) -> None:
+    """Flush ``folder``'s entries (a rename in it) to the disk; a file system that cannot sync
+    a folder (some network ones) is left as it is."""
+    try:
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return
+    try:
+        with contextlib.suppress(OSError):
+            os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
 def write_atomically(path: Path, write: Callable[[Path], T]) -> T:
     """Call ``write(tmp)`` on a temporary file beside ``path`` (same suffix), created
-    exclusively by :func:`tempfile.mkstemp` with the permissions a new file would get, then
-    rename it over ``path``; the temporary file is removed when ``write`` fails."""
+    exclusively by :func:`tempfile.mkstemp` with the permissions a new file would get, flush it
+    to the disk, then rename it over ``path`` and flush the folder; the temporary file is
+    removed when ``write`` (or the flush) fails: a full disk leaves the old ``path``."""
     parent = path.parent if str(path.parent) else Path(".")
     fd, name = tempfile.mkstemp(
         prefix=f".{path.name[:80]}{PARTIAL_MARK}", suffix=path.suffix, dir=parent
@@ -162,7 +191,9 @@ def write_atomically(path: Path, write: Callable[[Path], T]) -> T:
         os.close(fd)
     try:
         out = write(tmp)
+        fsync_path(tmp)
         os.replace(tmp, path)
+        fsync_folder(parent)
     finally:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()

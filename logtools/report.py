@@ -6,6 +6,8 @@ passed as plain ``Text`` (never markup), so ``Fc[joint1]`` prints as written."""
 
 from __future__ import annotations
 
+import math
+
 from rich.console import Console, Group, RenderableType
 from rich.panel import Panel
 from rich.table import Table
@@ -41,6 +43,8 @@ def short_names(paths: list[str]) -> list[str]:
 
 
 def _cell(e: Estimate) -> str:
+    if not math.isfinite(e.value):
+        return "- *"  # no value (not determined; the report says the range the data allow)
     if not e.identifiable:
         return f"{e.value:.4g} *"
     return f"{e.value:.4g}\n[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
@@ -203,5 +207,12 @@ def _render_pooled(result: AnalysisResult, detail: str) -> RenderableType:
 def print_analysis(
     result: AnalysisResult, console: Console | None = None, detail: str = "methods"
 ) -> None:
-    """Print ``render_analysis`` to ``console`` (default: stdout)."""
-    (console or Console()).print(render_analysis(result, detail))
+    """Print ``render_analysis`` to ``console`` (default: stdout), no NaN shown as a number
+    (:func:`~logtools.safe_text.no_nan`)."""
+    from logtools.safe_text import no_nan
+
+    console = console or Console()
+    with console.capture() as captured:
+        console.print(render_analysis(result, detail))
+    console.file.write(no_nan(captured.get()))
+    console.file.flush()

@@ -50,6 +50,7 @@ from logtools.readers import LogExtent, log_extent, read_log
 
 __all__ = [
     "AUTO_ROWS",
+    "MAX_WINDOWS",
     "WINDOW_ROWS",
     "DeriveFn",
     "Reduced",
@@ -71,6 +72,39 @@ WINDOW_ROWS = 360_000
 
 MIN_AUTO_WINDOW_S = 600.0
 """The shortest automatic window (s), whatever the rate."""
+
+MAX_WINDOWS = 100_000
+"""The most windows one log is cut into. The count is worked out before any window is made:
+a log whose clock jumps decades (or whose summary claims it does) with ``--window 10`` would
+otherwise be a plan of hundreds of millions of windows (3.5 GB, then MemoryError; issue 34),
+and is a named error instead."""
+
+_YEAR_S = 365.25 * 86400.0
+
+
+def _duration_words(seconds: float) -> str:
+    if seconds >= _YEAR_S:
+        return f"{seconds / _YEAR_S:.3g} years"
+    if seconds >= 86400.0:
+        return f"{seconds / 86400.0:.3g} days"
+    return f"{seconds:.6g} s"
+
+
+def _check_window_count(
+    path: str | os.PathLike[str], extent: LogExtent, lo: float, hi: float, window_s: float
+) -> None:
+    """Raise :class:`LogcalInputError` when ``[lo, hi]`` cut into ``window_s`` windows would make
+    more than :data:`MAX_WINDOWS` (computed, not built)."""
+    count = math.ceil((hi - lo) / window_s)
+    if count <= MAX_WINDOWS:
+        return
+    name = os.fsdecode(os.fspath(path))
+    raise LogcalInputError(
+        f"{name}: spans {_duration_words(hi - lo)} (log_time {extent.first_ns} .. "
+        f"{extent.last_ns} ns); windows of {window_s:g} s would be {count:,} windows (at most "
+        f"{MAX_WINDOWS:,}): its clock jumps or its index claims a span it does not hold. Crop "
+        "it with --start/--end, choose a longer --window, or --window 0 to analyse it whole."
+    )
 
 
 @dataclass(frozen=True)
@@ -151,7 +185,8 @@ def plan_windows(
     is analysed whole.
 
     Raises:
-        LogcalInputError: ``window_s`` is not a number >= 0.
+        LogcalInputError: ``window_s`` is not a number >= 0, or the span would make more
+            than :data:`MAX_WINDOWS` windows.
     """
     check_window(window_s)
     if window_s == 0:
@@ -175,6 +210,7 @@ def plan_windows(
         window_s = max(MIN_AUTO_WINDOW_S, float(round(WINDOW_ROWS / rate)))
     if hi - lo <= window_s:
         return None
+    _check_window_count(path, extent, lo, hi, window_s)
     edges = [lo]
     while edges[-1] + window_s < hi:
         edges.append(edges[-1] + window_s)

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from viz.screenshot import ViewerScreenshotError, screenshot_rrd
+from viz.tractor_trailer.style import READY_COLORS
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -17,6 +18,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--width", type=int, default=1600)
     ap.add_argument("--height", type=int, default=1000)
     ap.add_argument("--timeout", type=float, default=120.0)
+    ap.add_argument(
+        "--ready",
+        default=",".join(READY_COLORS),
+        help="colours (viz.style.COLORS names) whose presence means drawn; default: the "
+        "tractor-trailer's",
+    )
     args = ap.parse_args(argv)
     try:
         out = screenshot_rrd(
@@ -25,6 +32,7 @@ def main(argv: list[str] | None = None) -> int:
             width=args.width,
             height=args.height,
             timeout_s=args.timeout,
+            ready_colors=[c for c in args.ready.split(",") if c],
             progress=lambda line: print(line, file=sys.stderr, flush=True),
         )
     except ViewerScreenshotError as err:

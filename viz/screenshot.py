@@ -45,11 +45,6 @@ __all__ = [
 
 CHROMIUM = "/usr/bin/chromium"
 
-#: Colours that only appear once the viewer has drawn the data (not in its own UI): the world
-#: view's C1 and C2 paths and the curvature plot. (The measured joint angle is drawn under the
-#: recommended model's curve, so its colour may rightly cover almost nothing.)
-READY_COLORS: tuple[str, ...] = ("C1", "C2", "kappa")
-
 
 def panel_problems(
     png: bytes | NDArray[np.uint8], names: Sequence[str], min_pixels: int = 20, edge_px: int = 2
@@ -104,7 +99,7 @@ def _read_png(data: bytes) -> NDArray[np.uint8]:
 
 
 def color_pixel_counts(
-    png: bytes | NDArray[np.uint8], names: Sequence[str] = READY_COLORS, tol: int = 10
+    png: bytes | NDArray[np.uint8], names: Sequence[str], tol: int = 10
 ) -> dict[str, int]:
     """Pixels within ``tol`` (per channel, 0-255) of each named colour of ``viz.style.COLORS``."""
     img = _read_png(png) if isinstance(png, bytes) else png
@@ -220,7 +215,7 @@ def screenshot_rrd(
     settle_s: float = 3.0,
     chromium: str | None = None,
     pids: list[int] | None = None,
-    ready_colors: Sequence[str] = READY_COLORS,
+    ready_colors: Sequence[str],
     progress: Callable[[str], None] | None = None,
 ) -> Path:
     """Serve ``rrd`` with rerun's web viewer, open it in headless Chromium, save a PNG.
@@ -236,8 +231,8 @@ def screenshot_rrd(
         pids: if given, the ids of the started processes are appended (the viewer, which
             leads its own process group, then the browser's processes), so a caller can check
             that they are gone.
-        ready_colors: names in ``viz.style.COLORS`` whose presence means "drawn" (default:
-            the C1 and C2 paths and measured kappa: the world view and a plot); the final
+        ready_colors: names in ``viz.style.COLORS`` whose presence means "drawn" (a robot's
+            own, declared in its style module); the final
             capture must show each, none touching the window's edge (:func:`panel_problems`).
         progress: called with one line per step (viewer, browser, waiting, capture).
 

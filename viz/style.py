@@ -1,38 +1,39 @@
-"""Colours and names shared by the rerun recording, the PNG report and the screenshot test."""
+"""Colours and names shared by the rerun recording, the PNG report and the screenshot test.
+
+The shared palette holds only what every robot's views draw (a residual, the truth); each
+robot declares the colours of its own things in its own room (``viz/<robot>/style.py``) and
+adds them with :func:`register_colors`, so this module names no robot's signal.
+"""
 
 from __future__ import annotations
 
-__all__ = ["COLORS", "TIMELINE", "hex_color", "ui_points"]
+from collections.abc import Mapping
+
+__all__ = ["COLORS", "TIMELINE", "hex_color", "register_colors", "ui_points"]
 
 #: Name of the rerun timeline: log time (absolute, ns) as ``datetime64[ns]``.
 TIMELINE = "log_time"
 
-#: RGB colours (0-255) of the plotted things; saturated so a screenshot test can find them.
-COLORS: dict[str, tuple[int, int, int]] = {
-    "C1": (230, 25, 75),  # red: front wheel centre
-    "P": (255, 165, 0),  # orange: joint
-    "C2": (0, 130, 200),  # blue: rear wheel centre
-    "links": (240, 240, 240),
-    "O": (60, 180, 75),  # green: instantaneous centre
-    "Q": (145, 30, 180),  # purple
-    "triangle_OQC2": (70, 240, 240),
-    "triangle_QC1P": (240, 50, 230),
-    "radius": (60, 180, 75),
-    "kappa_cmd": (255, 225, 25),  # yellow
-    "kappa": (255, 110, 40),  # orange-red
-    "psi": (40, 80, 255),  # blue-violet
-    "psi_estimate": (0, 210, 140),
-    "psi_method": (200, 120, 255),
-    "psi_steady": (255, 120, 190),  # pink: the steady-state relation
+RGB = tuple[int, int, int]
+
+#: RGB colours (0-255) of the plotted things by name; saturated so a screenshot test can find
+#: them. The shared ones here, each robot's added by :func:`register_colors`.
+COLORS: dict[str, RGB] = {
     "residual": (220, 190, 255),
     "truth": (250, 250, 250),
-    "L1": (230, 25, 75),
-    "L2": (0, 130, 200),
-    # the differential drive's paths (viz.diff_drive.views draws them; the screenshot looks for
-    # them)
-    "dd_nominal": (220, 60, 60),
-    "dd_calibrated": (40, 120, 220),
 }
+
+
+def register_colors(colors: Mapping[str, RGB]) -> None:
+    """Add a robot's colours to :data:`COLORS` (called once by its style module on import).
+
+    Raises:
+        ValueError: a name already has another colour (two robots naming one thing differently).
+    """
+    clash = sorted(n for n, rgb in colors.items() if COLORS.get(n, rgb) != rgb)
+    if clash:
+        raise ValueError(f"colours {', '.join(clash)} are registered with other values")
+    COLORS.update(colors)
 
 
 def hex_color(name: str) -> str:

@@ -5,7 +5,8 @@ logged in degrees but read as radians fits a model with absurd link lengths and 
 residual *far below* its own noise floor (the floor is read off the signal, which the wrong unit
 rescales together with the model's error). Two checks, for every robot:
 
-- *below the floor*: a channel whose residual is under ``BELOW_FLOOR`` x its noise floor: the
+- *below the floor*: a channel whose residual is under ``BELOW_FLOOR`` x the recording's own
+  high-frequency noise (the floor without the noise the model's inputs carry in): the
   model follows the recording more closely than the recording's own noise allows, which a model
   fitted to a rescaled or duplicated signal does (a unit, a scale, the model's input logged as
   its output);
@@ -23,7 +24,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
-from calib.adequacy.verdict import Adequacy
+from calib.adequacy.verdict import Adequacy, ChannelAdequacy
 from calib.results import CalibrationResult, Estimate
 
 __all__ = [
@@ -64,6 +65,17 @@ class Implausible:
         return f"{self.quantity} = {self.value:.4g}: {self.why}; likely cause: {self.cause}"
 
 
+def _own_noise_ratio(c: ChannelAdequacy) -> float:
+    """The residual over the recording's own high-frequency noise (the floor without what the
+    model's inputs carry in: a noise-free simulation whose floor is all input noise is not
+    implausible)."""
+    own = c.noise.white_std if math.isfinite(c.noise.white_std) and c.noise.white_std > 0 else 0.0
+    if own <= 0.0:
+        return c.judged_ratio
+    rms = c.heldout_rms if c.heldout_rms is not None and math.isfinite(c.heldout_rms) else None
+    return (rms if rms is not None else c.residual_rms) / own
+
+
 def implausible(
     estimate: CalibrationResult | None,
     adequacy: Adequacy | None,
@@ -76,7 +88,7 @@ def implausible(
     """The implausible findings of one analysis (module docstring)."""
     out: list[Implausible] = []
     for c in adequacy.channels if adequacy is not None else ():
-        r = c.judged_ratio
+        r = _own_noise_ratio(c)
         if math.isfinite(r) and r < BELOW_FLOOR and c.residual_rms > 0:
             out.append(
                 Implausible(

@@ -5,6 +5,11 @@ ground-truth (motion capture) noise on what is logged. Returns arrays; writers l
 
 Motion between samples is an exact arc (wheel rates held constant over each interval, as a
 motor controller does), integrated at ``substeps`` per logging interval.
+
+:func:`simulate_odom_imu` simulates the other usual log, wheel odometry and a gyro (no encoder
+angles, no ground truth), of a skid steer whose effective track is the geometric one times a
+gain that may grow with turn rate, speed, or jointly with both (the ICR model of
+:mod:`calib.diff_drive.odom_imu.effects`: switch ``icr_turn``, ``icr_joint``).
 """
 
 from __future__ import annotations
@@ -19,10 +24,13 @@ from calib.diff_drive.kinematics import DiffDriveParams, inverse
 
 __all__ = [
     "DiffDriveSim",
+    "OdomImuSim",
+    "OdomImuSimConfig",
     "SimConfig",
     "WheelCommands",
     "mixed_commands",
     "simulate_diff_drive",
+    "simulate_odom_imu",
     "square_commands",
 ]
 
@@ -229,4 +237,72 @@ def simulate_diff_drive(
         config=config,
         seed=seed,
         meta={"effective_track": repr(eff.b)},
+    )
+
+
+@dataclass(frozen=True)
+class OdomImuSimConfig:
+    """A skid steer logged by its wheel odometry and a gyro.
+
+    The odometry reports the speed v and turn rate omega_odo the wheels give with the
+    geometric track; the robot turns at omega_odo (1 - icr_turn |omega_odo| - icr_joint |v|
+    |omega_odo|) / G with G = gain (1 + turn_slip |omega_odo| + speed_slip |v|): ``gain`` the
+    effective / geometric track of a slow turn, ``turn_slip`` (s/rad) and ``speed_slip`` (s/m)
+    the single-covariate growths, ``icr_turn`` (s/rad) and ``icr_joint`` (s^2/(m rad)) the ICR
+    model's share of the turn lost (treads' centres of rotation moving outwards with turn rate
+    and centripetal acceleration). The gyro reads the true rate plus
+    ``gyro_bias`` and white noise; commands are piecewise linear between random knots every
+    ``knot_s`` (|omega_odo| up to ``max_turn``, v from 0 to ``max_speed``)."""
+
+    duration_s: float = 120.0
+    rate_hz: float = 50.0
+    gain: float = 1.0
+    turn_slip: float = 0.0
+    speed_slip: float = 0.0
+    icr_turn: float = 0.0
+    icr_joint: float = 0.0
+    gyro_bias: float = 0.01
+    gyro_noise: float = 0.02
+    odom_noise: float = 0.003
+    max_turn: float = 1.2
+    max_speed: float = 1.0
+    knot_s: float = 3.0
+
+
+@dataclass(frozen=True)
+class OdomImuSim:
+    """A simulated odometry + gyro log: time (s), the odometry's speed (m/s) and yaw rate
+    (rad/s), the gyro's yaw rate, the true yaw rate and gain per sample."""
+
+    t: Array
+    odom_v: Array
+    odom_omega: Array
+    gyro_z: Array
+    omega_true: Array
+    gain: Array
+    config: OdomImuSimConfig
+    seed: int
+
+
+def simulate_odom_imu(config: OdomImuSimConfig, seed: int = 0) -> OdomImuSim:
+    """One log of :class:`OdomImuSimConfig`."""
+    rng = np.random.default_rng(seed)
+    c = config
+    t = np.arange(0.0, c.duration_s, 1.0 / c.rate_hz)
+    knots = np.arange(0.0, c.duration_s + c.knot_s, c.knot_s)
+    w_odo = np.interp(t, knots, rng.uniform(-c.max_turn, c.max_turn, knots.size))
+    v = np.interp(t, knots, rng.uniform(0.0, c.max_speed, knots.size))
+    rate, speed = np.abs(w_odo), np.abs(v)
+    kept = 1 - c.icr_turn * rate - c.icr_joint * speed * rate
+    g = c.gain * (1 + c.turn_slip * rate + c.speed_slip * speed) / kept
+    w_true = w_odo / g
+    return OdomImuSim(
+        t,
+        v,
+        w_odo + c.odom_noise * rng.standard_normal(t.size),
+        w_true + c.gyro_bias + c.gyro_noise * rng.standard_normal(t.size),
+        w_true,
+        g,
+        config,
+        seed,
     )

@@ -203,8 +203,8 @@ class DiscoveryReport:
         b, a = self.heldout_before, self.heldout_after
         if self.effects and math.isfinite(b) and math.isfinite(a):
             out.append(f"  held-out sum of squares (noise units) {b:.4g} -> {a:.4g}")
-        for name, (e0, e1) in self.moved.items():
-            out.append(f"  {name}: {e0.report()} -> {e1.report()}")
+        for e0, e1 in self.moved.values():
+            out.append(f"  moved: {e0.report()} -> {e1.report()}")  # report() names it
         if self.remaining:
             out.append(f"  remaining: {self.remaining}")
         for alt in self.alternatives:

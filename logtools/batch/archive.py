@@ -43,6 +43,7 @@ from logtools.readers.formats import log_suffixes, skipped
 __all__ = [
     "ID_PATTERN",
     "SETTINGS_FILE",
+    "UNLISTED",
     "EntryError",
     "LogJob",
     "content_hash",
@@ -56,6 +57,9 @@ _CHUNK = 1 << 20
 METADATA_FILE = "metadata.yaml"
 ID_PATTERN = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,60}-[0-9a-f]{10,64}")
 """What every log id looks like (:func:`log_id`); anything else in a manifest is not ours."""
+UNLISTED = "cannot list this folder"
+"""Start of the refusal of a folder of the archive that cannot be listed (its logs are not
+seen, so a batch must not take them for gone)."""
 
 
 @dataclass(frozen=True)
@@ -211,7 +215,7 @@ def _walk(
             found.append(
                 (
                     sub,
-                    f"cannot list this folder ({err.strerror or err}"
+                    f"{UNLISTED} ({err.strerror or err}"
                     f"{', ' + why if why else ''}); its logs are not analysed",
                 )
             )

@@ -8,6 +8,7 @@ import time
 
 from logtools.batch.archive import LogJob
 from logtools.batch.budgets import Budgets, LogTimeout, active, marker_file, set_active, time_limit
+from logtools.batch.lifeline import Lifeline, watch_driver
 from logtools.batch.worker import AnalysisOptions, LogOutcome, analyse_job
 
 __all__ = ["analyse_in_ray", "analyse_within_budget"]
@@ -43,8 +44,13 @@ def analyse_within_budget(job: LogJob, options: AnalysisOptions) -> LogOutcome:
             marker.write_text("")
 
 
-def analyse_in_ray(job: LogJob, options: AnalysisOptions, budgets: Budgets) -> LogOutcome:
+def analyse_in_ray(
+    job: LogJob, options: AnalysisOptions, budgets: Budgets, driver: Lifeline | None
+) -> LogOutcome:
     """The Ray task: the time budget as locally (alarm, then hard stop), no ``RLIMIT_AS`` (the
-    memory budget is the task's ``memory=`` request)."""
+    memory budget is the task's ``memory=`` request); on the driver's machine the worker ends
+    once the driver has (:func:`~logtools.batch.lifeline.watch_driver`)."""
+    if driver is not None:
+        watch_driver(driver)
     set_active(budgets)
     return _run(job, options, budgets)

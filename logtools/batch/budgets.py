@@ -39,6 +39,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
+from logtools.batch.lifeline import Lifeline, tie_to_parent
 from logtools.errors import LogcalInputError
 
 __all__ = [
@@ -193,12 +194,20 @@ def marker_file() -> Path | None:
     return None if _MARKERS is None else _MARKERS / str(os.getpid())
 
 
-def init_worker(budgets: Budgets, markers: str | None, setup: str | None = None) -> None:
-    """Initializer of a local worker process: cap its address space, remember where to mark
-    the log it works on (``markers``: a folder of the driver) and run ``setup``
+def init_worker(
+    budgets: Budgets,
+    markers: str | None,
+    setup: str | None = None,
+    driver: Lifeline | None = None,
+) -> None:
+    """Initializer of a local worker process: tie it to its ``driver`` (it ends when the driver
+    does: :mod:`~logtools.batch.lifeline`), cap its address space, remember where to mark the
+    log it works on (``markers``: a folder of the driver) and run ``setup``
     (``"module:function"``; the batch tests' hook to register test readers in spawned
     workers, not a user option)."""
     global _ACTIVE, _MARKERS, _STACK_FILE
+    if driver is not None:
+        tie_to_parent(driver)
     _ACTIVE, _MARKERS = budgets, Path(markers) if markers else None
     if budgets.memory_bytes is not None:
         import resource

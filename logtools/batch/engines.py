@@ -14,9 +14,11 @@ crash in native code, a log stopped past its time budget) breaks the pool: the l
 held are tried once more, one at a time, and recorded as failed (naming the budget) if their
 worker dies again; the logs no worker had started are re-submitted. Each log runs under a
 memory and a time budget (:mod:`logtools.batch.budgets`), and workers are replaced by fresh
-processes every :data:`RECYCLE_EVERY` logs. Like joblib's loky, the pool caps the thread
-pools of each worker (OpenMP, OpenBLAS, MKL, polars) at CPUs // workers unless the user set
-them, so that N workers do not each start one thread per CPU.
+processes every :data:`RECYCLE_EVERY` logs. Workers end with the driver, even one killed with
+``kill -9`` (:mod:`logtools.batch.lifeline`: a parent-death signal and a watch of the driver;
+on Ray, the watch in each task on the driver's machine). Like joblib's loky, the pool caps the
+thread pools of each worker (OpenMP, OpenBLAS, MKL, polars) at CPUs // workers unless the user
+set them, so that N workers do not each start one thread per CPU.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from logtools.batch.archive import LogJob
 from logtools.batch.budgeted import analyse_in_ray, analyse_within_budget
 from logtools.batch.budgets import DEFAULT_TIMEOUT_S, Budgets, init_worker
 from logtools.batch.choices import Engine
+from logtools.batch.lifeline import Lifeline
 from logtools.batch.worker import AnalysisOptions, LogOutcome
 from logtools.errors import LogcalInputError
 
@@ -147,7 +150,7 @@ def _run_local(
                 max_workers=width,
                 mp_context=context,
                 initializer=init_worker,
-                initargs=(budgets, markers, _WORKER_SETUP),
+                initargs=(budgets, markers, _WORKER_SETUP, Lifeline.of_this_process()),
             ) as pool,
         ):
             futures: dict[Future[LogOutcome], LogJob] = {
@@ -263,9 +266,10 @@ def _run_ray(
         window = max(16, _IN_FLIGHT_PER_CPU * cpus)
         todo = iter(jobs)
         refs: dict[Any, LogJob] = {}
+        driver = Lifeline.of_this_process()  # tasks on this machine end with the driver
         while True:
             for job in itertools.islice(todo, window - len(refs)):
-                refs[remote.remote(job, options, budgets)] = job
+                refs[remote.remote(job, options, budgets, driver)] = job
             if not refs:
                 break
             done, _ = ray.wait(list(refs), num_returns=1)

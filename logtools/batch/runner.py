@@ -21,7 +21,15 @@ start and the end of a run the journal is folded into ``manifest.json`` (written
 then the journal removed). A batch killed at any moment leaves whole files only, and its
 finished logs are not redone (a torn last journal line is ignored: that log is redone).
 Leftover temporary files are removed at the next run. A lock file keeps two batches from
-writing one folder at once.
+writing one folder at once. Every file and journal line is flushed to the disk (``fsync``)
+before the next step counts on it, so a power cut leaves the previous state or the new one.
+
+Nothing is deleted by omission: the record of a log that is gone from the archive (a moved
+file, an unmounted share, a wrong but existing path) is kept, marked ``gone`` and reported;
+``prune=True`` (``--prune``) drops such records, and only when the archive was read whole and
+holds at least one log (an empty archive or a folder that cannot be listed never prunes).
+A full disk (or any error writing ``DIR``) stops the batch with one message naming the file:
+what was written stays whole and a rerun resumes.
 
 Nothing read back from ``DIR`` is trusted as a path: entries are keyed by log id (checked
 against :data:`~logtools.batch.archive.ID_PATTERN`), and every file name is derived from the id
@@ -32,6 +40,7 @@ delete a file outside ``DIR``.
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import hashlib
 import json
@@ -44,13 +53,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from logtools.batch.archive import ID_PATTERN, LogJob, find_logs
+from logtools.batch.archive import ID_PATTERN, UNLISTED, LogJob, find_logs
 from logtools.batch.budgets import Budgets
 from logtools.batch.engines import Engine, run_jobs
 from logtools.batch.files import open_regular
 from logtools.batch.worker import AnalysisOptions, LogOutcome, analyse_job, log_span
 from logtools.errors import LogcalInputError
-from logtools.outputs import special_filesystem
+from logtools.outputs import fsync_folder, special_filesystem
 
 __all__ = [
     "JOURNAL",
@@ -58,6 +67,7 @@ __all__ = [
     "BatchProgress",
     "BatchSummary",
     "load_manifest",
+    "prune_refusal",
     "read_records",
     "run_batch",
     "write_atomic",
@@ -89,7 +99,9 @@ class BatchProgress:
 @dataclass(frozen=True)
 class BatchSummary:
     """What a batch did. ``analysed``/``skipped``/``failed`` are archive paths; ``failed``
-    pairs each with its error (failed logs of earlier runs included)."""
+    pairs each with its error (failed logs of earlier runs included). ``gone``: records kept
+    whose log is no longer in the archive; ``pruned``: records dropped by ``prune``;
+    ``prune_refused``: why ``prune`` dropped nothing (empty or partly unreadable archive)."""
 
     out: Path
     logs: int
@@ -97,6 +109,9 @@ class BatchSummary:
     skipped: list[str] = field(default_factory=list)
     failed: list[tuple[str, str]] = field(default_factory=list)
     seconds: float = 0.0
+    gone: list[str] = field(default_factory=list)
+    pruned: list[str] = field(default_factory=list)
+    prune_refused: str | None = None
 
 
 def write_atomic(path: Path, data: bytes) -> None:
@@ -104,7 +119,12 @@ def write_atomic(path: Path, data: bytes) -> None:
     from logtools.outputs import write_atomically
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_atomically(path, lambda tmp: tmp.write_bytes(data))
+    try:
+        write_atomically(path, lambda tmp: tmp.write_bytes(data))
+    except OSError as err:
+        if err.filename is None:  # a write (not an open) failed: name the target
+            err.filename = str(path)
+        raise
 
 
 def _json_bytes(doc: Any) -> bytes:
@@ -346,6 +366,7 @@ def read_records(out: Path) -> list[dict[str, Any]]:
         record = _read_json_file(out / "logs" / f"{ident}.json")
         if isinstance(record, dict):
             record["id"] = ident  # file names in the report come from the checked id only
+            record["gone"] = manifest[ident].get("gone") is True
             record["views"] = manifest[ident]["views"]
             record["log"] = str(record.get("log", manifest[ident]["log"]))
             records.append(record)
@@ -356,13 +377,25 @@ class _Journal:
     """``journal.jsonl``: one JSON line appended per finished log (never rewritten)."""
 
     def __init__(self, out: Path) -> None:
-        self.fd = _open_nofollow(out / JOURNAL, os.O_WRONLY | os.O_CREAT | os.O_APPEND)
+        self.fd = _open_nofollow(out / JOURNAL, os.O_RDWR | os.O_CREAT | os.O_APPEND)
+        size = os.fstat(self.fd).st_size
+        if size and os.pread(self.fd, 1, size - 1) != b"\n":  # a line torn by a kill
+            self._write(b"\n")  # ends it: the next line is read on its own
+
+    def _write(self, data: bytes) -> None:
+        view = memoryview(data)
+        while view:
+            written = os.write(self.fd, view)
+            if written <= 0:
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), JOURNAL)
+            view = view[written:]
+        os.fsync(self.fd)
 
     def append(self, item: dict[str, Any]) -> None:
         from calib.results import json_safe
 
         line = json.dumps(json_safe(item), sort_keys=True, allow_nan=False) + "\n"
-        os.write(self.fd, line.encode())
+        self._write(line.encode())
 
     def close(self) -> None:
         os.close(self.fd)
@@ -387,6 +420,7 @@ def _compact(
     )
     with contextlib.suppress(FileNotFoundError):
         os.unlink(out / JOURNAL)
+    fsync_folder(out)
 
 
 def _is_rosbag2_folder(path: Path) -> bool:
@@ -436,14 +470,18 @@ def run_batch(
     progress: Callable[[BatchProgress], None] | None = None,
     report: bool = True,
     budgets: Budgets | None = None,
+    prune: bool = False,
 ) -> BatchSummary:
     """Analyse every log below ``archive`` into ``out`` (see the module docstring), each under
     ``budgets`` of memory and time (default: :func:`~logtools.batch.engines.run_jobs`'s).
+    Records of logs gone from the archive are kept (``BatchSummary.gone``) unless ``prune``
+    (and even then only when the archive is read whole and not empty).
 
     Raises:
         LogcalInputError: ``archive`` is not a folder, ``out`` cannot be created, is on a
             kernel file system, inside an input, or in use by another batch, or the engine
-            cannot start.
+            cannot start; or a file of ``out`` cannot be written (a full disk: the message
+            names the file, what was written stays whole).
     """
     t0 = time.perf_counter()
     options = options or AnalysisOptions()
@@ -460,75 +498,161 @@ def run_batch(
     except OSError as err:
         raise LogcalInputError(f"--out {out}: cannot create the folder ({err}).") from err
     version = _version()
-    with _locked(out):
-        _prepare_subdirs(out)
-        _clean_partials(out)
-        jobs = find_logs(archive, skip=(out,))
-        manifest = load_manifest(out)
-        current = {j.id for j in jobs}
-        for ident in [i for i in manifest if i not in current]:  # logs gone from the archive
+    try:
+        with _locked(out):
+            return _run_locked(
+                archive,
+                out,
+                options,
+                version,
+                engine=engine,
+                workers=workers,
+                address=address,
+                force=force,
+                prune=prune,
+                progress=progress,
+                report=report,
+                budgets=budgets,
+                t0=t0,
+            )
+    except OSError as err:
+        if err.errno not in _WRITE_ERRNOS:
+            raise
+        raise LogcalInputError(_write_error(out, err)) from err
+
+
+_WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS})
+"""Errors writing ``--out`` that are the machine's state, not a bug: one message, exit 2."""
+
+
+def _write_error(out: Path, err: OSError) -> str:
+    where = f" ({err.filename})" if err.filename else ""
+    return (
+        f"--out {out}: cannot write{where}: {err.strerror or err}; the files written so far "
+        "are whole and a rerun resumes where this one stopped."
+    )
+
+
+def prune_refusal(jobs: list[LogJob]) -> str | None:
+    """Why records of logs missing from ``jobs`` must not be dropped, or None when they may:
+    the archive holds no log at all (an unmounted share, a wrong path), or a folder of it
+    could not be listed (its logs were not seen)."""
+    unlisted = [j.rel or "." for j in jobs if j.entry_error and UNLISTED in j.entry_error]
+    if unlisted:
+        return (
+            f"{len(unlisted)} folder(s) of the archive cannot be listed ({unlisted[0]}...); "
+            "records are pruned only when the whole archive is read"
+        )
+    if not jobs:
+        return "the archive holds no log (an unmounted share or a wrong path?); nothing pruned"
+    return None
+
+
+def _run_locked(
+    archive: Path,
+    out: Path,
+    options: AnalysisOptions,
+    version: str,
+    *,
+    engine: Engine,
+    workers: int,
+    address: str | None,
+    force: bool,
+    prune: bool,
+    progress: Callable[[BatchProgress], None] | None,
+    report: bool,
+    budgets: Budgets | None,
+    t0: float,
+) -> BatchSummary:
+    _prepare_subdirs(out)
+    _clean_partials(out)
+    jobs = find_logs(archive, skip=(out,))
+    manifest = load_manifest(out)
+    current = {j.id for j in jobs}
+    missing = [i for i in manifest if i not in current]  # logs gone from the archive
+    refusal = prune_refusal(jobs) if prune and missing else None
+    pruned: list[str] = []
+    for ident in missing:
+        if prune and refusal is None:
             entry = manifest.pop(ident)
+            pruned.append(str(entry["log"]))
             for f in _files(ident, entry.get("views")):
                 with contextlib.suppress(OSError):
                     os.unlink(out / f)
-        keys = {j.id: _key(j, options, version) for j in jobs}
-        todo = [j for j in jobs if force or not _finished(manifest.get(j.id), keys[j.id], out)]
-        todo_ids = {j.id for j in todo}
-        skipped = [j.rel for j in jobs if j.id not in todo_ids]
-        state = BatchProgress(total=len(todo), skipped=len(skipped))
-        analysed: list[str] = []
-        _compact(out, manifest, archive, options, version)
-        if progress:
-            progress(state)
-        # entries refused before analysis (links, FIFOs, bad logcal.toml) fail here, at once
-        early = [j for j in todo if j.entry_error is not None or j.settings is None]
-        rest = [j for j in todo if j.entry_error is None and j.settings is not None]
-        journal = _Journal(out)
-        try:
-            outcomes = run_jobs(
-                rest, options, engine=engine, workers=workers, address=address, budgets=budgets
-            )
-            for outcome in _chain((analyse_job(j, options) for j in early), outcomes):
-                job = outcome.job
-                views: dict[str, str] = {}
-                for suffix, data in sorted(outcome.views.items()):
-                    if suffix not in VIEW_SUFFIXES:
-                        continue
-                    rel_view = f"views/{job.id}{suffix}"
-                    write_atomic(out / rel_view, data)
-                    views[suffix] = rel_view
-                record_rel = f"logs/{job.id}.json"
-                write_atomic(out / record_rel, _json_bytes(_record(job, outcome, views, options)))
-                manifest[job.id] = {
-                    "id": job.id,
-                    "log": job.rel,
-                    "key": keys[job.id],
-                    "content_hash": job.content_hash,
-                    "status": outcome.status,
-                    "record": record_rel,
-                    "views": views,
-                    "span": _span(job, options),
-                    "seconds": round(outcome.seconds, 3),
-                    "error": None if outcome.error is None else _text(outcome.error),
-                }
-                journal.append({"id": job.id, "entry": manifest[job.id]})
-                analysed.append(job.rel)
-                state.done += 1
-                state.failed += outcome.status != "ok"
-                state.last = job.rel
-                if progress:
-                    progress(state)
-        finally:
-            journal.close()
-        _compact(out, manifest, archive, options, version)
-        if report:
-            write_fleet_outputs(out)
+        else:
+            manifest[ident]["gone"] = True  # kept, reported: never deleted by omission
+    for ident in current & set(manifest):
+        manifest[ident].pop("gone", None)
+    keys = {j.id: _key(j, options, version) for j in jobs}
+    todo = [j for j in jobs if force or not _finished(manifest.get(j.id), keys[j.id], out)]
+    todo_ids = {j.id for j in todo}
+    skipped = [j.rel for j in jobs if j.id not in todo_ids]
+    state = BatchProgress(total=len(todo), skipped=len(skipped))
+    analysed: list[str] = []
+    _compact(out, manifest, archive, options, version)
+    if progress:
+        progress(state)
+    # entries refused before analysis (links, FIFOs, bad logcal.toml) fail here, at once
+    early = [j for j in todo if j.entry_error is not None or j.settings is None]
+    rest = [j for j in todo if j.entry_error is None and j.settings is not None]
+    journal = _Journal(out)
+    try:
+        outcomes = run_jobs(
+            rest, options, engine=engine, workers=workers, address=address, budgets=budgets
+        )
+        for outcome in _chain((analyse_job(j, options) for j in early), outcomes):
+            job = outcome.job
+            views: dict[str, str] = {}
+            for suffix, data in sorted(outcome.views.items()):
+                if suffix not in VIEW_SUFFIXES:
+                    continue
+                rel_view = f"views/{job.id}{suffix}"
+                write_atomic(out / rel_view, data)
+                views[suffix] = rel_view
+            record_rel = f"logs/{job.id}.json"
+            write_atomic(out / record_rel, _json_bytes(_record(job, outcome, views, options)))
+            manifest[job.id] = {
+                "id": job.id,
+                "log": job.rel,
+                "key": keys[job.id],
+                "content_hash": job.content_hash,
+                "status": outcome.status,
+                "record": record_rel,
+                "views": views,
+                "span": _span(job, options),
+                "seconds": round(outcome.seconds, 3),
+                "error": None if outcome.error is None else _text(outcome.error),
+            }
+            journal.append({"id": job.id, "entry": manifest[job.id]})
+            analysed.append(job.rel)
+            state.done += 1
+            state.failed += outcome.status != "ok"
+            state.last = job.rel
+            if progress:
+                progress(state)
+    finally:
+        journal.close()
+    _compact(out, manifest, archive, options, version)
+    if report:
+        write_fleet_outputs(out)
+    by_name = sorted(manifest, key=lambda i: (manifest[i]["log"], i))
     failed = [
         (str(manifest[i]["log"]), str(manifest[i].get("error")))
-        for i in sorted(manifest, key=lambda i: (manifest[i]["log"], i))
-        if manifest[i].get("status") != "ok"
+        for i in by_name
+        if manifest[i].get("status") != "ok" and not manifest[i].get("gone")
     ]
-    return BatchSummary(out, len(jobs), analysed, skipped, failed, time.perf_counter() - t0)
+    gone = [str(manifest[i]["log"]) for i in by_name if manifest[i].get("gone")]
+    return BatchSummary(
+        out,
+        len(jobs),
+        analysed,
+        skipped,
+        failed,
+        time.perf_counter() - t0,
+        gone=gone,
+        pruned=sorted(pruned),
+        prune_refused=refusal,
+    )
 
 
 def _chain(*parts: Any) -> Iterator[LogOutcome]:

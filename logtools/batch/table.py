@@ -147,7 +147,7 @@ def _effect_rows(result: Mapping[str, Any]) -> list[dict[str, Any]]:
             rows.append(
                 {
                     "kind": "effect",
-                    "estimator": f"discovery ({e.get('status') or 'named'})",
+                    "estimator": "discovery",
                     "segment": "all",
                     "parameter": f"{e.get('key') or e.get('id')}: {pname}",
                     "value": _num(est.get("value")),

@@ -155,11 +155,12 @@ def read_inputs(
 
 
 def say(text: str, *, stderr: bool = True) -> None:
-    """Print ``text`` as written (no markup, control characters escaped)."""
+    """Print ``text`` as written (no markup, control characters escaped, no NaN shown as a
+    number)."""
     from rich.console import Console
 
-    from logtools.safe_text import printable
+    from logtools.safe_text import no_nan, printable
 
     Console(stderr=stderr, highlight=False, soft_wrap=True).print(
-        printable(text), markup=False, highlight=False
+        no_nan(printable(text)), markup=False, highlight=False
     )

@@ -45,6 +45,12 @@ def register(app: typer.Typer) -> None:
         no_views: bool = typer.Option(False, "--no-views", help="Do not draw .rrd/.png views."),
         seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap draws."),
         force: bool = typer.Option(False, "--force", help="Redo every log."),
+        prune: bool = typer.Option(
+            False,
+            "--prune",
+            help="Drop the records of logs gone from ARCHIVE (kept otherwise; never when "
+            "ARCHIVE is empty or a folder of it cannot be listed).",
+        ),
         start: float | None = start_option(),
         end: float | None = end_option(),
         log_memory: float | None = typer.Option(
@@ -129,6 +135,7 @@ def register(app: typer.Typer) -> None:
                 force=force,
                 progress=show,
                 budgets=budgets,
+                prune=prune,
             )
         err.print(
             f"{summary.logs} logs: {len(summary.analysed)} analysed, {len(summary.skipped)} "
@@ -137,6 +144,23 @@ def register(app: typer.Typer) -> None:
             markup=False,
             highlight=False,
         )
+        if summary.gone:
+            err.print(
+                f"{len(summary.gone)} record(s) kept whose log is gone from the archive "
+                f"(e.g. {printable(summary.gone[0])}); --prune drops them.",
+                markup=False,
+                highlight=False,
+            )
+        if summary.pruned:
+            err.print(
+                f"{len(summary.pruned)} record(s) of logs gone from the archive dropped (--prune).",
+                markup=False,
+                highlight=False,
+            )
+        if summary.prune_refused:
+            err.print(
+                f"--prune: {printable(summary.prune_refused)}.", markup=False, highlight=False
+            )
         for rel, message in summary.failed:  # names and messages from the archive: escaped
             err.print(
                 f"  failed: {printable(rel)}: {printable(message)}",

@@ -19,6 +19,7 @@ from logtools.cli._inputs import (
     start_option,
 )
 from logtools.cli._robot_options import GivenOptions, with_robot_options
+from logtools.safe_text import no_nan
 
 if TYPE_CHECKING:
     from logtools.robots.info import InfoSection
@@ -88,7 +89,7 @@ def register(app: typer.Typer) -> None:
                 doc[section.key] = dict(section.doc)
             typer.echo(json.dumps(doc, indent=2))
             return
-        typer.echo("\n\n".join(s.report() for s in summaries))
+        typer.echo(no_nan("\n\n".join(s.report() for s in summaries)))
         for section in sections:
             for line in section.lines:
                 say(line, stderr=False)  # each line escaped on its own

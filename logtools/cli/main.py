@@ -14,6 +14,7 @@ import typer
 
 from calib.errors import CalibError
 from logtools.cli.state import debug_enabled, set_debug
+from logtools.cli.streams import guard_streams, pipe_broken, silence_stdout, stdout_failure
 from logtools.errors import LogcalError
 from logtools.safe_text import printable
 
@@ -183,19 +184,35 @@ KNOWN_ERRORS: tuple[type[Exception], ...] = (LogcalError, CalibError)
 """Errors that are the input's fault or a stated limit of the data: one line, exit code 2."""
 
 
+def _run_command(args: list[str]) -> int:
+    """The command's exit code, its stdout flushed (a full stdout fails here, not at exit)."""
+    try:
+        command().main(args=args, prog_name="logcal", standalone_mode=True)
+        code = 0
+    except SystemExit as ex:  # standalone typer/click ends every run with SystemExit
+        code = int(ex.code or 0) if isinstance(ex.code, int) else 1
+    if pipe_broken():  # the reader of our stdout has gone (| head): click ended quietly
+        silence_stdout()
+        return 2
+    if sys.stdout is not None:
+        sys.stdout.flush()
+    return code
+
+
 def launch(argv: Sequence[str] | None = None) -> int:
     """Run the CLI in-process with ``argv`` (without the program name); return the exit code.
 
     The one place errors become exit codes: usage errors (typer/click) exit 2 with their own
-    message; ``KNOWN_ERRORS`` print one line ``logcal: error: ...`` and exit 2; anything else
-    is a bug of ours: one line, exit 1 (``--debug`` shows the traceback of either).
+    message; ``KNOWN_ERRORS`` print one line ``logcal: error: ...`` and exit 2; an output that
+    cannot be written (a full disk, a full or closed stdout: :mod:`logtools.cli.streams`) one
+    line and exit 2, a broken pipe exit 2 quietly; anything else is a bug of ours: one line,
+    exit 1 (``--debug`` shows the traceback of either).
     """
     args = list(sys.argv[1:] if argv is None else argv)
     set_debug("--debug" in args)
+    guard_streams()
     try:
-        command().main(args=args, prog_name="logcal", standalone_mode=True)
-    except SystemExit as ex:  # standalone typer/click ends every run with SystemExit
-        return int(ex.code or 0) if isinstance(ex.code, int) else 1
+        return _run_command(args)
     except KNOWN_ERRORS as err:
         if debug_enabled():
             traceback.print_exc()
@@ -204,17 +221,31 @@ def launch(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("Interrupted.", file=sys.stderr)
         return 130
-    except Exception as err:  # a bug of ours: one line for the user, the traceback on --debug
+    except BrokenPipeError:  # the reader of our stdout has gone (| head): end quietly
+        silence_stdout()
+        return 2
+    except OSError as err:
+        message = stdout_failure(err)
+        if message is None:
+            return _internal(err)
         if debug_enabled():
             traceback.print_exc()
-        print(
-            f"logcal: internal error: {type(err).__name__}: {printable(err)} (run with --debug "
-            "for the "
-            "traceback, and please report it)",
-            file=sys.stderr,
-        )
-        return 1
-    return 0
+        silence_stdout()
+        print(f"logcal: error: {printable(message)}", file=sys.stderr)
+        return 2
+    except Exception as err:  # a bug of ours: one line for the user, the traceback on --debug
+        return _internal(err)
+
+
+def _internal(err: Exception) -> int:
+    if debug_enabled():
+        traceback.print_exc()
+    print(
+        f"logcal: internal error: {type(err).__name__}: {printable(err)} (run with --debug "
+        "for the traceback, and please report it)",
+        file=sys.stderr,
+    )
+    return 1
 
 
 main = launch

@@ -556,10 +556,37 @@ class McapExtent:
     messages: dict[str, int]
 
 
+MESSAGE_RECORD_BYTES = 31
+"""The smallest message record (opcode, length, channel id, sequence, two times; no data)."""
+
+
+def _statistics_plausible(stats: Statistics, chunks: list[ChunkIndex], size: int) -> bool:
+    """Whether a summary's statistics fit the file: the time range in order and equal to the
+    chunk indexes' (when there are chunks), and no more messages than the file's bytes (the
+    chunks' decompressed bytes for a chunked file) can hold. A statistics record claiming
+    2^64 - 1 messages or an end time of 2^64 - 1 is not believed (issue 34)."""
+    first, last, count = stats.message_start_time, stats.message_end_time, stats.message_count
+    if last < first:
+        return False
+    room = size
+    if chunks:
+        starts = [
+            c.message_start_time for c in chunks if c.message_end_time >= c.message_start_time
+        ]
+        ends = [c.message_end_time for c in chunks if c.message_end_time >= c.message_start_time]
+        if not starts or min(starts) != first or max(ends) != last:
+            return False
+        room = max(size, sum(max(0, c.uncompressed_size) for c in chunks))
+    if count > room // MESSAGE_RECORD_BYTES:
+        return False
+    return sum(stats.channel_message_counts.values()) <= room // MESSAGE_RECORD_BYTES
+
+
 def mcap_extent(path: str, size: int) -> McapExtent | None:
     """The extent of the MCAP file ``path`` (``size`` bytes) from its summary's statistics; None
-    when it is not MCAP or has no readable summary with statistics (only the footer and the
-    summary are read)."""
+    when it is not MCAP, has no readable summary with statistics (only the footer and the
+    summary are read), or its statistics claim what the file cannot hold
+    (:func:`_statistics_plausible`)."""
     if size < len(MAGIC) + 64:
         return None
     with open(path, "rb", buffering=0) as fh:
@@ -573,6 +600,8 @@ def mcap_extent(path: str, size: int) -> McapExtent | None:
     stats = summary.statistics
     if not start or stats is None or not stats.message_count:
         return None
+    if not _statistics_plausible(stats, summary.chunk_indexes, size):
+        return None  # claims the file cannot hold: learn the extent by reading it
     counts: dict[str, int] = {}
     for cid, n in stats.channel_message_counts.items():
         ch = summary.channels.get(cid)

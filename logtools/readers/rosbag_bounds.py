@@ -20,7 +20,16 @@ on as a message. Here, before ``rosbags`` opens anything:
 * ROS 1 chunks and rosbag2 ``.mcap`` storage chunks: each compressed chunk is decompressed once
   by streaming and counted (nothing kept); a chunk that yields more than it declares, or chunks
   that together yield more than the budget, refuse the bag with the offset.
-* ``.db3`` files: the ``topics`` columns must hold text (ids integers); messages whose
+* ``metadata.yaml`` nesting: at most :data:`METADATA_MAX_DEPTH` levels, counted on the raw
+  text for flow brackets (``[[[[...``: before the parser, which is slow on them) and on the
+  parser's events for block nesting.
+* QoS profiles (``offered_qos_profiles``, in ``metadata.yaml`` or a ``.db3``'s ``topics``):
+  checked to be what ``rosbags`` reads (a list of mappings whose policies are integers or
+  names and whose durations are ``sec``/``nsec`` mappings), else a named error.
+* ``.db3`` files: ``messages``, ``topics``, ``schema`` and ``message_definitions`` must be
+  tables (a view can compute rows forever), ``schema.schema_version`` an integer, and every
+  check runs under a time budget (:data:`DB3_CHECK_S`, an SQLite progress handler);
+  the ``topics`` columns must hold text (ids integers); messages whose
   ``topic_id`` is in no ``topics`` row are counted and reported (``unknown_channel``); a payload
   that is not a blob or a record time that is not an integer drops that message, counted.
 
@@ -34,6 +43,7 @@ import io
 import os
 import sqlite3
 import struct
+import time
 from collections import Counter
 from contextlib import ExitStack
 from pathlib import Path
@@ -48,8 +58,11 @@ from logtools.problems import Problem, ProblemKind
 from logtools.readers.mcap_scan import DECOMPRESS_BASE_BYTES, DECOMPRESS_RATIO
 
 __all__ = [
+    "DB3_CHECK_S",
     "METADATA_MAX_BYTES",
+    "METADATA_MAX_DEPTH",
     "METADATA_MAX_NODES",
+    "QOS_MAX_BYTES",
     "PayloadGuard",
     "check_db3",
     "checked_metadata",
@@ -63,6 +76,12 @@ METADATA_MAX_BYTES = 2**20
 """Largest ``metadata.yaml`` read (1 MiB; rosbag2 writes a few KB, ~300 bytes per topic)."""
 METADATA_MAX_NODES = 200_000
 """Most YAML nodes ``metadata.yaml`` may hold once its aliases are expanded."""
+METADATA_MAX_DEPTH = 64
+"""Most levels of nesting in ``metadata.yaml`` (rosbag2 writes 6)."""
+QOS_MAX_BYTES = 1 << 16
+"""Largest QoS profile string read (64 KiB; rosbag2 writes ~300 bytes per profile)."""
+DB3_CHECK_S = 20.0
+"""Time budget of the checks of one ``.db3`` file (seconds)."""
 _STEP = 1 << 20
 _METADATA = "metadata.yaml"
 
@@ -75,9 +94,29 @@ def decompress_budget(compressed_bytes: int) -> int:
 # ----------------------------------------------------------------------------- metadata.yaml
 
 
+def _flow_depth(text: str) -> int:
+    """The deepest nesting of ``[`` and ``{`` in ``text`` (quoted strings and comments left
+    out), counted without parsing."""
+    import re
+
+    import numpy as np
+
+    bare = re.sub(r"'[^'\n]*'|\"(?:[^\"\\\n]|\\.)*\"|#[^\n]*", "", text)
+    codes = np.frombuffer(bare.encode("utf-8", "replace"), dtype=np.uint8)
+    step = np.isin(codes, (ord("["), ord("{"))).astype(np.int64)
+    step -= np.isin(codes, (ord("]"), ord("}")))
+    return int(np.cumsum(step).max(initial=0))
+
+
 def _yaml_nodes(name: str, text: str) -> None:
     """Count the YAML nodes of ``text`` with aliases expanded, on the parser's events (no
-    document is built); refuse more than :data:`METADATA_MAX_NODES`."""
+    document is built); refuse more than :data:`METADATA_MAX_NODES`, or nesting deeper than
+    :data:`METADATA_MAX_DEPTH` (flow brackets counted on the text, before the parser)."""
+    if _flow_depth(text) > METADATA_MAX_DEPTH:
+        raise NotARosbagError(
+            name,
+            f"{_METADATA} nests brackets deeper than {METADATA_MAX_DEPTH} levels; rosbag2 writes 6",
+        )
     from ruamel.yaml import YAML
     from ruamel.yaml.events import (
         AliasEvent,
@@ -111,6 +150,11 @@ def _yaml_nodes(name: str, text: str) -> None:
             done(event.anchor, 1)
         elif isinstance(event, CollectionStartEvent):
             stack.append([event.anchor, 1])
+            if len(stack) > METADATA_MAX_DEPTH:
+                raise NotARosbagError(
+                    name,
+                    f"{_METADATA} nests deeper than {METADATA_MAX_DEPTH} levels; rosbag2 writes 6",
+                )
         elif isinstance(event, CollectionEndEvent) and len(stack) > 1:
             anchor, n = stack.pop()
             done(anchor, n)
@@ -204,6 +248,12 @@ def _check_info(name: str, key: str, info: dict[str, Any]) -> None:
         ):
             if sub in meta:
                 need(sub, test, expected, meta, f"{where}.topic_metadata")
+        if "offered_qos_profiles" in meta:
+            why = qos_problem(meta["offered_qos_profiles"])
+            if why is not None:
+                raise NotARosbagError(
+                    name, f"{_METADATA}: {where}.topic_metadata.offered_qos_profiles {why}"
+                )
         need("message_count", _is_int, "an integer", entry, where)
     for sub in ("compression_format", "compression_mode", "ros_distro"):
         opt(sub, lambda v: isinstance(v, str), "a string")
@@ -226,6 +276,52 @@ def _check_info(name: str, key: str, info: dict[str, Any]) -> None:
         "a mapping of names to plain values",
     )
     opt("files", lambda v: isinstance(v, list), "a list")
+
+
+_QOS_POLICIES = ("history", "reliability", "durability", "liveliness")
+_QOS_DURATIONS = ("deadline", "lifespan", "liveliness_lease_duration")
+
+
+def qos_problem(value: object) -> str | None:
+    """What is wrong with the QoS profiles ``value`` (a YAML string or a list, as rosbag2
+    stores them) for ``rosbags``, which reads every profile's policies (an integer or a name),
+    ``depth``, three ``sec``/``nsec`` durations and ``avoid_ros_namespace_conventions``; None
+    when they can be read ('' or an empty list: none)."""
+    from ruamel.yaml import YAML
+    from ruamel.yaml.error import YAMLError
+
+    if not value:
+        return None
+    if isinstance(value, str):
+        if len(value) > QOS_MAX_BYTES:
+            return f"is longer than {QOS_MAX_BYTES} characters; rosbag2 writes ~300 per profile"
+        if _flow_depth(value) > METADATA_MAX_DEPTH:
+            return f"nests deeper than {METADATA_MAX_DEPTH} levels"
+        try:
+            value = YAML(typ="safe", pure=True).load(value)
+        except (YAMLError, ValueError, TypeError, RecursionError) as err:
+            first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+            return f"is not readable YAML ({first[:120]})"
+        if not value:
+            return None
+    if not isinstance(value, list):
+        return f"is {type(value).__name__}, not a list of profiles"
+    for i, profile in enumerate(value):
+        if not isinstance(profile, dict):
+            return f"[{i}] is {type(profile).__name__}, not a mapping"
+        for key in _QOS_POLICIES:
+            v = profile.get(key)
+            if key in profile and not isinstance(v, (int, str)):
+                return f"[{i}].{key} is {type(v).__name__}; expected an integer or a name"
+        needed = ("depth", *_QOS_DURATIONS, "avoid_ros_namespace_conventions")
+        missing = [k for k in needed if k not in profile]
+        if missing:
+            return f"[{i}] lacks {', '.join(missing)}"
+        for key in _QOS_DURATIONS:
+            d = profile[key]
+            if not (isinstance(d, dict) and _is_int(d.get("sec")) and _is_int(d.get("nsec"))):
+                return f"[{i}].{key} is {str(d)[:40]!r}; expected a mapping of integers sec, nsec"
+    return None
 
 
 def prepared_folder(
@@ -372,6 +468,53 @@ _TOPIC_COLUMNS = (
 )
 
 
+_DB3_TABLES = ("messages", "topics", "schema", "message_definitions", "metadata")
+"""The objects of a rosbag2 database that rosbags reads: each must be a table if present."""
+
+
+def _check_db3_schema(name: str, path: Path, con: sqlite3.Connection) -> None:
+    """The objects rosbags reads are tables (a view or a virtual table can compute rows
+    forever), ``schema.schema_version`` an integer, the ``topics`` QoS profiles readable."""
+    kinds: dict[str, str] = {}
+    for kind, obj, sql in con.execute("SELECT type, name, sql FROM sqlite_master"):
+        if isinstance(obj, str) and obj in _DB3_TABLES:
+            virtual = isinstance(sql, str) and "VIRTUAL" in sql.upper()[:40]
+            kinds[obj] = "virtual table" if virtual else str(kind)
+    for obj, kind in sorted(kinds.items()):
+        if kind != "table":
+            raise NotARosbagError(
+                name,
+                f"{path.name}: {obj} is {'an' if kind[0] in 'aeiou' else 'a'} {kind}, "
+                "not a table; rosbag2 writes tables only",
+            )
+    for obj in ("messages", "topics"):
+        if obj not in kinds:
+            raise NotARosbagError(name, f"{path.name}: holds no {obj} table; not a rosbag2 bag")
+    if "schema" in kinds:
+        row = con.execute(
+            "SELECT count(*), min(typeof(schema_version)) FROM schema "
+            "WHERE typeof(schema_version) != 'integer'"
+        ).fetchone()
+        if row[0]:
+            raise NotARosbagError(
+                name,
+                f"{path.name}: table schema, column schema_version holds {row[1]}, not an integer",
+            )
+    columns = {r[1] for r in con.execute("PRAGMA table_info(topics)")}
+    if "offered_qos_profiles" in columns:
+        for topic, qos in con.execute("SELECT name, offered_qos_profiles FROM topics"):
+            if qos is not None and not isinstance(qos, str):
+                why: str | None = f"is {type(qos).__name__}, not text"
+            else:
+                why = qos_problem(qos)
+            if why is not None:
+                raise NotARosbagError(
+                    name,
+                    f"{path.name}: table topics, topic {str(topic)[:80]!r}: "
+                    f"offered_qos_profiles {why}",
+                )
+
+
 def check_db3(name: str, path: Path) -> list[Problem]:
     """Check a rosbag2 sqlite3 storage file (see module doc); the problems to report.
 
@@ -382,7 +525,10 @@ def check_db3(name: str, path: Path) -> list[Problem]:
         con = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro&immutable=1", uri=True)
     except sqlite3.Error as err:
         raise NotARosbagError(name, f"{path.name}: cannot open it as SQLite ({err})") from err
+    deadline = time.monotonic() + DB3_CHECK_S
+    con.set_progress_handler(lambda: int(time.monotonic() > deadline), 10_000)
     try:
+        _check_db3_schema(name, path, con)
         for col, want in _TOPIC_COLUMNS:
             row = con.execute(
                 f"SELECT count(*), min(typeof({col})) FROM topics WHERE typeof({col}) != ?",
@@ -408,6 +554,10 @@ def check_db3(name: str, path: Path) -> list[Problem]:
             "SELECT count(*) FROM messages WHERE topic_id NOT IN (SELECT id FROM topics)"
         ).fetchone()
     except sqlite3.Error as err:
+        if time.monotonic() > deadline:
+            raise NotARosbagError(
+                name, f"{path.name}: checking it took longer than {DB3_CHECK_S:g} s; not read"
+            ) from err
         raise NotARosbagError(name, f"{path.name}: not a rosbag2 database ({err})") from err
     finally:
         con.close()

@@ -116,6 +116,8 @@ def read_rosbag(path: str | os.PathLike[str], topics: Iterable[str] | None = Non
         OSError,
         ValueError,
         KeyError,
+        TypeError,  # a field of the wrong type where rosbags expects another (the last net)
+        AttributeError,
         AssertionError,
         IndexError,
         EOFError,

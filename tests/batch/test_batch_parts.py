@@ -232,7 +232,9 @@ def test_discovered_effects_become_table_rows(tmp_path: Path) -> None:
     effects = record["result"]["discovery"]["effects"]
     assert effects, "discovery found nothing: the test would check nothing"
     rows = pl.read_parquet(out / "fleet.parquet").filter(pl.col("kind") == "effect")
-    assert rows["parameter"].to_list() == [e["label"] for e in effects]
+    assert rows["parameter"].to_list() == [
+        f"{e['key']}: {p}" for e in effects for p in e["parameters"]
+    ]
     assert rows["estimator"].unique().to_list() == ["discovery"]
     index = (out / "index.html").read_text()
     assert f"Effects found ({len(effects)})" in index

@@ -34,6 +34,6 @@ def test_delay_log_is_never_confidently_wrong_in_any_encoding(tmp_path: Path) ->
         assert _covers_or_undetermined(est, "L2", L2_TRUE), (enc, est["L2"])
         assert "clock_offset" not in est["method"], est["method"]  # never folded as offsets
         answers.append(
-            (sorted(e["label"] for e in doc["discovery"]["effects"]), est["L1"]["identifiable"])
+            (sorted(e["key"] for e in doc["discovery"]["effects"]), est["L1"]["identifiable"])
         )
     assert all(a == answers[0] for a in answers), answers

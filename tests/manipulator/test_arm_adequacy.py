@@ -158,7 +158,9 @@ def test_pipeline_reports_delay_adequacy(tmp_path: Path) -> None:
     adq = doc["adequacy"]
     assert adq["before"]["verdict"] == "does not explain"
     assert "actuator_delay(tau)" in adq["model"]
-    assert "actuator_delay(tau)" in doc["discovery"]["named_keys"]
+    assert "actuator_delay(tau)" in doc["discovery"]["named"]
+    assert doc["discovery"]["engine"] == "calib.discovery"
+    assert doc["discovery"]["details"]["named_keys"] == doc["discovery"]["named"]
     assert doc["estimate"]["method"].endswith("actuator_delay(tau)")
     d = doc["estimate"]["d"]
     assert d["identifiable"] is False or d["ci95"][0] - 1e-3 <= 0.02 <= d["ci95"][1] + 1e-3

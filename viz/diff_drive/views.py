@@ -17,16 +17,16 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from calib.results import PM_MEANING, AnalysisResult, CalibrationResult
+from viz.diff_drive.style import DIFF_DRIVE_COLORS
 from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals
-from viz.style import COLORS
 
 __all__ = ["log_views", "write_png"]
 
 _COLOURS = {
     "truth": (40, 40, 40),
-    "nominal": COLORS["dd_nominal"][:3],
-    "calibrated": COLORS["dd_calibrated"][:3],
+    "nominal": DIFF_DRIVE_COLORS["dd_nominal"],
+    "calibrated": DIFF_DRIVE_COLORS["dd_calibrated"],
 }
 _MM = 1e3
 

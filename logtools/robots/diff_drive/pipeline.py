@@ -50,6 +50,8 @@ from calib.diff_drive.judgement import (
 )
 from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.odom_imu import analyze_odom_imu
+from calib.diff_drive.odom_imu.report import odom_imu_discovery_report
+from calib.diff_drive.odom_imu.result import allowed_range
 from calib.diff_drive.odometry_lsq import (
     PARAMETER_NAMES,
     LsqFit,
@@ -63,7 +65,7 @@ from calib.diff_drive.slip import SlipFit, fit_slip, slip_corrected, spanned
 from calib.diff_drive.umbmark import umbmark, umbmark_result
 from calib.discovery import DiscoveryReport
 from calib.errors import InsufficientDataError
-from calib.results import AnalysisResult, CalibrationResult
+from calib.results import AnalysisResult, CalibrationResult, Estimate
 from logtools.loaded import LoadedLog
 from logtools.robots.base import Progress
 from logtools.stages import Stages
@@ -634,11 +636,13 @@ def _odom_imu(
     nominal: DiffDriveParams | None,
     stages: Stages,
     seed: int,
-) -> tuple[CalibrationResult | None, Adequacy | None, Any, dict[str, Any]]:
+) -> tuple[CalibrationResult | None, Adequacy | None, Any, dict[str, Any], Any]:
+    """The odometry-vs-gyro calibration, its adequacy (the final model's), its discovery
+    report, its JSON section and the analysis result (for the report's lines)."""
     f = loaded.frame
     if not {"odom_omega", "gyro_z"} <= set(f.columns):
         stages.skip("odometry_imu", "no wheel-odometry yaw rate and IMU yaw rate")
-        return None, None, None, {}
+        return None, None, None, {}, None
     t = (f["t_ns"].to_numpy() - f["t_ns"][0]) * 1e-9
     col = {c: f[c].to_numpy().astype(float) for c in f.columns if c != "t_ns"}
     gps = (col["gps_lat"], col["gps_lon"]) if {"gps_lat", "gps_lon"} <= set(col) else None
@@ -655,17 +659,32 @@ def _odom_imu(
         ),
     )
     if res is None:
-        return None, None, None, {}
-    params = {"yaw_rate_gain": res.gain}
-    if res.effective_track is not None:
-        params["track_width"] = res.effective_track
+        return None, None, None, {}, None
+    g = res.recommended_gain()
+    params = {"yaw_rate_gain": g, **res.law_parameters()}
+    if res.effective_track is not None and g.identifiable and nominal is not None:
+        params["track_width"] = Estimate(
+            "track_width",
+            nominal.b * g.value,
+            nominal.b * g.std,
+            (nominal.b * g.ci95[0], nominal.b * g.ci95[1]),
+            True,
+            "m",
+            f"effective track: geometric track {nominal.b:g} m x yaw-rate gain",
+        )
     if res.distance_scale is not None:
         params["distance_scale_gps"] = res.distance_scale
-    g = res.gain
-    verdict = (
+    law = None if res.explained is None else res.explained.law
+    said = (
         f"odometry yaw rate / gyro yaw rate = {g.value:.4g} [95 %: {g.ci95[0]:.4g}, "
         f"{g.ci95[1]:.4g}]"
-        + ("" if g.identifiable else " (not determined: " + g.note + ")")
+        if g.identifiable
+        else "odometry yaw rate / gyro yaw rate not determined by this log: the data allow "
+        + allowed_range(g)
+    )
+    verdict = (
+        said
+        + ("" if law is None else f" (gain law {law.formula}: {law.adequacy.verdict})")
         + "; wheel radii not determined (no encoder angles and no independent distance"
         + (")" if res.distance_scale is None else " but GPS)")
     )
@@ -675,7 +694,8 @@ def _odom_imu(
         verdict=verdict,
         details={"windows": res.n_windows},
     )
-    return cal, res.adequacy, res, {"odometry_imu": res.to_dict()}
+    report = odom_imu_discovery_report(res)
+    return cal, res.final_adequacy, report, {"odometry_imu": res.to_dict()}, res
 
 
 def analyze_diff_drive(
@@ -717,14 +737,16 @@ def analyze_diff_drive(
     )
     sections.update(sec)
     warnings += more
+    arrays_extra: dict[str, Any] = {}
     if not runs:
-        cal, ad, _res, sec2 = _odom_imu(loaded, nominal, stages, config.seed)
+        cal, ad, oi_disc, sec2, oi_res = _odom_imu(loaded, nominal, stages, config.seed)
         sections.update(sec2)
         if cal is not None:
             methods.insert(0, cal)
             rec = cal
             adequacy = ad if ad is not None else adequacy
-            disc = _res
+            disc = oi_disc
+            arrays_extra["odometry_imu"] = oi_res
         elif "ground_truth" in sections and sections["ground_truth"]["verdict"] == (
             "not ground truth"
         ):
@@ -745,7 +767,7 @@ def analyze_diff_drive(
         warnings=warnings,
         stages=stages_pre.status + stages.status,
         sections=sections,
-        artifacts={"trajectories": arrays},
+        artifacts={"trajectories": arrays, **arrays_extra},
     )
 
 

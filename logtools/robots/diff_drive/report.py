@@ -77,8 +77,8 @@ def report_lines(result: AnalysisResult) -> list[Any]:
             f"Effective track from the {et['from']}: {e['value']:.4f} ± {e['std']:.2g} m "
             f"(geometric {et['geometric_track_m']} m)"
         )
-    oi = result.discovery if hasattr(result.discovery, "summary_lines") else None
-    if oi is not None:
+    oi = result.artifacts.get("odometry_imu")
+    if oi is not None and hasattr(oi, "summary_lines"):
         lines += oi.summary_lines()
     dr = result.sections.get("dead_reckoning")
     if dr:
@@ -110,9 +110,10 @@ def _dead_reckoning_lines(result: AnalysisResult) -> list[str]:
 
     rows = dr["runs"]
     names = short_names([str(r["run"]) for r in rows])
+    method = dr.get("calibrated_with") or (result.estimate.method if result.estimate else "")
     lines = [
-        f"Dead reckoning, end-point error nominal -> calibrated "
-        f"({dr.get('calibrated_with') or result.estimate.method if result.estimate else ''}):"
+        "Dead reckoning, end-point error nominal -> calibrated"
+        + (f" ({method}):" if method else ":")
     ]
     worse = []
     for name, row in zip(names, rows, strict=True):

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from calib.adequacy import NOT_EXPLAINED, Adequacy
+from calib.discovery import DiscoveryReport
 from calib.errors import CalibError
 from calib.manipulator.adequacy import (
     assess_arm,
@@ -28,6 +29,7 @@ from calib.manipulator.adequacy import (
 )
 from calib.manipulator.design import Term
 from calib.manipulator.discovery import ArmDiscovery, ArmFitter, arm_catalogue, run_discovery
+from calib.manipulator.explain import arm_discovery_report
 from calib.manipulator.identify import (
     ArmIdentification,
     IdentifyConfig,
@@ -131,7 +133,9 @@ def _model(
     instructions: a URDF the log's own metadata names is never opened (it is only quoted in the
     message asking for ``--urdf``)."""
     robot_cfg = loaded.robot_config if hasattr(loaded, "robot_config") else None
-    urdf = config.options(ManipulatorOptions).urdf or getattr(robot_cfg, "urdf", None)
+    urdf = config.options(ManipulatorOptions).urdf or (
+        robot_cfg.text("urdf") if robot_cfg is not None else None
+    )
     names = _joint_names(loaded, meta, n)
     if urdf:
         from calib.manipulator.serial import load_serial_arm
@@ -339,7 +343,7 @@ class _Judged:
     verdict allows, and the JSON sections (split at a parameter change, confounds)."""
 
     adequacy: Adequacy
-    discovery: ArmDiscovery | None
+    discovery: DiscoveryReport
     estimate: CalibrationResult
     sections: dict[str, Any]
 
@@ -379,7 +383,7 @@ def _judge(
     else:
         stages.skip("discovery", "--no-discovery")
     # a payload is regrouped into the fitted body; a term the fitted model already has is there
-    accepted = fitter.addable(disc.accepted if disc else ())
+    accepted = fitter.addable(disc.final_effects if disc else ())
     changes = (split.change,) if split is not None else ()
     final = first
     if accepted:
@@ -394,10 +398,11 @@ def _judge(
     unexplained = None
     if not final.adequacy.explains and split is None:
         unexplained = (
-            "what the named effects leave is still above the noise floor"
+            "what the named and described effects leave is still above the noise floor"
             if accepted
             else "no catalogue effect (friction, torque offset, payload, actuation delay or lag, "
-            "joint compliance) and no parameter change explains it"
+            "joint compliance), no residual model of the joints' own signals and no parameter "
+            "change explains it"
         )
     adequacy = final.adequacy.with_(
         before=before if accepted else None,
@@ -460,7 +465,16 @@ def _judge(
         verdict=verdict,
         covariance=est.covariance if same_fit else None,
     )
-    return _Judged(adequacy, disc, estimate, sections)
+    report = arm_discovery_report(
+        disc,
+        before,
+        adequacy,
+        est,
+        estimate,
+        description=None if disc is None else disc.description,
+        not_run="" if discovery else "discovery not run (--no-discovery)",
+    )
+    return _Judged(adequacy, report, estimate, sections)
 
 
 def _verdict(ident: ArmIdentification, adequacy: Adequacy) -> str:

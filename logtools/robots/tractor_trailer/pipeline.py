@@ -18,13 +18,13 @@ import polars as pl
 
 from calib.adequacy import Adequacy
 from calib.errors import CalibError
+from calib.kinematics.bicycle import SteeringGeometry
 from calib.results import AnalysisResult, CalibrationResult, StageStatus
 from calib.tractor_trailer.discovery.confounds import SpanChoice
 from calib.tractor_trailer.discovery.effects.base import SensorCorrections
 from calib.tractor_trailer.discovery.result import DiscoveryResult
 from calib.tractor_trailer.estimators.noslip import NoSlipRegression
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
-from calib.tractor_trailer.estimators.steering import SteeringGeometry
 from calib.tractor_trailer.explain import tractor_discovery_report
 from calib.tractor_trailer.judgement import (
     FoldedEffects,
@@ -186,7 +186,7 @@ def _steering_geometry(
     steer = next((c for c in ("steer", "steer_cmd") if c in loaded.frame.columns), None)
     if steer is None or "kappa" not in loaded.frame.columns:
         return None
-    from calib.tractor_trailer.estimators.steering import fit_steering_geometry
+    from calib.kinematics.bicycle import fit_steering_geometry
 
     progress("steering geometry")
     rows = _usable_rows(loaded.frame, ("kappa", steer))
