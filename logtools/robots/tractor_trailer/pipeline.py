@@ -35,6 +35,8 @@ from calib.tractor_trailer.judgement import (
     judge_along_path,
     judge_plausible,
     judge_unexplained,
+    more_precise,
+    pose_too_noisy,
     recommended_estimate,
     span_confounds,
 )
@@ -147,11 +149,11 @@ def _path_fit(
         again = path_inputs(loaded, max_window_s=window)
         if again.path.smoothing_samples != inp.path.smoothing_samples:
             inp, fit = again, run(again)
-    if np.max(np.abs(fit.bias_correction_)) > 0.01 * (abs(fit.L1_) + abs(fit.L2_)):
+    if pose_too_noisy(fit):
         other = path_inputs(loaded, prefer="odometry")
         if other.path.source == "odometry":
             alt = run(other)
-            if np.trace(alt.cov_[:2, :2]) < np.trace(fit.cov_[:2, :2]):
+            if more_precise(alt, fit):
                 alt.notes_.append(
                     "the pose is noisy (a large bias correction): odometry gave "
                     "the more precise fit and is used"
