@@ -36,6 +36,8 @@ PLAY = 0.01
 """rad on joint 1 (0.6 degrees)."""
 QD_SQUARED = 0.3
 """N*m/(rad/s)^2 on joint 2: drag growing with speed squared."""
+STICTION = 0.5
+"""N*m on joint 1 of friction beyond Coulomb below about 0.1 rad/s (a Stribeck curve)."""
 
 
 @cache
@@ -53,6 +55,9 @@ def _with(kind: str) -> ArmRun:
     elif kind == "square":
         qd = np.gradient(run.q[:, 1], run.t_s)
         tau[:, 1] += QD_SQUARED * qd * np.abs(qd)
+    elif kind == "stiction":
+        qd = np.gradient(run.q[:, 0], run.t_s)
+        tau[:, 0] += STICTION * np.sign(qd) * np.exp(-((qd / 0.1) ** 2))
     elif kind == "play":
         t1 = run.tau[:, 0]
         q[:, 0] = run.q[:, 0] + PLAY * np.tanh(t1 / (0.05 * np.sqrt(np.mean(t1**2))))
@@ -104,6 +109,16 @@ def test_drag_is_described_with_its_coefficient() -> None:
     coef = pars["joint2 torque: qd2·|qd2|"]
     assert _inside(coef, QD_SQUARED)
     assert f.explained(fit)
+
+
+def test_stiction_is_described_as_low_speed_friction() -> None:
+    _, d = _discovered("stiction")
+    desc = d.description
+    assert desc is not None
+    assert desc.accepted
+    assert desc.heldout_gain >= 0.5
+    words = [physics_hint(t.term) for t in desc.terms if t.entry == "joint1 torque"]
+    assert any("stiction" in w for w in words)
 
 
 def test_a_spring_is_named_a_spring_not_absorbed_into_gravity() -> None:
