@@ -19,7 +19,7 @@ from calib.manipulator.adequacy import assess_arm
 from calib.manipulator.design import Term
 from calib.manipulator.discovery import ArmDiscovery, ArmFitter, run_discovery
 from calib.manipulator.discovery.described import arm_library, physics_hint
-from calib.manipulator.explain import arm_discovery_report
+from calib.manipulator.explain import arm_discovery_report, described_alternative
 from calib.manipulator.identify import IdentifyConfig
 from calib.manipulator.planar import Planar2Link, Planar2Params
 from calib.manipulator.signals import prepare_signals
@@ -172,3 +172,18 @@ def test_described_terms_read_as_physics() -> None:
     assert "play" in physics_hint(lib["sign(qd2)·cos(q2)"])
     assert "friction" in physics_hint(lib["sign(qd1)"])
     assert "drift" in physics_hint(lib["t"])
+
+
+def test_a_description_not_kept_but_not_rejected_is_an_alternative_to_span() -> None:
+    f, d = _discovered("drift")
+    desc = d.description
+    assert desc is not None
+    assert described_alternative(f, d, ()) is None  # kept: it is the model, not an alternative
+    held_back = replace(d, description=replace(desc, accepted=False))
+    alt = described_alternative(f, held_back, ())
+    assert alt is not None
+    label, pars = alt
+    assert label == "described (not kept)"
+    assert set(f.design.names) <= set(pars)
+    rejected = replace(d, description=replace(desc, accepted=False, delta_bic=+1.0))
+    assert described_alternative(f, rejected, ()) is None
