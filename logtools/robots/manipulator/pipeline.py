@@ -29,7 +29,7 @@ from calib.manipulator.adequacy import (
 )
 from calib.manipulator.design import Term
 from calib.manipulator.discovery import ArmDiscovery, ArmFitter, arm_catalogue, run_discovery
-from calib.manipulator.explain import arm_discovery_report
+from calib.manipulator.explain import arm_discovery_report, described_alternative
 from calib.manipulator.identify import (
     ArmIdentification,
     IdentifyConfig,
@@ -443,15 +443,19 @@ def _judge(
         params = stabilised(params, pieces)
     params = widened(params, adequacy, pieces)
     sections: dict[str, Any] = {}
-    if confounds:
-        alts = []
-        for c in confounds:
-            alt_effects = fitter.applicable(c.alternative_fit.effects)
-            alt = fitter.fit_arm(tuple(alt_effects))
-            if alt is not None:
-                alts.append((c.alternative, widened(alt.estimates(), adequacy, pieces)))
+    alts = []
+    for c in confounds:
+        alt_effects = fitter.applicable(c.alternative_fit.effects)
+        alt = fitter.fit_arm(tuple(alt_effects))
+        if alt is not None:
+            alts.append((c.alternative, widened(alt.estimates(), adequacy, pieces)))
+    described = described_alternative(fitter, disc, accepted) if disc is not None else None
+    if described is not None:
+        alts.append((described[0], widened(described[1], adequacy, pieces)))
+    if alts:
         label = " + ".join(e.key for e in accepted) or "baseline"
         params = spanned(params, alts, label)
+    if confounds:
         sections["confounds"] = [c.to_dict() for c in confounds]
     if split is not None:
         sections["parameter_change"] = split.to_dict()
