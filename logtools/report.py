@@ -7,6 +7,7 @@ passed as plain ``Text`` (never markup), so ``Fc[joint1]`` prints as written."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from rich.console import Console, Group, RenderableType
 from rich.panel import Panel
@@ -96,11 +97,30 @@ def _runs_table(result: AnalysisResult) -> Table:
 
 
 SHORT_DISCOVERY = 8
-"""Lines of discovery's report shown without ``--methods``."""
+"""Lines of the discovery engines' own details shown without ``--methods`` (the findings
+themselves, :meth:`~calib.discovery.report.DiscoveryReport.answer_lines`, are never cut)."""
 
 
-def _answer(result: AnalysisResult, parts: list[RenderableType], title: str) -> None:
-    """The recommended estimate and the adequacy verdict: what a person reads first."""
+def _discovery_lines(discovery: Any, detail: str) -> list[str]:
+    """The "Model mismatch" panel's lines: the findings whole (effects with their values, the
+    verdict before -> after), then the engines' details, cut to ``SHORT_DISCOVERY`` lines
+    unless ``detail`` is "methods" and left out when it is "quiet"."""
+    answer_lines = getattr(discovery, "answer_lines", None)
+    if answer_lines is not None:
+        head, rest = list(answer_lines()), [str(x) for x in getattr(discovery, "more", ())]
+    else:  # any other result: its report, which may be cut as a whole
+        text = discovery.report()
+        head, rest = [], (text.split("\n") if isinstance(text, str) else list(text))
+    if detail == "quiet":
+        return head or rest[:SHORT_DISCOVERY]
+    if detail != "methods" and len(rest) > SHORT_DISCOVERY:
+        rest = [*rest[:SHORT_DISCOVERY], "... (the engines' details: --methods)"]
+    return head + rest
+
+
+def _answer(result: AnalysisResult, parts: list[RenderableType], title: str, detail: str) -> None:
+    """What a person reads first: the recommended estimate, the adequacy verdict and what
+    discovery found (named and described effects, the verdict before -> after)."""
     if result.estimate is not None:
         body = Text(printable_lines(result.estimate.report()))
         body.append("\n  " + PM_MEANING, style="dim")
@@ -117,9 +137,12 @@ def _answer(result: AnalysisResult, parts: list[RenderableType], title: str) -> 
         )
     if result.adequacy is not None:
         parts.append(adequacy_text(result.adequacy))
+    if result.discovery is not None:
+        text = "\n".join(_discovery_lines(result.discovery, detail))
+        parts.append(Panel(Text(printable_lines(text)), title="Model mismatch", expand=False))
 
 
-def _tail(result: AnalysisResult, parts: list[RenderableType], detail: str) -> None:
+def _tail(result: AnalysisResult, parts: list[RenderableType]) -> None:
     not_ok = [s for s in result.stages if s.status != "ok"]
     if not_ok:
         parts.append(
@@ -129,14 +152,6 @@ def _tail(result: AnalysisResult, parts: list[RenderableType], detail: str) -> N
                 style="yellow",
             )
         )
-    if result.discovery is not None:
-        text = result.discovery.report()
-        if not isinstance(text, str):  # a list of lines
-            text = "\n".join(text)
-        lines = text.split("\n")
-        if detail != "methods" and len(lines) > SHORT_DISCOVERY:
-            text = "\n".join([*lines[:SHORT_DISCOVERY], "... (all of it: --methods)"])
-        parts.append(Panel(Text(printable_lines(text)), title="Model mismatch", expand=False))
     if result.warnings:
         parts.append(
             Text("Notes:\n" + "\n".join(f"- {printable(w)}" for w in result.warnings), style="dim")
@@ -155,10 +170,10 @@ def render_analysis(result: AnalysisResult, detail: str = "methods") -> Renderab
     if "duration_s" in src:
         head.append(f"  duration: {src['duration_s']:.1f} s  samples: {src.get('samples', '?')}")
     parts.append(head)
-    if src.get("signals"):
+    if src.get("signals") and detail != "quiet":
         found = ", ".join(f"{k} <- {printable(v)}" for k, v in src["signals"].items())
         parts.append(Text("signals: " + found))
-    _answer(result, parts, "Recommended estimate")
+    _answer(result, parts, "Recommended estimate", detail)
     if detail == "quiet":
         return Group(*parts)
     plugin = plugin_for(result.robot)
@@ -166,7 +181,7 @@ def render_analysis(result: AnalysisResult, detail: str = "methods") -> Renderab
         parts += plugin.summary(result)
     if detail == "methods":
         parts += plugin.report(result)
-    _tail(result, parts, detail)
+    _tail(result, parts)
     if detail == "answer":
         parts.append(Text("(every method's table: --methods)", style="dim"))
     return Group(*parts)
@@ -194,13 +209,14 @@ def _render_pooled(result: AnalysisResult, detail: str) -> RenderableType:
         "Recommended estimate (all windows pooled)"
         if windows
         else "Recommended estimate (all runs pooled)",
+        detail,
     )
     if detail == "quiet":
-        return Group(*parts[1:]) if len(parts) > 1 else Group(*parts)
+        return Group(*parts)
     plugin = plugin_for(result.robot)
     if plugin.pooled_summary is not None:
         parts += plugin.pooled_summary(result)
-    _tail(result, parts, detail)
+    _tail(result, parts)
     return Group(*parts)
 
 
@@ -209,9 +225,10 @@ def print_analysis(
 ) -> None:
     """Print ``render_analysis`` to ``console`` (default: stdout), no NaN shown as a number
     (:func:`~logtools.safe_text.no_nan`)."""
+    from logtools.console import report_console
     from logtools.safe_text import no_nan
 
-    console = console or Console()
+    console = console or report_console()
     with console.capture() as captured:
         console.print(render_analysis(result, detail))
     console.file.write(no_nan(captured.get()))
