@@ -3,6 +3,7 @@ can start (without a display, say so plainly and where the recording is)."""
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 
 import typer
@@ -62,6 +63,13 @@ def register(app: typer.Typer) -> None:
         from logtools.views import write_views
         from viz.viewer import can_start_viewer, open_viewer
 
+        viewer_missing = None if no_viewer else _why_no_viewer(can_start_viewer())
+        if viewer_missing is not None:  # said before any work: the user may stop here
+            say(
+                f"logcal: {viewer_missing}, so the viewer cannot open; the recording will only "
+                "be saved (--no-viewer says you want just that)",
+                stderr=False,
+            )
         inputs = read_inputs(
             logs,
             channel_map=channel_map,
@@ -100,11 +108,10 @@ def register(app: typer.Typer) -> None:
         assert out is not None  # the plugin has views
         if no_viewer:
             return
-        if not can_start_viewer():
+        if viewer_missing is not None:
             say(
-                "logcal: no display here (neither DISPLAY nor WAYLAND_DISPLAY is set), so the "
-                f"viewer cannot open; the recording is saved as {out}: open it where there is "
-                f"a display with: rerun {out}",
+                f"logcal: {viewer_missing}; the recording is saved as {out}: open it where a "
+                f"viewer can start with: rerun {out}",
                 stderr=False,
             )
             return
@@ -121,3 +128,13 @@ def register(app: typer.Typer) -> None:
                 f"{viewer.host}:{viewer.port} only) on {out}",
                 stderr=False,
             )
+
+
+def _why_no_viewer(display: bool) -> str | None:
+    """Why the rerun viewer cannot start here (``display``: whether there is a display), or
+    None when it can: no display, or no rerun viewer installed."""
+    if not display:
+        return "no display here (neither DISPLAY nor WAYLAND_DISPLAY is set)"
+    if importlib.util.find_spec("rerun") is None:
+        return "no rerun viewer is installed (pip install rerun-sdk)"
+    return None
