@@ -21,7 +21,7 @@ import math
 import os
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -72,12 +72,19 @@ class LoadRequest(ChannelMap):
         origin_ns: the time (ns) ``start_s`` and ``end_s`` count from, when known before
             reading (a windowed analysis): the read then asks the reader for that span only
             (:func:`logtools.readers.read_log` ``span_ns``). None: the log's first sample.
+        t_offset_s: seconds added to the ground truth's time stamps to put them on the log's
+            clock (evo's ``--t_offset``); 0: the same clock.
+        t_max_diff_s: the largest time (s) between a log's row and a ground-truth pose it is
+            paired with (evo's ``--t_max_diff``); a row farther from every pose has no ground
+            truth. None: 2.5 of the ground truth's median sample periods.
     """
 
     ground_truth: str | None = None
     start_s: float | None = None
     end_s: float | None = None
     origin_ns: int | None = None
+    t_offset_s: float = 0.0
+    t_max_diff_s: float | None = None
 
     @classmethod
     def of(
@@ -88,11 +95,19 @@ class LoadRequest(ChannelMap):
         start_s: float | None = None,
         end_s: float | None = None,
         origin_ns: int | None = None,
+        t_offset_s: float | None = None,
+        t_max_diff_s: float | None = None,
     ) -> ChannelMap | None:
-        """``channel_map`` with these settings (unchanged when none is given)."""
-        if ground_truth is None and start_s is None and end_s is None:
+        """``channel_map`` with these settings (unchanged when none is given); the ground
+        truth's clock settings of a ``channel_map`` that is a request carry over unless given."""
+        given = (ground_truth, start_s, end_s, t_offset_s, t_max_diff_s)
+        if all(v is None for v in given):
             return channel_map
         base = channel_map if channel_map is not None else ChannelMap()
+        if t_offset_s is None:
+            t_offset_s = base.t_offset_s if isinstance(base, LoadRequest) else 0.0
+        if t_max_diff_s is None and isinstance(base, LoadRequest):
+            t_max_diff_s = base.t_max_diff_s
         return cls(
             dict(base.signals),
             base.off,
@@ -103,6 +118,8 @@ class LoadRequest(ChannelMap):
             start_s=start_s,
             end_s=end_s,
             origin_ns=origin_ns,
+            t_offset_s=t_offset_s,
+            t_max_diff_s=t_max_diff_s,
         )
 
 
@@ -295,7 +312,9 @@ def read_and_resolve(
     resolved = resolve_signals(log, channel_map)
     if isinstance(channel_map, LoadRequest) and channel_map.ground_truth is not None:
         crop = channel_map.start_s is not None or channel_map.end_s is not None
-        resolved = join_ground_truth(log, resolved, channel_map.ground_truth, crop=crop)
+        resolved = join_ground_truth(
+            log, resolved, channel_map.ground_truth, crop=crop, t_offset_s=channel_map.t_offset_s
+        )
     return log, resolved
 
 
@@ -305,18 +324,20 @@ def join_ground_truth(
     ground_truth: str | os.PathLike[str],
     *,
     crop: bool = False,
+    t_offset_s: float = 0.0,
 ) -> ResolvedSignals:
     """``resolved`` (the signals of ``log``) with ``x``, ``y``, ``yaw`` taken from the
     ground-truth file instead.
 
     The file (TUM, or any log logcal reads that has ``x``, ``y``, ``yaw``) must be stamped on
-    ``log``'s clock; with ``crop`` it is cut to the span ``log`` covers (a cropped log).
+    ``log``'s clock once ``t_offset_s`` is added to its stamps; with ``crop`` it is cut to the
+    span ``log`` covers (a cropped log).
 
     Raises:
         LogcalInputError: the file cannot be read, has no pose, or shares no time with the log.
     """
     gt_path = os.fspath(ground_truth)
-    gt_log = read_log(gt_path)
+    gt_log = shifted_log(read_log(gt_path), t_offset_s)
     origin, last = _log_origin(log), _log_end(log)
     if crop and origin is not None and last is not None and last > origin:
         gt_log = crop_log(gt_log, 0.0, (last - origin) * 1e-9, origin_ns=origin)
@@ -334,7 +355,8 @@ def join_ground_truth(
             f"{gt_path}: its poses span {g0 * 1e-9:.3f} .. {g1 * 1e-9:.3f} s and the log "
             f"{log.path} {(origin or 0) * 1e-9:.3f} .. {(last or 0) * 1e-9:.3f} s: no common "
             "time. The ground truth must be stamped on the log's clock (e.g. both in epoch "
-            "seconds)."
+            "seconds), or shifted onto it with --t-offset SECONDS"
+            + (f" (given: {t_offset_s:g} s)." if t_offset_s else ".")
         )
     name = Path(gt_path).name
     signals = {k: v for k, v in resolved.signals.items() if k not in GROUND_TRUTH_SIGNALS}
@@ -350,6 +372,8 @@ def join_ground_truth(
         signals[n] = gt.signals[n]
         src = gt.sources[n]
         sources[n] = SignalSource(name, src.field, src.transform, origin=gt_path)
+    if t_offset_s:
+        notes.append(f"{gt_path}: its time stamps shifted by {t_offset_s:+g} s (--t-offset)")
     notes += [str(p) for p in gt_log.problems] + list(gt.problems)
     return ResolvedSignals(
         signals,
@@ -361,6 +385,23 @@ def join_ground_truth(
         robot=resolved.robot,
         outliers=[*resolved.outliers, *gt.outliers],
     )
+
+
+def shifted_log(log: LogData, offset_s: float) -> LogData:
+    """``log`` with ``offset_s`` seconds added to every time stamp (``log`` itself for 0)."""
+    if not offset_s:
+        return log
+    shift = round(offset_s * 1e9)
+    topics = {k: f.with_columns(pl.col("t_ns") + shift) for k, f in log.topics.items()}
+    info = {
+        k: replace(
+            i,
+            first_ns=None if i.first_ns is None else i.first_ns + shift,
+            last_ns=None if i.last_ns is None else i.last_ns + shift,
+        )
+        for k, i in log.info.items()
+    }
+    return replace(log, topics=topics, info=info)
 
 
 def load_log(
@@ -406,6 +447,8 @@ def load_log(
             start_s=req.start_s if start_s is None else start_s,
             end_s=req.end_s if end_s is None else end_s,
             origin_ns=req.origin_ns,
+            t_offset_s=req.t_offset_s,
+            t_max_diff_s=req.t_max_diff_s,
         )
     log, resolved = read_and_resolve(
         path, channel_map, decoders=decoders, keep=analysis_columns(channel_map)
@@ -417,11 +460,17 @@ def load_log(
     if not resolved.signals:
         raise MissingSignalsError(log.path, list(plugin.required), log.topic_names(), robot)
     names = list(resolved.signals)
+    max_diff = channel_map.t_max_diff_s if isinstance(channel_map, LoadRequest) else None
     frame = align_signals(
         resolved.signals,
         rate_hz=rate_hz,
         method=method,
         required=_span_signals(plugin.span_signals, names),
+        tolerances=(
+            {}
+            if max_diff is None or channel_map.ground_truth is None  # type: ignore[union-attr]
+            else dict.fromkeys(GROUND_TRUTH_SIGNALS, max_diff)
+        ),
     )
     gaps = find_gaps(resolved.signals)
     origin = min((i.first_ns for i in log.info.values() if i.first_ns is not None), default=0)
