@@ -81,9 +81,10 @@ def t_offset_option() -> Any:
     return typer.Option(
         None,
         "--t-offset",
-        metavar="SECONDS",
+        metavar="SECONDS|auto",
         help="Add this many seconds to the ground truth's time stamps to put them on the log's "
-        "clock (as evo's --t_offset; negative: the ground truth runs ahead).",
+        "clock (as evo's --t_offset; negative: the ground truth runs ahead); auto: estimate it "
+        "from the log's turn rate and the ground truth's yaw rate.",
     )
 
 
@@ -151,7 +152,7 @@ def read_inputs(
     start: float | None = None,
     end: float | None = None,
     dedupe: bool = True,
-    t_offset: float | None = None,
+    t_offset: str | float | None = None,
     t_max_diff: float | None = None,
 ) -> Inputs:
     """Expand the log arguments, build the channel map from the options and (``dedupe``) keep
@@ -172,7 +173,7 @@ def read_inputs(
         raise LogcalInputError(f"--end {end:g} s is not after --start {start:g} s")
     if ground_truth is not None and not ground_truth.is_file():
         raise LogcalInputError(f"--ground-truth {ground_truth}: no such file")
-    check_ground_truth_clock(ground_truth, t_offset, t_max_diff)
+    offset = check_ground_truth_clock(ground_truth, t_offset, t_max_diff)
     runs = expand_runs(list(logs))
     cmap = load_channel_map(channel_map) if channel_map is not None else None
     cmap = with_signal_options(cmap, signals or [])
@@ -181,8 +182,9 @@ def read_inputs(
         ground_truth=ground_truth,
         start_s=start,
         end_s=end,
-        t_offset_s=t_offset,
+        t_offset_s=offset if isinstance(offset, float) else None,
         t_max_diff_s=t_max_diff,
+        t_offset_auto=True if offset == "auto" else None,
     )
     same: list[SameRecording] = []
     if dedupe and len(runs) > 1:
@@ -191,25 +193,36 @@ def read_inputs(
 
 
 def check_ground_truth_clock(
-    ground_truth: Path | None, t_offset: float | None, t_max_diff: float | None
-) -> None:
-    """Refuse ``--t-offset`` / ``--t-max-diff`` without ``--ground-truth``, or not finite, or
-    a ``--t-max-diff`` that is not positive."""
+    ground_truth: Path | None, t_offset: str | float | None, t_max_diff: float | None
+) -> float | str | None:
+    """``--t-offset`` as seconds, "auto" or None; refused without ``--ground-truth``, not a
+    finite number (or auto), or with a ``--t-max-diff`` that is not positive."""
     import math
 
     from logtools.errors import LogcalInputError
 
+    offset: float | str | None = None
+    if t_offset is not None:
+        text = str(t_offset).strip()
+        if text.lower() == "auto":
+            offset = "auto"
+        else:
+            try:
+                offset = float(text)
+            except ValueError:
+                offset = math.nan
+            if not math.isfinite(offset):
+                raise LogcalInputError(
+                    f"--t-offset {text}: expected a number of seconds or auto"
+                ) from None
     for flag, value in (("--t-offset", t_offset), ("--t-max-diff", t_max_diff)):
-        if value is None:
-            continue
-        if ground_truth is None:
+        if value is not None and ground_truth is None:
             raise LogcalInputError(
-                f"{flag} {value:g}: it sets the clock of a ground truth; give --ground-truth FILE"
+                f"{flag} {value}: it sets the clock of a ground truth; give --ground-truth FILE"
             )
-        if not math.isfinite(value):
-            raise LogcalInputError(f"{flag}: expected a number of seconds, got {value}")
-    if t_max_diff is not None and t_max_diff <= 0:
+    if t_max_diff is not None and not (math.isfinite(t_max_diff) and t_max_diff > 0):
         raise LogcalInputError(f"--t-max-diff {t_max_diff:g}: expected seconds above 0")
+    return offset
 
 
 def say(text: str, *, stderr: bool = True) -> None:

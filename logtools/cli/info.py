@@ -47,7 +47,7 @@ def register(app: typer.Typer) -> None:
         channel_map: Path | None = _CHANNEL_MAP,
         signal: list[str] | None = _SIGNAL,
         ground_truth: Path | None = _GROUND_TRUTH,
-        t_offset: float | None = t_offset_option(),
+        t_offset: str | None = t_offset_option(),
         t_max_diff: float | None = t_max_diff_option(),
         start: float | None = start_option(),
         end: float | None = end_option(),

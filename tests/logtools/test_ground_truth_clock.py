@@ -69,3 +69,29 @@ def test_the_clock_options_need_a_ground_truth(tmp_path, capsys) -> None:
     assert "give --ground-truth FILE" in capsys.readouterr().err
     assert main(["info", str(wheels), "--ground-truth", str(gt), "--t-max-diff", "0"]) == 2
     assert "--t-max-diff 0: expected seconds above 0" in capsys.readouterr().err
+
+
+def test_t_offset_auto_finds_the_offset(tmp_path, capsys) -> None:
+    """A turning drive (yaw rate varying) whose mocap clock is 1000.25 s ahead: ``auto`` finds
+    the offset from the wheels' difference rate and the ground truth's yaw rate."""
+    t = np.arange(0, 40, 0.02)
+    rate = 0.5 * np.sin(0.4 * t) + 0.3 * np.sin(1.3 * t + 1.0)  # turn rate, rad/s
+    yaw = np.cumsum(rate) * 0.02
+    wheels = tmp_path / "wheels.csv"
+    rows = ["t,wheel_left,wheel_right"] + [
+        f"{EPOCH + ti:.3f},{10 * ti - 2 * y:.6f},{10 * ti + 2 * y:.6f}"
+        for ti, y in zip(t, yaw, strict=True)
+    ]
+    wheels.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    keep = slice(250, 1800, 5)  # 10 Hz poses from 5 s to 36 s
+    gt = tmp_path / "mocap.tum"
+    write_tum(gt, t[keep] + EPOCH - 1000.25, np.cos(yaw[keep]), np.sin(yaw[keep]), yaw[keep])
+    args = ["info", str(wheels), "--ground-truth", str(gt), "--t-offset", "auto", "--json"]
+    assert main(args) == 0
+    doc = json.loads(capsys.readouterr().out)
+    (note,) = [p for p in doc["problems"] if "--t-offset auto" in p]
+    offset = float(note.split("shifted by ")[1].split(" s")[0])
+    assert abs(offset - 1000.25) < 0.01
+    assert abs(doc["signals"]["x"]["first_ns"] * 1e-9 - (EPOCH + 5.0)) < 0.02
+    assert main(["info", str(wheels), "--ground-truth", str(gt), "--t-offset", "soon"]) == 2
+    assert "expected a number of seconds or auto" in capsys.readouterr().err
