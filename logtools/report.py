@@ -43,16 +43,18 @@ def short_names(paths: list[str]) -> list[str]:
     return list(paths)
 
 
-def _cell(e: Estimate) -> str:
+def _cell(e: Estimate, one_line: bool = False) -> str:
     if not math.isfinite(e.value):
         return "- *"  # no value (not determined; the report says the range the data allow)
     if not e.identifiable:
         return f"{e.value:.4g} *"
-    return f"{e.value:.4g}\n[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
+    gap = " " if one_line else "\n"
+    return f"{e.value:.4g}{gap}[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
 
 
-def _runs_table(result: AnalysisResult) -> Table:
-    """Each run's own estimate: runs by their shortest unique names, values whole (an interval
+def _runs_table(result: AnalysisResult, one_line: bool = False) -> Table:
+    """Each run's own estimate (``one_line``: a run's row on one line, an interval beside its
+    value): runs by their shortest unique names, values whole (an interval
     on its own line), the method in the title when every run used the same one, the stages
     that did not run as footnotes."""
     names: list[str] = []
@@ -88,7 +90,7 @@ def _runs_table(result: AnalysisResult) -> Table:
         table.add_row(
             Text(printable(run_name)),
             *([] if one_method else [Text(printable(r.estimate.method if r.estimate else "none"))]),
-            *(Text(_cell(params[n]) if n in params else "-") for n in names),
+            *(Text(_cell(params[n], one_line) if n in params else "-") for n in names),
         )
     caption = ["* not determined (the run's own report says why)"]
     table.caption = Text("\n".join(printable(x) for x in caption + notes))
@@ -158,11 +160,13 @@ def _tail(result: AnalysisResult, parts: list[RenderableType]) -> None:
         )
 
 
-def render_analysis(result: AnalysisResult, detail: str = "methods") -> RenderableType:
+def render_analysis(
+    result: AnalysisResult, detail: str = "methods", one_line: bool = False
+) -> RenderableType:
     """What a person reads after ``logcal analyze``, as one rich renderable; ``detail`` one of
-    ``DETAILS``."""
+    ``DETAILS``; ``one_line``: each run's row of a table on one line (a file or a pipe)."""
     if result.runs:
-        return _render_pooled(result, detail)
+        return _render_pooled(result, detail, one_line)
     parts: list[RenderableType] = []
     src = result.source
     head = Text(printable(src.get("path", "")), style="bold")
@@ -187,7 +191,7 @@ def render_analysis(result: AnalysisResult, detail: str = "methods") -> Renderab
     return Group(*parts)
 
 
-def _render_pooled(result: AnalysisResult, detail: str) -> RenderableType:
+def _render_pooled(result: AnalysisResult, detail: str, one_line: bool) -> RenderableType:
     windows = result.source.get("windows")
     parts: list[RenderableType] = [
         Text.assemble(
@@ -201,7 +205,7 @@ def _render_pooled(result: AnalysisResult, detail: str) -> RenderableType:
             f"  robot: {result.robot}",
             f"  pooled: {result.source['runs_pooled']}" if "runs_pooled" in result.source else "",
         ),
-        _runs_table(result),
+        _runs_table(result, one_line),
     ]
     _answer(
         result,
@@ -230,6 +234,6 @@ def print_analysis(
 
     console = console or report_console()
     with console.capture() as captured:
-        console.print(render_analysis(result, detail))
+        console.print(render_analysis(result, detail, one_line=not console.is_terminal))
     console.file.write(no_nan(captured.get()))
     console.file.flush()

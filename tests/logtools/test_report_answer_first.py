@@ -97,3 +97,22 @@ def test_the_cli_writes_unwrapped_lines_to_a_pipe(capsys, monkeypatch) -> None:
 
     printed(_result(), detail="quiet")  # stdout captured: not a terminal
     assert capsys.readouterr().out.splitlines()[0].rstrip().endswith("samples: 4980")
+
+
+def test_each_run_is_one_line_in_a_file(monkeypatch) -> None:
+    monkeypatch.delenv("COLUMNS", raising=False)
+
+    def run(name: str, value: float) -> AnalysisResult:
+        est = Estimate("L1", value, 0.002, (value - 0.004, value + 0.004))
+        return AnalysisResult(
+            "tractor_trailer", [], [], CalibrationResult("LSQ", {"L1": est}, "ok"),
+            source={"path": f"/logs/{name}"},
+        )  # fmt: skip
+
+    pooled = AnalysisResult(
+        "tractor_trailer", [], [], None, runs=[run("run-01.csv", 1.25), run("run-02.csv", 1.26)]
+    )  # fmt: skip
+    out = io.StringIO()
+    print_analysis(pooled, console=report_console(file=out), detail="quiet")
+    (row,) = [x for x in out.getvalue().splitlines() if "run-02.csv" in x]
+    assert "1.26 [1.256, 1.264]" in row
