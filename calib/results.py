@@ -125,9 +125,9 @@ class Estimate(JsonRecord):
         if not (math.isfinite(self.std) and math.isfinite(lo) and math.isfinite(hi)):
             why = f": {self.note}" if self.note else ""
             return f"{self.name}: not determined by this log{why}"
+        unit = f" {self.unit}" if self.unit else ""
         return (
-            f"{self.name} = {self.value:.4g} ± {self.std:.2g} {self.unit} "
-            f"[95 %: {lo:.4g}, {hi:.4g}]{tag}"
+            f"{self.name} = {self.value:.4g} ± {self.std:.2g}{unit} [95 %: {lo:.4g}, {hi:.4g}]{tag}"
         )
 
 

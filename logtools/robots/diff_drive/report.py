@@ -146,7 +146,10 @@ def _umbmark_lines(result: AnalysisResult) -> list[str]:
         hidden = [e.name for e in m.parameters.values() if not e.identifiable]
         text = "; ".join(e.report() for e in shown)
         if hidden:
-            text += f"; not determined: {', '.join(hidden)} (the mean radius stays nominal)"
+            text += (
+                f"; not determined: {', '.join(hidden)} (UMBmark keeps the nominal mean radius; "
+                "its track width holds for that radius)"
+            )
         out.append(f"{m.method}: {text}")
     return out
 
