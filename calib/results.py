@@ -11,6 +11,7 @@ shown to people, ``report()``.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from enum import StrEnum
@@ -91,6 +92,11 @@ class JsonRecord:
         return safe
 
 
+def _plain(x: Any) -> Any:
+    """``x`` as a Python float when it is a real number (numpy's too), else as it is."""
+    return float(x) if isinstance(x, numbers.Real) else x
+
+
 @dataclass(frozen=True)
 class Estimate(JsonRecord):
     """One estimated quantity: value +/- standard error, 95 % interval, identifiability.
@@ -106,15 +112,22 @@ class Estimate(JsonRecord):
     unit: str = "m"
     note: str = ""
 
+    def __post_init__(self) -> None:
+        """Hold plain Python floats (a numpy scalar prints as ``np.float64(1.25)`` in a
+        tuple or a repr, where a user expects ``1.25``)."""
+        object.__setattr__(self, "value", _plain(self.value))
+        object.__setattr__(self, "std", _plain(self.std))
+        object.__setattr__(self, "ci95", tuple(_plain(x) for x in self.ci95))
+
     def report(self) -> str:
         lo, hi = self.ci95
         tag = "" if self.identifiable else "  (not determined by this log)"
         if not (math.isfinite(self.std) and math.isfinite(lo) and math.isfinite(hi)):
             why = f": {self.note}" if self.note else ""
             return f"{self.name}: not determined by this log{why}"
+        unit = f" {self.unit}" if self.unit else ""
         return (
-            f"{self.name} = {self.value:.4g} ± {self.std:.2g} {self.unit} "
-            f"[95 %: {lo:.4g}, {hi:.4g}]{tag}"
+            f"{self.name} = {self.value:.4g} ± {self.std:.2g}{unit} [95 %: {lo:.4g}, {hi:.4g}]{tag}"
         )
 
 

@@ -161,6 +161,7 @@ def align_signals(
     hold: Iterable[str] = (),
     wrap: Iterable[str] = (),
     required: Iterable[str] | None = None,
+    tolerances: Mapping[str, float] | None = None,
 ) -> pl.DataFrame:
     """Resample signals onto one uniform grid over their common span.
 
@@ -174,6 +175,8 @@ def align_signals(
         hold: signals sampled by zero-order hold (commands).
         wrap: angle signals (rad) unwrapped before and wrapped to [-pi, pi) after sampling.
         required: signals whose common span sets the grid; None: all of them.
+        tolerances: signal -> its own largest distance (s) from a source sample, over
+            ``tolerance_s`` (a ground truth paired within ``--t-max-diff``).
 
     Returns:
         Frame with ``t_ns`` (int64, strictly increasing) and one float64 column per signal,
@@ -221,6 +224,8 @@ def align_signals(
     for key, (name, t, v) in series.items():
         period_ns = 1e9 / median_rate_hz(t)
         tol_ns = 2.5 * period_ns if tolerance_s is None else tolerance_s * 1e9
+        if tolerances and name in tolerances:
+            tol_ns = tolerances[name] * 1e9
         if name in hold_set:
             sampled = _sample_hold(t, v, grid, tol_ns)
         elif name in wrap_set:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 __all__ = [
     "ChannelMapEntryError",
     "ChannelMapError",
@@ -37,11 +39,23 @@ class LogFileNotFoundError(LogcalInputError):
 
 
 class NotAnMcapError(LogcalInputError):
-    def __init__(self, path: str, detail: str) -> None:
-        super().__init__(
-            f"{path}: not a readable MCAP or CSV log ({detail}). Expected an MCAP file starting "
-            "with the magic bytes 0x89 'MCAP0', or a CSV with a header row and a time column 't'."
-        )
+    """A file no format reads; ``formats``: what each registered format is, when the file fits
+    none of them (the message names every one)."""
+
+    def __init__(self, path: str, detail: str, formats: Sequence[str] = ()) -> None:
+        if formats:
+            text = (
+                f"{path}: not a log logcal reads ({detail}). Expected one of: "
+                + "; ".join(formats)
+                + "."
+            )
+        else:
+            text = (
+                f"{path}: not a readable MCAP or CSV log ({detail}). Expected an MCAP file "
+                "starting with the magic bytes 0x89 'MCAP0', or a CSV with a header row and a "
+                "time column 't'."
+            )
+        super().__init__(text)
         self.path = path
 
 
@@ -107,12 +121,20 @@ class NoDriveSignalsError(MissingSignalsError):
     """A log with none of the drive signals from which logcal tells the robot type."""
 
     def __init__(
-        self, path: str, available: list[str], expected: dict[str, list[str]] | None = None
+        self,
+        path: str,
+        available: list[str],
+        expected: dict[str, list[list[str]]] | None = None,
     ) -> None:
-        """``expected``: each robot type's required signals (from the robot plugins)."""
+        """``expected``: each robot type's sets of signals, any one of which identifies it (from
+        the robot plugins)."""
         have = ", ".join(available) if available else "(none)"
-        expected = expected or {}
-        options = "; ".join(f"{', '.join(sig)} ({robot})" for robot, sig in expected.items())
+        expected = {robot: [s for s in sets if s] for robot, sets in (expected or {}).items()}
+        options = "; ".join(
+            f"{' or '.join(', '.join(s) for s in sets)} ({robot})"
+            for robot, sets in expected.items()
+            if sets
+        )
         LogcalInputError.__init__(
             self,
             f"{path}: no drive signals found, so the robot type is unknown. Expected a 'logcal' "
@@ -121,7 +143,7 @@ class NoDriveSignalsError(MissingSignalsError):
             "lists the default topics).",
         )
         self.path, self.available = path, available
-        self.missing = sorted({s for sig in expected.values() for s in sig})
+        self.missing = sorted({s for sets in expected.values() for sig in sets for s in sig})
 
 
 class LogWriteError(LogcalInputError):

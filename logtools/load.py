@@ -21,7 +21,7 @@ import math
 import os
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -73,12 +73,21 @@ class LoadRequest(ChannelMap):
         origin_ns: the time (ns) ``start_s`` and ``end_s`` count from, when known before
             reading (a windowed analysis): the read then asks the reader for that span only
             (:func:`logtools.readers.read_log` ``span_ns``). None: the log's first sample.
+        t_offset_s: seconds added to the ground truth's time stamps to put them on the log's
+            clock (evo's ``--t_offset``); 0: the same clock.
+        t_max_diff_s: the largest time (s) between a log's row and a ground-truth pose it is
+            paired with (evo's ``--t_max_diff``); a row farther from every pose has no ground
+            truth. None: 2.5 of the ground truth's median sample periods.
     """
 
     ground_truth: str | None = None
     start_s: float | None = None
     end_s: float | None = None
     origin_ns: int | None = None
+    t_offset_s: float = 0.0
+    t_max_diff_s: float | None = None
+    t_offset_auto: bool = False
+    """Estimate the ground truth's offset from the log (:func:`estimated_offset`)."""
 
     @classmethod
     def of(
@@ -89,11 +98,22 @@ class LoadRequest(ChannelMap):
         start_s: float | None = None,
         end_s: float | None = None,
         origin_ns: int | None = None,
+        t_offset_s: float | None = None,
+        t_max_diff_s: float | None = None,
+        t_offset_auto: bool | None = None,
     ) -> ChannelMap | None:
-        """``channel_map`` with these settings (unchanged when none is given)."""
-        if ground_truth is None and start_s is None and end_s is None:
+        """``channel_map`` with these settings (unchanged when none is given); the ground
+        truth's clock settings of a ``channel_map`` that is a request carry over unless given."""
+        given = (ground_truth, start_s, end_s, t_offset_s, t_max_diff_s, t_offset_auto)
+        if all(v is None for v in given):
             return channel_map
         base = channel_map if channel_map is not None else ChannelMap()
+        if t_offset_s is None:
+            t_offset_s = base.t_offset_s if isinstance(base, LoadRequest) else 0.0
+        if t_max_diff_s is None and isinstance(base, LoadRequest):
+            t_max_diff_s = base.t_max_diff_s
+        if t_offset_auto is None:
+            t_offset_auto = base.t_offset_auto if isinstance(base, LoadRequest) else False
         return cls(
             dict(base.signals),
             base.off,
@@ -104,6 +124,9 @@ class LoadRequest(ChannelMap):
             start_s=start_s,
             end_s=end_s,
             origin_ns=origin_ns,
+            t_offset_s=t_offset_s,
+            t_max_diff_s=t_max_diff_s,
+            t_offset_auto=t_offset_auto,
         )
 
 
@@ -296,7 +319,14 @@ def read_and_resolve(
     resolved = resolve_signals(log, channel_map)
     if isinstance(channel_map, LoadRequest) and channel_map.ground_truth is not None:
         crop = channel_map.start_s is not None or channel_map.end_s is not None
-        resolved = join_ground_truth(log, resolved, channel_map.ground_truth, crop=crop)
+        resolved = join_ground_truth(
+            log,
+            resolved,
+            channel_map.ground_truth,
+            crop=crop,
+            t_offset_s=channel_map.t_offset_s,
+            t_offset_auto=channel_map.t_offset_auto,
+        )
     return log, resolved
 
 
@@ -306,18 +336,25 @@ def join_ground_truth(
     ground_truth: str | os.PathLike[str],
     *,
     crop: bool = False,
+    t_offset_s: float = 0.0,
+    t_offset_auto: bool = False,
 ) -> ResolvedSignals:
     """``resolved`` (the signals of ``log``) with ``x``, ``y``, ``yaw`` taken from the
     ground-truth file instead.
 
     The file (TUM, or any log logcal reads that has ``x``, ``y``, ``yaw``) must be stamped on
-    ``log``'s clock; with ``crop`` it is cut to the span ``log`` covers (a cropped log).
+    ``log``'s clock once ``t_offset_s`` is added to its stamps; with ``crop`` it is cut to the
+    span ``log`` covers (a cropped log).
 
     Raises:
         LogcalInputError: the file cannot be read, has no pose, or shares no time with the log.
     """
     gt_path = os.fspath(ground_truth)
     gt_log = read_log(gt_path)
+    found_note = ""
+    if t_offset_auto:
+        t_offset_s, found_note = estimated_offset(log.path, resolved, gt_path, gt_log)
+    gt_log = shifted_log(gt_log, t_offset_s)
     origin, last = _log_origin(log), _log_end(log)
     if crop and origin is not None and last is not None and last > origin:
         gt_log = crop_log(gt_log, 0.0, (last - origin) * 1e-9, origin_ns=origin)
@@ -335,7 +372,8 @@ def join_ground_truth(
             f"{gt_path}: its poses span {g0 * 1e-9:.3f} .. {g1 * 1e-9:.3f} s and the log "
             f"{log.path} {(origin or 0) * 1e-9:.3f} .. {(last or 0) * 1e-9:.3f} s: no common "
             "time. The ground truth must be stamped on the log's clock (e.g. both in epoch "
-            "seconds)."
+            "seconds), or shifted onto it with --t-offset SECONDS"
+            + (f" (given: {t_offset_s:g} s)." if t_offset_s else ".")
         )
     name = Path(gt_path).name
     signals = {k: v for k, v in resolved.signals.items() if k not in GROUND_TRUTH_SIGNALS}
@@ -351,6 +389,10 @@ def join_ground_truth(
         signals[n] = gt.signals[n]
         src = gt.sources[n]
         sources[n] = SignalSource(name, src.field, src.transform, origin=gt_path)
+    if found_note:
+        notes.append(found_note)
+    elif t_offset_s:
+        notes.append(f"{gt_path}: its time stamps shifted by {t_offset_s:+g} s (--t-offset)")
     notes += [str(p) for p in gt_log.problems] + list(gt.problems)
     return ResolvedSignals(
         signals,
@@ -362,6 +404,95 @@ def join_ground_truth(
         robot=resolved.robot,
         outliers=[*resolved.outliers, *gt.outliers],
     )
+
+
+TURN_RATE_SIGNALS = ("gyro_z", "omega", "odom_omega")
+"""A log's signals that measure its turn rate, in order of preference (then ``yaw``, then the
+wheels' difference)."""
+
+
+def _turn_rate(resolved: ResolvedSignals) -> tuple[str, np.ndarray, np.ndarray] | None:
+    """(what it is, t in s, a quantity proportional to the turn rate) from the log's signals."""
+    sig = resolved.signals
+
+    def arrays(name: str) -> tuple[np.ndarray, np.ndarray]:
+        f = sig[name].drop_nulls("value")
+        return f["t_ns"].to_numpy() * 1e-9, f["value"].cast(pl.Float64).to_numpy()
+
+    for name in TURN_RATE_SIGNALS:
+        if name in sig:
+            return (name, *arrays(name))
+    if "yaw" in sig:
+        t, v = arrays("yaw")
+        return ("the rate of yaw", t, np.gradient(np.unwrap(v), t)) if t.size > 3 else None
+    if "wheel_left" in sig and "wheel_right" in sig:
+        t, r = arrays("wheel_right")
+        tl, left = arrays("wheel_left")
+        d = r - np.interp(t, tl, left)
+        if t.size > 3:
+            return ("the rate of wheel_right - wheel_left", t, np.gradient(d, t))
+    return None
+
+
+def estimated_offset(
+    path: str, resolved: ResolvedSignals, gt_path: str, gt_log: LogData
+) -> tuple[float, str]:
+    """The seconds to add to the ground truth's stamps to put them on the log's clock (evo's
+    ``--t_offset``, estimated): the lag at which the log's turn rate and the ground truth's yaw
+    rate correlate best (:func:`calib.stats.lag.clock_lag`), and a sentence saying so.
+
+    Raises:
+        LogcalInputError: the log has no turn rate, the ground truth no yaw, or no lag fits.
+    """
+    from calib.stats.lag import clock_lag
+
+    mine = _turn_rate(resolved)
+    gt = resolve_signals(gt_log)
+    if mine is None or "yaw" not in gt.signals:
+        raise LogcalInputError(
+            f"--t-offset auto: {path} has no turn rate (gyro_z, omega, yaw or both wheels) or "
+            f"{gt_path} no yaw to estimate the offset from; give --t-offset SECONDS"
+        )
+    what, t, v = mine
+    g = gt.signals["yaw"].drop_nulls("value")
+    tg, yaw = g["t_ns"].to_numpy() * 1e-9, g["value"].cast(pl.Float64).to_numpy()
+    if tg.size < 4:
+        raise LogcalInputError(f"--t-offset auto: {gt_path} has fewer than 4 poses")
+    step = max(float(np.median(np.diff(t))), float(np.median(np.diff(tg)))) / 4
+    # stamps relative to each signal's first: large epoch values lose no precision
+    found = clock_lag(
+        t - t[0], v, tg - tg[0], np.gradient(np.unwrap(yaw), tg), step_s=max(step, 1e-4)
+    )
+    if found is None or found.correlation < 0.5:
+        r = "no lag" if found is None else f"at best r = {found.correlation:.2f}"
+        raise LogcalInputError(
+            f"--t-offset auto: {what} of {path} and the yaw rate of {gt_path} do not follow "
+            f"each other at any offset ({r}); give --t-offset SECONDS"
+        )
+    offset = found.offset_s + (t[0] - tg[0])
+    note = (
+        f"{gt_path}: its time stamps shifted by {offset:+.4f} s, estimated (--t-offset auto) "
+        f"from {what} of the log and its yaw rate (correlation {found.correlation:.3f} over "
+        f"{found.overlap_s:.1f} s)"
+    )
+    return float(offset), note
+
+
+def shifted_log(log: LogData, offset_s: float) -> LogData:
+    """``log`` with ``offset_s`` seconds added to every time stamp (``log`` itself for 0)."""
+    if not offset_s:
+        return log
+    shift = round(offset_s * 1e9)
+    topics = {k: f.with_columns(pl.col("t_ns") + shift) for k, f in log.topics.items()}
+    info = {
+        k: replace(
+            i,
+            first_ns=None if i.first_ns is None else i.first_ns + shift,
+            last_ns=None if i.last_ns is None else i.last_ns + shift,
+        )
+        for k, i in log.info.items()
+    }
+    return replace(log, topics=topics, info=info)
 
 
 def load_log(
@@ -407,6 +538,9 @@ def load_log(
             start_s=req.start_s if start_s is None else start_s,
             end_s=req.end_s if end_s is None else end_s,
             origin_ns=req.origin_ns,
+            t_offset_s=req.t_offset_s,
+            t_max_diff_s=req.t_max_diff_s,
+            t_offset_auto=req.t_offset_auto,
         )
     log, resolved = read_and_resolve(
         path, channel_map, decoders=decoders, keep=analysis_columns(channel_map)
@@ -418,6 +552,7 @@ def load_log(
     if not resolved.signals:
         raise MissingSignalsError(log.path, list(plugin.required), log.topic_names(), robot)
     names = list(resolved.signals)
+    max_diff = channel_map.t_max_diff_s if isinstance(channel_map, LoadRequest) else None
     frame = align_signals(
         resolved.signals,
         rate_hz=rate_hz,
@@ -425,6 +560,11 @@ def load_log(
         hold=command_signals(),
         wrap=heading_signals(),
         required=_span_signals(plugin.span_signals, names),
+        tolerances=(
+            {}
+            if max_diff is None or channel_map.ground_truth is None  # type: ignore[union-attr]
+            else dict.fromkeys(GROUND_TRUTH_SIGNALS, max_diff)
+        ),
     )
     gaps = find_gaps(resolved.signals)
     origin = min((i.first_ns for i in log.info.values() if i.first_ns is not None), default=0)

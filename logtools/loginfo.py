@@ -14,6 +14,7 @@ from logtools.errors import NoDriveSignalsError
 from logtools.load import gap_notes, read_and_resolve
 from logtools.loaded import FlatSignal
 from logtools.readers import TopicInfo
+from logtools.readers.base import TIME_COLUMN
 from logtools.robot import explain_robot
 from logtools.safe_text import printable
 from logtools.signals import SignalOrigin, SignalSource
@@ -71,6 +72,9 @@ class LogSummary:
     gaps: list[Gap] = field(default_factory=list)
     flat: list[FlatSignal] = field(default_factory=list)
     origins: dict[str, SignalOrigin] = field(default_factory=dict)
+    fields: dict[str, list[str]] = field(default_factory=dict)
+    """Per topic read, its fields as the channel map and ``--signal`` name them (a CSV's
+    columns)."""
 
     @property
     def span_ns(self) -> tuple[int, int] | None:
@@ -98,6 +102,7 @@ class LogSummary:
                         "first_ns": t.first_ns,
                         "last_ns": t.last_ns,
                         "rate_hz": t.rate_hz,
+                        "fields": self.fields.get(t.topic, []),
                     }
                     for t in self.topics
                 ],
@@ -138,6 +143,8 @@ class LogSummary:
                 f"  {t.topic}  {t.schema_name or '-'}  [{t.message_encoding}/"
                 f"{t.schema_encoding or '-'}]  {t.message_count} msgs  {rate}"
             )
+            if self.fields.get(t.topic):
+                lines.append(f"    fields: {', '.join(self.fields[t.topic])}")
         lines.append(f"signals found ({len(self.signals)}):")
         for s in self.signals.values():
             how = f" via {s.transform}" if s.transform else ""
@@ -218,6 +225,9 @@ def summarize_log(
     return LogSummary(
         path=log.path,
         topics=[log.info[t] for t in log.topic_names()],
+        fields={
+            t: [c for c in frame.columns if c != TIME_COLUMN] for t, frame in log.topics.items()
+        },
         signals=signals,
         missing=resolved.missing,
         robot=robot_name,

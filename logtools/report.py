@@ -7,6 +7,7 @@ passed as plain ``Text`` (never markup), so ``Fc[joint1]`` prints as written."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from rich.console import Console, Group, RenderableType
 from rich.panel import Panel
@@ -42,16 +43,18 @@ def short_names(paths: list[str]) -> list[str]:
     return list(paths)
 
 
-def _cell(e: Estimate) -> str:
+def _cell(e: Estimate, one_line: bool = False) -> str:
     if not math.isfinite(e.value):
         return "- *"  # no value (not determined; the report says the range the data allow)
     if not e.identifiable:
         return f"{e.value:.4g} *"
-    return f"{e.value:.4g}\n[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
+    gap = " " if one_line else "\n"
+    return f"{e.value:.4g}{gap}[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
 
 
-def _runs_table(result: AnalysisResult) -> Table:
-    """Each run's own estimate: runs by their shortest unique names, values whole (an interval
+def _runs_table(result: AnalysisResult, one_line: bool = False) -> Table:
+    """Each run's own estimate (``one_line``: a run's row on one line, an interval beside its
+    value): runs by their shortest unique names, values whole (an interval
     on its own line), the method in the title when every run used the same one, the stages
     that did not run as footnotes."""
     names: list[str] = []
@@ -87,7 +90,7 @@ def _runs_table(result: AnalysisResult) -> Table:
         table.add_row(
             Text(printable(run_name)),
             *([] if one_method else [Text(printable(r.estimate.method if r.estimate else "none"))]),
-            *(Text(_cell(params[n]) if n in params else "-") for n in names),
+            *(Text(_cell(params[n], one_line) if n in params else "-") for n in names),
         )
     caption = ["* not determined (the run's own report says why)"]
     table.caption = Text("\n".join(printable(x) for x in caption + notes))
@@ -96,11 +99,30 @@ def _runs_table(result: AnalysisResult) -> Table:
 
 
 SHORT_DISCOVERY = 8
-"""Lines of discovery's report shown without ``--methods``."""
+"""Lines of the discovery engines' own details shown without ``--methods`` (the findings
+themselves, :meth:`~calib.discovery.report.DiscoveryReport.answer_lines`, are never cut)."""
 
 
-def _answer(result: AnalysisResult, parts: list[RenderableType], title: str) -> None:
-    """The recommended estimate and the adequacy verdict: what a person reads first."""
+def _discovery_lines(discovery: Any, detail: str) -> list[str]:
+    """The "Model mismatch" panel's lines: the findings whole (effects with their values, the
+    verdict before -> after), then the engines' details, cut to ``SHORT_DISCOVERY`` lines
+    unless ``detail`` is "methods" and left out when it is "quiet"."""
+    answer_lines = getattr(discovery, "answer_lines", None)
+    if answer_lines is not None:
+        head, rest = list(answer_lines()), [str(x) for x in getattr(discovery, "more", ())]
+    else:  # any other result: its report, which may be cut as a whole
+        text = discovery.report()
+        head, rest = [], (text.split("\n") if isinstance(text, str) else list(text))
+    if detail == "quiet":
+        return head or rest[:SHORT_DISCOVERY]
+    if detail != "methods" and len(rest) > SHORT_DISCOVERY:
+        rest = [*rest[:SHORT_DISCOVERY], "... (the engines' details: --methods)"]
+    return head + rest
+
+
+def _answer(result: AnalysisResult, parts: list[RenderableType], title: str, detail: str) -> None:
+    """What a person reads first: the recommended estimate, the adequacy verdict and what
+    discovery found (named and described effects, the verdict before -> after)."""
     if result.estimate is not None:
         body = Text(printable_lines(result.estimate.report()))
         body.append("\n  " + PM_MEANING, style="dim")
@@ -117,9 +139,12 @@ def _answer(result: AnalysisResult, parts: list[RenderableType], title: str) -> 
         )
     if result.adequacy is not None:
         parts.append(adequacy_text(result.adequacy))
+    if result.discovery is not None:
+        text = "\n".join(_discovery_lines(result.discovery, detail))
+        parts.append(Panel(Text(printable_lines(text)), title="Model mismatch", expand=False))
 
 
-def _tail(result: AnalysisResult, parts: list[RenderableType], detail: str) -> None:
+def _tail(result: AnalysisResult, parts: list[RenderableType]) -> None:
     not_ok = [s for s in result.stages if s.status != "ok"]
     if not_ok:
         parts.append(
@@ -129,25 +154,19 @@ def _tail(result: AnalysisResult, parts: list[RenderableType], detail: str) -> N
                 style="yellow",
             )
         )
-    if result.discovery is not None:
-        text = result.discovery.report()
-        if not isinstance(text, str):  # a list of lines
-            text = "\n".join(text)
-        lines = text.split("\n")
-        if detail != "methods" and len(lines) > SHORT_DISCOVERY:
-            text = "\n".join([*lines[:SHORT_DISCOVERY], "... (all of it: --methods)"])
-        parts.append(Panel(Text(printable_lines(text)), title="Model mismatch", expand=False))
     if result.warnings:
         parts.append(
             Text("Notes:\n" + "\n".join(f"- {printable(w)}" for w in result.warnings), style="dim")
         )
 
 
-def render_analysis(result: AnalysisResult, detail: str = "methods") -> RenderableType:
+def render_analysis(
+    result: AnalysisResult, detail: str = "methods", one_line: bool = False
+) -> RenderableType:
     """What a person reads after ``logcal analyze``, as one rich renderable; ``detail`` one of
-    ``DETAILS``."""
+    ``DETAILS``; ``one_line``: each run's row of a table on one line (a file or a pipe)."""
     if result.runs:
-        return _render_pooled(result, detail)
+        return _render_pooled(result, detail, one_line)
     parts: list[RenderableType] = []
     src = result.source
     head = Text(printable(src.get("path", "")), style="bold")
@@ -155,10 +174,10 @@ def render_analysis(result: AnalysisResult, detail: str = "methods") -> Renderab
     if "duration_s" in src:
         head.append(f"  duration: {src['duration_s']:.1f} s  samples: {src.get('samples', '?')}")
     parts.append(head)
-    if src.get("signals"):
+    if src.get("signals") and detail != "quiet":
         found = ", ".join(f"{k} <- {printable(v)}" for k, v in src["signals"].items())
         parts.append(Text("signals: " + found))
-    _answer(result, parts, "Recommended estimate")
+    _answer(result, parts, "Recommended estimate", detail)
     if detail == "quiet":
         return Group(*parts)
     plugin = plugin_for(result.robot)
@@ -166,13 +185,13 @@ def render_analysis(result: AnalysisResult, detail: str = "methods") -> Renderab
         parts += plugin.summary(result)
     if detail == "methods":
         parts += plugin.report(result)
-    _tail(result, parts, detail)
+    _tail(result, parts)
     if detail == "answer":
         parts.append(Text("(every method's table: --methods)", style="dim"))
     return Group(*parts)
 
 
-def _render_pooled(result: AnalysisResult, detail: str) -> RenderableType:
+def _render_pooled(result: AnalysisResult, detail: str, one_line: bool) -> RenderableType:
     windows = result.source.get("windows")
     parts: list[RenderableType] = [
         Text.assemble(
@@ -186,7 +205,7 @@ def _render_pooled(result: AnalysisResult, detail: str) -> RenderableType:
             f"  robot: {result.robot}",
             f"  pooled: {result.source['runs_pooled']}" if "runs_pooled" in result.source else "",
         ),
-        _runs_table(result),
+        _runs_table(result, one_line),
     ]
     _answer(
         result,
@@ -194,13 +213,14 @@ def _render_pooled(result: AnalysisResult, detail: str) -> RenderableType:
         "Recommended estimate (all windows pooled)"
         if windows
         else "Recommended estimate (all runs pooled)",
+        detail,
     )
     if detail == "quiet":
-        return Group(*parts[1:]) if len(parts) > 1 else Group(*parts)
+        return Group(*parts)
     plugin = plugin_for(result.robot)
     if plugin.pooled_summary is not None:
         parts += plugin.pooled_summary(result)
-    _tail(result, parts, detail)
+    _tail(result, parts)
     return Group(*parts)
 
 
@@ -209,10 +229,11 @@ def print_analysis(
 ) -> None:
     """Print ``render_analysis`` to ``console`` (default: stdout), no NaN shown as a number
     (:func:`~logtools.safe_text.no_nan`)."""
+    from logtools.console import report_console
     from logtools.safe_text import no_nan
 
-    console = console or Console()
+    console = console or report_console()
     with console.capture() as captured:
-        console.print(render_analysis(result, detail))
+        console.print(render_analysis(result, detail, one_line=not console.is_terminal))
     console.file.write(no_nan(captured.get()))
     console.file.flush()

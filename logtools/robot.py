@@ -49,5 +49,7 @@ def explain_robot(log: LogData, signals: ResolvedSignals) -> tuple[str, str]:
     if found is not None:
         return found[0].name, found[1]
     raise NoDriveSignalsError(
-        log.path, log.topic_names(), {p.name: list(p.required) for p in plugins()}
+        log.path,
+        log.topic_names(),
+        {p.name: [list(s) for s in p.identifying_signals] for p in plugins()},
     )

@@ -161,24 +161,47 @@ def umbmark(
 
 def umbmark_result(res: UmbmarkResult, n_cw: int, n_ccw: int) -> CalibrationResult:
     """``res`` as a :class:`CalibrationResult` (method ``"UMBmark"``); intervals use a Student
-    t quantile with min(n_cw, n_ccw) - 1 degrees of freedom."""
+    t quantile with min(n_cw, n_ccw) - 1 degrees of freedom.
+
+    UMBmark determines the ratio of the wheel radii (derived ``wheel_radius_ratio`` = Ed, with
+    its interval from the end points' scatter) and the track width for the nominal mean radius,
+    not each radius: their mean stays nominal, so each radius is reported as not determined
+    (its value the nominal mean split by Ed, no interval; an interval of the ratio's spread
+    alone would read as a radius known to a micrometre). ``covariance`` is that of the
+    corrections for the nominal mean radius."""
     q = float(stats.t.ppf(0.975, max(1, min(n_cw, n_ccw) - 1)))
     p = res.params
+    rbar = 0.5 * (p.r_R + p.r_L)
     note = (
         f"UMBmark on {n_cw} clockwise and {n_ccw} counter-clockwise squares of side "
         f"{res.side:.2f} m; the mean radius stays nominal (UMBmark does not determine it)"
     )
-    est = {}
-    for name, v, s in zip(
-        ("wheel_radius_right", "wheel_radius_left", "track_width"),
-        (p.r_R, p.r_L, p.b),
-        res.params_std,
-        strict=True,
-    ):
-        est[name] = Estimate(name, v, s, (v - q * s, v + q * s), True, "m", note)
+    radius_note = (
+        f"UMBmark determines only r_R/r_L = {res.Ed:.5g} [{res.Ed - q * res.Ed_std:.5g}, "
+        f"{res.Ed + q * res.Ed_std:.5g}]; the mean radius stays the nominal {rbar:.5g} m"
+    )
+    nan = float("nan")
+    est = {
+        name: Estimate(name, v, nan, (nan, nan), False, "m", radius_note)
+        for name, v in (("wheel_radius_right", p.r_R), ("wheel_radius_left", p.r_L))
+    }
+    b_std = res.params_std[2]
+    est["track_width"] = Estimate(
+        "track_width", p.b, b_std, (p.b - q * b_std, p.b + q * b_std), True, "m", note
+    )
+    ratio = Estimate(
+        "wheel_radius_ratio",
+        res.Ed,
+        res.Ed_std,
+        (res.Ed - q * res.Ed_std, res.Ed + q * res.Ed_std),
+        True,
+        "",
+        "r_R / r_L from the clockwise and counter-clockwise end points (" + note + ")",
+    )
     return CalibrationResult(
         method="UMBmark",
         parameters=est,
+        derived={"wheel_radius_ratio": ratio},
         covariance=as_matrix(res.params_cov),
         verdict=(
             f"UMBmark: Ed = r_R/r_L = {res.Ed:.5f} ± {res.Ed_std:.1g}, "

@@ -192,7 +192,13 @@ class DiscoveryReport:
         return any(e.status == "described" for e in self.effects) or bool(self.remaining)
 
     def lines(self) -> list[str]:
-        """The findings for people: effects, the verdict before -> after, what moved."""
+        """The findings for people: the answer (:meth:`answer_lines`), then the robot's own
+        lines (the engines' details)."""
+        return [*self.answer_lines(), *self.more]
+
+    def answer_lines(self) -> list[str]:
+        """The findings a report never cuts: the named and described effects with their
+        values, the verdict before -> after, what moved, what remains, the alternatives."""
         out = [f"Baseline: {self.baseline}"]
         if self.effects:
             out += [f"  {e.line()}" for e in self.effects]
@@ -214,7 +220,6 @@ class DiscoveryReport:
                 + (f" ({alt.note})" if alt.note else "")
             )
         out += [f"  note: {n}" for n in self.notes]
-        out += list(self.more)
         return out
 
     def report(self) -> list[str]:

@@ -20,6 +20,7 @@ if TYPE_CHECKING:  # the CLI starts without polars; commands import what they us
 __all__ = [
     "Inputs",
     "channel_map_option",
+    "check_ground_truth_clock",
     "end_option",
     "ground_truth_option",
     "logs_argument",
@@ -27,6 +28,8 @@ __all__ = [
     "say",
     "signal_option",
     "start_option",
+    "t_max_diff_option",
+    "t_offset_option",
 ]
 
 LOGS_HELP = (
@@ -70,6 +73,30 @@ def ground_truth_option() -> Any:
         metavar="FILE.tum",
         help="A ground-truth trajectory on the log's clock (TUM: t x y z qx qy qz qw, s and "
         "m), whose x, y, yaw replace the log's own pose.",
+    )
+
+
+def t_offset_option() -> Any:
+    """``--t-offset SECONDS`` (evo's ``--t_offset``)."""
+    return typer.Option(
+        None,
+        "--t-offset",
+        metavar="SECONDS|auto",
+        help="Add this many seconds to the ground truth's time stamps to put them on the log's "
+        "clock (as evo's --t_offset; negative: the ground truth runs ahead); auto: estimate it "
+        "from the log's turn rate and the ground truth's yaw rate.",
+    )
+
+
+def t_max_diff_option() -> Any:
+    """``--t-max-diff SECONDS`` (evo's ``--t_max_diff``)."""
+    return typer.Option(
+        None,
+        "--t-max-diff",
+        metavar="SECONDS",
+        help="Pair a log's sample with the ground truth only where a ground-truth pose lies "
+        "within this many seconds (as evo's --t_max_diff); default: 2.5 of the ground truth's "
+        "sample periods.",
     )
 
 
@@ -125,6 +152,8 @@ def read_inputs(
     start: float | None = None,
     end: float | None = None,
     dedupe: bool = True,
+    t_offset: str | float | None = None,
+    t_max_diff: float | None = None,
 ) -> Inputs:
     """Expand the log arguments, build the channel map from the options and (``dedupe``) keep
     one file per recording.
@@ -144,14 +173,56 @@ def read_inputs(
         raise LogcalInputError(f"--end {end:g} s is not after --start {start:g} s")
     if ground_truth is not None and not ground_truth.is_file():
         raise LogcalInputError(f"--ground-truth {ground_truth}: no such file")
+    offset = check_ground_truth_clock(ground_truth, t_offset, t_max_diff)
     runs = expand_runs(list(logs))
     cmap = load_channel_map(channel_map) if channel_map is not None else None
     cmap = with_signal_options(cmap, signals or [])
-    cmap = LoadRequest.of(cmap, ground_truth=ground_truth, start_s=start, end_s=end)
+    cmap = LoadRequest.of(
+        cmap,
+        ground_truth=ground_truth,
+        start_s=start,
+        end_s=end,
+        t_offset_s=offset if isinstance(offset, float) else None,
+        t_max_diff_s=t_max_diff,
+        t_offset_auto=True if offset == "auto" else None,
+    )
     same: list[SameRecording] = []
     if dedupe and len(runs) > 1:
         runs, same = distinct_recordings(runs, cmap)
     return Inputs(runs, cmap, same)
+
+
+def check_ground_truth_clock(
+    ground_truth: Path | None, t_offset: str | float | None, t_max_diff: float | None
+) -> float | str | None:
+    """``--t-offset`` as seconds, "auto" or None; refused without ``--ground-truth``, not a
+    finite number (or auto), or with a ``--t-max-diff`` that is not positive."""
+    import math
+
+    from logtools.errors import LogcalInputError
+
+    offset: float | str | None = None
+    if t_offset is not None:
+        text = str(t_offset).strip()
+        if text.lower() == "auto":
+            offset = "auto"
+        else:
+            try:
+                offset = float(text)
+            except ValueError:
+                offset = math.nan
+            if not math.isfinite(offset):
+                raise LogcalInputError(
+                    f"--t-offset {text}: expected a number of seconds or auto"
+                ) from None
+    for flag, value in (("--t-offset", t_offset), ("--t-max-diff", t_max_diff)):
+        if value is not None and ground_truth is None:
+            raise LogcalInputError(
+                f"{flag} {value}: it sets the clock of a ground truth; give --ground-truth FILE"
+            )
+    if t_max_diff is not None and not (math.isfinite(t_max_diff) and t_max_diff > 0):
+        raise LogcalInputError(f"--t-max-diff {t_max_diff:g}: expected seconds above 0")
+    return offset
 
 
 def say(text: str, *, stderr: bool = True) -> None:

@@ -17,6 +17,8 @@ from logtools.cli._inputs import (
     logs_argument,
     signal_option,
     start_option,
+    t_max_diff_option,
+    t_offset_option,
 )
 from logtools.cli._robot_options import GivenOptions, with_robot_options
 from logtools.safe_text import no_nan
@@ -45,6 +47,8 @@ def register(app: typer.Typer) -> None:
         channel_map: Path | None = _CHANNEL_MAP,
         signal: list[str] | None = _SIGNAL,
         ground_truth: Path | None = _GROUND_TRUTH,
+        t_offset: str | None = t_offset_option(),
+        t_max_diff: float | None = t_max_diff_option(),
         start: float | None = start_option(),
         end: float | None = end_option(),
         *,
@@ -60,6 +64,8 @@ def register(app: typer.Typer) -> None:
             channel_map=channel_map,
             signals=signal,
             ground_truth=ground_truth,
+            t_offset=t_offset,
+            t_max_diff=t_max_diff,
             start=start,
             end=end,
             dedupe=False,

@@ -163,6 +163,15 @@ def _plain_arguments(command: Any) -> None:
         _plain_arguments(sub)
 
 
+def _whole_short_help(command: Any) -> None:
+    """List each subcommand in its group's help by the whole first paragraph of its help,
+    not click's cut at the first period ("Recompute the patent's Figs.") or at 45 columns."""
+    for sub in getattr(command, "commands", {}).values():
+        if not sub.short_help and sub.help:
+            sub.short_help = " ".join(sub.help.strip().split("\n\n")[0].split())
+        _whole_short_help(sub)
+
+
 def command() -> Any:
     """The click command of ``logcal`` (built from ``app`` and the robot plugins registered now,
     arguments shown plainly)."""
@@ -173,6 +182,7 @@ def command() -> Any:
     readable_metavars(app)
     cmd = typer.main.get_command(app)
     _plain_arguments(cmd)
+    _whole_short_help(cmd)
     return cmd
 
 

@@ -3,6 +3,7 @@ can start (without a display, say so plainly and where the recording is)."""
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 
 import typer
@@ -14,6 +15,8 @@ from logtools.cli._inputs import (
     logs_argument,
     signal_option,
     start_option,
+    t_max_diff_option,
+    t_offset_option,
 )
 from logtools.cli._robot_options import GivenOptions, with_robot_options
 
@@ -46,6 +49,8 @@ def register(app: typer.Typer) -> None:
         channel_map: Path | None = _CHANNEL_MAP,
         signal: list[str] | None = _SIGNAL,
         ground_truth: Path | None = _GROUND_TRUTH,
+        t_offset: str | None = t_offset_option(),
+        t_max_diff: float | None = t_max_diff_option(),
         start: float | None = start_option(),
         end: float | None = end_option(),
         *,
@@ -62,11 +67,20 @@ def register(app: typer.Typer) -> None:
         from logtools.views import write_views
         from viz.viewer import can_start_viewer, open_viewer
 
+        viewer_missing = None if no_viewer else _why_no_viewer(can_start_viewer())
+        if viewer_missing is not None:  # said before any work: the user may stop here
+            say(
+                f"logcal: {viewer_missing}, so the viewer cannot open; the recording will only "
+                "be saved (--no-viewer says you want just that)",
+                stderr=False,
+            )
         inputs = read_inputs(
             logs,
             channel_map=channel_map,
             signals=signal,
             ground_truth=ground_truth,
+            t_offset=t_offset,
+            t_max_diff=t_max_diff,
             start=start,
             end=end,
         )
@@ -100,11 +114,10 @@ def register(app: typer.Typer) -> None:
         assert out is not None  # the plugin has views
         if no_viewer:
             return
-        if not can_start_viewer():
+        if viewer_missing is not None:
             say(
-                "logcal: no display here (neither DISPLAY nor WAYLAND_DISPLAY is set), so the "
-                f"viewer cannot open; the recording is saved as {out}: open it where there is "
-                f"a display with: rerun {out}",
+                f"logcal: {viewer_missing}; the recording is saved as {out}: open it where a "
+                f"viewer can start with: rerun {out}",
                 stderr=False,
             )
             return
@@ -121,3 +134,13 @@ def register(app: typer.Typer) -> None:
                 f"{viewer.host}:{viewer.port} only) on {out}",
                 stderr=False,
             )
+
+
+def _why_no_viewer(display: bool) -> str | None:
+    """Why the rerun viewer cannot start here (``display``: whether there is a display), or
+    None when it can: no display, or no rerun viewer installed."""
+    if not display:
+        return "no display here (neither DISPLAY nor WAYLAND_DISPLAY is set)"
+    if importlib.util.find_spec("rerun") is None:
+        return "no rerun viewer is installed (pip install rerun-sdk)"
+    return None

@@ -30,6 +30,7 @@ from logtools.readers.base import TIME_COLUMN, ColumnFilter, LogData, TopicInfo,
 from logtools.readers.csv_reader import CSV_TOPIC
 from logtools.readers.decoders import DEFAULT_DECODERS, Decoders, MessageDecoder, known_encodings
 from logtools.readers.formats import HEAD_BYTES, FormatReader, ReadRequest, format_for
+from logtools.readers.formats import formats as registered_formats
 from logtools.readers.mcap_scan import MAGIC
 from logtools.readers.rosbag_reader import read_rosbag
 
@@ -104,13 +105,14 @@ def read_log(
             raise NotAnMcapError(name, f"cannot read it: {err.strerror or err}") from err
     reader = format_for(p, head)
     if reader is None:
+        every = [f.title for f in registered_formats()]
         if p.is_dir():
-            raise NotAnMcapError(name, "it is a directory without a rosbag2 metadata.yaml")
+            raise NotAnMcapError(name, "it is a directory without a rosbag2 metadata.yaml", every)
         if not head:
-            raise NotAnMcapError(name, "the file is empty")
+            raise NotAnMcapError(name, "the file is empty", every)
         if MAGIC.startswith(head):
             raise NotAnMcapError(name, f"only {len(head)} bytes of an MCAP header: truncated")
-        raise NotAnMcapError(name, f"it starts with the bytes {head[:8]!r}")
+        raise NotAnMcapError(name, f"it starts with the bytes {head[:8]!r}", every)
     log = reader.read(name, ReadRequest(topics, keep, decoders, size, span_ns))
     if span_ns is not None:
         log = in_span(log, *span_ns)

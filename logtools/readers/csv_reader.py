@@ -14,6 +14,7 @@ the header and no final newline: the writer was stopped mid-row) is dropped with
 
 from __future__ import annotations
 
+import re
 from io import BytesIO
 
 import polars as pl
@@ -26,9 +27,11 @@ __all__ = [
     "CSV_TOPIC",
     "MAX_CSV_COLUMNS",
     "TIME_COLUMNS",
+    "by_topic_paths",
     "check_csv_width",
     "read_csv",
     "read_csv_file",
+    "topic_field",
 ]
 
 CSV_TOPIC = "csv"
@@ -198,9 +201,15 @@ def _csv_log(path: str, frame: pl.DataFrame, tail: bytes) -> LogData:
             )
         )
         frame = frame.sort(TIME_COLUMN, maintain_order=True)
+    topics = by_topic_paths(frame)
+    info = {topic: _topic_info(topic, f) for topic, f in topics.items()}
+    return LogData(path, topics, info, {}, problems)
+
+
+def _topic_info(topic: str, frame: pl.DataFrame) -> TopicInfo:
     times = frame[TIME_COLUMN]
-    info = TopicInfo(
-        topic=CSV_TOPIC,
+    return TopicInfo(
+        topic=topic,
         schema_name="",
         schema_encoding="csv",
         message_encoding="csv",
@@ -208,7 +217,80 @@ def _csv_log(path: str, frame: pl.DataFrame, tail: bytes) -> LogData:
         first_ns=int(times.min()) if frame.height else None,  # type: ignore[arg-type]
         last_ns=int(times.max()) if frame.height else None,  # type: ignore[arg-type]
     )
-    return LogData(path, {CSV_TOPIC: frame}, {CSV_TOPIC: info}, {}, problems)
+
+
+FIELD_ROOTS = frozenset(
+    {
+        "data",
+        "header",
+        "linear",
+        "angular",
+        "twist",
+        "pose",
+        "position",
+        "orientation",
+        "velocity",
+        "effort",
+        "transform",
+        "translation",
+        "rotation",
+        "transforms",
+        "angular_velocity",
+        "linear_acceleration",
+        "point",
+        "vector",
+        "wrench",
+        "force",
+        "torque",
+        "drive",
+        "steering_angle",
+        "speed",
+        "range",
+    }
+)
+"""First components of the fields of common ROS messages (std_msgs, geometry_msgs, nav_msgs,
+sensor_msgs, ackermann_msgs): in a column ``/odom/twist/twist/linear/x`` the topic ends before
+the first of them (``/odom``, field ``twist.twist.linear.x``)."""
+
+_INDEX = re.compile(r"\[(\d+)\]")
+
+
+def topic_field(column: str) -> tuple[str, str] | None:
+    """The (topic, field) a column named by its ROS path means, as PlotJuggler, Foxglove and
+    ``ros2 bag`` CSV exports name them: ``/hitch/angle/data`` -> ("/hitch/angle", "data"),
+    ``/wheels/position[1]`` -> ("/wheels", "position.1"); the field dotted as the MCAP reader
+    flattens messages. None for a column that is no such path."""
+    if not column.startswith("/") or column.endswith("/"):
+        return None
+    parts = [p for p in _INDEX.sub(r"/\1", column[1:]).split("/") if p]
+    if len(parts) < 2:
+        return None
+    cut = next((i for i in range(1, len(parts)) if parts[i] in FIELD_ROOTS), len(parts) - 1)
+    return "/" + "/".join(parts[:cut]), ".".join(parts[cut:])
+
+
+def by_topic_paths(frame: pl.DataFrame) -> dict[str, pl.DataFrame]:
+    """``frame`` (``t_ns`` and the CSV's columns) as frames by topic: columns named by ROS paths
+    (:func:`topic_field`) on their own topic, each with the rows where any of its fields has a
+    value (an export fills the other topics' rows with empty cells); every other column on
+    the pseudo-topic ``csv``."""
+    paths = {c: topic_field(c) for c in frame.columns if c != TIME_COLUMN}
+    fields: dict[str, dict[str, str]] = {}
+    for column, tf in paths.items():
+        if tf is not None:
+            fields.setdefault(tf[0], {})[column] = tf[1]
+    plain = [c for c, tf in paths.items() if tf is None]
+    if not fields:
+        return {CSV_TOPIC: frame}
+    out: dict[str, pl.DataFrame] = {}
+    if plain:
+        out[CSV_TOPIC] = frame.select(TIME_COLUMN, *plain)
+    for topic, named in fields.items():
+        if topic == CSV_TOPIC or len(set(named.values())) < len(named):
+            return {CSV_TOPIC: frame}  # two columns on one field: not an export's paths
+        part = frame.select(TIME_COLUMN, *named).rename(named)
+        out[topic] = part.filter(pl.any_horizontal(pl.col(f).is_not_null() for f in named.values()))
+    return out
 
 
 MAX_PERIOD_S = 2.0

@@ -218,6 +218,9 @@ class RobotPlugin:
         robot_keys: the keys of the channel map's ``[robot]`` table it reads beyond plain
             nominal numbers (:class:`~logtools.signals.RobotKey`: a text, a positive length, a
             number the metadata record may give).
+        identified_by: the sets of signals each of which ``identify`` takes as this robot
+            (``(("wheel_left", "wheel_right"), ("odom_omega", "gyro_z"))``), for the message
+            of a log no robot is found in; empty: its ``required`` signals.
         aliases: other names accepted for ``name`` (older metadata).
         span_signals: signals whose common time span sets the aligned frame (a joint signal
             ``q3`` matches ``q``; none present: all signals).
@@ -243,6 +246,7 @@ class RobotPlugin:
     views: str | None = None
     png: str | None = None
     aliases: tuple[str, ...] = ()
+    identified_by: tuple[tuple[str, ...], ...] = ()
     span_signals: tuple[str, ...] = ()
     prepare: Callable[[pl.DataFrame, RobotConfig], pl.DataFrame] | None = None
     derived_signals: tuple[SignalDerivation, ...] = ()
@@ -261,6 +265,12 @@ class RobotPlugin:
     def required(self) -> tuple[str, ...]:
         """Names of the signals this robot cannot be analysed without."""
         return tuple(s.name for s in self.signals if s.required)
+
+    @property
+    def identifying_signals(self) -> tuple[tuple[str, ...], ...]:
+        """The sets of signals that identify this robot in a log (``identified_by``, else the
+        required signals)."""
+        return self.identified_by or ((self.required,) if self.required else ())
 
 
 def load_view(path: str) -> Callable[..., Path]:

@@ -3,6 +3,8 @@ come from: the least squares' block bootstrap and UMBmark's delta method."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -80,11 +82,43 @@ def test_umbmark_covariance_is_the_delta_method_of_its_corrections() -> None:
     assert np.all(np.diag(want) > 0)
     np.testing.assert_allclose(res.params_cov, want, rtol=1e-5, atol=1e-20)
     result = umbmark_result(res, 3, 3)
-    np.testing.assert_allclose(
-        np.sqrt(np.diag(np.array(result.covariance))),
-        [e.std for e in result.parameters.values()],
-        rtol=1e-9,
+    assert np.sqrt(np.array(result.covariance)[2, 2]) == pytest.approx(
+        result.parameters["track_width"].std, rel=1e-9
     )
+    assert result.derived["wheel_radius_ratio"].std == pytest.approx(res.Ed_std, rel=1e-12)
     # the radii move together in opposite directions (their mean stays nominal)
     assert result.correlations is not None
     assert result.correlations[0][1] == pytest.approx(-1.0)
+
+
+def test_umbmark_does_not_claim_each_radius() -> None:
+    """UMBmark's radii keep the nominal mean: each is not determined (no interval of the ratio's
+    spread alone, "± 5e-07 m [0.04198, 0.04198]"); the ratio and the track width carry the
+    interval propagated from the runs' end-point scatter (issue 33, item 10)."""
+    true = DiffDriveParams(0.042 * 1.001, 0.042 * 0.999, 0.2 * 1.002)
+    cfg = SimConfig(true, NOM, slip_std=0.01, pose_noise=(0.002, 0.002, 0.002))
+    runs = [
+        _run(simulate_diff_drive(square_commands(NOM, 1.7, d), cfg, seed=i))
+        for i, d in enumerate((1, 1, 1, -1, -1, -1))
+    ]
+    res = umbmark(runs, NOM, side=1.7)
+    result = umbmark_result(res, 3, 3)
+    for name in ("wheel_radius_right", "wheel_radius_left"):
+        e = result.parameters[name]
+        assert not e.identifiable
+        assert e.report().startswith(f"{name}: not determined by this log: UMBmark determines")
+        assert math.isfinite(e.value)  # the corrected value stays for dead reckoning
+    ratio = result.derived["wheel_radius_ratio"]
+    assert ratio.value == pytest.approx(res.params.r_R / res.params.r_L, rel=1e-12)
+    lo, hi = ratio.ci95
+    assert lo < ratio.value < hi
+    b = result.parameters["track_width"]
+    assert b.identifiable
+    assert b.ci95[0] < b.value < b.ci95[1]
+    from calib.results import AnalysisResult
+    from logtools.robots.diff_drive.report import _umbmark_lines
+
+    (line,) = _umbmark_lines(AnalysisResult("diff_drive", [], [result], None))
+    assert line.startswith("UMBmark: wheel_radius_ratio = ")
+    assert "; not determined: wheel_radius_right, wheel_radius_left (UMBmark keeps" in line
+    assert "  [" not in line  # a unitless ratio: no empty unit

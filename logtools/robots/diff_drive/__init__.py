@@ -115,6 +115,7 @@ PLUGIN = RobotPlugin(
     views="viz.diff_drive.views:log_views",
     png="viz.diff_drive.views:write_png",
     aliases=("diff", "differential_drive"),
+    identified_by=(("wheel_left", "wheel_right"), ("odom_omega", "gyro_z")),
     span_signals=("wheel_right", "wheel_left", "x", "y", "yaw"),
     simulate="logtools.robots.diff_drive.commands:register_simulate",
     reproduce="logtools.robots.diff_drive.commands:register_reproduce",

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import typer
 
+from logtools.console import report_console
 from logtools.writers.encoding import LogEncoding
 
 __all__ = ["register_reproduce", "register_simulate"]
@@ -156,7 +157,6 @@ def register_reproduce(group: typer.Typer) -> None:
         ),
     ) -> None:
         """Table 1 of the 1997 4-wheeled mobile robot paper: feedback only vs planned path."""
-        from rich.console import Console
         from rich.table import Table
         from rich.text import Text
 
@@ -185,7 +185,7 @@ def register_reproduce(group: typer.Typer) -> None:
                 cell(r.t_heading, p["t_heading"], ".1f"),
                 cell(r.t_position, p["t_position"], ".1f"),
             )
-        console = Console(width=max(Console().width, 120))
+        console = report_console(min_width=120)
         console.print(table)
         for n in rep.notes:
             console.print(f"• {n}", style="dim", markup=False)

@@ -136,10 +136,21 @@ def _dead_reckoning_lines(result: AnalysisResult) -> list[str]:
 
 
 def _umbmark_lines(result: AnalysisResult) -> list[str]:
+    """UMBmark's answer: what it determines with its interval (the radii's ratio, the track
+    width), and the radii it does not determine said once."""
     out = []
     for m in result.methods:
-        if getattr(m, "method", "").startswith("UMBmark"):
-            out.append(f"{m.method}: " + "; ".join(e.report() for e in m.parameters.values()))
+        if not getattr(m, "method", "").startswith("UMBmark"):
+            continue
+        shown = [e for e in [*m.derived.values(), *m.parameters.values()] if e.identifiable]
+        hidden = [e.name for e in m.parameters.values() if not e.identifiable]
+        text = "; ".join(e.report() for e in shown)
+        if hidden:
+            text += (
+                f"; not determined: {', '.join(hidden)} (UMBmark keeps the nominal mean radius; "
+                "its track width holds for that radius)"
+            )
+        out.append(f"{m.method}: {text}")
     return out
 
 

@@ -67,6 +67,7 @@ PLUGIN = RobotPlugin(
     views="viz.manipulator.views:log_views",
     png="viz.manipulator.views:write_png",
     aliases=("manipulator_2link",),
+    identified_by=(("q1", "tau1"),),
     span_signals=("q", "tau"),
     options=ManipulatorOptions,
     info="logtools.robots.manipulator.info:info_section",

@@ -11,11 +11,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import typer
-from rich.console import Console, Group, RenderableType
+from rich.console import Group, RenderableType
 from rich.table import Table
 from rich.text import Text
 
 from calib.manipulator.choices import Conceal
+from logtools.console import report_console
 from logtools.writers.encoding import LogEncoding
 
 if TYPE_CHECKING:
@@ -100,7 +101,7 @@ def register_reproduce(group: typer.Typer) -> None:
         if as_json:
             sys.stdout.write(json.dumps(rep.to_dict(), indent=1) + "\n")
         else:
-            Console(width=max(Console().width, 160)).print(render_momentum(rep))
+            report_console(min_width=160).print(render_momentum(rep))
 
 
 def _s(x: float) -> str:

@@ -113,6 +113,7 @@ PLUGIN = RobotPlugin(
     pool=lazy("logtools.robots.tractor_trailer.pipeline:pool_tractor_trailer"),
     views="viz.tractor_trailer.views:tractor_trailer_rrd",
     png="viz.tractor_trailer.views:tractor_trailer_png",
+    identified_by=(("psi",),),
     span_signals=("psi", "kappa_cmd", "v", "omega", "x", "y", "yaw"),
     prepare=_prepare,
     derived_signals=(

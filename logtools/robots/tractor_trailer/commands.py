@@ -24,6 +24,7 @@ from rich.table import Table
 from rich.text import Text
 
 from calib.tractor_trailer.sim.choices import HitchModel, PresetName
+from logtools.console import report_console
 from logtools.writers.encoding import LogEncoding
 
 if TYPE_CHECKING:
@@ -173,7 +174,7 @@ def register_reproduce(group: typer.Typer) -> None:
         if as_json:
             sys.stdout.write(json.dumps(rep.to_dict(), indent=1) + "\n")
         else:
-            Console(width=max(Console().width, 160)).print(render_reproduction(rep))
+            report_console(min_width=160).print(render_reproduction(rep))
 
 
 _STATUS_STYLE = {"ok": "green", "outside": "bold red", "round-off": "yellow", "order": "yellow"}
@@ -270,6 +271,5 @@ def _status(message: str) -> AbstractContextManager[object]:
     """A spinner with ``message`` on stderr when it is a terminal, else nothing."""
     if not sys.stderr.isatty():
         return nullcontext()
-    from rich.console import Console
 
     return Console(stderr=True).status(message, spinner="dots")
