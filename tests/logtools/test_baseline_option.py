@@ -6,13 +6,13 @@ the settings file."""
 from __future__ import annotations
 
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any
 
 import pytest
 
 from calib.tractor_trailer.results import Baseline
 from logtools.batch.archive import LogJob
+from logtools.batch.runner import BatchSummary
 from logtools.batch.settings import SettingsError, settings_for
 from logtools.batch.worker import AnalysisOptions, analyse_job
 from logtools.cli.main import main
@@ -48,9 +48,9 @@ def test_batch_hands_the_given_baseline_to_every_log(
 
     def fake_run_batch(
         archive: Path, out: Path, *, options: AnalysisOptions, **_: Any
-    ) -> SimpleNamespace:
+    ) -> BatchSummary:
         seen.append(options)
-        return SimpleNamespace(logs=0, analysed=[], skipped=[], failed=[], out=out)
+        return BatchSummary(out=out, logs=0)
 
     monkeypatch.setattr("logtools.batch.runner.run_batch", fake_run_batch)
     (tmp_path / "a").mkdir()
