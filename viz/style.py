@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
-__all__ = ["COLORS", "TIMELINE", "hex_color", "ui_points"]
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from calib.results import AnalysisResult
+
+__all__ = ["COLORS", "TIMELINE", "application_id", "hex_color", "ui_points"]
 
 #: Name of the rerun timeline: log time (absolute, ns) as ``datetime64[ns]``.
 TIMELINE = "log_time"
@@ -45,3 +51,20 @@ def ui_points(points: float) -> float:
     """A radius in screen points: rerun reads a negative radius as UI points (the value
     ``rr.Radius.ui_points`` returns; spelled here as a float for the type checker)."""
     return -abs(points)
+
+
+def application_id(result: AnalysisResult) -> str:
+    """The rerun application id of ``result``'s recording: ``logcal_<robot>_<log file stem>`` for
+    one run, ``logcal_<robot>_pooled_<n>_runs`` for a pooled answer (letters, digits, ``_`` and
+    ``-`` only: rerun renames any other id with a warning).
+
+    rerun keeps one blueprint per application id: the runs of a pooled ``.rrd`` must each have
+    their own id, or every run is shown through the last run's layout (its title, its path
+    panel's entity, so "No data" for any other run).
+    """
+    if result.runs:
+        name = f"logcal_{result.robot}_pooled_{len(result.runs)}_runs"
+    else:
+        path = str(result.source.get("path", "") or "")
+        name = f"logcal_{result.robot}_{Path(path).stem}" if path else f"logcal_{result.robot}"
+    return "".join(c if c.isascii() and (c.isalnum() or c in "_-") else "_" for c in name)

@@ -19,7 +19,7 @@ import rerun.blueprint as rrb
 from calib.results import PM_MEANING, AnalysisResult, CalibrationResult
 from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals
-from viz.style import COLORS
+from viz.style import COLORS, application_id
 
 __all__ = ["log_views", "write_png"]
 
@@ -33,6 +33,12 @@ _MM = 1e3
 
 def _path_name(name: str) -> str:
     return "".join(c if c.isalnum() or c in "_-" else "_" for c in Path(name).stem) or "run"
+
+
+def _run_label(result: AnalysisResult) -> str:
+    """``run <file name>`` of a one-run result (``run`` when it names no file)."""
+    path = str(result.source.get("path", "") or "")
+    return f"run {Path(path).name}" if path else "run"
 
 
 def _trajectories(result: AnalysisResult) -> dict[str, dict[str, Any]]:
@@ -75,9 +81,13 @@ def log_views(
     out: Path, loaded: LoadedLike, result: AnalysisResult, options: object = None
 ) -> Path:
     """Write the .rrd to ``out`` (a view per run and the methods table) and return it; the
-    differential drive has no options of its own and draws what ``result`` carries."""
+    differential drive has no options of its own and draws what ``result`` carries.
+
+    A pooled ``result`` (its ``runs`` set) draws every run's paths and the pooled methods, not
+    ``loaded``'s raw signals (they are one run's); each recording has its own application id
+    (``viz.style.application_id``) so that rerun shows each through its own layout."""
     out = Path(out)
-    rec = rr.RecordingStream("logcal_diff_drive")
+    rec = rr.RecordingStream(application_id(result))
     rec.save(out)
     views: list[rrb.View] = []
     try:
@@ -103,17 +113,21 @@ def log_views(
                 )
             )
         rec.log("methods", rr.TextDocument(_table(result), media_type="text/markdown"), static=True)
-        origin = int(loaded.frame["t_ns"][0]) if loaded.frame.height else None
-        log_raw_signals(rec, loaded.log.topics, timeline="time", origin_ns=origin)
+        if not result.runs:
+            origin = int(loaded.frame["t_ns"][0]) if loaded.frame.height else None
+            log_raw_signals(rec, loaded.log.topics, timeline="time", origin_ns=origin)
     finally:
         rec.flush()
+    which = f"pooled over {len(result.runs)} runs" if result.runs else _run_label(result)
     grid = rrb.Grid(*views[:6]) if views else rrb.TextDocumentView(origin="methods")
     rec.send_blueprint(
         rrb.Blueprint(
             rrb.Vertical(
                 grid,
                 rrb.Tabs(
-                    rrb.TextDocumentView(name="methods: parameters (mm)", origin="methods"),
+                    rrb.TextDocumentView(
+                        name=f"methods, {which}: parameters (mm)", origin="methods"
+                    ),
                     rrb.TimeSeriesView(
                         name="raw signals as read (s from the log's start)", origin="raw"
                     ),

@@ -13,6 +13,7 @@ import rerun.blueprint as rrb
 from calib.results import AnalysisResult
 from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals
+from viz.style import application_id
 
 __all__ = ["log_views", "write_png"]
 
@@ -29,7 +30,7 @@ def log_views(
     art = result.artifacts
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    rec = rr.RecordingStream("logcal")
+    rec = rr.RecordingStream(application_id(result))
     rec.save(out)
     try:
         rec.log(
@@ -56,8 +57,9 @@ def log_views(
                     v = float(traj[k, p])
                     if np.isfinite(v):
                         rec.log(f"convergence/{est}/{_safe(name)}", rr.Scalars(v))
-        origin = int(loaded.frame["t_ns"][0]) if loaded.frame.height else None
-        log_raw_signals(rec, loaded.log.topics, timeline="time", origin_ns=origin)
+        if not result.runs:  # a pooled answer: not one run's signals
+            origin = int(loaded.frame["t_ns"][0]) if loaded.frame.height else None
+            log_raw_signals(rec, loaded.log.topics, timeline="time", origin_ns=origin)
     finally:
         rec.flush()
     torque: list[rrb.View] = [

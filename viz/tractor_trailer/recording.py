@@ -14,6 +14,7 @@ from calib.tractor_trailer.views_data import VIEWS
 from viz._frame import column, has, robust_limits
 from viz.raw import log_raw_signals
 from viz.style import TIMELINE
+from viz.style import application_id as app_id_of
 from viz.tractor_trailer.blueprint import default_blueprint
 from viz.tractor_trailer.methods import log_methods
 from viz.tractor_trailer.signals import find_method, log_segments, log_signals
@@ -71,7 +72,7 @@ def write_recording(
     views: Mapping[str, np.ndarray] | None = None,
     *,
     method_for_psi: str | None = None,
-    application_id: str = "logcal",
+    application_id: str | None = None,
     raw: Mapping[str, pl.DataFrame] | None = None,
 ) -> Path:
     """Save the recording of ``frame`` (aligned log) and ``result`` to ``path``.
@@ -86,7 +87,8 @@ def write_recording(
             signals are drawn).
         method_for_psi: a method name (e.g. "OLS1(EM1)") whose psi prediction is also shown;
             ``views`` must then hold its ``psi_steady_method``.
-        application_id: rerun application id.
+        application_id: rerun application id (None: ``viz.style.application_id(result)``, one
+            per run, so that each run of a pooled ``.rrd`` keeps its own layout).
 
     Returns:
         The path written.
@@ -102,7 +104,7 @@ def write_recording(
             raise KeyError(f"no psi prediction of method {method_for_psi!r} in the views data")
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    rec = rr.RecordingStream(application_id)
+    rec = rr.RecordingStream(application_id or app_id_of(result))
     blueprint = default_blueprint(
         result, _time_range(frame), _y_ranges(frame, drawn), drawn, raw=bool(raw)
     )
