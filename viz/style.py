@@ -5,13 +5,43 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+import rerun as rr
+from numpy.typing import NDArray
+
 if TYPE_CHECKING:
     from calib.results import AnalysisResult
 
-__all__ = ["COLORS", "TIMELINE", "application_id", "hex_color", "ui_points"]
+__all__ = [
+    "COLORS",
+    "TIMELINE",
+    "application_id",
+    "hex_color",
+    "start_words",
+    "time_index",
+    "ui_points",
+]
 
-#: Name of the rerun timeline: log time (absolute, ns) as ``datetime64[ns]``.
-TIMELINE = "log_time"
+#: Name of the rerun timeline of every robot: seconds from the log's start (a duration), as in
+#: the text report and the PNG; the absolute start is stated once, in the recording's summary.
+TIMELINE = "time"
+
+
+def start_words(start_ns: int) -> str:
+    """The log's absolute start, once, for people: ``started 2024-05-01 15:07:12.250 UTC``
+    (a clock that starts near 0, as a simulation's: ``its clock starts at 3.000 s``)."""
+    if start_ns < 10**9 * 86400 * 365:  # before 1971: not a wall clock
+        return f"its clock starts at {start_ns / 1e9:.3f} s"
+    stamp = np.datetime64(int(start_ns), "ns").astype("datetime64[ms]")
+    return "started " + str(stamp).replace("T", " ") + " UTC"
+
+
+def time_index(t_ns: NDArray[np.int64], origin_ns: int) -> list[rr.TimeColumn]:
+    """The rerun time index of the stamps ``t_ns`` (absolute ns): seconds from ``origin_ns``
+    (the log's start) on :data:`TIMELINE`."""
+    rel = np.asarray(t_ns, dtype=np.int64) - np.int64(origin_ns)
+    return [rr.TimeColumn(TIMELINE, duration=rel.astype("timedelta64[ns]"))]
+
 
 #: RGB colours (0-255) of the plotted things; saturated so a screenshot test can find them.
 COLORS: dict[str, tuple[int, int, int]] = {

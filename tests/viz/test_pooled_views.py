@@ -90,6 +90,9 @@ def test_each_run_and_the_pooled_answer_have_their_own_recording(tmp_path: Path)
     assert "201.000" in contents["logcal_diff_drive_run-01"][1]
     assert "199.000" in contents["logcal_diff_drive_run-02"][1]
     assert "200.500" in contents["logcal_diff_drive_pooled_2_runs"][1]
+    start = "Time: seconds from the log's start, its clock starts at 0.000 s."
+    assert start in contents["logcal_diff_drive_run-01"][1]  # the timeline's zero, once
+    assert "log's start" not in contents["logcal_diff_drive_pooled_2_runs"][1]
     blueprints = {b.application_id for b in RrdReader(written.rrd).blueprints()}
     assert blueprints == set(contents)  # each recording's layout is its own
     assert "and the pooled answer" in written.messages[0][1]

@@ -19,7 +19,7 @@ import rerun.blueprint as rrb
 from calib.results import PM_MEANING, AnalysisResult, CalibrationResult
 from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals
-from viz.style import COLORS, application_id
+from viz.style import COLORS, TIMELINE, application_id, start_words
 
 __all__ = ["log_views", "write_png"]
 
@@ -50,8 +50,9 @@ def _methods(result: AnalysisResult) -> list[CalibrationResult]:
     return [m for m in result.methods if isinstance(m, CalibrationResult)]
 
 
-def _table(result: AnalysisResult) -> str:
-    """Markdown: each method's parameters (mm) ± one standard error and 95 % interval."""
+def _table(result: AnalysisResult, start_ns: int | None = None) -> str:
+    """Markdown: each method's parameters (mm) ± one standard error and 95 % interval; then the
+    log's absolute start (``start_ns``: the timeline's zero), once."""
     methods = _methods(result)
     names = sorted({n for m in methods for n in m.parameters})
     lines = [
@@ -74,6 +75,8 @@ def _table(result: AnalysisResult) -> str:
         lines.append(f"| {m.method} | " + " | ".join(cells) + " |")
     lines.append("")
     lines.append(PM_MEANING)
+    if start_ns is not None:
+        lines += ["", f"Time: seconds from the log's start, {start_words(start_ns)}."]
     return "\n".join(lines)
 
 
@@ -112,10 +115,15 @@ def log_views(
                     origin=base,
                 )
             )
-        rec.log("methods", rr.TextDocument(_table(result), media_type="text/markdown"), static=True)
+        start = int(loaded.frame["t_ns"][0]) if loaded.frame.height and not result.runs else None
+        rec.log(
+            "methods",
+            rr.TextDocument(_table(result, start), media_type="text/markdown"),
+            static=True,
+        )
         if not result.runs:
             origin = int(loaded.frame["t_ns"][0]) if loaded.frame.height else None
-            log_raw_signals(rec, loaded.log.topics, timeline="time", origin_ns=origin)
+            log_raw_signals(rec, loaded.log.topics, timeline=TIMELINE, origin_ns=origin)
     finally:
         rec.flush()
     which = f"pooled over {len(result.runs)} runs" if result.runs else _run_label(result)

@@ -13,7 +13,7 @@ import rerun.blueprint as rrb
 from calib.results import AnalysisResult
 from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals
-from viz.style import application_id
+from viz.style import TIMELINE, application_id, start_words
 
 __all__ = ["log_views", "write_png"]
 
@@ -33,33 +33,36 @@ def log_views(
     rec = rr.RecordingStream(application_id(result))
     rec.save(out)
     try:
+        start = int(loaded.frame["t_ns"][0]) if loaded.frame.height else None
         rec.log(
-            "summary", rr.TextDocument(_summary(result), media_type="text/markdown"), static=True
+            "summary",
+            rr.TextDocument(_summary(result, start), media_type="text/markdown"),
+            static=True,
         )
         if "points" in art:
             for t, pts in zip(art["t_s"], art["points"], strict=True):
-                rec.set_time("time", duration=float(t))
+                rec.set_time(TIMELINE, duration=float(t))
                 rec.log("arm/links", rr.LineStrips3D([pts]))
                 rec.log("arm/joints", rr.Points3D(pts, radii=0.01))
         names = art.get("joint_names", [])
         if "holdout_t_s" in art:
             meas, pred = art["holdout_measured"], art["holdout_predicted"]
             for k, t in enumerate(art["holdout_t_s"]):
-                rec.set_time("time", duration=float(t))
+                rec.set_time(TIMELINE, duration=float(t))
                 for j, name in enumerate(names):
                     rec.log(f"torque/{name}/measured", rr.Scalars(float(meas[k, j])))
                     rec.log(f"torque/{name}/predicted", rr.Scalars(float(pred[k, j])))
         pnames = art.get("parameter_names", [])
         for est, traj in art.get("trajectories", {}).items():
             for k, t in enumerate(art["trajectory_t_s"]):
-                rec.set_time("time", duration=float(t))
+                rec.set_time(TIMELINE, duration=float(t))
                 for p, name in enumerate(pnames):
                     v = float(traj[k, p])
                     if np.isfinite(v):
                         rec.log(f"convergence/{est}/{_safe(name)}", rr.Scalars(v))
         if not result.runs:  # a pooled answer: not one run's signals
             origin = int(loaded.frame["t_ns"][0]) if loaded.frame.height else None
-            log_raw_signals(rec, loaded.log.topics, timeline="time", origin_ns=origin)
+            log_raw_signals(rec, loaded.log.topics, timeline=TIMELINE, origin_ns=origin)
     finally:
         rec.flush()
     torque: list[rrb.View] = [
@@ -137,9 +140,13 @@ def _safe(name: str) -> str:
     return "".join(c if c.isalnum() or c in "_-" else "_" for c in name)[:60]
 
 
-def _summary(result: AnalysisResult) -> str:
+def _summary(result: AnalysisResult, start_ns: int | None = None) -> str:
+    """Markdown: robot and joints, the log's absolute start once (the timeline's zero), the
+    held-out torque error and the recommended estimate."""
     s = result.sections
     lines = [f"# {result.robot}: {', '.join(s.get('joints', []))}"]
+    if start_ns is not None and not result.runs:
+        lines.append(f"Time: seconds from the log's start, {start_words(start_ns)}.")
     if "torque_rms_holdout_ratio" in s:
         lines.append(f"Held-out torque error: {100 * s['torque_rms_holdout_ratio']:.1f} % of RMS")
     if result.estimate is not None:

@@ -13,7 +13,7 @@ from calib.results import PM_MEANING, AnalysisResult
 from calib.tractor_trailer.views_data import VIEWS
 from viz._frame import column, has, robust_limits
 from viz.raw import log_raw_signals
-from viz.style import TIMELINE
+from viz.style import TIMELINE, start_words
 from viz.style import application_id as app_id_of
 from viz.tractor_trailer.blueprint import default_blueprint
 from viz.tractor_trailer.methods import log_methods
@@ -23,9 +23,12 @@ from viz.tractor_trailer.world import log_world
 __all__ = ["summary_markdown", "write_recording"]
 
 
-def summary_markdown(result: AnalysisResult) -> str:
-    """Markdown summary: robot, recommended estimate, truth, what ± means, warnings."""
+def summary_markdown(result: AnalysisResult, start_ns: int | None = None) -> str:
+    """Markdown summary: robot, the log's absolute start (``start_ns``, the timeline's zero),
+    recommended estimate, truth, what ± means, warnings."""
     parts = [f"# {result.robot}"]
+    if start_ns is not None:
+        parts.append(f"Time: seconds from the log's start, {start_words(start_ns)}.")
     if result.estimate is not None:
         parts.append("```\n" + result.estimate.report() + "\n```")
     if result.truth:
@@ -39,11 +42,12 @@ def summary_markdown(result: AnalysisResult) -> str:
 
 
 def _time_range(frame: pl.DataFrame) -> tuple[int, int] | None:
-    """(first, last) ``t_ns`` of the frame, or None when empty."""
+    """(0, last - first) ``t_ns`` of the frame: its span in ns from the log's start (the
+    timeline's zero), or None when empty."""
     if frame.height == 0 or "t_ns" not in frame.columns:
         return None
     t = frame["t_ns"].cast(pl.Int64).to_numpy()
-    return int(t.min()), int(t.max())
+    return 0, int(t.max() - t[0])
 
 
 def _y_ranges(
@@ -109,10 +113,11 @@ def write_recording(
         result, _time_range(frame), _y_ranges(frame, drawn), drawn, raw=bool(raw)
     )
     rec.save(out, default_blueprint=blueprint)
+    start = int(frame["t_ns"][0]) if frame.height and "t_ns" in frame.columns else None
     try:
         rec.log(
             "summary",
-            rr.TextDocument(summary_markdown(result), media_type="text/markdown"),
+            rr.TextDocument(summary_markdown(result, start), media_type="text/markdown"),
             static=True,
         )
         log_world(rec, frame, drawn)
@@ -120,7 +125,7 @@ def write_recording(
         log_segments(rec, frame, result)
         log_methods(rec, result)
         if raw:
-            log_raw_signals(rec, raw, timeline=TIMELINE)
+            log_raw_signals(rec, raw, timeline=TIMELINE, origin_ns=start)
     finally:
         rec.flush()
         rec.disconnect()
