@@ -17,6 +17,7 @@ __all__ = [
     "TIMELINE",
     "application_id",
     "hex_color",
+    "robot_of_application_id",
     "start_words",
     "time_index",
     "ui_points",
@@ -68,6 +69,18 @@ COLORS: dict[str, tuple[int, int, int]] = {
     # them)
     "dd_nominal": (220, 60, 60),
     "dd_calibrated": (40, 120, 220),
+    # the arm's links and joints (viz.manipulator.views)
+    "arm_links": (0, 158, 115),
+    "arm_joints": (213, 94, 0),
+}
+
+#: Per robot, the colours of ``COLORS`` that only show once its viewer has drawn the data (the
+#: screenshot waits for them): the tractor's C1 and C2 paths and measured kappa, the
+#: differential drive's dead-reckoned paths, the arm's links and joints.
+READY_COLORS: dict[str, tuple[str, ...]] = {
+    "tractor_trailer": ("C1", "C2", "kappa"),
+    "diff_drive": ("dd_nominal", "dd_calibrated"),
+    "manipulator": ("arm_links", "arm_joints"),
 }
 
 
@@ -81,6 +94,15 @@ def ui_points(points: float) -> float:
     """A radius in screen points: rerun reads a negative radius as UI points (the value
     ``rr.Radius.ui_points`` returns; spelled here as a float for the type checker)."""
     return -abs(points)
+
+
+def robot_of_application_id(app_id: str) -> str | None:
+    """The robot a recording's application id names (:func:`application_id`), None when it
+    names none of :data:`READY_COLORS`'s robots."""
+    for robot in sorted(READY_COLORS, key=len, reverse=True):
+        if app_id == f"logcal_{robot}" or app_id.startswith(f"logcal_{robot}_"):
+            return robot
+    return None
 
 
 def application_id(result: AnalysisResult) -> str:

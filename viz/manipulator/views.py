@@ -13,7 +13,7 @@ import rerun.blueprint as rrb
 from calib.results import AnalysisResult
 from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals
-from viz.style import TIMELINE, application_id, start_words
+from viz.style import COLORS, TIMELINE, application_id, start_words
 
 __all__ = ["log_views", "write_png"]
 
@@ -42,8 +42,8 @@ def log_views(
         if "points" in art:
             for t, pts in zip(art["t_s"], art["points"], strict=True):
                 rec.set_time(TIMELINE, duration=float(t))
-                rec.log("arm/links", rr.LineStrips3D([pts]))
-                rec.log("arm/joints", rr.Points3D(pts, radii=0.01))
+                rec.log("arm/links", rr.LineStrips3D([pts], colors=[COLORS["arm_links"]]))
+                rec.log("arm/joints", rr.Points3D(pts, radii=0.01, colors=[COLORS["arm_joints"]]))
         names = art.get("joint_names", [])
         if "holdout_t_s" in art:
             meas, pred = art["holdout_measured"], art["holdout_predicted"]
