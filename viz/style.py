@@ -13,7 +13,9 @@ if TYPE_CHECKING:
     from calib.results import AnalysisResult
 
 __all__ = [
+    "CANVASES",
     "COLORS",
+    "OKABE_ITO",
     "TIMELINE",
     "application_id",
     "hex_color",
@@ -44,34 +46,66 @@ def time_index(t_ns: NDArray[np.int64], origin_ns: int) -> list[rr.TimeColumn]:
     return [rr.TimeColumn(TIMELINE, duration=rel.astype("timedelta64[ns]"))]
 
 
-#: RGB colours (0-255) of the plotted things; saturated so a screenshot test can find them.
+#: The Okabe-Ito palette (Okabe & Ito 2008, "Color Universal Design"): eight colours told
+#: apart with every common colour-vision deficiency. Every plotted colour below is one of them,
+#: a tint of one (drawn apart on the same canvas), or a neutral grey.
+OKABE_ITO: dict[str, tuple[int, int, int]] = {
+    "black": (0, 0, 0),
+    "orange": (230, 159, 0),
+    "sky_blue": (86, 180, 233),
+    "bluish_green": (0, 158, 115),
+    "yellow": (240, 228, 66),
+    "blue": (0, 114, 178),
+    "vermillion": (213, 94, 0),
+    "reddish_purple": (204, 121, 167),
+}
+_OI = OKABE_ITO
+
+#: RGB colours (0-255) of the plotted things; a screenshot test finds the ready ones
+#: (``READY_COLORS``) by colour, so those are used by nothing else on their canvas.
 COLORS: dict[str, tuple[int, int, int]] = {
-    "C1": (230, 25, 75),  # red: front wheel centre
-    "P": (255, 165, 0),  # orange: joint
-    "C2": (0, 130, 200),  # blue: rear wheel centre
-    "links": (240, 240, 240),
-    "O": (60, 180, 75),  # green: instantaneous centre
-    "Q": (145, 30, 180),  # purple
-    "triangle_OQC2": (70, 240, 240),
-    "triangle_QC1P": (240, 50, 230),
-    "radius": (60, 180, 75),
-    "kappa_cmd": (255, 225, 25),  # yellow
-    "kappa": (255, 110, 40),  # orange-red
-    "psi": (40, 80, 255),  # blue-violet
-    "psi_estimate": (0, 210, 140),
-    "psi_method": (200, 120, 255),
-    "psi_steady": (255, 120, 190),  # pink: the steady-state relation
-    "residual": (220, 190, 255),
-    "truth": (250, 250, 250),
-    "L1": (230, 25, 75),
-    "L2": (0, 130, 200),
+    "C1": _OI["vermillion"],  # front wheel centre
+    "P": _OI["orange"],  # joint
+    "C2": _OI["blue"],  # rear wheel centre
+    "links": (240, 240, 240),  # neutral: on the viewer's dark background
+    "O": _OI["bluish_green"],  # instantaneous centre
+    "Q": _OI["reddish_purple"],
+    "triangle_OQC2": (
+        171,
+        218,
+        244,
+    ),  # sky blue half-mixed with white (kappa's colour is the full one)
+    "triangle_QC1P": (248, 242, 161),  # yellow half-mixed with white
+    "radius": _OI["bluish_green"],  # from O, in O's colour
+    "kappa_cmd": _OI["yellow"],
+    "kappa": _OI["sky_blue"],
+    "psi": _OI["blue"],
+    "psi_estimate": _OI["bluish_green"],
+    "psi_method": _OI["reddish_purple"],
+    "psi_steady": _OI["vermillion"],  # the steady-state relation
+    "residual": (153, 153, 153),  # neutral grey: the baseline's residual
+    "truth": (250, 250, 250),  # neutral: on the viewer's dark background
+    "L1": _OI["vermillion"],
+    "L2": _OI["blue"],
     # the differential drive's paths (viz.diff_drive.views draws them; the screenshot looks for
     # them)
-    "dd_nominal": (220, 60, 60),
-    "dd_calibrated": (40, 120, 220),
+    "dd_nominal": _OI["vermillion"],
+    "dd_calibrated": _OI["blue"],
     # the arm's links and joints (viz.manipulator.views)
-    "arm_links": (0, 158, 115),
-    "arm_joints": (213, 94, 0),
+    "arm_links": _OI["bluish_green"],
+    "arm_joints": _OI["orange"],
+}
+
+#: Colours drawn together on one canvas (a view or a figure's axes): each group's are pairwise
+#: distinct.
+CANVASES: dict[str, tuple[str, ...]] = {
+    "tractor world": ("C1", "P", "C2", "links", "O", "Q", "triangle_OQC2", "triangle_QC1P"),
+    "curvature": ("kappa_cmd", "kappa"),
+    "joint angle": ("psi", "psi_estimate", "psi_method", "psi_steady"),
+    "residuals": ("residual", "psi_estimate"),
+    "lengths": ("L1", "L2"),
+    "differential drive paths": ("dd_nominal", "dd_calibrated"),
+    "arm": ("arm_links", "arm_joints"),
 }
 
 #: Per robot, the colours of ``COLORS`` that only show once its viewer has drawn the data (the

@@ -10,23 +10,32 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from calib.results import PM_MEANING, AnalysisResult, CalibrationResult
+from calib.results import PM_MEANING, AnalysisResult, CalibrationResult, Estimate
 from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals
-from viz.style import COLORS, TIMELINE, application_id, start_words
+from viz.style import COLORS, TIMELINE, application_id, hex_color, start_words
 
-__all__ = ["log_views", "write_png"]
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
-_COLOURS = {
-    "truth": (40, 40, 40),
-    "nominal": COLORS["dd_nominal"][:3],
-    "calibrated": COLORS["dd_calibrated"][:3],
+__all__ = ["log_views", "report_figure", "write_png"]
+
+_COLOURS = {  # the viewer's dark background
+    "truth": COLORS["truth"],
+    "nominal": COLORS["dd_nominal"],
+    "calibrated": COLORS["dd_calibrated"],
+}
+_PNG_COLOURS = {  # the report image's white background
+    "truth": "#000000",
+    "nominal": hex_color("dd_nominal"),
+    "calibrated": hex_color("dd_calibrated"),
 }
 _MM = 1e3
 
@@ -110,8 +119,8 @@ def log_views(
                 )
             views.append(
                 rrb.Spatial2DView(
-                    name=f"run {Path(run_name).name}: black truth, red nominal, blue calibrated "
-                    "(dead reckoning; dots: end points)",
+                    name=f"run {Path(run_name).name}: white truth, vermillion nominal, "
+                    "blue calibrated (dead reckoning; dots: end points)",
                     origin=base,
                 )
             )
@@ -152,9 +161,8 @@ def log_views(
     return out
 
 
-def write_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
-    """Static report image: up to six runs' paths (truth, nominal, calibrated dead reckoning)
-    and one error-bar panel per parameter (each method's value and 95 % interval, mm)."""
+def report_figure(result: AnalysisResult) -> Figure:
+    """The report image's figure (see :func:`write_png`), for saving or for checking."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -163,48 +171,78 @@ def write_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
     runs = list(_trajectories(result).items())[:6]
     methods = _methods(result)
     names = sorted({n for m in methods for n in m.parameters})
-    n_top = max(1, len(runs))
     fig = plt.figure(figsize=(16, 9), dpi=100)
-    grid = fig.add_gridspec(2, max(n_top, len(names), 1), height_ratios=[3, 2])
+    outer = fig.add_gridspec(2, 1, height_ratios=[3, 2], hspace=0.35)
+    top = outer[0].subgridspec(1, max(1, len(runs)))  # the runs fill the top row
+    bottom = outer[1].subgridspec(1, max(1, len(names)), wspace=0.45)  # the parameters, below
     for i, (run_name, paths) in enumerate(runs):
-        ax = fig.add_subplot(grid[0, i])
+        ax = fig.add_subplot(top[0, i])
         for label, arr in paths.items():
-            c = np.array(_COLOURS.get(label, (0, 0, 0))) / 255
-            ax.plot(arr["x"], arr["y"], color=c, lw=1.2, label=label)
+            ax.plot(arr["x"], arr["y"], color=_PNG_COLOURS.get(label, "k"), lw=1.2, label=label)
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_title(Path(run_name).name, fontsize=9)
         ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
         if i == 0:
-            ax.set_ylabel("y (m)")
             ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.15), ncol=3, fontsize=8)
     for j, name in enumerate(names):
-        ax = fig.add_subplot(grid[1, j])
-        rows = [(m.method, m.parameters[name]) for m in methods if name in m.parameters]
-        for k, (_label, e) in enumerate(rows):
-            lo, hi = e.ci95
-            if math.isfinite(lo) and math.isfinite(hi):
-                ax.errorbar(
-                    [e.value * _MM],
-                    [k],
-                    xerr=[[(e.value - lo) * _MM], [(hi - e.value) * _MM]],
-                    fmt="o",
-                    color="C0",
-                    capsize=3,
-                )
-            elif math.isfinite(e.value):
-                ax.plot([e.value * _MM], [k], "x", color="grey")
-        for key, style, what in (("nominal", "--", "nominal"), ("truth", "-", "truth")):
-            ref = (result.sections.get(key) if key == "nominal" else result.truth) or {}
-            if isinstance(ref, dict) and math.isfinite(float(ref.get(name, math.nan))):
-                ax.axvline(float(ref[name]) * _MM, ls=style, color="k", lw=0.8, label=what)
-        if j == 0:
-            ax.legend(loc="upper left", fontsize=8)
-        ax.set_yticks(range(len(rows)), [r[0] for r in rows], fontsize=8)
-        ax.set_ylim(-0.5, len(rows) - 0.5)
-        ax.set_xlabel(f"{name} (mm); bars: 95 % interval")
-        ax.grid(axis="x", alpha=0.3)
+        ax = fig.add_subplot(bottom[0, j])
+        _parameter_panel(ax, result, methods, name)
+        if j == 0 and ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.25), ncol=3, fontsize=8)
     fig.suptitle(f"differential drive: {len(runs)} run(s), {len(methods)} method(s)")
-    fig.tight_layout()
+    return fig
+
+
+def _determined(e: Estimate) -> bool:
+    """As the table says (:func:`_table`): identifiable with a finite 95 % interval."""
+    return e.identifiable and all(math.isfinite(v) for v in e.ci95) and math.isfinite(e.value)
+
+
+def _parameter_panel(
+    ax: Axes, result: AnalysisResult, methods: list[CalibrationResult], name: str
+) -> None:
+    """Each method's ``name`` (mm) with its 95 % interval; "not determined" written where the
+    table writes it; the nominal and true values as vertical lines."""
+    rows = [(m.method, m.parameters[name]) for m in methods if name in m.parameters]
+    for k, (_label, e) in enumerate(rows):
+        if _determined(e):
+            lo, hi = e.ci95
+            ax.errorbar(
+                [e.value * _MM],
+                [k],
+                xerr=[[(e.value - lo) * _MM], [(hi - e.value) * _MM]],
+                fmt="o",
+                color=hex_color("dd_calibrated"),
+                capsize=3,
+            )
+        elif math.isfinite(e.value):
+            ax.plot([e.value * _MM], [k], "x", color="0.4")
+            ax.annotate(
+                f"{e.value * _MM:.3f} (not determined)",
+                (e.value * _MM, k),
+                xytext=(6, 4),
+                textcoords="offset points",
+                fontsize=8,
+                color="0.3",
+            )
+    for key, style, what in (("nominal", "--", "nominal"), ("truth", "-", "truth")):
+        ref = (result.sections.get(key) if key == "nominal" else result.truth) or {}
+        if isinstance(ref, dict) and math.isfinite(float(ref.get(name, math.nan))):
+            ax.axvline(float(ref[name]) * _MM, ls=style, color="k", lw=0.8, label=what)
+    ax.set_yticks(range(len(rows)), [r[0] for r in rows], fontsize=8)
+    ax.set_ylim(-0.5, len(rows) - 0.5)
+    ax.set_xlabel(f"{name} (mm); bars: 95 % interval")
+    ax.grid(axis="x", alpha=0.3)
+
+
+def write_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
+    """Static report image: up to six runs' paths (truth, nominal, calibrated dead reckoning)
+    across the top, and one panel per parameter below (each method's value and 95 % interval,
+    mm; "not determined" written where the table writes it)."""
+    import matplotlib.pyplot as plt
+
+    fig = report_figure(result)
     fig.savefig(out)
     plt.close(fig)
     return out

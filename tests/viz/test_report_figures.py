@@ -1,0 +1,61 @@
+"""The report images' facts, read from the matplotlib objects (not from pixels): what each axes
+shows, its ticks and its texts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from calib.results import AnalysisResult, CalibrationResult, Estimate
+from viz.diff_drive.views import report_figure
+from viz.style import hex_color
+
+
+def _texts(fig) -> list[str]:
+    return [t.get_text() for t in fig.findobj(lambda a: hasattr(a, "get_text"))]
+
+
+def _dd_result() -> AnalysisResult:
+    t = np.linspace(0.0, 2 * np.pi, 40)
+    path = {"x": np.cos(t), "y": np.sin(t)}
+    params = {
+        "track_width": Estimate("track_width", 0.2015, 4e-4, (0.2007, 0.2023)),
+        "wheel_radius_left": Estimate(
+            "wheel_radius_left", 0.04183, 2e-3, (0.0379, 0.0458), identifiable=False
+        ),
+    }
+    return AnalysisResult(
+        robot="diff_drive",
+        segments=[],
+        methods=[CalibrationResult("LSQ", params, "ok")],
+        estimate=None,
+        sections={"nominal": {"track_width": 0.2, "wheel_radius_left": 0.042}},
+        artifacts={"trajectories": {"/l/run-01.csv": {"truth": path, "calibrated": path}}},
+    )
+
+
+def test_diff_drive_figure_fills_its_rows_and_says_not_determined() -> None:
+    fig = report_figure(_dd_result())
+    axes = fig.get_axes()
+    assert len(axes) == 3  # one run's path across the top, one panel per parameter below
+    path_ax, *param_axes = axes
+    assert path_ax.get_position().width > 0.7  # the top row is not left half empty (was 1/3)
+    texts = _texts(fig)
+    assert "41.830 (not determined)" in texts  # as the table writes it
+    assert not any("201.500 (not determined)" in t for t in texts)
+    for ax in axes:
+        assert len(ax.get_xticks()) >= 2
+        assert len(ax.get_yticks()) >= 1
+        assert ax.get_xlabel()
+    # the determined value is drawn with its interval, in the palette's blue
+    colours = {line.get_color() for line in param_axes[0].get_lines()}
+    assert hex_color("dd_calibrated") in colours
+    assert {ln.get_label() for ln in path_ax.get_lines()} == {"truth", "calibrated"}
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
