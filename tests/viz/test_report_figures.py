@@ -59,3 +59,31 @@ def _close_figures():
     import matplotlib.pyplot as plt
 
     plt.close("all")
+
+
+def test_arm_figure_shows_the_recommended_parameters_as_the_report() -> None:
+    from viz.manipulator.views import report_figure as arm_figure
+
+    a1 = Estimate("a1", 0.3399, 5.2e-4, (0.3389, 0.341), unit="kg*m^2", identifiable=False)
+    fc = Estimate("Fc[joint1]", 0.1, 0.0097, (0.081, 0.119), unit="N*m")
+    est = CalibrationResult("momentum-WLS", {"a1": a1, "Fc[joint1]": fc}, "ok")
+    result = AnalysisResult(
+        robot="manipulator",
+        segments=[],
+        methods=[est],
+        estimate=est,
+        artifacts={
+            "joint_names": ["joint1"],
+            "holdout_t_s": np.array([1.0, 2.0, 3.0]),
+            "holdout_measured": np.zeros((3, 1)),
+            "holdout_predicted": np.ones((3, 1)),
+        },
+    )
+    fig = arm_figure(result)
+    text = "\n".join(_texts(fig))
+    assert a1.report() in text  # "(not determined by this log)" with it
+    assert "not determined" in a1.report()
+    assert fc.report() in text
+    torque = fig.get_axes()[0]
+    assert torque.get_xlabel().startswith("time (s from the log's start)")
+    assert len(torque.get_xticks()) >= 2

@@ -5,6 +5,7 @@ convergence of the recursive estimators. Draws only what ``result.artifacts`` ca
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import rerun as rr
@@ -13,9 +14,12 @@ import rerun.blueprint as rrb
 from calib.results import AnalysisResult
 from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals
-from viz.style import COLORS, TIMELINE, application_id, start_words
+from viz.style import COLORS, TIMELINE, application_id, hex_color, start_words
 
-__all__ = ["log_views", "write_png"]
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = ["log_views", "parameter_lines", "report_figure", "write_png"]
 
 
 def log_views(
@@ -103,7 +107,32 @@ def log_views(
 
 
 def write_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
-    """Static report image: held-out torque, measured vs predicted, per joint (up to 8)."""
+    """Static report image: held-out torque, measured vs predicted, per joint (up to 8), and the
+    recommended estimate's parameters beside them."""
+    import matplotlib.pyplot as plt
+
+    fig = report_figure(result)
+    fig.savefig(out)
+    plt.close(fig)
+    return out
+
+
+def parameter_lines(result: AnalysisResult, limit: int = 30) -> list[str]:
+    """The recommended estimate's parameters, one line each exactly as the text report writes
+    them (``Estimate.report()``: value ± std unit [95 %], "not determined" where it applies);
+    at most ``limit`` lines."""
+    est = result.estimate
+    if est is None:
+        return ["no recommended estimate"]
+    lines = [f"recommended estimate ({est.method}):"]
+    lines += [e.report() for e in list(est.parameters.values())[:limit]]
+    if len(est.parameters) > limit:
+        lines.append(f"... and {len(est.parameters) - limit} more (logcal analyze --methods)")
+    return lines
+
+
+def report_figure(result: AnalysisResult) -> Figure:
+    """The report image's figure (see :func:`write_png`), for saving or for checking."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -111,29 +140,43 @@ def write_png(out: Path, loaded: LoadedLike, result: AnalysisResult) -> Path:
 
     art = result.artifacts
     names = list(art.get("joint_names", []))[:8]
-    fig, axes = plt.subplots(
-        max(1, len(names)), 1, figsize=(16, 9), dpi=100, sharex=True, squeeze=False
-    )
+    fig = plt.figure(figsize=(16, 9), dpi=100)
+    grid = fig.add_gridspec(max(1, len(names)), 2, width_ratios=[2.2, 1], wspace=0.05)
+    axes = [fig.add_subplot(grid[j, 0]) for j in range(max(1, len(names)))]
+    for ax in axes[1:]:
+        ax.sharex(axes[0])
     if "holdout_t_s" in art:
         t = np.asarray(art["holdout_t_s"])
         meas, pred = np.asarray(art["holdout_measured"]), np.asarray(art["holdout_predicted"])
         for j, name in enumerate(names):
-            ax = axes[j, 0]
+            ax = axes[j]
             ax.plot(t, meas[:, j], color="0.3", lw=0.8, label="measured")
-            ax.plot(t, pred[:, j], color="C1", lw=1.0, label="predicted (identified model)")
+            ax.plot(
+                t, pred[:, j], color=hex_color("P"), lw=1.0, label="predicted (identified model)"
+            )
             ax.set_ylabel(f"{name}\n(N·m)", fontsize=8)
             if j == 0:
-                ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
-        axes[-1, 0].set_xlabel("time (s), held-out last 40 % of the log")
+                ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.02), ncol=2, fontsize=8)
+        axes[-1].set_xlabel("time (s from the log's start), held-out last 40 % of the log")
+    side = fig.add_subplot(grid[:, 1])
+    side.axis("off")
+    side.text(
+        0.05,
+        1.0,
+        "\n".join(parameter_lines(result)),
+        va="top",
+        ha="left",
+        family="monospace",
+        fontsize=7.5,
+        wrap=True,
+        transform=side.transAxes,
+    )
     ratio = result.sections.get("torque_rms_holdout_ratio")
     title = "arm: held-out torque"
     if isinstance(ratio, float) and np.isfinite(ratio):
         title += f" (error RMS {100 * ratio:.1f} % of the torque RMS)"
     fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(out)
-    plt.close(fig)
-    return out
+    return fig
 
 
 def _safe(name: str) -> str:
