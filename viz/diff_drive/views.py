@@ -18,7 +18,7 @@ import rerun.blueprint as rrb
 
 from calib.results import PM_MEANING, AnalysisResult, CalibrationResult, Estimate
 from viz.loaded import LoadedLike
-from viz.raw import log_raw_signals
+from viz.raw import log_raw_signals, raw_views
 from viz.style import COLORS, TIMELINE, application_id, hex_color, start_words
 
 if TYPE_CHECKING:
@@ -145,9 +145,7 @@ def log_views(
                     rrb.TextDocumentView(
                         name=f"methods, {which}: parameters (mm)", origin="methods"
                     ),
-                    rrb.TimeSeriesView(
-                        name="raw signals as read (s from the log's start)", origin="raw"
-                    ),
+                    *raw_views({} if result.runs else loaded.log.topics),
                 ),
                 row_shares=[3, 1],
             ),

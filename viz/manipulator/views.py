@@ -13,7 +13,7 @@ import rerun.blueprint as rrb
 
 from calib.results import AnalysisResult
 from viz.loaded import LoadedLike
-from viz.raw import log_raw_signals
+from viz.raw import log_raw_signals, raw_views
 from viz.style import COLORS, TIMELINE, application_id, hex_color, start_words
 
 if TYPE_CHECKING:
@@ -89,9 +89,7 @@ def log_views(
                     ),
                     rrb.Tabs(
                         rrb.TextDocumentView(name="summary", origin="summary"),
-                        rrb.TimeSeriesView(
-                            name="raw signals as read (s from the log's start)", origin="raw"
-                        ),
+                        *raw_views({} if result.runs else loaded.log.topics),
                     ),
                 ),
                 rrb.Vertical(*(torque[:4] or [rrb.TextDocumentView(origin="summary")])),

@@ -33,9 +33,17 @@ def _outside_legend(ax, below: bool = False) -> None:
     is labelled."""
     if not ax.get_legend_handles_labels()[0]:
         return
-    if below:
+    if below:  # 34 points under the axes: below its tick labels and its x label
+        from matplotlib.transforms import ScaledTranslation
+
+        under = ax.transAxes + ScaledTranslation(0, -34 / 72, ax.figure.dpi_scale_trans)
         ax.legend(
-            loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize=7, frameon=False, ncol=2
+            loc="upper center",
+            bbox_to_anchor=(0.5, 0.0),
+            bbox_transform=under,
+            fontsize=7,
+            frameon=False,
+            ncol=2,
         )
     else:
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)

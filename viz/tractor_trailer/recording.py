@@ -110,7 +110,7 @@ def write_recording(
     out.parent.mkdir(parents=True, exist_ok=True)
     rec = rr.RecordingStream(application_id or app_id_of(result))
     blueprint = default_blueprint(
-        result, _time_range(frame), _y_ranges(frame, drawn), drawn, raw=bool(raw)
+        result, _time_range(frame), _y_ranges(frame, drawn), drawn, raw=raw
     )
     rec.save(out, default_blueprint=blueprint)
     start = int(frame["t_ns"][0]) if frame.height and "t_ns" in frame.columns else None
