@@ -265,3 +265,11 @@ def test_recommended_transient_prediction_is_drawn_as_that_model(case, tmp_path)
     assert case.result.estimate.method in name
     steady = ents["/signals/psi/predicted_estimate"].static["SeriesLines:names"][0]
     assert steady.startswith("ψ steady-state relation")
+
+
+def test_kappa_command_shows_around_the_measured_line(recorded):
+    """The command is drawn wider than the measured curvature over it (it was hidden under it)."""
+    ents, _ = recorded
+    cmd = ents["/signals/kappa/command"].static["SeriesLines:widths"][0]
+    meas = ents["/signals/kappa/measured"].static["SeriesLines:widths"][0]
+    assert cmd >= 3 * meas

@@ -106,6 +106,7 @@ def log_signals(
             name="κ command",
             color="kappa_cmd",
             origin_ns=t0,
+            width=4.0,  # wider than the measured line drawn over it: both stay visible
         )
     if "kappa" in views:
         send_series(
@@ -116,6 +117,7 @@ def log_signals(
             name="κ measured",
             color="kappa",
             origin_ns=t0,
+            width=1.0,
         )
     psi = column(frame, "psi") if has(frame, "psi") else None
     if psi is not None:
