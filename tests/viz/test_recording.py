@@ -262,6 +262,8 @@ def test_recommended_transient_prediction_is_drawn_as_that_model(case, tmp_path)
     name = ents["/signals/psi/predicted_model"].static["SeriesLines:names"][0]
     assert "transient" in name
     assert "L1 = 1.250 m, L2 = 2.480 m" in name
+    est = case.result.estimate.parameters  # and the lengths the report gives, as it gives them
+    assert f"L1 = {est['L1'].value:.3f} m, L2 = {est['L2'].value:.3f} m)" in name
     assert case.result.estimate.method in name
     steady = ents["/signals/psi/predicted_estimate"].static["SeriesLines:names"][0]
     assert steady.startswith("ψ steady-state relation")

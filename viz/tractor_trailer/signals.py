@@ -48,6 +48,15 @@ def _lengths_text(l1: float, l2: float) -> str:
     return f"L1 = {l1:.3f} m, L2 = {l2:.3f} m"
 
 
+def _reported_lengths(est: object) -> str | None:
+    """The recommended L1, L2 as the report writes them (``L1 = 1.253 m, L2 = 2.477 m``), None
+    when the estimate carries no such parameters."""
+    params = getattr(est, "parameters", {}) or {}
+    if "L1" not in params or "L2" not in params:
+        return None
+    return _lengths_text(float(params["L1"].value), float(params["L2"].value))
+
+
 def psi_curve_names(
     result: AnalysisResult, views: Mapping[str, np.ndarray], method_for_psi: str | None = None
 ) -> dict[str, str]:
@@ -58,9 +67,11 @@ def psi_curve_names(
     if "psi_model" in views and est is not None:
         l1, l2, off = (float(x) for x in views["psi_model_params"])
         tail = f", ψ offset {off:+.4f} rad" if off else ""
+        reported = _reported_lengths(est)
         names["psi_model"] = (
             f"ψ of {est.method} (recommended): transient kinematics simulated along the "
-            f"measured path, {_lengths_text(l1, l2)}{tail}"
+            f"measured path at the optimiser's {_lengths_text(l1, l2)}{tail}"
+            + (f" (estimate after its bias correction: {reported})" if reported else "")
         )
     if "psi_steady" in views and "lengths" in views:
         l1, l2 = (float(x) for x in views["lengths"])
