@@ -87,3 +87,14 @@ def test_arm_figure_shows_the_recommended_parameters_as_the_report() -> None:
     torque = fig.get_axes()[0]
     assert torque.get_xlabel().startswith("time (s from the log's start)")
     assert len(torque.get_xticks()) >= 2
+
+
+def test_set_apart_method_rows_take_less_room_than_read_ones() -> None:
+    """24 grey rows not to be read took half the tractor's figure: they are packed closer."""
+    from viz.tractor_trailer.plots import row_positions
+
+    ys = row_positions([False, False, True, True])
+    np.testing.assert_allclose(ys, [0.0, 1.0, 1.725, 2.175])
+    many = row_positions([False] * 6 + [True] * 24)
+    read, apart = many[5] - many[0], many[-1] - many[6]
+    assert apart < 2.1 * read  # 24 set-apart rows in about the room of 11 read ones
