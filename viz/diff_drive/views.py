@@ -176,7 +176,8 @@ def report_figure(result: AnalysisResult) -> Figure:
     for i, (run_name, paths) in enumerate(runs):
         ax = fig.add_subplot(top[0, i])
         for label, arr in paths.items():
-            ax.plot(arr["x"], arr["y"], color=_PNG_COLOURS.get(label, "k"), lw=1.2, label=label)
+            width = 2.8 if label == "truth" else 1.2  # under the others, still seen where they meet
+            ax.plot(arr["x"], arr["y"], color=_PNG_COLOURS.get(label, "k"), lw=width, label=label)
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_title(Path(run_name).name, fontsize=9)
         ax.set_xlabel("x (m)")
