@@ -96,3 +96,22 @@ def test_each_run_and_the_pooled_answer_have_their_own_recording(tmp_path: Path)
     blueprints = {b.application_id for b in RrdReader(written.rrd).blueprints()}
     assert blueprints == set(contents)  # each recording's layout is its own
     assert "and the pooled answer" in written.messages[0][1]
+
+
+def test_each_path_view_has_a_labelled_metric_grid(tmp_path: Path) -> None:
+    """The 2D path view has no axes of its own: grid lines labelled in metres give its scale."""
+    from viz.diff_drive.views import grid_lines
+
+    step, gx, gy = grid_lines({"a": {"x": np.array([0.0, 1.7]), "y": np.array([-1.7, 0.05])}})
+    assert step == 0.5
+    assert gx == [0.0, 0.5, 1.0, 1.5, 2.0]
+    assert gy == [-2.0, -1.5, -1.0, -0.5, 0.0, 0.5]
+    lo, res = _run("run-01", 0.2)
+    written = write_views([lo], res, rrd=tmp_path / "one.rrd", png=None)
+    assert written.rrd is not None
+    labels = []
+    for chunk in RrdReader(written.rrd).stream().to_chunks():
+        if chunk.entity_path == "/world/run-01/grid/labels":
+            labels = chunk.to_record_batch().column("Points2D:labels").to_pylist()[-1]
+    assert "x 0 m" in labels
+    assert any(x.startswith("y ") and x.endswith(" m") for x in labels)

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-__all__ = ["log_views", "report_figure", "write_png"]
+__all__ = ["grid_lines", "log_views", "report_figure", "write_png"]
 
 _COLOURS = {  # the viewer's dark background
     "truth": COLORS["truth"],
@@ -89,6 +89,41 @@ def _table(result: AnalysisResult, start_ns: int | None = None) -> str:
     return "\n".join(lines)
 
 
+def grid_lines(paths: dict[str, Any]) -> tuple[float, list[float], list[float]]:
+    """A metric grid over the paths' extent: (spacing m, x of the vertical lines, y of the
+    horizontal ones), spacing 0.1, 0.2, 0.5, 1, 2, 5 ... m for 2 to 10 lines a side."""
+    xs = np.concatenate([np.asarray(a["x"], dtype=float) for a in paths.values()] or [np.zeros(0)])
+    ys = np.concatenate([np.asarray(a["y"], dtype=float) for a in paths.values()] or [np.zeros(0)])
+    xs, ys = xs[np.isfinite(xs)], ys[np.isfinite(ys)]
+    if xs.size == 0 or ys.size == 0:
+        return 1.0, [], []
+    span = max(float(np.ptp(xs)), float(np.ptp(ys)), 1e-3)
+    steps = [m * 10.0**e for e in range(-2, 4) for m in (1.0, 2.0, 5.0)]
+    step = next(s for s in steps if span / s <= 8)
+
+    def ticks(v: np.ndarray) -> list[float]:
+        lo, hi = math.floor(v.min() / step), math.ceil(v.max() / step)
+        return [round(k * step, 10) for k in range(lo, hi + 1)]
+
+    return step, ticks(xs), ticks(ys)
+
+
+def _log_grid(rec: rr.RecordingStream, path: str, paths: dict[str, Any]) -> None:
+    """Grid lines (dim grey) with their coordinates in metres: the 2D view's scale."""
+    _, gx, gy = grid_lines(paths)
+    if not gx or not gy:
+        return
+    lines = [[[x, gy[0]], [x, gy[-1]]] for x in gx] + [[[gx[0], y], [gx[-1], y]] for y in gy]
+    rec.log(path, rr.LineStrips2D(lines, colors=[(90, 90, 90)], radii=[-0.5]), static=True)
+    labels = [f"x {x:g} m" for x in gx] + [f"y {y:g} m" for y in gy]
+    anchors = [[x, gy[0]] for x in gx] + [[gx[0], y] for y in gy]
+    rec.log(
+        f"{path}/labels",
+        rr.Points2D(anchors, labels=labels, colors=[(150, 150, 150)], radii=[-1.0]),
+        static=True,
+    )
+
+
 def log_views(
     out: Path, loaded: LoadedLike, result: AnalysisResult, options: object = None
 ) -> Path:
@@ -105,6 +140,7 @@ def log_views(
     try:
         for run_name, paths in _trajectories(result).items():
             base = f"world/{_path_name(run_name)}"
+            _log_grid(rec, f"{base}/grid", paths)
             for label, arr in paths.items():
                 xy = np.column_stack([np.asarray(arr["x"]), np.asarray(arr["y"])])
                 ok = np.all(np.isfinite(xy), axis=1)
@@ -120,7 +156,7 @@ def log_views(
             views.append(
                 rrb.Spatial2DView(
                     name=f"run {Path(run_name).name}: white truth, vermillion nominal, "
-                    "blue calibrated (dead reckoning; dots: end points)",
+                    "blue calibrated (dead reckoning; dots: end points; grid lines labelled m)",
                     origin=base,
                 )
             )
