@@ -67,7 +67,15 @@ from indgen.kinds import HELD_OUT_KINDS, KINDS, ROBOTS, draw_magnitude, kinds_of
 from indgen.robot_writers import write_log  # noqa: E402
 from indgen.robots import generate_log  # noqa: E402
 
-__all__ = ["draw", "main", "run_one", "summarise", "wilson"]
+__all__ = [
+    "draw",
+    "generate_and_analyse",
+    "main",
+    "run_one",
+    "summarise",
+    "true_values",
+    "wilson",
+]
 
 CLEAN_SHARE = 0.3
 EFFECT_THRESHOLD = 2.0
@@ -86,16 +94,22 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
 
 
 def draw(
-    seed: int, i: int, robots: Sequence[str], kinds: Sequence[str] | None, include_held_out: bool
+    seed: int,
+    i: int,
+    robots: Sequence[str],
+    kinds: Sequence[str] | None,
+    include_held_out: bool,
+    clean_share: float = CLEAN_SHARE,
 ) -> dict[str, Any]:
-    """The spec of log ``i`` (robot, kind or None, magnitude, format, generator seed)."""
+    """The spec of log ``i`` (robot, kind or None with probability ``clean_share``, magnitude,
+    format, generator seed)."""
     rng = np.random.default_rng([seed, i])
     robot = str(rng.choice(list(robots)))
     pool = [
         k for k in kinds_of(robot, include_held_out=include_held_out) if kinds is None or k in kinds
     ]
     kind: str | None = None
-    if pool and rng.random() >= CLEAN_SHARE:
+    if pool and rng.random() >= clean_share:
         kind = str(rng.choice(pool))
     magnitude = draw_magnitude(rng, kind) if kind else 0.0
     fmt = "csv" if rng.random() < 0.2 else "mcap"
@@ -129,7 +143,7 @@ def _base_truth(name: str, full: dict[str, float]) -> float | None:
     return total if pos == len(name) else None
 
 
-def _truths(truth: dict[str, Any], name: str) -> list[float]:
+def true_values(truth: dict[str, Any], name: str) -> list[float]:
     """Acceptable true values of estimate ``name`` (several when the kind changes it)."""
     robot, kind = truth["robot"], truth.get("kind")
     if robot == "tractor_trailer":
@@ -181,7 +195,7 @@ def _named(doc: dict[str, Any]) -> list[str]:
 def _param_checks(doc: dict[str, Any], truth: dict[str, Any]) -> list[dict[str, Any]]:
     out = []
     for name, e in _estimates(doc).items():
-        tv = _truths(truth, name)
+        tv = true_values(truth, name)
         if not tv:
             continue
         lo, hi = e["ci95"]
@@ -200,15 +214,31 @@ def _param_checks(doc: dict[str, Any], truth: dict[str, Any]) -> list[dict[str, 
     return out
 
 
-def run_one(spec: dict[str, Any], repeats: int = 10) -> dict[str, Any]:
-    """Generate, write, analyse one log; the record (never raises: errors are recorded)."""
+def generate_and_analyse(spec: dict[str, Any], repeats: int = 10) -> tuple[Any, dict[str, Any]]:
+    """The log of ``spec`` (a ``draw``) from the independent generator, written to a temporary
+    directory and analysed (discovery on; the arm with its URDF): (RobotLog, the result's
+    JSON document)."""
     from logtools.analyze import AnalysisConfig, analyze_log, options_from_settings
 
+    log = generate_log(spec["robot"], spec["gen_seed"], spec["kind"], spec["magnitude"])
+    with tempfile.TemporaryDirectory(prefix="adequacy_") as d:
+        paths = write_log(d, log, fmt=spec["fmt"])
+        extra = {"urdf": str(paths["arm.urdf"])} if "arm.urdf" in paths else {}
+        _, res = analyze_log(
+            paths["log"],
+            config=AnalysisConfig(repeats=repeats, robot_options=options_from_settings(extra)),
+        )
+        doc = res.to_dict()
+    return log, doc
+
+
+def run_one(spec: dict[str, Any], repeats: int = 10) -> dict[str, Any]:
+    """Generate, write, analyse one log; the record (never raises: errors are recorded)."""
     t0 = time.perf_counter()
     rec: dict[str, Any] = dict(spec)
     rec["held_out"] = spec["kind"] in HELD_OUT_KINDS
     try:
-        log = generate_log(spec["robot"], spec["gen_seed"], spec["kind"], spec["magnitude"])
+        log, doc = generate_and_analyse(spec, repeats)
         truth = log.truth
         rec["effect_size"] = truth["max_effect_size"]
         rec["refit_effect_size"] = truth["refit_effect_size"]
@@ -216,14 +246,6 @@ def run_one(spec: dict[str, Any], repeats: int = 10) -> dict[str, Any]:
         rec["refit_seconds"] = truth["refit"]["seconds"]
         rec["effect_channels"] = {k: v for k, v in truth["effect_size"].items() if v > 0}
         rec["truth"] = {k: v for k, v in truth.items() if k not in ("effect_size", "params")}
-        with tempfile.TemporaryDirectory(prefix="adequacy_") as d:
-            paths = write_log(d, log, fmt=spec["fmt"])
-            extra = {"urdf": str(paths["arm.urdf"])} if "arm.urdf" in paths else {}
-            _, res = analyze_log(
-                paths["log"],
-                config=AnalysisConfig(repeats=repeats, robot_options=options_from_settings(extra)),
-            )
-            doc = res.to_dict()
         ad = doc.get("adequacy") or {"verdict": "not assessed"}
         rec["verdict"] = ad.get("verdict", "not assessed")
         rec["located"] = list(ad.get("located") or [])

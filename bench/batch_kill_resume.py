@@ -150,7 +150,7 @@ def kill_and_resume(
             stdout=subprocess.DEVNULL,
             stderr=subprocess.PIPE,
         )
-        time.sleep(rng.uniform(0.3, max(0.5, full_s)))
+        time.sleep(rng.uniform(1.0, max(1.5, 2 * full_s / kills)))  # spread over one run
         if proc.poll() is not None:  # finished before the kill: nothing left to kill
             err = proc.stderr.read().decode() if proc.stderr else ""
             counts["tracebacks"] += "Traceback" in err or "internal error" in err

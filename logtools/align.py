@@ -13,9 +13,11 @@ Method (documented choice):
   :data:`MAX_GRID_FLOOR` rows); a ``rate_hz`` that asks for more is refused.
 * Continuous signals are **linearly interpolated** (``AlignMethod.INTERPOLATE``) or take the
   **nearest** sample (``AlignMethod.ASOF``, an as-of join with strategy "nearest").
-* Angles in ``wrap`` (default ``yaw``) are unwrapped before interpolation and wrapped back to
-  [-pi, pi) afterwards; the joint angle ``psi`` is bounded and interpolated as is.
-* Commands in ``hold`` (``kappa_cmd``, ``v_cmd``, ``omega_cmd``) use a **zero-order hold**:
+* Angles in ``wrap`` (the headings, ``SignalSpec.heading``, as :mod:`logtools.load` passes
+  them) are unwrapped before interpolation and wrapped back to [-pi, pi) afterwards; a bounded
+  angle is interpolated as is.
+* Commands in ``hold`` (``SignalSpec.command``, as :mod:`logtools.load` passes them) use a
+  **zero-order hold**:
   the latest sample at or before the grid time (as-of backward), whatever the method.
 * Tolerance: a grid row farther than ``tolerance_s`` from the source samples it uses (for
   interpolation: from the nearer of the two bracketing samples; for the hold: from the latest
@@ -33,7 +35,7 @@ one record naming all signals, not one per signal).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -44,8 +46,6 @@ from calib.results import JsonRecord
 from logtools.errors import LogcalInputError, TimestampError
 
 __all__ = [
-    "DEFAULT_HOLD",
-    "DEFAULT_WRAP",
     "AlignMethod",
     "Gap",
     "align_signals",
@@ -55,8 +55,6 @@ __all__ = [
     "resample_at",
 ]
 
-DEFAULT_HOLD = ("kappa_cmd", "v_cmd", "omega_cmd", "steer_cmd")
-DEFAULT_WRAP = ("yaw", "yaw2")
 GAP_PERIODS = 5.0
 GAP_MIN_S = 0.5
 MAX_GRID_FACTOR = 10
@@ -160,8 +158,8 @@ def align_signals(
     rate_hz: float | None = None,
     method: AlignMethod = AlignMethod.INTERPOLATE,
     tolerance_s: float | None = None,
-    hold: Iterable[str] = DEFAULT_HOLD,
-    wrap: Iterable[str] = DEFAULT_WRAP,
+    hold: Iterable[str] = (),
+    wrap: Iterable[str] = (),
     required: Iterable[str] | None = None,
 ) -> pl.DataFrame:
     """Resample signals onto one uniform grid over their common span.
@@ -269,11 +267,11 @@ def resample_at(
 
 
 def common_times(
-    frames: Mapping[str, pl.DataFrame], *, hold: bool = False
+    frames: Mapping[str, pl.DataFrame], *, hold: bool = False, held: Collection[str] = ()
 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Put signals (frames ``t_ns``, ``value``) on the sample times of the one with the most
     samples (the others by :func:`resample_at`: interpolated, or held for the commands of
-    :data:`DEFAULT_HOLD` and for all with ``hold``); NaN where an input has no sample near
+    ``held``, the commands, and for all with ``hold``); NaN where an input has no sample near
     enough. Returns the times (int64 ns) and each signal's values there."""
     if not frames:
         return np.zeros(0, dtype=np.int64), {}
@@ -285,7 +283,7 @@ def common_times(
         if name == base or (t.size == t_ns.size and np.array_equal(t, t_ns)):
             out[name] = v.astype(float)
         else:
-            out[name] = resample_at(t, v, t_ns, hold=hold or name in DEFAULT_HOLD)
+            out[name] = resample_at(t, v, t_ns, hold=hold or name in held)
     return t_ns, out
 
 

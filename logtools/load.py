@@ -29,6 +29,7 @@ import polars as pl
 
 from logtools.align import AlignMethod, Gap, align_signals, find_gaps
 from logtools.channel_map import ChannelMap, resolve_signals
+from logtools.channel_map.names import command_signals, heading_signals
 from logtools.errors import LogcalInputError, MissingSignalsError
 from logtools.loaded import LoadedLog, ResolvedSignals
 from logtools.problems import Problem, ProblemKind
@@ -421,6 +422,8 @@ def load_log(
         resolved.signals,
         rate_hz=rate_hz,
         method=method,
+        hold=command_signals(),
+        wrap=heading_signals(),
         required=_span_signals(plugin.span_signals, names),
     )
     gaps = find_gaps(resolved.signals)

@@ -59,7 +59,7 @@ class ResolvedSignals:
             derived signals (formulas, a robot's derivations) included.
         sources: logical name -> where it came from (derived: topic ``(derived)``, field the
             expression).
-        missing: logical signals (of ``logtools.channel_map.LOGICAL_SIGNALS``) not found.
+        missing: logical signals (of ``logtools.channel_map.logical_signals()``) not found.
         problems: what was repaired or left out (NaN dropped, duplicate timestamps, signals
             that carry nothing, what a robot's derivation noted).
         flat: signals found but not used because every sample holds the same value.

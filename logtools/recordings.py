@@ -24,15 +24,14 @@ from pathlib import Path
 
 import numpy as np
 
+from logtools.channel_map.names import command_signals, signal_spec
 from logtools.errors import LogcalError, LogcalInputError
-from logtools.signals import COMMAND_SIGNALS, SignalSource
+from logtools.signals import SignalSource
 
 __all__ = ["SameRecording", "distinct_recordings", "merge_recordings"]
 
 _PREFERRED = ("psi", "wheel_left", "wheel_right", "q1", "tau1", "x", "y", "yaw", "v", "omega")
 """Signals compared first (measured ones: commands may be identical across different runs)."""
-_HEADINGS = ("yaw", "yaw2")
-"""Headings: the same whether unwrapped or wrapped to +-pi."""
 _SPAN_TOL_S = 0.5
 """Start/end stamps (or durations) this close (s) are the same span."""
 _VALUE_RTOL = 1e-6
@@ -105,6 +104,12 @@ def _duration_ns(path: Path) -> int | None:
     return max(lasts) - min(firsts) if firsts and lasts else None
 
 
+def _is_heading(name: str) -> bool:
+    """A heading is the same whether unwrapped or wrapped to +-pi (``SignalSpec.heading``)."""
+    spec = signal_spec(name)
+    return spec is not None and spec.heading
+
+
 def _same(a: _Print, b: _Print) -> str | None:
     """Why ``a`` and ``b`` hold one recording, or None when they do not."""
     tol = round(_SPAN_TOL_S * 1e9)
@@ -118,7 +123,8 @@ def _same(a: _Print, b: _Print) -> str | None:
         key=lambda n: (_PREFERRED.index(n) if n in _PREFERRED else 99, n),
     )
     varying = [n for n in common if np.ptp(a.signals[n][1]) > 0]
-    measured = [n for n in varying if n not in COMMAND_SIGNALS]
+    commands = command_signals()
+    measured = [n for n in varying if n not in commands]
     if not measured:
         return None  # commands alone are the same in repeated runs of one plan
     for name in varying:
@@ -128,9 +134,9 @@ def _same(a: _Print, b: _Print) -> str | None:
         inside = (ra >= rb[0] - 1e6) & (ra <= rb[-1] + 1e6)  # within 1 ms of b's samples
         if len(rb) < 2 or inside.sum() < 0.9 * max(len(ra), len(rb)):
             return None
-        other = np.interp(ra[inside], rb, np.unwrap(vb) if name in _HEADINGS else vb)
+        other = np.interp(ra[inside], rb, np.unwrap(vb) if _is_heading(name) else vb)
         diff = va[inside] - other
-        if name in _HEADINGS:  # one log's heading unwrapped, the other's from a quaternion
+        if _is_heading(name):  # one log's heading unwrapped, the other's from a quaternion
             diff, scale = np.angle(np.exp(1j * diff)), float(np.pi)
         else:
             scale = max(float(np.max(np.abs(va))), 1e-12)

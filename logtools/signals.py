@@ -21,48 +21,40 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "COMMAND_SIGNALS",
+    "BASE_BODY",
     "DEFAULT_JSON_MAP",
     "DEFAULT_ROS2_MAP",
     "DEFAULT_ROS_MAP",
     "DERIVED_TOPIC",
     "FORMULA_FUNCTIONS",
+    "SHARED_SIGNALS",
     "SIGNAL_UNITS",
     "UNIT_FACTORS",
     "Formula",
     "FormulaError",
     "OriginKind",
     "RobotConfig",
+    "RobotKey",
     "SignalOrigin",
     "SignalSource",
+    "SignalSpec",
     "Stamp",
     "default_candidates",
 ]
 
 
 SIGNAL_UNITS: dict[str, str] = {
-    "kappa_cmd": "1/m",
     "v": "m/s",
     "omega": "rad/s",
     "x": "m",
     "y": "m",
     "yaw": "rad",
-    "psi": "rad",
-    "wheel_left": "rad",
-    "wheel_right": "rad",
     "v_cmd": "m/s",
     "omega_cmd": "rad/s",
-    "steer_cmd": "rad",
-    "steer": "rad",
-    "x2": "m",
-    "y2": "m",
-    "yaw2": "rad",
-    "kappa": "1/m",
 }
-"""SI unit of every logical signal (per-joint q, qd, tau: rad, rad/s, N·m)."""
-
-COMMAND_SIGNALS: tuple[str, ...] = ("kappa_cmd", "v_cmd", "omega_cmd", "steer_cmd")
-"""Signals that are commands: held between samples, and allowed to be constant."""
+"""SI unit of the signals the shared core knows itself (a mobile base's speed, yaw rate, pose and
+velocity commands: more than one robot reads them); every other signal's unit is declared by the
+robot that reads it (``SignalSpec.unit`` in its plugin)."""
 
 UNIT_FACTORS: dict[str, tuple[str, float]] = {
     "rad": ("rad", 1.0),
@@ -107,7 +99,7 @@ class SignalSource:
         frame: for arrays of stamped transforms (``tf2_msgs/TFMessage``): take the element
             whose ``child_frame_id`` is this frame; None: not such an array.
         formula: for a derived signal, the expression over other signal names.
-        origin: where the entry was written (``map.toml [signals.psi]``), for messages; not
+        origin: where the entry was written (``map.toml [signals.yaw]``), for messages; not
             part of equality.
     """
 
@@ -145,7 +137,7 @@ class SignalSource:
 
 class OriginKind(StrEnum):
     """The kinds of :class:`SignalOrigin` the shared resolution gives; a robot's derivation
-    (``RobotPlugin.derived_signals``) names its own kinds (the tractor-trailer's ``steering``)."""
+    (``RobotPlugin.derived_signals``) names its own kinds."""
 
     LOGGED = "logged"  # a field of the log
     FORMULA = "formula"  # a channel-map formula
@@ -159,7 +151,7 @@ class SignalOrigin:
     Attributes:
         kind: ``logged``, ``formula`` (:class:`OriginKind`) or the derivation's own kind.
         source: ``topic:field`` when logged, else the expression evaluated (e.g.
-            ``tan(steer_cmd) / 0.42``).
+            ``v_cmd / 0.42``).
         description: one sentence for reports (the inputs, the constants and where they came
             from).
     """
@@ -179,34 +171,133 @@ class SignalOrigin:
 
 
 @dataclass(frozen=True)
+class RobotKey:
+    """A key of the channel map's ``[robot]`` table that a robot declares
+    (``RobotPlugin.robot_keys``) because it is more than a nominal number: a text, a length
+    that must be positive, a number the ``logcal`` metadata record may give.
+
+    Attributes:
+        name: the key.
+        meaning: what it holds, for messages ("a file path or a model name").
+        text: a string (a file, a model name), not a number.
+        positive: a number that must be > 0 (in ``unit``).
+        unit: the number's unit, for messages.
+        from_metadata: when the channel map lacks it, the ``logcal`` metadata record's entry of
+            that name gives it.
+    """
+
+    name: str
+    meaning: str
+    text: bool = False
+    positive: bool = False
+    unit: str = "m"
+    from_metadata: bool = False
+
+
+@dataclass(frozen=True)
 class RobotConfig:
     """The ``[robot]`` table of a channel map.
 
     Attributes:
         type: robot type (a plugin's name, see ``logtools.robots``), None: from the log's
             metadata or its signals.
-        wheelbase: distance (m) from the steered axle to the fixed axle of a car-like tractor;
-            turns a steering angle into a curvature, kappa = tan(delta) / wheelbase.
-        params: other nominal parameters by name (``L1``, ``L2``, …; m or rad).
-        urdf: an arm's URDF file or ``example-robot-data`` model name.
+        params: nominal numbers by name (m or rad; the keys a robot declares, see
+            :class:`RobotKey`, checked as it says).
+        texts: text entries by name (the keys a robot declares as text).
     """
 
     type: str | None = None
-    wheelbase: float | None = None
     params: dict[str, float] = dc_field(default_factory=dict)
-    urdf: str | None = None
+    texts: dict[str, str] = dc_field(default_factory=dict)
 
     def constants(self) -> dict[str, float]:
-        """Named numbers a formula may use: ``wheelbase`` and the nominal parameters."""
-        out = dict(self.params)
-        if self.wheelbase is not None:
-            out["wheelbase"] = self.wheelbase
-        return out
+        """Named numbers a formula may use: the table's numbers."""
+        return dict(self.params)
+
+    def number(self, name: str) -> float | None:
+        """The number ``name`` of the table; None without it."""
+        return self.params.get(name)
+
+    def text(self, name: str) -> str | None:
+        """The text entry ``name`` of the table; None without it."""
+        return self.texts.get(name)
+
+
+@dataclass(frozen=True)
+class SignalSpec:
+    """One logical signal a robot reads: canonical name, SI unit and meaning (LOG_FORMAT.md), and
+    what the shared resolution must know of it. A robot's plugin declares its own signals this
+    way (``RobotPlugin.signals``); the shared core declares only :data:`SHARED_SIGNALS`.
+
+    ``sources`` are default topic/field places to find it (tried after the shared defaults of
+    :func:`default_candidates`, in order); a CSV column of the signal's name is always read.
+
+    Attributes:
+        name: the signal's name (a family of per-element signals stands for NAME1, NAME2, …).
+        unit: its SI unit.
+        meaning: one phrase for ``logcal info`` and the docs.
+        required: the robot cannot be analysed without it.
+        sources: default sources, in the order they are tried.
+        command: a command: held between samples and allowed to be constant (never evidence
+            that two logs hold one recording).
+        empty_when_zero: zero in every sample means the field was never filled (an empty
+            twist, an unconnected encoder): the source is not used and the next one is tried.
+        within_turn: an angle that stays within one turn; beyond 2π it is in degrees.
+        heading: an angle that may be unwrapped (a heading); its unit is told from its wraps
+            and from ``heading_rate`` when the log has that signal.
+        heading_rate: the signal that is this heading's rate (``omega`` for ``yaw``); None.
+        joint_words: in a ``JointState``-like array (``name.i`` beside ``position.i``), the
+            element is the one whose name contains the first word; on the default joint-state
+            topic the name must hold every word. Empty: not picked by name.
+        body: for a pose signal, the body whose pose it is (``base`` for ``x``, ``y``,
+            ``yaw``): a topic the channel map reads one body's pose from gives no other body's
+            pose by the default names. None: not a pose.
+        per_element: the signal is a family of per-element signals ``NAME1``, ``NAME2``, …
+            (one per joint), read from this array of the joint-state topic (``position``:
+            ``position.0`` is ``NAME1``). None: a single signal.
+    """
+
+    name: str
+    unit: str
+    meaning: str
+    required: bool = False
+    sources: tuple[SignalSource, ...] = ()
+    command: bool = False
+    empty_when_zero: bool = False
+    within_turn: bool = False
+    heading: bool = False
+    heading_rate: str | None = None
+    joint_words: tuple[str, ...] = ()
+    body: str | None = None
+    per_element: str | None = None
+
+
+BASE_BODY = "base"
+"""The body whose pose ``x``, ``y``, ``yaw`` are (the robot's base)."""
+
+SHARED_SIGNALS: tuple[SignalSpec, ...] = (
+    SignalSpec("v_cmd", "m/s", "speed command", command=True),
+    SignalSpec("omega_cmd", "rad/s", "yaw-rate command", command=True),
+    SignalSpec("v", "m/s", "forward speed", empty_when_zero=True),
+    SignalSpec("omega", "rad/s", "yaw rate", empty_when_zero=True),
+    SignalSpec("x", "m", "position", body=BASE_BODY),
+    SignalSpec("y", "m", "position", body=BASE_BODY),
+    SignalSpec(
+        "yaw",
+        "rad",
+        "heading",
+        empty_when_zero=True,
+        heading=True,
+        heading_rate="omega",
+        body=BASE_BODY,
+    ),
+)
+"""The signals of a mobile base that more than one robot reads, with their default sources in
+:func:`default_candidates` (LOG_FORMAT.md's topics, the standard ROS names, ``/tf``)."""
 
 
 # Default mapping for the JSON encoding that `logcal simulate` writes.
 DEFAULT_JSON_MAP: dict[str, SignalSource] = {
-    "kappa_cmd": SignalSource("/cmd/curvature", "curvature"),
     "v_cmd": SignalSource("/cmd/vel", "v"),
     "omega_cmd": SignalSource("/cmd/vel", "omega"),
     "v": SignalSource("/odom", "v"),
@@ -214,14 +305,10 @@ DEFAULT_JSON_MAP: dict[str, SignalSource] = {
     "x": SignalSource("/pose", "x"),
     "y": SignalSource("/pose", "y"),
     "yaw": SignalSource("/pose", "yaw"),
-    "psi": SignalSource("/hitch/angle", "angle"),
-    "wheel_left": SignalSource("/wheels", "left"),
-    "wheel_right": SignalSource("/wheels", "right"),
 }
 
 # Default mapping for ROS 2 standard types on our topic names (field paths flattened with dots).
 DEFAULT_ROS2_MAP: dict[str, SignalSource] = {
-    "kappa_cmd": SignalSource("/cmd/curvature", "data"),
     "v_cmd": SignalSource("/cmd/vel", "linear.x"),
     "omega_cmd": SignalSource("/cmd/vel", "angular.z"),
     "v": SignalSource("/odom", "twist.twist.linear.x"),
@@ -229,15 +316,12 @@ DEFAULT_ROS2_MAP: dict[str, SignalSource] = {
     "x": SignalSource("/pose", "pose.pose.position.x"),
     "y": SignalSource("/pose", "pose.pose.position.y"),
     "yaw": SignalSource("/pose", "pose.pose.orientation", transform="yaw_from_quaternion"),
-    "psi": SignalSource("/hitch/angle", "data"),
-    "wheel_left": SignalSource("/wheels", "position.0"),
-    "wheel_right": SignalSource("/wheels", "position.1"),
 }
 
 _YAW = "yaw_from_quaternion"
 
 # The standard ROS names, tried after ours: /cmd_vel (Twist), /odom (Odometry: pose and
-# twist), /pose as a PoseStamped, wheels from /joint_states by joint name.
+# twist), /pose as a PoseStamped.
 DEFAULT_ROS_MAP: dict[str, list[SignalSource]] = {
     "v_cmd": [SignalSource("/cmd_vel", "linear.x")],
     "omega_cmd": [SignalSource("/cmd_vel", "angular.z")],
@@ -253,8 +337,6 @@ DEFAULT_ROS_MAP: dict[str, list[SignalSource]] = {
         SignalSource("/pose", "pose.orientation", transform=_YAW),
         SignalSource("/odom", "pose.pose.orientation", transform=_YAW),
     ],
-    "wheel_left": [SignalSource("/joint_states", "position.0")],
-    "wheel_right": [SignalSource("/joint_states", "position.1")],
 }
 
 TF_TOPIC = "/tf"

@@ -23,7 +23,12 @@ DEGREES_LIMIT_RAD = 2 * math.pi + 0.1
 
 
 def clean_signal(
-    frame: pl.DataFrame, *, path: str, name: str, source: SignalSource
+    frame: pl.DataFrame,
+    *,
+    path: str,
+    name: str,
+    source: SignalSource,
+    within_turn: bool = False,
 ) -> tuple[pl.DataFrame, list[str]]:
     """Return ``frame`` (``t_ns``, ``value``) as float64 with finite values and increasing time.
 
@@ -33,15 +38,17 @@ def clean_signal(
     Args:
         frame: the raw signal; ``value`` may be any numeric type.
         path: the log file, for messages.
-        name: the logical signal name (``psi``, ``yaw``, …).
+        name: the logical signal name, for messages.
         source: where the signal came from, for messages.
+        within_turn: the signal is an angle that stays within one turn
+            (``SignalSpec.within_turn``): beyond 2π it is taken as degrees and refused.
 
     Returns:
         The cleaned frame and notes on what was repaired.
 
     Raises:
-        SignalValueError: the values are not numbers, all are NaN/inf, or psi looks like
-            degrees (|psi| > 2π; for yaw see :func:`check_yaw_units`).
+        SignalValueError: the values are not numbers, all are NaN/inf, or an angle within one
+            turn looks like degrees (beyond 2π; for a heading see :func:`check_yaw_units`).
         TimestampError: all samples share one timestamp.
     """
     where = f"{path}: signal {name!r} (topic {source.topic!r}, field {source.field!r})"
@@ -80,7 +87,7 @@ def clean_signal(
             "the first of each was kept"
         )
         frame = unique
-    if name == "psi" and frame.height:
+    if within_turn and frame.height:
         peak = float(np.max(np.abs(frame["value"].to_numpy())))
         if peak > DEGREES_LIMIT_RAD:
             raise _degrees_error(where, name, peak, "a joint angle stays within one turn")
@@ -88,7 +95,12 @@ def clean_signal(
 
 
 def check_yaw_units(
-    yaw: pl.DataFrame, omega: pl.DataFrame | None, *, path: str, source: SignalSource
+    yaw: pl.DataFrame,
+    omega: pl.DataFrame | None,
+    *,
+    path: str,
+    source: SignalSource,
+    name: str = "yaw",
 ) -> list[str]:
     """Tell a yaw in degrees from an unwrapped yaw in radians; both can exceed 2π.
 
@@ -102,24 +114,25 @@ def check_yaw_units(
         omega: cleaned yaw-rate frame, if the log has one.
         path: the log file, for messages.
         source: where the yaw came from, for messages.
+        name: the heading's signal name, for messages.
 
     Raises:
         SignalValueError: the yaw looks like degrees.
     """
-    where = f"{path}: signal 'yaw' (topic {source.topic!r}, field {source.field!r})"
+    where = f"{path}: signal {name!r} (topic {source.topic!r}, field {source.field!r})"
     values = yaw["value"].to_numpy()
     peak = float(np.max(np.abs(values))) if values.size else 0.0
     if peak <= DEGREES_LIMIT_RAD:
         return []
     steps = np.abs(np.diff(values))
     if peak <= 370 and np.any((steps > 300) & (steps < 420)):
-        raise _degrees_error(where, "yaw", peak, "it wraps around by about 360")
+        raise _degrees_error(where, name, peak, "it wraps around by about 360")
     ratio = _rate_ratio(yaw, omega) if omega is not None else None
     if ratio is not None and 20 < ratio < 120:
-        raise _degrees_error(where, "yaw", peak, f"it changes {ratio:.0f} times faster than omega")
+        raise _degrees_error(where, name, peak, f"it changes {ratio:.0f} times faster than omega")
     if ratio is not None and 0.5 < ratio < 2:
         return []  # the yaw rate matches omega: an unwrapped yaw in radians
-    return [f"{where} reaches |yaw| = {peak:.4g} rad: taken as an unwrapped yaw in radians"]
+    return [f"{where} reaches |{name}| = {peak:.4g} rad: taken as an unwrapped {name} in radians"]
 
 
 def _rate_ratio(yaw: pl.DataFrame, omega: pl.DataFrame) -> float | None:

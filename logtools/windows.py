@@ -336,13 +336,7 @@ def pool_windows(
     robot = windows[0].robot
     warnings: list[str] = [plan.describe()]
     warnings += [f"{path}: {e}" for e in errors]
-    if plan.whole and dict(counts) != {t: n for t, n in plan.extent.messages.items() if n}:
-        read, listed = sum(counts.values()), sum(plan.extent.messages.values())
-        warnings.append(
-            f"{path}: the windows read {read} messages and the file's summary "
-            f"lists {listed}: a message outside the chunks its index lists, or a "
-            "summary that disagrees with the file"
-        )
+    warnings += _count_mismatch(path, plan, counts)
     estimate = None
     change = None
     stats: dict[str, Any] = {}
@@ -374,17 +368,7 @@ def pool_windows(
     truths = [dict(r.truth) for r in windows]
     source = {
         "path": path,
-        "windows": {
-            "count": len(plan.spans_s),
-            "window_s": plan.window_s,
-            "first_ns": plan.origin_ns + round(plan.spans_s[0][0] * 1e9),
-            "last_ns": min(plan.extent.last_ns, plan.origin_ns + round(plan.spans_s[-1][1] * 1e9)),
-            "automatic": plan.automatic,
-            "analysed": len(windows),
-            "spans_s": [list(s) for s in plan.spans_s],
-            "errors": list(errors),
-            "pooling": stats,
-        },
+        "windows": _windows_source(plan, len(windows), errors, stats),
         "duration_s": plan.extent.duration_s,
         "runs_pooled": len(with_estimate),
     }
@@ -399,6 +383,37 @@ def pool_windows(
         warnings=warnings,
         runs=list(windows),
     )
+
+
+def _count_mismatch(path: str, plan: WindowPlan, counts: Mapping[str, int]) -> list[str]:
+    """A warning when the whole log's windows read other message counts than its index lists
+    (``counts``: messages read per topic)."""
+    if not plan.whole or dict(counts) == {t: n for t, n in plan.extent.messages.items() if n}:
+        return []
+    read, listed = sum(counts.values()), sum(plan.extent.messages.values())
+    return [
+        f"{path}: the windows read {read} messages and the file's summary "
+        f"lists {listed}: a message outside the chunks its index lists, or a "
+        "summary that disagrees with the file"
+    ]
+
+
+def _windows_source(
+    plan: WindowPlan, analysed: int, errors: Sequence[str], stats: dict[str, Any]
+) -> dict[str, Any]:
+    """``source["windows"]``: the plan, how many windows were analysed, the errors and the
+    pooling per name."""
+    return {
+        "count": len(plan.spans_s),
+        "window_s": plan.window_s,
+        "first_ns": plan.origin_ns + round(plan.spans_s[0][0] * 1e9),
+        "last_ns": min(plan.extent.last_ns, plan.origin_ns + round(plan.spans_s[-1][1] * 1e9)),
+        "automatic": plan.automatic,
+        "analysed": analysed,
+        "spans_s": [list(s) for s in plan.spans_s],
+        "errors": list(errors),
+        "pooling": stats,
+    }
 
 
 def pool_runs(

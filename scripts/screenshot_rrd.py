@@ -17,6 +17,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--width", type=int, default=1600)
     ap.add_argument("--height", type=int, default=1000)
     ap.add_argument("--timeout", type=float, default=120.0)
+    ap.add_argument(
+        "--ready",
+        default="",
+        help="colours (viz.style.COLORS names) whose presence means drawn; default: the "
+        "recorded robot's own (viz.screenshot.ready_colors_of)",
+    )
     args = ap.parse_args(argv)
     try:
         out = screenshot_rrd(
@@ -25,6 +31,7 @@ def main(argv: list[str] | None = None) -> int:
             width=args.width,
             height=args.height,
             timeout_s=args.timeout,
+            ready_colors=[c for c in args.ready.split(",") if c] or None,
             progress=lambda line: print(line, file=sys.stderr, flush=True),
         )
     except ViewerScreenshotError as err:

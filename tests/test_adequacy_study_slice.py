@@ -102,13 +102,13 @@ def test_truth_of_estimates_maps_every_robot(study: ModuleType) -> None:
     full = arm["params"]
     name = "Izz[joint1] + 0.25·m[joint2] - mx[joint2] + Ia[joint1]"
     want = full["Izz[joint1]"] + 0.25 * full["m[joint2]"] - full["mx[joint2]"]
-    assert study._truths(arm, name) == [pytest.approx(want)]
-    assert study._truths(arm, "unknown[joint1]") == []
+    assert study.true_values(arm, name) == [pytest.approx(want)]
+    assert study.true_values(arm, "unknown[joint1]") == []
     dd = generate_log("diff_drive", 1, "radius_change", 0.05, duration_s=5.0).truth
     side = "wheel_radius_left" if dd["wheel"] == "left" else "wheel_radius_right"
-    assert len(study._truths(dd, side)) == 2
+    assert len(study.true_values(dd, side)) == 2
     tt = generate_log("tractor_trailer", 1, "trailer_swap", 0.2, duration_s=30.0).truth
-    assert study._truths(tt, "sum_L1_L2") == [
+    assert study.true_values(tt, "sum_L1_L2") == [
         pytest.approx(tt["L1"] + tt["L2"]),
         pytest.approx(tt["L1"] + tt["L2_after"]),
     ]

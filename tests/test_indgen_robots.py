@@ -18,7 +18,7 @@ from indgen.arm import (
     urdf_text,
 )
 from indgen.diffdrive import diff_drive_log
-from indgen.kinds import HELD_OUT_KINDS, KINDS, ROBOTS, kinds_of
+from indgen.kinds import HELD_OUT_KINDS, KINDS, NEW_KINDS, ROBOTS, kinds_of
 from indgen.refit import refit_effect
 from indgen.robot_writers import write_log
 from indgen.robotlog import effect_size
@@ -37,11 +37,36 @@ def test_generators_import_nothing_of_logcal() -> None:
 
 def test_kinds_cover_the_robots() -> None:
     assert len(KINDS) >= 10
-    assert len(HELD_OUT_KINDS) == 3
+    assert {"hitch_nonlinearity", "dropped_increments", "cogging"} <= HELD_OUT_KINDS
     assert set(KINDS) >= HELD_OUT_KINDS
     for robot in ROBOTS:
         assert kinds_of(robot), robot
         assert set(kinds_of(robot, include_held_out=True)) - set(kinds_of(robot))
+
+
+def test_new_kinds_span_the_robots_with_a_third_held_out() -> None:
+    assert len(NEW_KINDS) >= 12
+    assert len(set(NEW_KINDS)) == len(NEW_KINDS)
+    assert set(NEW_KINDS) <= set(KINDS)
+    held = set(NEW_KINDS) & HELD_OUT_KINDS
+    assert len(NEW_KINDS) // 4 <= len(held) <= len(NEW_KINDS) // 2
+    for robot in ROBOTS:
+        mine = {k for k in NEW_KINDS if KINDS[k].robot == robot}
+        assert mine - HELD_OUT_KINDS, robot
+        assert mine & HELD_OUT_KINDS, robot
+    for d in KINDS.values():
+        assert all(isinstance(n, str) and n for n in d.accepted_names)
+
+
+@pytest.mark.parametrize("kind", NEW_KINDS)
+def test_new_kind_at_zero_is_the_clean_log(kind: str) -> None:
+    robot = KINDS[kind].robot
+    a = generate_log(robot, 5, kind, 0.0, duration_s=20.0, refit=False)
+    b = generate_log(robot, 5, None, duration_s=20.0, refit=False)
+    assert a.truth["max_effect_size"] == 0.0
+    for topic, s in a.streams.items():
+        for f, v in s.fields.items():
+            assert np.array_equal(v, b.streams[topic].fields[f]), (topic, f)
 
 
 @pytest.mark.parametrize("kind", sorted(KINDS))

@@ -27,8 +27,7 @@ from urllib.parse import quote
 import numpy as np
 from numpy.typing import NDArray
 
-from viz.style import COLORS, robot_of_application_id
-from viz.style import READY_COLORS as ROBOT_READY_COLORS
+from viz.style import COLORS, robot_of_application_id, robot_style
 
 if TYPE_CHECKING:
     from playwright.sync_api import Page
@@ -47,16 +46,11 @@ __all__ = [
 
 CHROMIUM = "/usr/bin/chromium"
 
-#: Colours that only appear once the tractor's viewer has drawn the data (not in its own UI):
-#: the world view's C1 and C2 paths and the curvature plot. (The measured joint angle is drawn
-#: under the recommended model's curve, so its colour may rightly cover almost nothing.) Other
-#: robots': ``viz.style.READY_COLORS``, picked by :func:`ready_colors_of`.
-READY_COLORS: tuple[str, ...] = ROBOT_READY_COLORS["tractor_trailer"]
-
 
 def ready_colors_of(rrd: str | Path) -> tuple[str, ...]:
     """The colours that mean "drawn" for the robot whose recording ``rrd`` holds (read from its
-    recordings' application ids, ``viz.style.application_id``).
+    recordings' application ids, ``viz.style.application_id``): its style module's
+    ``READY_COLORS`` (``viz/<robot>/style.py``).
 
     Raises:
         ViewerScreenshotError: the file holds no logcal robot's recording.
@@ -73,7 +67,10 @@ def ready_colors_of(rrd: str | Path) -> tuple[str, ...]:
             f"{rrd}: holds no recording of one logcal robot (application ids: "
             f"{', '.join(ids) or 'none'}); name the colours to wait for"
         )
-    return ROBOT_READY_COLORS[robots.pop()]
+    ready = getattr(robot_style(robots.pop()), "READY_COLORS", None)
+    if not ready:
+        raise ViewerScreenshotError(f"{rrd}: its robot's views declare no colours to wait for")
+    return tuple(ready)
 
 
 def panel_problems(
@@ -129,7 +126,7 @@ def _read_png(data: bytes) -> NDArray[np.uint8]:
 
 
 def color_pixel_counts(
-    png: bytes | NDArray[np.uint8], names: Sequence[str] = READY_COLORS, tol: int = 10
+    png: bytes | NDArray[np.uint8], names: Sequence[str], tol: int = 10
 ) -> dict[str, int]:
     """Pixels within ``tol`` (per channel, 0-255) of each named colour of ``viz.style.COLORS``."""
     img = _read_png(png) if isinstance(png, bytes) else png
@@ -262,8 +259,8 @@ def screenshot_rrd(
             leads its own process group, then the browser's processes), so a caller can check
             that they are gone.
         ready_colors: names in ``viz.style.COLORS`` whose presence means "drawn" (default: the
-            recorded robot's, :func:`ready_colors_of`; the tractor's are the C1 and C2 paths
-            and measured kappa: the world view and a plot); the final
+            recorded robot's own, declared in its style module: :func:`ready_colors_of`); the
+            final
             capture must show each, none touching the window's edge (:func:`panel_problems`).
         progress: called with one line per step (viewer, browser, waiting, capture).
 

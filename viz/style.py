@@ -1,7 +1,17 @@
-"""Colours and names shared by the rerun recording, the PNG report and the screenshot test."""
+"""Colours and names shared by the rerun recording, the PNG report and the screenshot test.
+
+The shared palette holds only what every robot's views draw (a residual, the truth) and the
+Okabe-Ito palette every robot's colours are taken from; each robot declares the colours of its
+own things in its own room (``viz/<robot>/style.py``: its ``COLORS`` added with
+:func:`register_colors`, the ``READY_COLORS`` its screenshot waits for and the ``CANVASES``
+drawn together), so this module names no robot's signal. One timeline for every robot:
+seconds from the log's start (:data:`TIMELINE`, :func:`time_index`).
+"""
 
 from __future__ import annotations
 
+import importlib
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -13,13 +23,14 @@ if TYPE_CHECKING:
     from calib.results import AnalysisResult
 
 __all__ = [
-    "CANVASES",
     "COLORS",
     "OKABE_ITO",
     "TIMELINE",
     "application_id",
     "hex_color",
+    "register_colors",
     "robot_of_application_id",
+    "robot_style",
     "start_words",
     "time_index",
     "ui_points",
@@ -28,6 +39,42 @@ __all__ = [
 #: Name of the rerun timeline of every robot: seconds from the log's start (a duration), as in
 #: the text report and the PNG; the absolute start is stated once, in the recording's summary.
 TIMELINE = "time"
+
+RGB = tuple[int, int, int]
+
+#: The Okabe-Ito palette (Okabe & Ito 2008, "Color Universal Design"): eight colours told
+#: apart with every common colour-vision deficiency. Every plotted colour below is one of them,
+#: a tint of one (drawn apart on the same canvas), or a neutral grey.
+OKABE_ITO: dict[str, tuple[int, int, int]] = {
+    "black": (0, 0, 0),
+    "orange": (230, 159, 0),
+    "sky_blue": (86, 180, 233),
+    "bluish_green": (0, 158, 115),
+    "yellow": (240, 228, 66),
+    "blue": (0, 114, 178),
+    "vermillion": (213, 94, 0),
+    "reddish_purple": (204, 121, 167),
+}
+_OI = OKABE_ITO
+
+#: RGB colours (0-255) of the plotted things by name: the shared ones here (neutral greys), each
+#: robot's (from :data:`OKABE_ITO`) added by :func:`register_colors`.
+COLORS: dict[str, RGB] = {
+    "residual": (153, 153, 153),  # neutral grey: the baseline's residual
+    "truth": (250, 250, 250),  # neutral: on the viewer's dark background
+}
+
+
+def register_colors(colors: Mapping[str, RGB]) -> None:
+    """Add a robot's colours to :data:`COLORS` (called once by its style module on import).
+
+    Raises:
+        ValueError: a name already has another colour (two robots naming one thing differently).
+    """
+    clash = sorted(n for n, rgb in colors.items() if COLORS.get(n, rgb) != rgb)
+    if clash:
+        raise ValueError(f"colours {', '.join(clash)} are registered with other values")
+    COLORS.update(colors)
 
 
 def start_words(start_ns: int) -> str:
@@ -46,78 +93,6 @@ def time_index(t_ns: NDArray[np.int64], origin_ns: int) -> list[rr.TimeColumn]:
     return [rr.TimeColumn(TIMELINE, duration=rel.astype("timedelta64[ns]"))]
 
 
-#: The Okabe-Ito palette (Okabe & Ito 2008, "Color Universal Design"): eight colours told
-#: apart with every common colour-vision deficiency. Every plotted colour below is one of them,
-#: a tint of one (drawn apart on the same canvas), or a neutral grey.
-OKABE_ITO: dict[str, tuple[int, int, int]] = {
-    "black": (0, 0, 0),
-    "orange": (230, 159, 0),
-    "sky_blue": (86, 180, 233),
-    "bluish_green": (0, 158, 115),
-    "yellow": (240, 228, 66),
-    "blue": (0, 114, 178),
-    "vermillion": (213, 94, 0),
-    "reddish_purple": (204, 121, 167),
-}
-_OI = OKABE_ITO
-
-#: RGB colours (0-255) of the plotted things; a screenshot test finds the ready ones
-#: (``READY_COLORS``) by colour, so those are used by nothing else on their canvas.
-COLORS: dict[str, tuple[int, int, int]] = {
-    "C1": _OI["vermillion"],  # front wheel centre
-    "P": _OI["orange"],  # joint
-    "C2": _OI["blue"],  # rear wheel centre
-    "links": (240, 240, 240),  # neutral: on the viewer's dark background
-    "O": _OI["bluish_green"],  # instantaneous centre
-    "Q": _OI["reddish_purple"],
-    "triangle_OQC2": (
-        171,
-        218,
-        244,
-    ),  # sky blue half-mixed with white (kappa's colour is the full one)
-    "triangle_QC1P": (248, 242, 161),  # yellow half-mixed with white
-    "radius": _OI["bluish_green"],  # from O, in O's colour
-    "kappa_cmd": _OI["yellow"],
-    "kappa": _OI["sky_blue"],
-    "psi": _OI["blue"],
-    "psi_estimate": _OI["bluish_green"],
-    "psi_method": _OI["reddish_purple"],
-    "psi_steady": _OI["vermillion"],  # the steady-state relation
-    "residual": (153, 153, 153),  # neutral grey: the baseline's residual
-    "truth": (250, 250, 250),  # neutral: on the viewer's dark background
-    "L1": _OI["vermillion"],
-    "L2": _OI["blue"],
-    # the differential drive's paths (viz.diff_drive.views draws them; the screenshot looks for
-    # them)
-    "dd_nominal": _OI["vermillion"],
-    "dd_calibrated": _OI["blue"],
-    # the arm's links and joints (viz.manipulator.views)
-    "arm_links": _OI["bluish_green"],
-    "arm_joints": _OI["orange"],
-}
-
-#: Colours drawn together on one canvas (a view or a figure's axes): each group's are pairwise
-#: distinct.
-CANVASES: dict[str, tuple[str, ...]] = {
-    "tractor world": ("C1", "P", "C2", "links", "O", "Q", "triangle_OQC2", "triangle_QC1P"),
-    "curvature": ("kappa_cmd", "kappa"),
-    "joint angle": ("psi", "psi_estimate", "psi_method", "psi_steady"),
-    "residuals": ("residual", "psi_estimate"),
-    "lengths": ("L1", "L2"),
-    "differential drive paths": ("dd_nominal", "dd_calibrated"),
-    "arm": ("arm_links", "arm_joints"),
-}
-
-#: Per robot, the colours of ``COLORS`` that only show once its viewer has drawn the data (the
-#: screenshot waits for them): the tractor's C1 and C2 paths and measured kappa, the
-#: differential drive's dead-reckoned paths, the arm's links and joints.
-READY_COLORS: dict[str, tuple[str, ...]] = {
-    "tractor_trailer": ("C1", "C2", "kappa"),
-    "diff_drive": ("dd_nominal", "dd_calibrated"),
-    "manipulator": ("arm_links", "arm_joints"),
-}
-
-
 def hex_color(name: str) -> str:
     """The colour ``name`` as ``#rrggbb`` (for matplotlib)."""
     r, g, b = COLORS[name]
@@ -130,11 +105,25 @@ def ui_points(points: float) -> float:
     return -abs(points)
 
 
+def robot_style(robot: str) -> object | None:
+    """The style module of ``robot`` (``viz.<robot>.style``, imported), None when it has none."""
+    if not robot.isidentifier():
+        return None
+    try:
+        return importlib.import_module(f"viz.{robot}.style")
+    except ModuleNotFoundError:
+        return None
+
+
 def robot_of_application_id(app_id: str) -> str | None:
-    """The robot a recording's application id names (:func:`application_id`), None when it
-    names none of :data:`READY_COLORS`'s robots."""
-    for robot in sorted(READY_COLORS, key=len, reverse=True):
-        if app_id == f"logcal_{robot}" or app_id.startswith(f"logcal_{robot}_"):
+    """The robot a recording's application id names (:func:`application_id`): the longest
+    ``logcal_<robot>`` prefix whose robot has a style module; None when none has."""
+    if not app_id.startswith("logcal_"):
+        return None
+    words = app_id[len("logcal_") :].split("_")
+    for n in range(len(words), 0, -1):
+        robot = "_".join(words[:n])
+        if robot_style(robot) is not None:
             return robot
     return None
 

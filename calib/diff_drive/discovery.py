@@ -41,6 +41,7 @@ from calib.diff_drive.kinematics import DiffDriveParams
 from calib.diff_drive.odometry_lsq import LsqFit, segment_design, solve_rows
 from calib.diff_drive.segments import SegmentIndex
 from calib.results import Estimate, json_safe
+from calib.stats import alternate_blocks
 
 __all__ = ["DiffDriveDiscovery", "Finding", "discover"]
 
@@ -108,8 +109,7 @@ class DiffDriveDiscovery:
 
 
 def _folds(n: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    block = (np.arange(n) // CV_BLOCK) % 2
-    return np.flatnonzero(block == 0), np.flatnonzero(block == 1)
+    return alternate_blocks(n, CV_BLOCK)
 
 
 def _heading_sse(design: Any, rows: NDArray[np.intp], c_R: float, c_L: float) -> float:

@@ -199,21 +199,31 @@ def explanations(
 
 
 def span_explanations(
-    result: CalibrationResult, disc: DiffDriveSelection, runs: Sequence[DriveRun], seed: int = 0
-) -> CalibrationResult:
+    result: CalibrationResult,
+    disc: DiffDriveSelection,
+    runs: Sequence[DriveRun],
+    seed: int = 0,
+    *,
+    misfit: float | None = None,
+) -> CalibrationResult | None:
     """``result`` with each radius and the track spanning the plausible explanations
     (:func:`calib.discovery.across`): determined where they agree, the interval their union;
-    ``runs``: the data as recorded."""
+    ``runs``: the data as recorded; ``misfit``: the final model's worst residual over its floor
+    when it does not explain the log (each interval widened by it, nothing determined; None
+    while it explains). None when
+    there is no other explanation to span."""
     ex = explanations(disc, result, runs, seed)
     if len(ex) < 2:
-        return result
-    spanned = across(ex, ex[0], list(result.parameters))
+        return None
+    spanned = across(ex, ex[0], list(result.parameters), misfit=misfit)
     used = sorted({lab for s in spanned.values() for lab in s.values if lab != "final"})
     if not used:
-        return result
+        return None
     params = {k: spanned[k].estimate if k in spanned else e for k, e in result.parameters.items()}
     agree = all(s.agree for s in spanned.values())
     what = "agree" if agree else "disagree: not determined"
+    if misfit is not None:
+        what += f"; the model does not explain the log: each widened x{misfit:.2g}, not determined"
     verdict = result.verdict + (
         f"; the intervals span the explanations that fit this log ({', '.join(used)}), which {what}"
     )

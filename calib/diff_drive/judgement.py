@@ -167,7 +167,10 @@ def judged_estimate(
     cannot tell apart (each calibrated on the ``recorded`` runs) when there is no radius
     change, else widened as the misfit allows (:func:`widen`)."""
     if disc is not None and disc.selection is not None and change is None:
-        return span_explanations(result, disc, recorded, seed)
+        misfit = None if adequacy.explains else adequacy.misfit_factor
+        spanned = span_explanations(result, disc, recorded, seed, misfit=misfit)
+        if spanned is not None:
+            return spanned
     return widen(result, adequacy, pieces)
 
 

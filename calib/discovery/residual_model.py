@@ -300,10 +300,12 @@ def describe(
     block: int = 50,
     hook: HookFactory | None = None,
     explained: bool = False,
+    forward: bool = False,
 ) -> Description | None:
     """Model the residual of ``current`` (module docstring); None when the screen keeps no term
     or the joint fit fails. The description is returned whether or not it is accepted (an
-    unaccepted one still says what the residual follows)."""
+    unaccepted one still says what the residual follows). ``forward``: when the screen's whole
+    set is not kept, the best kept prefix of it (in the screen's order) is (default off)."""
     cols = _columns(space, library)
     if not cols:
         return None
@@ -321,18 +323,70 @@ def describe(
     order = sorted(range(len(sel.kept)), key=lambda i: -sel.inclusion[i])[:MAX_TERMS]
     kept = [cols[sel.kept[i]] for i in order]
     init = [sel.coef[i] for i in order]
-    channels = ", ".join(dict.fromkeys(c.entry.channel for c in kept))
-    done = _fit_kept(fitter, current, kept, init, channels, hook)
-    if done is None:
+    need = EXPLAINED_GAIN if explained else MIN_HELDOUT_GAIN
+    found = _judged(fitter, current, kept, init, hook, need)
+    if found is None:
         return None
-    spec, fit, kept = done
+    if forward and not found[3] and len(kept) > 1:
+        # the screen's set, fitted jointly, may overfit where its terms are nearly collinear
+        # with the robot's own: grown term by term instead, each step the term whose joint fit
+        # is kept with the largest held-out gain
+        found = _forward(fitter, current, kept, init, hook, need) or found
+    spec, fit, kept, ok, gain, dbic = found
     pars = fit.effect_parameters[spec.key]
     terms = tuple(
         DescribedTerm(c.entry.name, c.term, pars[p.name], c.entry.channel)
         for c, p in zip(kept, spec.params, strict=True)
     )
+    return Description(spec, fit, current, terms, gain, dbic, ok, sel, len(cols))
+
+
+def _forward(
+    fitter: Fitter,
+    current: ModelFit,
+    kept: list[_Column],
+    init: list[float],
+    hook: HookFactory | None,
+    need: float,
+) -> tuple[EffectSpec[Any], ModelFit, list[_Column], bool, float, float] | None:
+    """Forward selection over the screen's terms by the joint fit: None when no single term is
+    kept."""
+    start = dict(zip((id(c) for c in kept), init, strict=True))
+    chosen: list[_Column] = []
+    best: tuple[EffectSpec[Any], ModelFit, list[_Column], bool, float, float] | None = None
+    for _ in range(len(kept)):
+        step = None
+        for c in kept:
+            if any(c is x for x in chosen):
+                continue
+            trial = [*chosen, c]
+            got = _judged(fitter, current, trial, [start[id(x)] for x in trial], hook, need)
+            if got is None or not got[3] or (best is not None and got[4] <= best[4]):
+                continue
+            if step is None or got[4] > step[4]:
+                step = got
+        if step is None:
+            break
+        best = step
+        chosen = list(step[2])
+    return best
+
+
+def _judged(
+    fitter: Fitter,
+    current: ModelFit,
+    kept: list[_Column],
+    init: list[float],
+    hook: HookFactory | None,
+    need: float,
+) -> tuple[EffectSpec[Any], ModelFit, list[_Column], bool, float, float] | None:
+    """The described effect of ``kept`` fitted and pruned (:func:`_fit_kept`), with whether the
+    engine's rules keep it, its held-out gain and its BIC change."""
+    channels = ", ".join(dict.fromkeys(c.entry.channel for c in kept))
+    done = _fit_kept(fitter, current, kept, init, channels, hook)
+    if done is None:
+        return None
+    spec, fit, cols = done
     gain = heldout_gain(current, fit)
     dbic = fit.bic - current.bic
-    need = EXPLAINED_GAIN if explained else MIN_HELDOUT_GAIN
-    ok = gain >= need and dbic < -BIC_MARGIN
-    return Description(spec, fit, current, terms, gain, dbic, ok, sel, len(cols))
+    return spec, fit, cols, bool(gain >= need and dbic < -BIC_MARGIN), gain, dbic

@@ -18,18 +18,27 @@ from typing import Any
 
 from calib.adequacy import Adequacy
 from calib.discovery import (
+    BIC_MARGIN,
     Alternative,
     Description,
     DiscoveryReport,
+    EffectSpec,
     FoundEffect,
     ModelFit,
     moved_parameters,
 )
-from calib.manipulator.discovery import ArmDiscovery
+from calib.manipulator.discovery import ArmDiscovery, ArmFitter
 from calib.manipulator.discovery.described import physics_hint
 from calib.results import CalibrationResult, Estimate
 
-__all__ = ["IMPLIED", "PartialEffect", "arm_discovery_report", "baseline_text", "final_fit"]
+__all__ = [
+    "IMPLIED",
+    "PartialEffect",
+    "arm_discovery_report",
+    "baseline_text",
+    "described_alternative",
+    "final_fit",
+]
 
 IMPLIED = "the value this explanation implies (its own interval; not a calibrated answer)"
 
@@ -136,6 +145,23 @@ def _notes(disc: ArmDiscovery) -> list[str]:
             if (h := physics_hint(t.term))
         ]
     return out
+
+
+def described_alternative(
+    fitter: ArmFitter, disc: ArmDiscovery, accepted: Sequence[EffectSpec]
+) -> tuple[str, dict[str, Estimate]] | None:
+    """A residual model not kept as an explanation the estimate must still span: when the
+    description fits the log better by the BIC margin and improves the held-out fit, yet not by
+    enough to be kept (a model that already explains needs 30 %), the data do not reject it, so
+    the dynamic parameters it implies (``accepted`` + the description, fitted on the whole log)
+    are an alternative (:func:`calib.manipulator.adequacy.spanned`). None otherwise."""
+    d = disc.description
+    if d is None or d.accepted or not (d.delta_bic < -BIC_MARGIN and d.heldout_gain > 0):
+        return None
+    fit = fitter.fit_arm((*accepted, d.spec))
+    if fit is None:
+        return None
+    return "described (not kept)", fit.estimates()
 
 
 def arm_discovery_report(

@@ -205,12 +205,7 @@ def pool_gls(
     fixed_value, fixed_cov, rank = _fixed(precs, ys)
     n_informing = np.array([sum(1 for pr in precs if pr[j, j] > 0) for j in range(p)])
     df = sum(r for _, _, r in pieces) - rank
-    q = math.nan
-    pval = math.nan
-    if df > 0:
-        fv = np.where(np.isfinite(fixed_value), fixed_value, 0.0)
-        q = float(sum((y - fv) @ pr @ (y - fv) for pr, y in zip(precs, ys, strict=True)))
-        pval = float(stats.chi2.sf(q, df))
+    q, pval = _cochran_q(precs, ys, fixed_value, df)
     heterogeneous = bool(df > 0 and pval < alpha)
     apply = df > 0 and (random == "always" or (random == "auto" and heterogeneous))
     value, cov = fixed_value, fixed_cov
@@ -233,14 +228,9 @@ def pool_gls(
         if apply and not np.any(between):
             method += ", the between-piece covariance estimated 0"
         elif apply:
-            prec_re = [np.linalg.inv(np.linalg.inv(w) + between) for w in ws]
-            sub_cov = np.linalg.inv(np.sum(prec_re, axis=0))
-            sub_val = sub_cov @ np.sum([w @ y for w, y in zip(prec_re, yv, strict=True)], axis=0)
-            value = fixed_value.copy()
-            cov = fixed_cov.copy()
-            value[informed] = sub_val
-            cov[idx] = sub_cov
-            inflation = float(np.max(np.diag(sub_cov) / np.diag(fixed_cov[idx])))
+            value, cov, inflation = _random_effects(
+                ws, yv, between, fixed_value, fixed_cov, informed
+            )
             method = (
                 "random effects (DerSimonian-Laird)"
                 if p == 1
@@ -267,6 +257,40 @@ def pool_gls(
         between_full,
         method,
     )
+
+
+def _cochran_q(
+    precs: Sequence[np.ndarray], ys: Sequence[np.ndarray], fixed_value: np.ndarray, df: int
+) -> tuple[float, float]:
+    """The generalised Cochran's Q of the pieces (precisions ``precs``, values ``ys``) about
+    the fixed-effect value, and its p-value at ``df`` degrees of freedom (NaN, NaN: df 0)."""
+    if df <= 0:
+        return math.nan, math.nan
+    fv = np.where(np.isfinite(fixed_value), fixed_value, 0.0)
+    q = float(sum((y - fv) @ pr @ (y - fv) for pr, y in zip(precs, ys, strict=True)))
+    return q, float(stats.chi2.sf(q, df))
+
+
+def _random_effects(
+    ws: Sequence[np.ndarray],
+    yv: Sequence[np.ndarray],
+    between: np.ndarray,
+    fixed_value: np.ndarray,
+    fixed_cov: np.ndarray,
+    informed: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """The GLS value and covariance with weights (Σ_i + Ψ)⁻¹ over the ``informed``
+    parameters (``ws``, ``yv``: the pieces' precisions and values there; ``between``: Ψ), the
+    rest as the fixed effect left them, and the largest factor by which a variance widened."""
+    idx = np.ix_(informed, informed)
+    prec_re = [np.linalg.inv(np.linalg.inv(w) + between) for w in ws]
+    sub_cov = np.linalg.inv(np.sum(prec_re, axis=0))
+    sub_val = sub_cov @ np.sum([w @ y for w, y in zip(prec_re, yv, strict=True)], axis=0)
+    value = fixed_value.copy()
+    cov = fixed_cov.copy()
+    value[informed] = sub_val
+    cov[idx] = sub_cov
+    return value, cov, float(np.max(np.diag(sub_cov) / np.diag(fixed_cov[idx])))
 
 
 def pool_univariate(

@@ -1,7 +1,7 @@
 """Shared statistics, one name and one meaning across the tree: noise levels read off the data
 (``noise``), effective sample sizes (``samples``), autocorrelation-robust covariances
-(``hac``), information criteria (``information``). Every robot's estimators and the discovery
-engine use these; no room keeps a private copy.
+(``hac``), information criteria (``information``), held-out folds (``holdout``). Every
+robot's estimators and the discovery engine use these; no room keeps a private copy.
 """
 
 from calib.stats.hac import (
@@ -13,6 +13,7 @@ from calib.stats.hac import (
     newey_west_rule_lag,
     sandwich,
 )
+from calib.stats.holdout import alternate_blocks
 from calib.stats.information import bic_channels, bic_gaussian
 from calib.stats.noise import (
     MAD_TO_STD,
@@ -36,6 +37,7 @@ Z95 = 1.959963984540054
 __all__ = [
     "MAD_TO_STD",
     "Z95",
+    "alternate_blocks",
     "autocorrelation",
     "bartlett_bandwidth",
     "bartlett_long_run",

@@ -36,6 +36,7 @@ from calib.tractor_trailer.path_discovery import PathDiscovery, adopt_effects, r
 from calib.tractor_trailer.plausible import RANGES
 
 __all__ = [
+    "NOISY_POSE_BIAS",
     "REJECT_CHI2",
     "FoldedEffects",
     "actuator_note",
@@ -45,6 +46,8 @@ __all__ = [
     "judge_along_path",
     "judge_plausible",
     "judge_unexplained",
+    "more_precise",
+    "pose_too_noisy",
     "recommend",
     "recommended_estimate",
     "span_confounds",
@@ -87,6 +90,25 @@ def folded_effects(discovery: object) -> FoldedEffects:
     offset, shift, labels = plan.fold.as_tuple()
     spans = tuple(ch for ch in plan.span if not ch.free_effect)
     return FoldedEffects(offset, shift, list(labels), spans)
+
+
+NOISY_POSE_BIAS = 0.01
+"""A fit along a pose path whose noise-bias correction of the joint angle exceeds this fraction
+of |L1| + |L2| is compared with the fit along odometry: the pose may be too noisy."""
+
+
+def pose_too_noisy(fit: PathTransientFit) -> bool:
+    """Whether ``fit`` (along a pose path) needs so large a noise-bias correction
+    (``NOISY_POSE_BIAS``) that the fit along odometry should be compared with it."""
+    return bool(
+        np.max(np.abs(fit.bias_correction_)) > NOISY_POSE_BIAS * (abs(fit.L1_) + abs(fit.L2_))
+    )
+
+
+def more_precise(fit: PathTransientFit, than: PathTransientFit) -> bool:
+    """Whether ``fit`` determines L1, L2 more precisely than ``than`` (a smaller trace of
+    their covariance)."""
+    return bool(np.trace(fit.cov_[:2, :2]) < np.trace(than.cov_[:2, :2]))
 
 
 def follows_path(estimate: CalibrationResult | None, path_fit: PathTransientFit | None) -> bool:

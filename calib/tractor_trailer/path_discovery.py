@@ -856,7 +856,7 @@ def _across_explanations(est: CalibrationResult, disc: PathDiscovery) -> Calibra
     if adequacy is None or adequacy.explains or not adequacy.channels:
         return est
     ex = _explanations(disc, est)
-    spanned = across(ex, ex[0], ["L1", "L2"]) if len(ex) >= 2 else {}
+    spanned = across(ex, ex[0], ["L1", "L2"], misfit=adequacy.misfit_factor) if len(ex) >= 2 else {}
     used = sorted({lab for s in spanned.values() for lab in s.values if lab != "final"})
     if not used:
         return estimate_under_misfit(est, adequacy, disc.thirds)
@@ -880,7 +880,8 @@ def _across_explanations(est: CalibrationResult, disc: PathDiscovery) -> Calibra
         f"{est.verdict} The model ({adequacy.model}) leaves the joint angle at "
         f"{worst.judged_ratio:.2g}x its noise floor; the intervals span the explanations that "
         f"fit this log ({', '.join(used)}), which "
-        + ("agree." if agree else "disagree: not determined.")
+        + ("agree" if agree else "disagree")
+        + f", each widened x{adequacy.misfit_factor:.2g} for the misfit: not determined."
     )
     return replace(est, parameters=params, derived=derived_sum(total, est.derived), verdict=verdict)
 

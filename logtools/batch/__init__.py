@@ -7,9 +7,10 @@ Modules: :mod:`~logtools.batch.files` (regular files only), :mod:`~logtools.batc
 (walk over the registered log formats, content hash), :mod:`~logtools.batch.worker` (one
 log), :mod:`~logtools.batch.engines` (process pool, Ray), :mod:`~logtools.batch.runner`
 (resume, atomic writes),
-:mod:`~logtools.batch.table` (fleet table), :mod:`~logtools.batch.drift` (statistics; the pooled
-estimates are :mod:`calib.pooling.meta`'s), :mod:`~logtools.batch.fleet`,
-:mod:`~logtools.batch.plots`, :mod:`~logtools.batch.report_html`, :mod:`~logtools.batch.serve`.
+:mod:`~logtools.batch.table` (fleet table; its statistics, the pooled estimates and the
+drift, are :mod:`calib.pooling.meta`'s and :mod:`calib.pooling.drift`'s),
+:mod:`~logtools.batch.fleet`, :mod:`~logtools.batch.plots`, :mod:`~logtools.batch.report_html`,
+:mod:`~logtools.batch.serve`.
 
 Nothing heavy is imported here: worker processes import only what they use.
 """

@@ -144,7 +144,9 @@ def _run_local(
             width = 1
             chunk, suspects = suspects[:RECYCLE_EVERY], suspects[RECYCLE_EVERY:]
         with (
-            tempfile.TemporaryDirectory(prefix="logcal-workers-") as markers,
+            tempfile.TemporaryDirectory(
+                prefix="logcal-workers-", ignore_cleanup_errors=True
+            ) as markers,
             _thread_caps(width),
             ProcessPoolExecutor(
                 max_workers=width,

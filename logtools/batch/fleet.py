@@ -13,8 +13,8 @@ from typing import Any
 
 import polars as pl
 
+from calib.pooling.drift import DriftResult, detect_drift
 from calib.pooling.meta import PooledEstimate, pool_estimates
-from logtools.batch.drift import DriftResult, detect_drift
 
 __all__ = ["ParameterSeries", "fleet_summary"]
 

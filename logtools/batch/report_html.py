@@ -252,7 +252,8 @@ def _index(
                     _e(r.get("robot")),
                     _e(_time(r.get("start_ns"))),
                     f"<span class='{'ok' if r.get('status') == 'ok' else 'failed'}'>"
-                    f"{_e(r.get('status'))}</span>",
+                    f"{_e(r.get('status'))}</span>"
+                    + (" (log gone from the archive; kept)" if r.get("gone") else ""),
                     _estimate_cells(r.get("result") or {}) if r.get("status") == "ok" else "-",
                 ]
                 for r in records

@@ -6,21 +6,19 @@ with a topic pattern (``*/odom``).
 
 from __future__ import annotations
 
-import math
 import re
-from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
 import polars as pl
 
-from logtools.channel_map.names import JOINT_TOPIC
+from logtools.channel_map.names import JOINT_TOPIC, signal_spec
+from logtools.channel_map.transforms import TRANSFORMS
 from logtools.errors import ChannelMapEntryError, LogcalInputError, UnknownEncodingError
 from logtools.readers import TIME_COLUMN, LogData, ProblemKind, known_encodings
 from logtools.signals import UNIT_FACTORS, SignalSource, Stamp
 
 __all__ = [
-    "TRANSFORMS",
     "extract_default",
     "extract_user",
     "signal_frame",
@@ -29,24 +27,9 @@ __all__ = [
 ]
 
 
-def _yaw_from_quaternion(frame: pl.DataFrame, fld: str) -> pl.Expr:
-    x, y, z, w = (pl.col(f"{fld}.{c}").cast(pl.Float64) for c in "xyzw")
-    return pl.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-
-
-def _deg_to_rad(frame: pl.DataFrame, fld: str) -> pl.Expr:
-    return pl.col(fld).cast(pl.Float64) * (math.pi / 180)
-
-
-TRANSFORMS: dict[str, Callable[[pl.DataFrame, str], pl.Expr]] = {
-    "yaw_from_quaternion": _yaw_from_quaternion,
-    "deg_to_rad": _deg_to_rad,
-}
-"""Transforms a channel map may name; each turns (frame, field) into the signal's value."""
-
-
-def _transform_columns(fld: str, transform: str | None) -> list[str]:
-    return [f"{fld}.{c}" for c in "xyzw"] if transform == "yaw_from_quaternion" else [fld]
+def _transform_columns(fld: str, src: SignalSource) -> list[str]:
+    """The columns the source's transform reads under ``fld`` (the field itself without one)."""
+    return TRANSFORMS[src.transform].columns(fld) if src.transform is not None else [fld]
 
 
 def signal_frame(frame: pl.DataFrame, value: pl.Expr, time: pl.Expr | None = None) -> pl.DataFrame:
@@ -88,8 +71,8 @@ def extract_user(log: LogData, name: str, src: SignalSource) -> pl.DataFrame:
     if got is None:
         fields = ", ".join(c for c in frame.columns if c != TIME_COLUMN)
         need = src.field
-        if src.transform == "yaw_from_quaternion":
-            need = f"{src.field}.x/.y/.z/.w"
+        if src.transform is not None and len(read := _transform_columns(src.field, src)) > 1:
+            need = read[0] + "".join("/." + c.rpartition(".")[2] for c in read[1:])
         if src.frame:
             need += f" of the element whose child_frame_id is {src.frame!r}"
         raise ChannelMapEntryError(
@@ -124,21 +107,21 @@ def extract_default(
     frame = topic_frame(log, src.topic)
     if frame is None:
         return None
-    if src.topic == JOINT_TOPIC:  # wheels from joint states only by joint name
-        if not _selects_by_name(frame, name):
+    words = _joint_words(frame, name)
+    if src.topic == JOINT_TOPIC:  # joint states by joint name only, with every word
+        if not words:
             return None
-        side = name.removeprefix("wheel_")
-        value = _by_joint_name(frame, side, src.field, also="wheel")
+        value = _by_joint_name(frame, words[0], src.field, also=words[1:])
         if value is None:
             return None
-        shown = SignalSource(src.topic, f"{src.field.rsplit('.', 1)[0]}[name~wheel,{side}]")
+        shown_words = ",".join((*words[1:], words[0]))
+        shown = SignalSource(src.topic, f"{src.field.rsplit('.', 1)[0]}[name~{shown_words}]")
         return signal_frame(frame, value), shown
     got = _value_and_time(frame, name, src, log.path)
     if got is None:
         return None
-    if _selects_by_name(frame, name):
-        side = name.removeprefix("wheel_")
-        src = SignalSource(src.topic, f"{src.field.rsplit('.', 1)[0]}[name~{side}]")
+    if words:
+        src = SignalSource(src.topic, f"{src.field.rsplit('.', 1)[0]}[name~{words[0]}]")
     return to_si(signal_frame(frame, got[0], got[1]), src), src
 
 
@@ -185,11 +168,12 @@ def _value_and_time(
 def _value_expr(frame: pl.DataFrame, name: str, src: SignalSource) -> pl.Expr | None:
     """The expression giving the signal's value from ``frame``, or None if the field is absent."""
     if src.transform is not None:
-        if not all(c in frame.columns for c in _transform_columns(src.field, src.transform)):
+        if not all(c in frame.columns for c in _transform_columns(src.field, src)):
             return None
-        return TRANSFORMS[src.transform](frame, src.field)
-    if _selects_by_name(frame, name):
-        return _by_joint_name(frame, name.removeprefix("wheel_"), src.field)
+        return TRANSFORMS[src.transform].value(frame, src.field)
+    words = _joint_words(frame, name)
+    if words:
+        return _by_joint_name(frame, words[0], src.field)
     if src.field not in frame.columns:
         return None
     return pl.col(src.field)
@@ -237,7 +221,7 @@ def _by_child_frame(
         else:
             prefix = f"{m.group(1)}.{m.group(2)}." if m.group(1) else f"{m.group(2)}."
         fld = f"{prefix}{src.field}"
-        if all(c in frame.columns for c in _transform_columns(fld, src.transform)):
+        if all(c in frame.columns for c in _transform_columns(fld, src)):
             elements.append((col, prefix, fld))
     if not elements:
         return None
@@ -249,7 +233,7 @@ def _by_child_frame(
     stamps = []
     for _col, prefix, fld in elements:
         if src.transform is not None:
-            values.append(TRANSFORMS[src.transform](frame, fld))
+            values.append(TRANSFORMS[src.transform].value(frame, fld))
         else:
             values.append(pl.col(fld))
         if src.stamp is Stamp.HEADER:
@@ -279,16 +263,20 @@ def _chain(conds: list[pl.Expr], values: list[pl.Expr]) -> pl.Expr:
     return expr.otherwise(None)
 
 
-def _selects_by_name(frame: pl.DataFrame, name: str) -> bool:
-    """Wheel angles from a JointState-like topic are picked by the ``name`` array."""
-    return name in ("wheel_left", "wheel_right") and "name.0" in frame.columns
+def _joint_words(frame: pl.DataFrame, name: str) -> tuple[str, ...]:
+    """The words a signal picked by joint name from a JointState-like topic (one with a
+    ``name`` array) is found by (``SignalSpec.joint_words``); empty: not picked by name."""
+    if "name.0" not in frame.columns:
+        return ()
+    spec = signal_spec(name)
+    return spec.joint_words if spec is not None else ()
 
 
 def _by_joint_name(
-    frame: pl.DataFrame, side: str, fld: str, also: str | None = None
+    frame: pl.DataFrame, side: str, fld: str, also: tuple[str, ...] = ()
 ) -> pl.Expr | None:
-    """JointState-like topics: take ``<array>.i`` where ``name.i`` names ``side`` (per message);
-    with ``also``, the name must contain that word too (e.g. ``wheel``)."""
+    """JointState-like topics: take ``<array>.i`` where ``name.i`` contains ``side`` (per
+    message) and every word of ``also``."""
     array = fld.rsplit(".", 1)[0]
     pairs = [
         (f"name.{i}", f"{array}.{i}")
@@ -299,8 +287,8 @@ def _by_joint_name(
     for n, _ in pairs:
         low = pl.col(n).cast(pl.String).str.to_lowercase()
         cond = low.str.contains(side, literal=True)
-        if also:
-            cond = cond & low.str.contains(also, literal=True)
+        for word in also:
+            cond = cond & low.str.contains(word, literal=True)
         conds.append(cond)
     if not pairs or not frame.select(pl.any_horizontal(conds).fill_null(False).any()).item():
         return None

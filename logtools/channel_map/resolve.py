@@ -9,21 +9,22 @@ their logical names. Entries of a channel map (:mod:`logtools.channel_map.toml`)
 
 Measured signals that carry nothing (a speed, rate or angle that is zero in every sample, like
 the twist of an ``Odometry`` filled only with a pose) are detected, reported with topic and
-field, and not used: the next default source is tried, and ``kappa`` then comes from the pose
-path instead of 0/0. Commands may be constant; so may a nonzero speed or yaw rate, and a
-position (a robot may spin in place).
+field, and not used: the next default source is tried (which signals an all-zero record means
+empty is declared with each signal, ``SignalSpec.empty_when_zero``). Commands may be constant;
+so may a nonzero speed or yaw rate, and a position (a robot may spin in place).
 
 After the formulas, every robot plugin's derived signals (``RobotPlugin.derived_signals``) are
-asked for the signals the log lacks (the tractor-trailer's ``kappa_cmd`` from a steering command
-and the wheelbase, or from a velocity command); :attr:`ResolvedSignals.origins` says how each
-derived signal was obtained. The wheelbase is the channel map's ``[robot] wheelbase``, else the
-``logcal`` metadata record's ``wheelbase``.
+asked for the signals the log lacks (e.g. a command derived from another command and a
+nominal dimension); :attr:`ResolvedSignals.origins` says how each derived signal was obtained.
+A number a robot declares ``RobotKey.from_metadata`` is the channel map's ``[robot]`` entry,
+else the ``logcal`` metadata record's entry of that name.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 import polars as pl
@@ -37,13 +38,17 @@ from logtools.channel_map.extract import (
     topic_frame,
 )
 from logtools.channel_map.names import (
-    JOINT_ARRAYS,
-    JOINT_SIGNAL,
     JOINT_TOPIC,
-    JOINT_UNITS,
-    LOGICAL_SIGNALS,
+    command_signals,
+    element_families,
+    element_family,
     is_logical_signal,
+    joint_arrays,
+    logical_signals,
     plugin_sources,
+    robot_keys,
+    signal_spec,
+    vocabulary,
 )
 from logtools.channel_map.toml import ChannelMap, parse_formula
 from logtools.errors import ChannelMapEntryError, SignalValueError
@@ -54,11 +59,11 @@ from logtools.readers import CSV_TOPIC, TIME_COLUMN, LogData
 from logtools.robots import plugins
 from logtools.robots.base import FoundSignals
 from logtools.signals import (
-    SIGNAL_UNITS,
     Formula,
     FormulaError,
     OriginKind,
     RobotConfig,
+    RobotKey,
     SignalOrigin,
     SignalSource,
     default_candidates,
@@ -73,7 +78,6 @@ __all__ = [
 
 FLAT_MIN_SAMPLES = 5
 """A signal needs at least this many samples to be called constant."""
-_ZERO_MEANS_EMPTY = ("v", "omega", "psi", "steer", "wheel_left", "wheel_right", "yaw", "yaw2")
 
 PLAUSIBLE_LIMITS: dict[str, float] = {
     "m/s": 1e3,
@@ -123,15 +127,16 @@ def resolve_signals(
     state.evaluate_formulas(derived)
     state.derive(cmap.off)
     signals, sources, notes = state.signals, state.sources, state.notes
-    for yaw, rate in (("yaw", "omega"), ("yaw2", None)):
-        if yaw in signals:
-            notes += check_yaw_units(
-                signals[yaw],
-                signals.get(rate) if rate else None,
-                path=log.path,
-                source=sources[yaw],
-            )
-    missing = [s for s in LOGICAL_SIGNALS if s not in signals and not _any_joint(s, signals)]
+    for heading in (s for s in vocabulary().values() if s.heading and s.name in signals):
+        rate = heading.heading_rate
+        notes += check_yaw_units(
+            signals[heading.name],
+            signals.get(rate) if rate else None,
+            path=log.path,
+            source=sources[heading.name],
+            name=heading.name,
+        )
+    missing = [s for s in logical_signals() if s not in signals and not _any_joint(s, signals)]
     return ResolvedSignals(
         signals,
         sources,
@@ -154,7 +159,7 @@ class _Resolution:
         self.notes: list[str] = []
         self.flat: list[FlatSignal] = []
         self.origins: dict[str, SignalOrigin] = {}
-        self.robot, self.wheelbase_from = _robot_config(log, cmap, self.notes)
+        self.robot, self.params_from = _robot_config(log, cmap, self.notes)
         self.outliers: list[Problem] = []
         firsts = [i.first_ns for i in log.info.values() if i.first_ns is not None]
         self.origin = min(firsts, default=0)
@@ -163,7 +168,14 @@ class _Resolution:
         """Clean and keep the signal; False (and a record) when it is empty or carries nothing.
 
         Outliers are excluded (and recorded); values beyond :data:`PLAUSIBLE_LIMITS` refused."""
-        cleaned, repaired = clean_signal(frame, path=self.log.path, name=name, source=src)
+        spec = signal_spec(name)
+        cleaned, repaired = clean_signal(
+            frame,
+            path=self.log.path,
+            name=name,
+            source=src,
+            within_turn=spec is not None and spec.within_turn,
+        )
         self.notes += repaired
         if not cleaned.height:
             return False
@@ -187,17 +199,16 @@ class _Resolution:
                 if c != TIME_COLUMN and is_logical_signal(c) and c not in skip:
                     self.take(c, signal_frame(frame, pl.col(c)), SignalSource(CSV_TOPIC, c))
             return
-        # a topic the map reads the trailer's pose from does not also give the tractor's pose
-        # by the default names (a trailer tracked on /odom is not the tractor)
-        trailer_topics = {s.topic for n, s in user.items() if n in ("x2", "y2", "yaw2")}
         candidates_by_name = default_candidates(self.cmap.tf_frame)
         for name, extra in plugin_sources().items():
             candidates_by_name.setdefault(name, []).extend(extra)
+        other_bodies = _topics_of_other_bodies(user)
         for name, candidates in candidates_by_name.items():
             if name in skip:
                 continue
+            body = _body(name)
             for src in candidates:
-                if name in ("x", "y", "yaw") and src.topic in trailer_topics:
+                if body is not None and src.topic in other_bodies.get(body, ()):
                     continue
                 found = extract_default(log, name, src)
                 if found is not None and self.take(name, *found):
@@ -205,10 +216,11 @@ class _Resolution:
         joints = topic_frame(log, JOINT_TOPIC)
         if joints is None:
             return
+        arrays = joint_arrays()
         for col in joints.columns:
             array, _, index = col.rpartition(".")
-            if array in JOINT_ARRAYS and index.isdigit():
-                name = f"{JOINT_ARRAYS[array]}{int(index) + 1}"
+            if array in arrays and index.isdigit():
+                name = f"{arrays[array]}{int(index) + 1}"
                 if name not in skip and not _joint_family_mapped(name, user):
                     self.take(
                         name, signal_frame(joints, pl.col(col)), SignalSource(JOINT_TOPIC, col)
@@ -246,7 +258,7 @@ class _Resolution:
                 f"{' (' + why + ')' if why else ''}. Signals found: "
                 f"{', '.join(sorted(self.signals)) or '(none)'}.",
             )
-        t_ns, arrays = common_times({n: self.signals[n] for n in inputs})
+        t_ns, arrays = common_times({n: self.signals[n] for n in inputs}, held=command_signals())
         values: dict[str, np.ndarray | float] = dict(arrays)
         values.update({c: v for c, v in constants.items() if c in formula.names})
         try:
@@ -305,41 +317,48 @@ class _Resolution:
 
     def found(self) -> FoundSignals:
         """The signals found so far, as a derivation sees them."""
-        return FoundSignals(
-            self.log.path, self.signals, self.sources, self.robot, self.wheelbase_from
-        )
+        return FoundSignals(self.log.path, self.signals, self.sources, self.robot, self.params_from)
 
 
-def _robot_config(log: LogData, cmap: ChannelMap, notes: list[str]) -> tuple[RobotConfig, str]:
-    """The channel map's [robot] table with the wheelbase completed from the metadata record."""
-    robot = cmap.robot
-    text = log.metadata.get("logcal", {}).get("wheelbase")
-    meta: float | None = None
-    if text is not None:
-        try:
-            meta = float(text)
-        except ValueError:
-            meta = None
-        if meta is None or not (math.isfinite(meta) and meta > 0):
-            notes.append(
-                f"{log.path}: the logcal metadata record's wheelbase {text!r} is not a positive "
-                "number; ignored"
-            )
-            meta = None
-    if robot.wheelbase is not None:
-        where = f"the channel map {cmap.path}".rstrip() + " [robot] wheelbase"
-        if meta is not None and not math.isclose(meta, robot.wheelbase, rel_tol=1e-9):
-            notes.append(
-                f"{log.path}: the channel map's wheelbase {robot.wheelbase:g} m differs from the "
-                f"logcal metadata record's {meta:g} m; the channel map's is used"
-            )
-        return robot, where
-    if meta is not None:
-        return (
-            RobotConfig(robot.type, meta, dict(robot.params)),
-            "the logcal metadata record",
+def _robot_config(
+    log: LogData, cmap: ChannelMap, notes: list[str]
+) -> tuple[RobotConfig, dict[str, str]]:
+    """The channel map's [robot] table completed from the ``logcal`` metadata record (the keys
+    a robot declares ``from_metadata``), and where each of those numbers came from."""
+    robot, where = cmap.robot, {}
+    for key in (k for k in robot_keys().values() if k.from_metadata and not k.text):
+        meta = _metadata_number(log, key, notes)
+        given = robot.number(key.name)
+        if given is not None:
+            where[key.name] = f"the channel map {cmap.path}".rstrip() + f" [robot] {key.name}"
+            if meta is not None and not math.isclose(meta, given, rel_tol=1e-9):
+                notes.append(
+                    f"{log.path}: the channel map's {key.name} {given:g} {key.unit} differs from "
+                    f"the logcal metadata record's {meta:g} {key.unit}; the channel map's is used"
+                )
+        elif meta is not None:
+            robot = replace(robot, params={**robot.params, key.name: meta})
+            where[key.name] = "the logcal metadata record"
+    return robot, where
+
+
+def _metadata_number(log: LogData, key: RobotKey, notes: list[str]) -> float | None:
+    """The ``logcal`` metadata record's number ``key.name``; None (with a note when it is there
+    but not a usable number)."""
+    text = log.metadata.get("logcal", {}).get(key.name)
+    if text is None:
+        return None
+    try:
+        meta: float | None = float(text)
+    except ValueError:
+        meta = None
+    if meta is None or not math.isfinite(meta) or (key.positive and meta <= 0):
+        what = "a positive number" if key.positive else "a number"
+        notes.append(
+            f"{log.path}: the logcal metadata record's {key.name} {text!r} is not {what}; ignored"
         )
-    return robot, ""
+        return None
+    return meta
 
 
 def _flatness(name: str, frame: pl.DataFrame, src: SignalSource) -> FlatSignal | None:
@@ -347,7 +366,8 @@ def _flatness(name: str, frame: pl.DataFrame, src: SignalSource) -> FlatSignal |
     unconnected encoder, an orientation never filled in). Commands, positions (a robot may spin
     in place) and joint signals are never flagged, nor a nonzero constant (a circle driven at
     constant speed)."""
-    if name not in _ZERO_MEANS_EMPTY or frame.height < FLAT_MIN_SAMPLES:
+    spec = signal_spec(name)
+    if spec is None or not spec.empty_when_zero or frame.height < FLAT_MIN_SAMPLES:
         return None
     values = frame["value"].to_numpy()
     if np.any(np.abs(values) > 1e-12):
@@ -355,18 +375,30 @@ def _flatness(name: str, frame: pl.DataFrame, src: SignalSource) -> FlatSignal |
     return FlatSignal(name, src.topic, src.field, 0.0, frame.height)
 
 
+def _body(name: str) -> str | None:
+    spec = signal_spec(name)
+    return spec.body if spec is not None else None
+
+
+def _topics_of_other_bodies(user: Mapping[str, SignalSource]) -> dict[str, set[str]]:
+    """Per body, the topics the channel map reads another body's pose from: those give this
+    body's pose by no default name (a second body tracked on ``/odom`` is not the base)."""
+    mapped = {(b, s.topic) for n, s in user.items() if (b := _body(n)) is not None}
+    bodies = {b for b, _ in mapped} | {s.body for s in vocabulary().values() if s.body is not None}
+    return {b: {t for other, t in mapped if other != b} for b in bodies}
+
+
 def _joint_family_mapped(name: str, user: Mapping[str, SignalSource]) -> bool:
-    """A user map naming any of q1, q2, … replaces the default q signals altogether."""
-    m = JOINT_SIGNAL.match(name)
-    return m is not None and any(
-        (u := JOINT_SIGNAL.match(k)) and u.group(1) == m.group(1) for k in user
-    )
+    """A user map naming any element of a family (``NAME1``, ``NAME2``, …) replaces the
+    family's default elements altogether."""
+    family = element_family(name)
+    return family is not None and any(element_family(k) == family for k in user)
 
 
 def _check_plausible(path: str, name: str, frame: pl.DataFrame, src: SignalSource) -> None:
     """Refuse a signal holding values no robot produces in its SI unit (see PLAUSIBLE_LIMITS)."""
-    family = m.group(1) if (m := JOINT_SIGNAL.match(name)) else name
-    unit = SIGNAL_UNITS.get(family) or JOINT_UNITS.get(family)
+    spec = signal_spec(name)
+    unit = spec.unit if spec is not None else None
     limit = PLAUSIBLE_LIMITS.get(unit or "")
     if limit is None or not frame.height:
         return
@@ -383,6 +415,4 @@ def _check_plausible(path: str, name: str, frame: pl.DataFrame, src: SignalSourc
 
 
 def _any_joint(family: str, signals: Mapping[str, pl.DataFrame]) -> bool:
-    return family in ("q", "qd", "tau") and any(
-        (m := JOINT_SIGNAL.match(k)) and m.group(1) == family for k in signals
-    )
+    return family in element_families() and any(element_family(k) == family for k in signals)

@@ -3,25 +3,25 @@ and the ``--signal NAME=TOPIC:FIELD[:UNIT]`` entries of the command line. Every 
 is checked here, and an error names the file and the key::
 
     [robot]                       # optional
-    type = "tractor_trailer"      # a robot plugin's name (logtools.robots)
-    wheelbase = 0.42              # m: kappa_cmd = tan(steer_cmd) / wheelbase
-    L2 = 0.6                      # other numbers: nominal parameters
+    type = "…"                    # a robot plugin's name (logtools.robots)
+    track = 0.42                  # numbers: nominal parameters (m or rad); the keys a robot
+                                  # declares (RobotPlugin.robot_keys) are checked as it says
 
     [tf]                          # optional: the /tf child frame whose pose is x, y, yaw
     child_frame = "truck_link"
 
-    [signals.psi]
-    topic = "/trailer/joint"
-    field = "position.0"
+    [signals.yaw]
+    topic = "/mocap/pose"
+    field = "pose.orientation"
     unit = "deg"                  # optional: deg -> rad (see logtools.signals.UNIT_FACTORS)
     scale = 1.0                   # optional: value = (field * scale + offset) in `unit`
     offset = 0.0
     stamp = "header"              # optional: "log" (default) | "header" (header.stamp)
-    transform = "yaw_from_quaternion"   # optional: yaw_from_quaternion | deg_to_rad
+    transform = "yaw_from_quaternion"   # optional: a name of channel_map.transforms.TRANSFORMS
     frame = "truck_link"          # optional: element of a TFMessage-like array by child frame
 
-    [signals.kappa_cmd]
-    formula = "tan(steer_cmd) / wheelbase"   # derived from other signals (safe, no eval)
+    [signals.omega_cmd]
+    formula = "v_cmd / track"     # derived from other signals and the numbers (safe, no eval)
 
     [signals.omega]
     off = true                    # switch a default off
@@ -39,8 +39,14 @@ from pathlib import Path
 from typing import Any
 
 from logtools import toml_bounded
-from logtools.channel_map.extract import TRANSFORMS
-from logtools.channel_map.names import LOGICAL_SIGNALS, is_logical_signal, si_unit
+from logtools.channel_map.names import (
+    element_families,
+    is_logical_signal,
+    logical_signals,
+    robot_keys,
+    si_unit,
+)
+from logtools.channel_map.transforms import TRANSFORMS
 from logtools.errors import ChannelMapEntryError, ChannelMapError
 from logtools.robots import UnknownRobotError, plugin_for
 from logtools.signals import (
@@ -160,7 +166,8 @@ def load_channel_map(path: str | Path) -> ChannelMap:
     if not (doc.get("robot") or doc.get("tf")) and (not isinstance(table, dict) or not table):
         raise ChannelMapError(
             f"{p}: expected a [signals.NAME] table with topic and field, e.g. "
-            '[signals.psi] topic = "/hitch/angle" field = "data" (and optionally [robot], [tf]).'
+            '[signals.omega] topic = "/imu/data" field = "angular_velocity.z" (and optionally '
+            "[robot], [tf])."
         )
     for key in doc:
         if key not in ("signals", "robot", "tf"):
@@ -208,7 +215,8 @@ def parse_signal_option(text: str, robot: RobotConfig | None = None) -> tuple[st
         raise ChannelMapEntryError(
             SIGNAL_OPTION,
             f"signals.{name or '?'}",
-            f"{text!r} is not NAME=TOPIC:FIELD[:UNIT]; e.g. --signal psi=/hitch:data:deg or "
+            f"{text!r} is not NAME=TOPIC:FIELD[:UNIT]; e.g. --signal "
+            "omega=/imu:angular_velocity.z:deg/s or "
             "--signal yaw=/mocap/pose:pose.orientation:yaw_from_quaternion",
         )
     entry: dict[str, Any] = {"topic": parts[0], "field": parts[1]}
@@ -242,13 +250,14 @@ def with_signal_options(
 def _robot_table(file: str, table: object) -> RobotConfig:
     if not isinstance(table, dict):
         raise ChannelMapEntryError(
-            file, "robot", "must be a table: [robot] type = …, wheelbase = …"
+            file, "robot", "must be a table: [robot] type = …, then nominal numbers name = …"
         )
     rtype: str | None = None
-    urdf: str | None = None
-    wheelbase: float | None = None
+    declared = robot_keys()
+    texts: dict[str, str] = {}
     params: dict[str, float] = {}
     for key, value in table.items():
+        spec = declared.get(key)
         if key == "type":
             try:
                 rtype = plugin_for(str(value)).name
@@ -256,27 +265,24 @@ def _robot_table(file: str, table: object) -> RobotConfig:
                 raise ChannelMapEntryError(
                     file, "robot.type", f"is {value!r}; expected one of {', '.join(err.known)}."
                 ) from None
-        elif key == "urdf":
+        elif spec is not None and spec.text:
             if not isinstance(value, str) or not value:
                 raise ChannelMapEntryError(
-                    file, "robot.urdf", f"is {value!r}; expected a URDF path or a model name."
+                    file, f"robot.{key}", f"is {value!r}; expected {spec.meaning}."
                 )
-            urdf = value
+            texts[key] = value
         elif not _is_number(value) or not math.isfinite(value):
+            words = " / ".join(["type = …", *(f"{k} = …" for k, s in declared.items() if s.text)])
             raise ChannelMapEntryError(
-                file,
-                f"robot.{key}",
-                f"is {value!r}; expected a number (m or rad), or type = … / urdf = …",
+                file, f"robot.{key}", f"is {value!r}; expected a number (m or rad), or {words}"
             )
-        elif key == "wheelbase":
-            if value <= 0:
-                raise ChannelMapEntryError(
-                    file, "robot.wheelbase", f"is {value!r}; expected a positive length in m."
-                )
-            wheelbase = float(value)
+        elif spec is not None and spec.positive and value <= 0:
+            raise ChannelMapEntryError(
+                file, f"robot.{key}", f"is {value!r}; expected a positive length in {spec.unit}."
+            )
         else:
             params[key] = float(value)
-    return RobotConfig(rtype, wheelbase, params, urdf)
+    return RobotConfig(rtype, params, texts)
 
 
 def _tf_table(file: str, table: object) -> str | None:
@@ -297,14 +303,25 @@ def _is_number(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+def _named_signals() -> list[str]:
+    """The logical signals a channel map may name as they are (joint families by element)."""
+    return [n for n in logical_signals() if n not in element_families()]
+
+
+def _elements_text() -> str:
+    """``, or q1, qd1, … per joint`` for the declared families of per-element signals."""
+    families = list(element_families())
+    return f", or {', '.join(f'{f}1' for f in families)}, … per joint" if families else ""
+
+
 def _entry(file: str, name: str, entry: object, robot: RobotConfig) -> SignalSource | None:
     key = f"signals.{name}"
     if not is_logical_signal(name):
         raise ChannelMapEntryError(
             file,
             key,
-            f"{name!r} is not a logical signal; expected one of {', '.join(LOGICAL_SIGNALS[:-3])}, "
-            "or q1, qd1, tau1, … per joint.",
+            f"{name!r} is not a logical signal; expected one of {', '.join(_named_signals())}"
+            f"{_elements_text()}.",
         )
     if not isinstance(entry, dict):
         raise ChannelMapEntryError(file, key, "must be a table with topic and field.")
@@ -344,9 +361,9 @@ def _entry(file: str, name: str, entry: object, robot: RobotConfig) -> SignalSou
             f"{key}.transform",
             f"transform {transform!r} is unknown; expected one of {', '.join(TRANSFORMS)}.",
         )
-    if transform == "deg_to_rad" and unit is not None:
+    if transform is not None and TRANSFORMS[transform].converts_unit and unit is not None:
         raise ChannelMapEntryError(
-            file, f"{key}.unit", 'and transform = "deg_to_rad" both convert; keep one of them.'
+            file, f"{key}.unit", f'and transform = "{transform}" both convert; keep one of them.'
         )
     stamp = entry.get("stamp", "log")
     if stamp not in ("log", "header"):

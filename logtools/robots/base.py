@@ -17,11 +17,11 @@ an import path, so that ``logtools`` never imports rerun); the plugin module in
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from logtools.robots.options import RobotOptions
-from logtools.signals import SignalSource
+from logtools.signals import RobotKey, SignalSource, SignalSpec
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -114,21 +114,6 @@ class SamplesFn(Protocol):
 
 
 @dataclass(frozen=True)
-class SignalSpec:
-    """One logical signal a robot reads: canonical name, SI unit and meaning (LOG_FORMAT.md).
-
-    ``sources`` are default topic/field places to find it (tried after LOG_FORMAT.md's own, in
-    order); a CSV column of the signal's name is always read.
-    """
-
-    name: str
-    unit: str
-    meaning: str
-    required: bool = False
-    sources: tuple[SignalSource, ...] = ()
-
-
-@dataclass(frozen=True)
 class FoundSignals:
     """What a :class:`SignalDerivation` is given: the signals found in one log so far.
 
@@ -136,16 +121,17 @@ class FoundSignals:
         path: the log (for notes).
         signals: logical name -> frame (``t_ns`` int64 increasing, ``value`` float64), cleaned.
         sources: logical name -> where it came from.
-        robot: the channel map's ``[robot]`` table, its wheelbase completed from the ``logcal``
-            metadata record.
-        wheelbase_from: where ``robot.wheelbase`` came from (for notes); "" without one.
+        robot: the channel map's ``[robot]`` table, completed from the ``logcal`` metadata
+            record (the keys declared ``RobotKey.from_metadata``).
+        params_from: where each completed or given number of ``robot`` came from (for
+            notes), by key.
     """
 
     path: str
     signals: Mapping[str, pl.DataFrame]
     sources: Mapping[str, SignalSource]
     robot: RobotConfig
-    wheelbase_from: str = ""
+    params_from: Mapping[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -229,6 +215,9 @@ class RobotPlugin:
         reproduce: the same for ``logcal reproduce`` (published results); None: none.
         samples: import path of a :class:`SamplesFn` writing the robot's sample logs
             (``sample_logs/``, ``logcal simulate samples``); None: none.
+        robot_keys: the keys of the channel map's ``[robot]`` table it reads beyond plain
+            nominal numbers (:class:`~logtools.signals.RobotKey`: a text, a positive length, a
+            number the metadata record may give).
         aliases: other names accepted for ``name`` (older metadata).
         span_signals: signals whose common time span sets the aligned frame (a joint signal
             ``q3`` matches ``q``; none present: all signals).
@@ -266,6 +255,7 @@ class RobotPlugin:
     simulate: str | None = None
     reproduce: str | None = None
     samples: str | None = None
+    robot_keys: tuple[RobotKey, ...] = ()
 
     @property
     def required(self) -> tuple[str, ...]:

@@ -17,7 +17,8 @@ import pytest
 
 from logtools.batch.runner import BatchSummary, read_records
 from logtools.batch.serve import rerun_binary, start_server
-from viz.screenshot import CHROMIUM, READY_COLORS, color_pixel_counts
+from viz.screenshot import CHROMIUM, color_pixel_counts
+from viz.tractor_trailer.style import READY_COLORS
 
 pytestmark = [
     pytest.mark.browser,

@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from calib.pooling.drift import detect_drift
 from calib.pooling.meta import pool_estimates
 from logtools.batch.archive import find_logs, log_id
-from logtools.batch.drift import detect_drift
 from logtools.batch.serve import rerun_binary, start_server
 from logtools.batch.settings import SettingsError, settings_for
 

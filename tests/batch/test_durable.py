@@ -41,7 +41,8 @@ def test_empty_archive_keeps_every_record(tmp_path: Path) -> None:
     assert len(before) == 3
     empty = tmp_path / "empty"
     empty.mkdir()
-    summary = run_batch(empty, out, options=FAST, report=False)
+    summary = run_batch(empty, out, options=FAST)
+    assert "log gone from the archive; kept" in (out / "index.html").read_text()
     assert summary.logs == 0
     assert summary.gone == ["log0.mcap", "log1.mcap", "log2.mcap"]
     assert {p.name: p.read_bytes() for p in (out / "logs").iterdir()} == before

@@ -169,7 +169,7 @@ def test_noslip_regression_from_the_trailer_pose_is_exact_on_clean_data() -> Non
 def test_steering_geometry_recovers_the_wheelbase_and_offset() -> None:
     """kappa = tan(delta - delta0) / wheelbase on the generator's small robot (wheelbase
     0.42 m), with a steering sensor zero offset of 0.03 rad added."""
-    from calib.tractor_trailer.estimators.steering import fit_steering_geometry
+    from calib.kinematics.bicycle import fit_steering_geometry
 
     scn = small_robot_scenario(np.random.default_rng(101))
     gen = generate(scn, seed=1)

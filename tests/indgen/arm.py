@@ -12,6 +12,10 @@ With Io_i = I_i + m_i |c_i|^2 and h(q2) = l1 (m2 cx2 cos q2 - m2 cy2 sin q2):
            m2 cx2 cos q12 - m2 cy2 sin q12]
     tau = M qdd + C qd + G + Fc sign(qd) + Fv qd        (+ the kind's torque)
 
+Kinds: torque terms (Stribeck, cogging, a joint spring, friction falling as the gearboxes warm,
+load-dependent friction, a payload picked up), an actuation delay, and sensor-side angles
+(elastic joints, gearbox play), see ``kinds.KINDS``.
+
 The trajectory is prescribed (Fourier series per joint), so torques come from the inverse
 dynamics; ``forward_dynamics`` (for tests) integrates the same model forward.
 
@@ -45,6 +49,8 @@ __all__ = [
 ]
 
 JOINTS = ("joint1", "joint2")
+BACKLASH_RATE = 0.02
+"""Joint rate (rad/s) over which the gear play of ``gearbox_backlash`` is taken up."""
 
 
 @dataclass(frozen=True)
@@ -286,6 +292,10 @@ def arm_log(
     cog_n = krng.integers(6, 25, 2)
     cog_ph = krng.uniform(0, 2 * np.pi, 2)
     m = magnitude if kind is not None else 0.0
+    nrng = np.random.default_rng([seed, 98])  # the added kinds' own draws (older ones unchanged)
+    kind_joint = int(nrng.integers(0, 2))
+    spring_rest = float(nrng.uniform(-0.5, 0.5))
+    on_joint = np.eye(2)[kind_joint]
 
     g = np.random.default_rng([seed, 1])
     t = grid(g, rate, T, jitter=0.01)
@@ -303,6 +313,13 @@ def arm_log(
             tau = tau + m * np.exp(-((qd / vs) ** 2)) * np.sign(qd)
         if kind == "cogging":
             tau = tau + m * np.sin(cog_n * q + cog_ph)
+        if kind == "joint_spring":
+            tau = tau + m * (q - spring_rest) * on_joint
+        if kind == "friction_drift":
+            drop = m * (1.0 - np.exp(-tt / (T / 3.0)))[:, None]
+            tau = tau - drop * _friction(p, qd)
+        if kind == "load_friction":
+            tau = tau + m * np.abs(rigid_torque(p, q, qd, qdd)) * np.sign(qd)
         return tau
 
     q, qd = traj.eval(t), traj.eval(t, 1)
@@ -315,6 +332,8 @@ def arm_log(
 
         q = q + m * rig(t)
         qd = qd + m * (rig(t + hstep) - rig(t - hstep)) / (2 * hstep)
+    if kind == "gearbox_backlash":
+        q = q + 0.5 * m * np.tanh(qd / BACKLASH_RATE) * on_joint
     n = t.size
     qq = 2 * np.pi / ticks
     pos = quantise(q, qq)
@@ -348,6 +367,10 @@ def arm_log(
         truth["stribeck_velocity"] = vs
     if kind == "cogging":
         truth["cogging_periods"] = [int(x) for x in cog_n]
+    if kind in ("joint_spring", "gearbox_backlash"):
+        truth["kind_joint"] = JOINTS[kind_joint]
+    if kind == "joint_spring":
+        truth["spring_rest_rad"] = spring_rest
     csv = {
         ("/joint_states", f, j): f"{c}{j + 1}"
         for f, c in (("position", "q"), ("velocity", "qd"), ("effort", "tau"))

@@ -3,10 +3,13 @@
 Truth: wheel radii r_R, r_L and track b. The motor controller turns the commands (v_cmd,
 omega_cmd) into wheel rates with the robot's *nominal* parameters (what its software believes):
 phi_R' = (v_cmd + omega_cmd b_n / 2) / r_Rn, phi_L' = (v_cmd - omega_cmd b_n / 2) / r_Ln. The
-ground speed of a wheel is u = r phi' (1 - c |r phi'|) (c: ``wheel_slip``, 0 when clean) and
+ground speed of a wheel is u = r phi' (1 - c |r phi'| + g (r phi')^2) (c: ``wheel_slip``, g:
+``tyre_growth``, 0 when clean) and
 
-    v = (u_R + u_L) / 2,  omega = (u_R - u_L) / b,  x' = v cos yaw, y' = v sin yaw, yaw' = omega
+    v = (u_R + u_L) / 2,  omega_w = (u_R - u_L) / b_eff(t),  omega = omega_w (1 - s |omega_w|),
+    x' = v cos yaw, y' = v sin yaw, yaw' = omega
 
+(b_eff = b unless ``skid_varying``; s: ``yaw_slip``)
 integrated with DOP853 together with the wheel angles (pieces split at the envelope kink and at
 a radius change). Sensors: ``/wheels`` (cumulative wheel angles quantised to encoder ticks, with
 the encoder kinds applied to the counts), ``/pose`` (motion capture: Gaussian noise, own rate
@@ -65,10 +68,17 @@ def _encoder(
     t: FloatArray,
     t0: float,
     u: FloatArray,
+    rate: FloatArray,
+    phase: float,
 ) -> FloatArray:
-    """The encoder reading of wheel ``k`` (0 left, 1 right) before quantisation."""
+    """The encoder reading of wheel ``k`` (0 left, 1 right) before quantisation (``rate``: its
+    angular rate at ``t``)."""
     if k != wheel:
         return phi
+    if kind == "wheel_backlash":
+        return np.asarray(phi + 0.5 * m * np.tanh(rate / BACKLASH_RATE), dtype=float)
+    if kind == "wheel_eccentricity":
+        return np.asarray(phi + m * np.sin(phi + phase), dtype=float)
     if kind == "stuck_encoder" and m > 0:
         lost = np.interp(np.clip(t, t0, t0 + m), t, phi) - np.interp(t0, t, phi)
         return phi - lost
@@ -77,6 +87,9 @@ def _encoder(
         return phi - np.cumsum(np.where(u < m, inc, 0.0))
     return phi
 
+
+BACKLASH_RATE = 0.02
+"""Wheel rate (rad/s) over which the gear play of ``wheel_backlash`` is taken up."""
 
 PERTURBABLE = ("r_R", "r_L", "b")
 """True parameters ``diff_drive_log(perturb=...)`` shifts (additively); the nominal ones (the
@@ -122,6 +135,12 @@ def diff_drive_log(
     m = magnitude if kind is not None else 0.0
     c = m if kind == "wheel_slip" else 0.0
     change = kind == "radius_change"
+    nrng = np.random.default_rng([seed, 98])  # the added kinds' own draws (older ones unchanged)
+    skid_period = float(nrng.uniform(8.0, 25.0))
+    ecc_phase = float(nrng.uniform(0.0, 2 * np.pi))
+    growth = m if kind == "tyre_growth" else 0.0
+    yaw_c = m if kind == "yaw_slip" else 0.0
+    skid = m if kind == "skid_varying" else 0.0
 
     def radii(t: float) -> tuple[float, float]:
         if change and t >= t_change:
@@ -133,9 +152,11 @@ def diff_drive_log(
         v, w = float(v_cmd(t)), float(w_cmd(t))
         pl, pr = (v - w * nom["b"] / 2) / nom["r_L"], (v + w * nom["b"] / 2) / nom["r_R"]
         rl, rr = radii(t)
-        ul = rl * pl * (1 - c * abs(rl * pl))
-        ur = rr * pr * (1 - c * abs(rr * pr))
-        vb, wb = 0.5 * (ul + ur), (ur - ul) / b
+        ul = rl * pl * (1 - c * abs(rl * pl) + growth * (rl * pl) ** 2)
+        ur = rr * pr * (1 - c * abs(rr * pr) + growth * (rr * pr) ** 2)
+        b_eff = b * (1 + skid * 0.5 * (1 - math.cos(2 * math.pi * t / skid_period)))
+        vb, wb = 0.5 * (ul + ur), (ur - ul) / b_eff
+        wb *= 1 - yaw_c * abs(wb)
         return [vb * math.cos(s[2]), vb * math.sin(s[2]), wb, pl, pr]
 
     brk = [ramp] + ([t_change] if change else [])
@@ -172,8 +193,10 @@ def diff_drive_log(
     sw = state(tw)
     u = g.random(tw.size)
     t0 = float(krng.uniform(0.1, 0.8) * T)
-    left_e = _encoder(kind, m, wheel, 0, sw[3], tw, t0, u)
-    right_e = _encoder(kind, m, wheel, 1, sw[4], tw, t0, u)
+    rate_l = (v_cmd(tw) - w_cmd(tw) * nom["b"] / 2) / nom["r_L"]
+    rate_r = (v_cmd(tw) + w_cmd(tw) * nom["b"] / 2) / nom["r_R"]
+    left_e = _encoder(kind, m, wheel, 0, sw[3], tw, t0, u, rate_l, ecc_phase)
+    right_e = _encoder(kind, m, wheel, 1, sw[4], tw, t0, u, rate_r, ecc_phase)
     left, right = quantise(left_e, q), quantise(right_e, q)
     qsd = q / math.sqrt(12)
     streams["/wheels"] = Stream(
@@ -251,7 +274,9 @@ def diff_drive_log(
     }
     if kind == "radius_change":
         truth |= {"t_change_s": t_change, "wheel": ("left", "right")[wheel]}
-    if kind in ("stuck_encoder", "dropped_increments"):
+    if kind == "skid_varying":
+        truth["skid_period_s"] = skid_period
+    if kind in ("stuck_encoder", "dropped_increments", "wheel_backlash", "wheel_eccentricity"):
         truth["wheel"] = ("left", "right")[wheel]
         if kind == "stuck_encoder":
             truth["t_stuck_s"] = [t0, min(T, t0 + m)]

@@ -8,10 +8,11 @@ The scenario (L1, L2, command and speed profiles, topic rates, dropouts, stalls)
     psi' = v kappa - (v sin psi - L1 v kappa cos psi) / L2(t) - c v^2 kappa
 
 with kappa = kappa_cmd(t), v = speed(t) (no catalogue effects: no delay, lag, offsets), L2(t)
-the trailer (changing at t_swap for ``trailer_swap``) and c the ``trailer_slip``. Sensor kinds
-(backlash, nonlinearity, gain, clock drift) act on the recorded hitch angle only. Noise is drawn
-from streams seeded by (seed, topic) that do not depend on the kind, so the recording without
-the kind (magnitude 0) shares every random draw.
+the trailer (changing at t_swap for ``trailer_swap``) and c the ``trailer_slip``
+(``tyre_saturation``: the trailer axle's slip angle alpha, psi' gets -v alpha / L2). Sensor
+kinds (backlash, nonlinearity, gain, clock drift, hysteresis, ripple, low-pass) act on the
+recorded hitch angle only. Noise is drawn from streams seeded by (seed, topic) that do not
+depend on the kind, so the recording without the kind (magnitude 0) shares every random draw.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from .generate import _sample
 from .robotlog import FloatArray, RobotLog, Stream, grid, quantise, wrap
 from .scenario import TOPICS, Scenario, random_scenario
 
-__all__ = ["PERTURBABLE", "backlash", "tractor_log"]
+__all__ = ["PERTURBABLE", "backlash", "hysteresis", "lowpass", "tractor_log"]
 
 _STD = {
     "v": 0.02,
@@ -40,6 +41,11 @@ _STD = {
     "curvature": 0.0,
 }
 _DENSE_HZ = 500.0
+G = 9.81
+"""Gravity (m/s^2): ``tyre_saturation``'s lateral acceleration is counted in g."""
+SLIP_MAX = 0.15
+"""The largest side-slip angle (rad) of the trailer's tyres under ``tyre_saturation`` (beyond
+it the axle slides: the slip angle saturates)."""
 
 
 def backlash(u: FloatArray, width: float) -> FloatArray:
@@ -57,7 +63,12 @@ def backlash(u: FloatArray, width: float) -> FloatArray:
 
 
 def _integrate(
-    scn: Scenario, L2_after: float, t_swap: float, c: float, psi0: float = 0.0
+    scn: Scenario,
+    L2_after: float,
+    t_swap: float,
+    c: float,
+    psi0: float = 0.0,
+    tyre: float = 0.0,
 ) -> tuple[Any, ...]:
     cmd, spd, L1, T = scn.command, scn.speed, scn.L1, scn.duration_s
     brk = set(cmd.breaks()) | set(spd.breaks()) | {t_swap}
@@ -75,6 +86,9 @@ def _integrate(
             k = cmd(t, t > mid)
             w = v * k
             dpsi = w - (v * math.sin(s[3]) - L1 * w * math.cos(s[3])) / L2 - c * v * v * k
+            if tyre:
+                a_g = v * v * k / G
+                dpsi -= v * SLIP_MAX * math.tanh(tyre * a_g * abs(a_g) / SLIP_MAX) / L2
             return [v * math.cos(s[2]), v * math.sin(s[2]), w, dpsi]
 
         sol = solve_ivp(rhs, (a, b), y0, method="DOP853", rtol=1e-9, atol=1e-11, dense_output=True)
@@ -95,9 +109,45 @@ def _state(pieces: tuple[Any, ...], t: FloatArray) -> FloatArray:
     return out
 
 
-def _hitch(kind: str | None, m: float, psi: FloatArray) -> FloatArray:
+def hysteresis(u: FloatArray, h: float, a: float) -> FloatArray:
+    """A Duhem hysteresis: z relaxes towards sign(du) over an input travel ``a`` (z' = |u'| / a
+    (sign u' - z), exact per step), the output u - h z (z(0) = 0)."""
+    du = np.diff(u, prepend=u[0])
+    z = np.empty_like(u)
+    cur = 0.0
+    for i, d in enumerate(du.tolist()):
+        if d != 0.0:
+            target = 1.0 if d > 0 else -1.0
+            cur = target + (cur - target) * math.exp(-abs(d) / a)
+        z[i] = cur
+    return np.asarray(u - h * z, dtype=float)
+
+
+def lowpass(u: FloatArray, t: FloatArray, tau: float) -> FloatArray:
+    """First-order low-pass of ``u`` sampled at ``t`` (exact for a piecewise-constant input,
+    starting at u(0))."""
+    y = np.empty_like(u)
+    cur = float(u[0])
+    alpha = 1.0 - np.exp(-np.diff(t, prepend=t[0]) / tau)
+    for i, (x, al) in enumerate(zip(u.tolist(), alpha.tolist(), strict=True)):
+        cur += al * (x - cur)
+        y[i] = cur
+    return y
+
+
+def _hitch(
+    kind: str | None, m: float, psi: FloatArray, t: FloatArray, extra: dict[str, float]
+) -> FloatArray:
     if kind == "hitch_backlash" and m > 0:
         return backlash(psi, m)
+    if kind == "hitch_hysteresis" and m > 0:
+        return hysteresis(psi, m, m * extra["relax_per_h"])
+    if kind == "hitch_ripple":
+        return np.asarray(
+            psi + m * np.sin(extra["ripple_n"] * psi + extra["ripple_phase"]), dtype=float
+        )
+    if kind == "hitch_lowpass" and m > 0:
+        return lowpass(psi, t, m)
     if kind == "hitch_nonlinearity":
         return psi + m * (np.sin(2 * psi) - 2 * psi)
     if kind == "hitch_gain":
@@ -136,12 +186,23 @@ def tractor_log(
     m = magnitude if kind is not None else 0.0
     L2_after = scn.L2 * (1.0 + m) if kind == "trailer_swap" else scn.L2
     c = m if kind == "trailer_slip" else 0.0
+    nrng = np.random.default_rng([seed, 98])  # the added kinds' own draws (older ones unchanged)
+    extra = {
+        "relax_per_h": float(nrng.uniform(2.5, 5.0)),
+        "ripple_n": float(nrng.integers(4, 13)),
+        "ripple_phase": float(nrng.uniform(0.0, 2 * np.pi)),
+    }
     pieces = _integrate(
-        scn, L2_after, t_swap if kind == "trailer_swap" else T + 1.0, c, dp.get("psi0", 0.0)
+        scn,
+        L2_after,
+        t_swap if kind == "trailer_swap" else T + 1.0,
+        c,
+        dp.get("psi0", 0.0),
+        m if kind == "tyre_saturation" else 0.0,
     )
     dense_t = grid(np.random.default_rng(0), _DENSE_HZ, T)
     dense_psi = _state(pieces, dense_t)[3]
-    rec_psi = _hitch(kind, m, dense_psi)
+    rec_psi = _hitch(kind, m, dense_psi, dense_t, extra)
 
     srng = np.random.default_rng([seed, 1])
     stalls: list[tuple[float, float]] = []
@@ -208,6 +269,10 @@ def tractor_log(
         truth |= {"t_swap_s": t_swap, "L2_after": L2_after}
     if kind == "hitch_backlash":
         truth["hitch_dead_band_rad"] = m
+    if kind == "hitch_hysteresis":
+        truth["hysteresis_relax_rad"] = m * extra["relax_per_h"]
+    if kind == "hitch_ripple":
+        truth |= {"ripple_n": int(extra["ripple_n"]), "ripple_phase": extra["ripple_phase"]}
     csv = {
         ("/cmd/curvature", "curvature", -1): "kappa_cmd",
         ("/cmd/vel", "v", -1): "v_cmd",

@@ -80,7 +80,9 @@ def test_commands_are_held_and_continuous_signals_interpolated():
     t = T0 + np.arange(11) * 100_000_000  # 10 Hz
     cmd = _sig(t[::5], [0.0, 1.0, 2.0])  # 2 Hz command
     v = _sig(t, np.arange(11.0))
-    out = align_signals({"kappa_cmd": cmd, "v": v}, rate_hz=20.0, tolerance_s=1.0)
+    out = align_signals(
+        {"kappa_cmd": cmd, "v": v}, rate_hz=20.0, tolerance_s=1.0, hold=["kappa_cmd"]
+    )
     k = out["kappa_cmd"].to_numpy()
     tt = (out["t_ns"].to_numpy() - T0) / 1e9
     np.testing.assert_array_equal(k, np.where(tt < 0.5, 0.0, np.where(tt < 1.0, 1.0, 2.0)))
@@ -97,7 +99,7 @@ def test_asof_takes_the_nearest_sample():
 def test_yaw_interpolated_across_the_wrap():
     t = T0 + np.arange(3) * 1_000_000_000
     yaw = np.array([3.0, -3.0, -2.9])  # crosses +-pi between samples 0 and 1
-    out = align_signals({"yaw": _sig(t, yaw)}, rate_hz=2.0)
+    out = align_signals({"yaw": _sig(t, yaw)}, rate_hz=2.0, wrap=["yaw"])
     mid = out["yaw"][1]
     expected = (np.unwrap(yaw)[0] + np.unwrap(yaw)[1]) / 2
     assert mid == pytest.approx((expected + np.pi) % (2 * np.pi) - np.pi)
@@ -107,7 +109,9 @@ def test_yaw_interpolated_across_the_wrap():
 
 def test_rows_beyond_tolerance_become_null():
     t = np.concatenate([np.arange(0, 10), np.arange(20, 30)]) * 100_000_000 + T0  # 1 s gap
-    out = align_signals({"psi": _sig(t, np.ones(t.size)), "kappa_cmd": _sig(t, np.ones(t.size))})
+    out = align_signals(
+        {"psi": _sig(t, np.ones(t.size)), "kappa_cmd": _sig(t, np.ones(t.size))}, hold=["kappa_cmd"]
+    )
     tt = (out["t_ns"].to_numpy() - T0) / 1e9
     gap = (tt > 0.9 + 0.25 + 1e-9) & (tt < 2.0 - 0.25 - 1e-9)
     assert out["psi"].null_count() == gap.sum() > 0

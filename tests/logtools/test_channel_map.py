@@ -166,5 +166,5 @@ def test_yaw_from_quaternion_is_exact_for_rotations_about_z():
 
     yaw = np.linspace(-math.pi + 1e-9, math.pi - 1e-9, 101)
     frame = pl.DataFrame({"q.x": 0.0, "q.y": 0.0, "q.z": np.sin(yaw / 2), "q.w": np.cos(yaw / 2)})
-    got = frame.select(TRANSFORMS["yaw_from_quaternion"](frame, "q")).to_series().to_numpy()
+    got = frame.select(TRANSFORMS["yaw_from_quaternion"].value(frame, "q")).to_series().to_numpy()
     np.testing.assert_allclose(got, yaw, atol=1e-12)

@@ -77,8 +77,8 @@ def test_scale_offset_unit_formula_and_off(tmp_path, truth, log_path):
     cmap = load_channel_map(_toml(tmp_path, GOOD))
     assert isinstance(cmap, ChannelMap)
     assert cmap.robot.type == "tractor_trailer"
-    assert cmap.robot.wheelbase == 2.0
-    assert cmap.robot.params == {"L2": 2.5}
+    assert cmap.robot.number("wheelbase") == 2.0
+    assert cmap.robot.params == {"wheelbase": 2.0, "L2": 2.5}
     assert cmap.off == frozenset({"omega"})
     assert cmap["psi"] == SignalSource("/enc", "deg", None, 2.0, -1.0, "deg")
     res = resolve_signals(read_log(log_path), cmap)

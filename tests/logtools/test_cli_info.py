@@ -18,8 +18,8 @@ def test_info_text(tmp_path, truth, mcap_writers, capsys):
     assert "psi         <- /hitch/angle : angle  200 samples" in out
     assert "time span: 3.980 s" in out
     assert (
-        "signals missing: wheel_left, wheel_right, v_cmd, omega_cmd, steer_cmd, steer, x2, y2, "
-        "yaw2, q, qd, tau" in out
+        "signals missing: v_cmd, omega_cmd, steer, steer_cmd, x2, y2, yaw2, wheel_right, "
+        "wheel_left, odom_v, odom_omega, gyro_z, gps_lat, gps_lon, q, qd, tau" in out
     )
     assert "problems" not in out
 

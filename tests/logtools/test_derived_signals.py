@@ -116,12 +116,14 @@ def _found(robot: RobotConfig | None = None, **values: np.ndarray) -> FoundSigna
         for n, v in values.items()
     }
     sources = {n: SignalSource("/cmd", n) for n in values}
-    return FoundSignals("log.mcap", signals, sources, robot or RobotConfig(), "the test")
+    return FoundSignals(
+        "log.mcap", signals, sources, robot or RobotConfig(), {"wheelbase": "the test"}
+    )
 
 
 def test_tractor_kappa_cmd_from_steering_and_the_wheelbase() -> None:
     steer = np.linspace(-0.5, 0.5, 100)
-    got = derive_kappa_cmd(_found(RobotConfig(wheelbase=0.5), steer_cmd=steer))
+    got = derive_kappa_cmd(_found(RobotConfig(params={"wheelbase": 0.5}), steer_cmd=steer))
     assert got.signal is not None
     assert got.origin is not None
     np.testing.assert_allclose(got.signal["value"].to_numpy(), np.tan(steer) / 0.5, rtol=1e-14)

@@ -18,6 +18,7 @@ from calib.tractor_trailer.sim.tractor_trailer import (
     simulate_tractor_trailer,
 )
 from logtools.readers import read_log
+from logtools.robots.tractor_trailer import JSON_SOURCES, ROS2_SOURCES
 from logtools.signals import DEFAULT_JSON_MAP, DEFAULT_ROS2_MAP
 from logtools.writers.tractor_trailer import write_csv, write_mcap_json, write_mcap_ros2
 
@@ -56,7 +57,10 @@ def test_mcap_round_trip(run: SimulatedRun, tmp_path: Path, encoding: str) -> No
         "L2": "2.48",
         "seed": "11",
     }
-    mapping = DEFAULT_JSON_MAP if encoding == "json" else DEFAULT_ROS2_MAP
+    shared, own = (
+        (DEFAULT_JSON_MAP, JSON_SOURCES) if encoding == "json" else (DEFAULT_ROS2_MAP, ROS2_SOURCES)
+    )
+    mapping = {**shared, **own}
     for signal in ("kappa_cmd", "v_cmd", "v", "omega", "x", "y", "yaw", "psi"):
         src = mapping[signal]
         frame = log.topics[src.topic]

@@ -19,7 +19,7 @@ from calib.manipulator.adequacy import assess_arm
 from calib.manipulator.design import Term
 from calib.manipulator.discovery import ArmDiscovery, ArmFitter, run_discovery
 from calib.manipulator.discovery.described import arm_library, physics_hint
-from calib.manipulator.explain import arm_discovery_report
+from calib.manipulator.explain import arm_discovery_report, described_alternative
 from calib.manipulator.identify import IdentifyConfig
 from calib.manipulator.planar import Planar2Link, Planar2Params
 from calib.manipulator.signals import prepare_signals
@@ -36,6 +36,8 @@ PLAY = 0.01
 """rad on joint 1 (0.6 degrees)."""
 QD_SQUARED = 0.3
 """N*m/(rad/s)^2 on joint 2: drag growing with speed squared."""
+STICTION = 0.5
+"""N*m on joint 1 of friction beyond Coulomb below about 0.1 rad/s (a Stribeck curve)."""
 
 
 @cache
@@ -53,6 +55,9 @@ def _with(kind: str) -> ArmRun:
     elif kind == "square":
         qd = np.gradient(run.q[:, 1], run.t_s)
         tau[:, 1] += QD_SQUARED * qd * np.abs(qd)
+    elif kind == "stiction":
+        qd = np.gradient(run.q[:, 0], run.t_s)
+        tau[:, 0] += STICTION * np.sign(qd) * np.exp(-((qd / 0.1) ** 2))
     elif kind == "play":
         t1 = run.tau[:, 0]
         q[:, 0] = run.q[:, 0] + PLAY * np.tanh(t1 / (0.05 * np.sqrt(np.mean(t1**2))))
@@ -106,6 +111,16 @@ def test_drag_is_described_with_its_coefficient() -> None:
     assert f.explained(fit)
 
 
+def test_stiction_is_described_as_low_speed_friction() -> None:
+    _, d = _discovered("stiction")
+    desc = d.description
+    assert desc is not None
+    assert desc.accepted
+    assert desc.heldout_gain >= 0.5
+    words = [physics_hint(t.term) for t in desc.terms if t.entry == "joint1 torque"]
+    assert any("stiction" in w for w in words)
+
+
 def test_a_spring_is_named_a_spring_not_absorbed_into_gravity() -> None:
     f, d = _discovered("spring")
     assert [e.key for e in d.named] == ["joint_spring(joint1)"]
@@ -157,3 +172,18 @@ def test_described_terms_read_as_physics() -> None:
     assert "play" in physics_hint(lib["sign(qd2)·cos(q2)"])
     assert "friction" in physics_hint(lib["sign(qd1)"])
     assert "drift" in physics_hint(lib["t"])
+
+
+def test_a_description_not_kept_but_not_rejected_is_an_alternative_to_span() -> None:
+    f, d = _discovered("drift")
+    desc = d.description
+    assert desc is not None
+    assert described_alternative(f, d, ()) is None  # kept: it is the model, not an alternative
+    held_back = replace(d, description=replace(desc, accepted=False))
+    alt = described_alternative(f, held_back, ())
+    assert alt is not None
+    label, pars = alt
+    assert label == "described (not kept)"
+    assert set(f.design.names) <= set(pars)
+    rejected = replace(d, description=replace(desc, accepted=False, delta_bic=+1.0))
+    assert described_alternative(f, rejected, ()) is None

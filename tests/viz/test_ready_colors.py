@@ -14,7 +14,7 @@ import rerun as rr
 from calib.results import AnalysisResult
 from viz.diff_drive.views import log_views
 from viz.screenshot import ViewerScreenshotError, ready_colors_of
-from viz.style import COLORS, READY_COLORS, robot_of_application_id
+from viz.style import robot_of_application_id
 from viz.tractor_trailer.recording import write_recording
 
 
@@ -38,10 +38,8 @@ def test_each_robot_waits_for_its_own_colours(case, tmp_path: Path) -> None:
     assert ready_colors_of(_diff_drive_rrd(tmp_path / "dd.rrd")) == ("dd_nominal", "dd_calibrated")
 
 
-def test_every_ready_colour_is_a_drawn_colour() -> None:
-    for robot, names in READY_COLORS.items():
-        assert names, robot
-        assert all(n in COLORS for n in names), robot
+def test_the_robot_is_read_from_the_application_id() -> None:
+    assert robot_of_application_id("logcal_tractor_trailer_tt_mixed") == "tractor_trailer"
     assert robot_of_application_id("logcal_diff_drive_pooled_6_runs") == "diff_drive"
     assert robot_of_application_id("logcal_manipulator") == "manipulator"
     assert robot_of_application_id("someone_else") is None

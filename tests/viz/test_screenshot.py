@@ -10,12 +10,12 @@ import pytest
 
 from viz.screenshot import (
     CHROMIUM,
-    READY_COLORS,
     alive_in_group,
     color_pixel_counts,
     screenshot_rrd,
 )
 from viz.tractor_trailer.recording import write_recording
+from viz.tractor_trailer.style import READY_COLORS
 
 pytestmark = [
     pytest.mark.browser,
@@ -34,10 +34,12 @@ pytestmark = [
 def test_viewer_shows_the_panels_and_processes_stop(case, tmp_path):
     rrd = write_recording(tmp_path / "case.rrd", case.frame, case.result)
     pids: list[int] = []
-    png = screenshot_rrd(rrd, tmp_path / "shot.png", width=1400, height=900, pids=pids)
+    png = screenshot_rrd(
+        rrd, tmp_path / "shot.png", width=1400, height=900, pids=pids, ready_colors=READY_COLORS
+    )
     data = png.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    counts = color_pixel_counts(data)
+    counts = color_pixel_counts(data, READY_COLORS)
     # The loading screen is grey on black: none of the plotted colours are in it.
     assert all(counts[c] >= 20 for c in READY_COLORS), counts
     viewer, *browser = pids

@@ -3,12 +3,13 @@ catalogue leaves in the joint torques, modelled from the arm's own signals and r
 with the dynamic parameters.
 
 Signals, per joint J on the fitter's grid: its angle ``qJ`` (periodic terms and bumps: cogging,
-an eccentric gear, a tight spot), velocity ``qdJ`` (signs, squares, dead zones: friction of
-other shapes), acceleration ``qddJ``, their products, time for drift, and the play terms
-``sign(qdJ) sin(qJ)``, ``sign(qdJ) cos(qJ)`` (a gravity torque taken at an angle that lags the
-motor by a band, as gear play does). A term enters the model through one joint's torque, its
-own (a joint's torque follows that joint's signals: springs, bearings, gears and mounts act on
-their own joint; the couplings between joints are the rigid body's, which is fitted).
+an eccentric gear, a tight spot), velocity ``qdJ`` (signs, squares, dead zones, friction growing
+below a few velocity scales: friction of other shapes), acceleration ``qddJ``, their products,
+time for drift, and the play terms ``sign(qdJ) sin(qJ)``, ``sign(qdJ) cos(qJ)`` (a gravity
+torque taken at an angle that lags the motor by a band, as gear play does). A term enters the
+model through one joint's torque, its own (a joint's torque follows that joint's signals:
+springs, bearings, gears and mounts act on their own joint; the couplings between joints are the
+rigid body's, which is fitted).
 
 The screen regresses the current fit's torque residual at the logged stamps (each joint in its
 noise-floor units) on the terms' columns, beyond what the regressor of the rigid body and the
@@ -100,6 +101,32 @@ def _play_terms(sig: Sequence[Signal]) -> list[Term]:
     ]
 
 
+STICTION_SCALES = (0.03, 0.1, 0.3)
+"""Velocity scales of the low-speed friction terms, as fractions of the joint velocity's RMS."""
+
+
+def _stiction_terms(sig: Sequence[Signal]) -> list[Term]:
+    qd = sig[1]
+    rms = float(np.sqrt(np.mean(qd.values**2)))
+    if rms <= 0:
+        return []
+    out = []
+    for share in STICTION_SCALES:
+        v = share * rms
+        out.append(
+            Term(
+                f"sign({qd.name})·exp(-({qd.name}/{v:.3g})²)",
+                "1",
+                np.tanh(qd.values / (0.1 * v)) * np.exp(-((qd.values / v) ** 2)),
+                Family.SIGN,
+                f"friction that grows below {v:.3g} {qd.unit} of the {qd.words} (stiction, a "
+                "Stribeck curve)",
+                (qd.name,),
+            )
+        )
+    return out
+
+
 def arm_library(fitter: FitterView) -> list[Term]:
     """Every joint's candidate terms (module docstring), on the fitter's grid; the angle's
     words name the joint."""
@@ -108,7 +135,7 @@ def arm_library(fitter: FitterView) -> list[Term]:
     for j, kind in enumerate(_kinds(fitter)):
         sig = _joint_signals(fitter, j, kind)
         terms = build_library(sig, t, periodic_orders=(1, 2), n_bumps=5, products=True)
-        for term in [*terms, *_play_terms(sig)]:
+        for term in [*terms, *_play_terms(sig), *_stiction_terms(sig)]:
             out.setdefault(term.name, term)
     return list(out.values())
 
@@ -248,4 +275,5 @@ def describe_arm(
         block=50 * fitter.n,
         hook=described_hook(fitter),
         explained=explained,
+        forward=True,
     )

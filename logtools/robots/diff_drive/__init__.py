@@ -36,6 +36,28 @@ def _sources(pairs: tuple[tuple[str, str], ...]) -> tuple[SignalSource, ...]:
     return tuple(SignalSource(t, f) for t, f in pairs)
 
 
+_WHEELS_TOPIC = "/wheels"
+"""LOG_FORMAT.md's wheel angles: fields ``left``/``right`` (JSON), ``position.0``/``.1`` (ROS 2)."""
+
+
+def _wheel(side: str, index: int) -> SignalSpec:
+    """A wheel's cumulative angle: on ``/wheels`` (LOG_FORMAT.md), else on ``/joint_states`` the
+    joint whose name holds the side and ``wheel``; an encoder reading 0 throughout is not
+    connected."""
+    return SignalSpec(
+        f"wheel_{side}",
+        "rad",
+        f"cumulative {side} wheel angle",
+        sources=(
+            SignalSource(_WHEELS_TOPIC, side),
+            SignalSource(_WHEELS_TOPIC, f"position.{index}"),
+            SignalSource("/joint_states", f"position.{index}"),
+        ),
+        empty_when_zero=True,
+        joint_words=(side, "wheel"),
+    )
+
+
 _ODOM_TOPICS = ("/odom", "*/odom", "*/wheel_odom", "/odometry/wheel")
 _IMU_TOPICS = ("/imu/data", "/imu", "*/imu/data", "*/imu/data_raw", "*/imu")
 _GPS_TOPICS = ("/gps/fix", "/fix", "/navsat/fix", "*/gps/fix", "*/fix")
@@ -45,8 +67,8 @@ PLUGIN = RobotPlugin(
     name="diff_drive",
     title="differential-drive robot",
     signals=(
-        SignalSpec("wheel_right", "rad", "cumulative right wheel angle"),
-        SignalSpec("wheel_left", "rad", "cumulative left wheel angle"),
+        _wheel("right", 1),
+        _wheel("left", 0),
         SignalSpec("x", "m", "ground-truth position of the axle centre"),
         SignalSpec("y", "m", "ground-truth position of the axle centre"),
         SignalSpec("yaw", "rad", "ground-truth heading"),

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 from logtools.robots.base import RobotPlugin, SignalSpec, lazy
 from logtools.robots.manipulator.options import ManipulatorOptions
+from logtools.signals import RobotKey
 
 if TYPE_CHECKING:
     from logtools.robots.base import Views
@@ -39,9 +40,26 @@ PLUGIN = RobotPlugin(
     name="manipulator",
     title="serial arm (manipulator)",
     signals=(
-        SignalSpec("q", "rad", "joint positions (q1..qn; m for a prismatic joint)", required=True),
-        SignalSpec("qd", "rad/s", "joint velocities (not used: velocity is taken from q)"),
-        SignalSpec("tau", "N·m", "joint torques (tau1..n; N for a prismatic joint)", required=True),
+        SignalSpec(
+            "q",
+            "rad",
+            "joint positions (q1..qn; m for a prismatic joint)",
+            required=True,
+            per_element="position",
+        ),
+        SignalSpec(
+            "qd",
+            "rad/s",
+            "joint velocities (not used: velocity is taken from q)",
+            per_element="velocity",
+        ),
+        SignalSpec(
+            "tau",
+            "N·m",
+            "joint torques (tau1..n; N for a prismatic joint)",
+            required=True,
+            per_element="effort",
+        ),
     ),
     identify=_identify,
     analyze=lazy("logtools.robots.manipulator.pipeline:analyze_manipulator"),
@@ -54,6 +72,7 @@ PLUGIN = RobotPlugin(
     info="logtools.robots.manipulator.info:info_section",
     simulate="logtools.robots.manipulator.commands:register_simulate",
     reproduce="logtools.robots.manipulator.commands:register_reproduce",
+    robot_keys=(RobotKey("urdf", "a URDF path or a model name", text=True),),
 )
 
 if TYPE_CHECKING:  # the views and info hook named above fill their signatures (mypy only)

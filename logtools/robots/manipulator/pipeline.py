@@ -29,7 +29,7 @@ from calib.manipulator.adequacy import (
 )
 from calib.manipulator.design import Term
 from calib.manipulator.discovery import ArmDiscovery, ArmFitter, arm_catalogue, run_discovery
-from calib.manipulator.explain import arm_discovery_report
+from calib.manipulator.explain import arm_discovery_report, described_alternative
 from calib.manipulator.identify import (
     ArmIdentification,
     IdentifyConfig,
@@ -133,7 +133,9 @@ def _model(
     instructions: a URDF the log's own metadata names is never opened (it is only quoted in the
     message asking for ``--urdf``)."""
     robot_cfg = loaded.robot_config if hasattr(loaded, "robot_config") else None
-    urdf = config.options(ManipulatorOptions).urdf or getattr(robot_cfg, "urdf", None)
+    urdf = config.options(ManipulatorOptions).urdf or (
+        robot_cfg.text("urdf") if robot_cfg is not None else None
+    )
     names = _joint_names(loaded, meta, n)
     if urdf:
         from calib.manipulator.serial import load_serial_arm
@@ -441,15 +443,19 @@ def _judge(
         params = stabilised(params, pieces)
     params = widened(params, adequacy, pieces)
     sections: dict[str, Any] = {}
-    if confounds:
-        alts = []
-        for c in confounds:
-            alt_effects = fitter.applicable(c.alternative_fit.effects)
-            alt = fitter.fit_arm(tuple(alt_effects))
-            if alt is not None:
-                alts.append((c.alternative, widened(alt.estimates(), adequacy, pieces)))
+    alts = []
+    for c in confounds:
+        alt_effects = fitter.applicable(c.alternative_fit.effects)
+        alt = fitter.fit_arm(tuple(alt_effects))
+        if alt is not None:
+            alts.append((c.alternative, widened(alt.estimates(), adequacy, pieces)))
+    described = described_alternative(fitter, disc, accepted) if disc is not None else None
+    if described is not None:
+        alts.append((described[0], widened(described[1], adequacy, pieces)))
+    if alts:
         label = " + ".join(e.key for e in accepted) or "baseline"
         params = spanned(params, alts, label)
+    if confounds:
         sections["confounds"] = [c.to_dict() for c in confounds]
     if split is not None:
         sections["parameter_change"] = split.to_dict()

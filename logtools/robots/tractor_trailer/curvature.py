@@ -44,6 +44,7 @@ from enum import StrEnum
 import numpy as np
 import polars as pl
 
+from calib.kinematics.bicycle import bicycle_curvature
 from calib.smoothing import savgol_filter
 from logtools.align import common_times
 from logtools.errors import LogcalInputError
@@ -101,7 +102,7 @@ def kappa_from_steering(
         raise LogcalInputError(f"the wheelbase must be a positive length (m), got {wheelbase}")
     d = np.asarray(delta, dtype=float)
     saturated = np.abs(d) >= saturation_rad
-    kappa = np.tan(d) / wheelbase
+    kappa = bicycle_curvature(d, wheelbase)
     kappa[saturated] = np.nan
     return kappa, saturated
 
@@ -228,7 +229,7 @@ def derive_kappa_cmd(found: FoundSignals) -> Derived:
 
 
 def _from_steering(found: FoundSignals) -> Derived:
-    wheelbase = found.robot.wheelbase
+    wheelbase = found.robot.number("wheelbase")
     steer = found.sources["steer_cmd"]
     if wheelbase is None:
         return Derived(
@@ -264,7 +265,7 @@ def _from_steering(found: FoundSignals) -> Derived:
         KappaCmdKind.STEERING,
         expr,
         f"tan(steer_cmd) / wheelbase from the steering command {steer.describe()}, wheelbase "
-        f"{wheelbase:g} m from {found.wheelbase_from}",
+        f"{wheelbase:g} m from {found.params_from.get('wheelbase', '')}",
     )
     return Derived(out, SignalSource(DERIVED_TOPIC, expr, formula=expr), origin, tuple(notes))
 

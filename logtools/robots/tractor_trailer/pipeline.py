@@ -18,13 +18,13 @@ import polars as pl
 
 from calib.adequacy import Adequacy
 from calib.errors import CalibError
+from calib.kinematics.bicycle import SteeringGeometry
 from calib.results import AnalysisResult, CalibrationResult, StageStatus
 from calib.tractor_trailer.discovery.confounds import SpanChoice
 from calib.tractor_trailer.discovery.effects.base import SensorCorrections
 from calib.tractor_trailer.discovery.result import DiscoveryResult
 from calib.tractor_trailer.estimators.noslip import NoSlipRegression
 from calib.tractor_trailer.estimators.path_transient import PathTransientFit
-from calib.tractor_trailer.estimators.steering import SteeringGeometry
 from calib.tractor_trailer.explain import tractor_discovery_report
 from calib.tractor_trailer.judgement import (
     FoldedEffects,
@@ -35,6 +35,8 @@ from calib.tractor_trailer.judgement import (
     judge_along_path,
     judge_plausible,
     judge_unexplained,
+    more_precise,
+    pose_too_noisy,
     recommended_estimate,
     span_confounds,
 )
@@ -147,11 +149,11 @@ def _path_fit(
         again = path_inputs(loaded, max_window_s=window)
         if again.path.smoothing_samples != inp.path.smoothing_samples:
             inp, fit = again, run(again)
-    if np.max(np.abs(fit.bias_correction_)) > 0.01 * (abs(fit.L1_) + abs(fit.L2_)):
+    if pose_too_noisy(fit):
         other = path_inputs(loaded, prefer="odometry")
         if other.path.source == "odometry":
             alt = run(other)
-            if np.trace(alt.cov_[:2, :2]) < np.trace(fit.cov_[:2, :2]):
+            if more_precise(alt, fit):
                 alt.notes_.append(
                     "the pose is noisy (a large bias correction): odometry gave "
                     "the more precise fit and is used"
@@ -184,7 +186,7 @@ def _steering_geometry(
     steer = next((c for c in ("steer", "steer_cmd") if c in loaded.frame.columns), None)
     if steer is None or "kappa" not in loaded.frame.columns:
         return None
-    from calib.tractor_trailer.estimators.steering import fit_steering_geometry
+    from calib.kinematics.bicycle import fit_steering_geometry
 
     progress("steering geometry")
     rows = _usable_rows(loaded.frame, ("kappa", steer))

@@ -1,11 +1,11 @@
-"""Wheelbase and steering offset of a steered tractor from its measured path.
+"""The kinematic bicycle model: a vehicle steered by an angle delta drives its fixed
+(reference) axle on the curvature kappa = tan(delta - delta0) / wheelbase (delta0: the steering
+sensor's or command's zero offset), so its yaw rate is v kappa.
 
-A tractor steered by an angle delta drives its reference axle on curvature
-kappa = tan(delta - delta0) / wheelbase (delta0: the steering sensor's or command's zero
-offset). With the path's curvature measured (from a pose: d theta / ds) and the steering angle
-logged, (wheelbase, delta0) follow from a least-squares fit over the samples where the robot
-moves, with a Newey-West covariance. Used when the log or the channel map gives no wheelbase,
-and as a check of the one given.
+Shared by every steered robot (the tractor of a tractor-trailer, a car-like robot): the
+curvature and yaw rate of the model, and the wheelbase and steering offset fitted to a measured
+path's curvature and the logged steering angle (a least-squares fit over the samples where the
+robot moves, with a Newey-West covariance).
 """
 
 from __future__ import annotations
@@ -19,10 +19,21 @@ from scipy.optimize import least_squares
 
 from calib.errors import InsufficientDataError
 from calib.results import Estimate
-from calib.stats import bartlett_bandwidth, hac_covariance
-from calib.tractor_trailer.estimators.identifiability import Z95
+from calib.stats import Z95, bartlett_bandwidth, hac_covariance
 
-__all__ = ["SteeringGeometry", "fit_steering_geometry"]
+__all__ = ["SteeringGeometry", "bicycle_curvature", "bicycle_yaw_rate", "fit_steering_geometry"]
+
+
+def bicycle_curvature(steer: np.ndarray, wheelbase: float, offset: float = 0.0) -> np.ndarray:
+    """Curvature (1/m) of the fixed axle's path: tan(steer - offset) / wheelbase."""
+    return np.tan(steer - offset) / wheelbase
+
+
+def bicycle_yaw_rate(
+    v: np.ndarray, steer: np.ndarray, wheelbase: float, offset: float = 0.0
+) -> np.ndarray:
+    """Yaw rate (rad/s) at the fixed axle's speed ``v``: v tan(steer - offset) / wheelbase."""
+    return v * bicycle_curvature(steer, wheelbase, offset)
 
 
 @dataclass(frozen=True)
@@ -70,7 +81,7 @@ def fit_steering_geometry(
     wb0 = 1.0 / slope if slope > 0 and np.isfinite(slope) else 1.0
 
     def resid(x: np.ndarray) -> np.ndarray:
-        return k - np.tan(d - x[1]) / x[0]
+        return k - bicycle_curvature(d, x[0], x[1])
 
     sol = least_squares(resid, [wb0, 0.0], bounds=([1e-3, -0.5], [100.0, 0.5]))
     r = sol.fun
