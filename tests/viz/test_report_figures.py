@@ -98,3 +98,24 @@ def test_set_apart_method_rows_take_less_room_than_read_ones() -> None:
     many = row_positions([False] * 6 + [True] * 24)
     read, apart = many[5] - many[0], many[-1] - many[6]
     assert apart < 2.1 * read  # 24 set-apart rows in about the room of 11 read ones
+
+
+@pytest.mark.parametrize("robot", ["diff_drive", "manipulator"])
+def test_a_robots_views_need_no_other_robots_colours(robot: str) -> None:
+    """Each robot's views draw with its own colours and the shared ones only (the arm's PNG
+    used the tractor's "P" and failed when the tractor's views were not imported)."""
+    import subprocess
+    import sys
+
+    code = (
+        f"import viz.{robot}.views as v, viz.style as s, viz.{robot}.style as own\n"
+        "import sys\n"
+        "assert not any(m.startswith('viz.tractor_trailer') for m in sys.modules), 'tractor'\n"
+        "src = open(v.__file__).read()\n"
+        "import re\n"
+        "used = set(re.findall(r'(?:hex_color\\(|COLORS\\[)\"([a-zA-Z0-9_]+)\"', src))\n"
+        "missing = used - set(s.COLORS)\n"
+        "assert not missing, missing\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr

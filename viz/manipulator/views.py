@@ -150,7 +150,11 @@ def report_figure(result: AnalysisResult) -> Figure:
             ax = axes[j]
             ax.plot(t, meas[:, j], color="0.3", lw=0.8, label="measured")
             ax.plot(
-                t, pred[:, j], color=hex_color("P"), lw=1.0, label="predicted (identified model)"
+                t,
+                pred[:, j],
+                color=hex_color("arm_predicted"),
+                lw=1.0,
+                label="predicted (identified model)",
             )
             ax.set_ylabel(f"{name}\n(N·m)", fontsize=8)
             if j == 0:
