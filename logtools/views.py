@@ -50,6 +50,11 @@ class WrittenViews:
         return [text for kind, text in self.messages if kind == "note"]
 
 
+def _has_answer(result: AnalysisResult) -> bool:
+    """Whether a pooled ``result`` carries an answer of its own (methods or an estimate)."""
+    return bool(result.runs) and (result.estimate is not None or bool(result.methods))
+
+
 def write_views(
     loadeds: Sequence[LoadedLog],
     result: AnalysisResult,
@@ -63,8 +68,10 @@ def write_views(
     on_error: Literal["raise", "note"] = "raise",
 ) -> WrittenViews:
     """Write the robot's rerun recording to ``rrd`` (several runs: one file holding each run's
-    recording) and its report image to ``png`` (or beside ``rrd`` when ``implicit_png``; one
-    run only). Output paths are checked against ``inputs`` and written atomically.
+    recording, and the pooled answer's when there is one, each under its own application id so
+    that the viewer shows each through its own layout) and its report image to ``png`` (or
+    beside ``rrd`` when ``implicit_png``; one run only). Output paths are checked against
+    ``inputs`` and written atomically.
 
     The views get the robot's own options: ``options`` when given, else those of ``config``
     (``config.options(plugin.options)``), else the defaults.
@@ -101,6 +108,8 @@ def write_views(
                         draw(Path(d) / f"run{i + 1}.rrd", lo, res, opts)
                         for i, (lo, res) in enumerate(zip(loadeds, per_run, strict=True))
                     ]
+                    if _has_answer(result):  # the pooled answer: its own recording
+                        parts.append(draw(Path(d) / "pooled.rrd", loadeds[0], result, opts))
                     return merge_recordings(parts, tmp)
 
             try:
@@ -110,8 +119,11 @@ def write_views(
                     raise
                 messages.append(("note", f"rerun recording not drawn: {type(err).__name__}: {err}"))
             else:
+                pooled_note = " and the pooled answer" if _has_answer(result) else ""
                 runs_note = (
-                    f" ({len(per_run)} runs, one recording each)" if len(per_run) > 1 else ""
+                    f" ({len(per_run)} runs, one recording each{pooled_note})"
+                    if len(per_run) > 1
+                    else ""
                 )
                 messages.append(("saved", f"rerun recording saved: {out}{runs_note}"))
                 written_rrd = out

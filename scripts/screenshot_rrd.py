@@ -8,7 +8,6 @@ import sys
 from pathlib import Path
 
 from viz.screenshot import ViewerScreenshotError, screenshot_rrd
-from viz.tractor_trailer.style import READY_COLORS
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -20,9 +19,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--timeout", type=float, default=120.0)
     ap.add_argument(
         "--ready",
-        default=",".join(READY_COLORS),
+        default="",
         help="colours (viz.style.COLORS names) whose presence means drawn; default: the "
-        "tractor-trailer's",
+        "recorded robot's own (viz.screenshot.ready_colors_of)",
     )
     args = ap.parse_args(argv)
     try:
@@ -32,7 +31,7 @@ def main(argv: list[str] | None = None) -> int:
             width=args.width,
             height=args.height,
             timeout_s=args.timeout,
-            ready_colors=[c for c in args.ready.split(",") if c],
+            ready_colors=[c for c in args.ready.split(",") if c] or None,
             progress=lambda line: print(line, file=sys.stderr, flush=True),
         )
     except ViewerScreenshotError as err:

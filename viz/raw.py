@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import polars as pl
 import rerun as rr
+import rerun.blueprint as rrb
 
-__all__ = ["MAX_COLUMNS", "log_raw_signals"]
+__all__ = ["MAX_COLUMNS", "log_raw_signals", "raw_groups", "raw_views", "unit_of"]
 
 MAX_COLUMNS = 400
 MAX_ITEMS = 16
@@ -48,6 +50,69 @@ def _path(topic: str, field: str) -> str:
     return "/".join(
         ["raw", *map(rr.escape_entity_path_part, parts), rr.escape_entity_path_part(field)]
     )
+
+
+def _fields(topics: Mapping[str, pl.DataFrame]) -> list[tuple[str, str]]:
+    """(topic, field) of every series :func:`log_raw_signals` may log, in its order."""
+    out = []
+    for topic in sorted(topics):
+        frame = topics[topic]
+        if "t_ns" not in frame.columns or frame.height == 0:
+            continue
+        out += [
+            (topic, name)
+            for name, dtype in frame.schema.items()
+            if _wanted(name) and isinstance(dtype, _NUMERIC)
+        ]
+    return out[:MAX_COLUMNS]
+
+
+_ANGLES = {"yaw", "psi", "theta", "angle", "heading", "roll", "pitch", "yaw2"}
+
+
+def unit_of(field: str) -> str:
+    """The unit a field's name says (ROS message paths and logcal's own names), for grouping
+    series onto one axis per unit: ``pose.pose.position.x`` -> "m", ``twist.twist.angular.z``
+    -> "rad/s", ``yaw`` -> "rad"; a name that says none gets its own group (``"? <name>"``)."""
+    tokens = [t for t in re.split(r"[._]", field.lower()) if t and not t.isdigit()]
+    last = tokens[-1] if tokens else field
+    if "covariance" in tokens:
+        return "covariance"
+    rules: tuple[tuple[bool, str], ...] = (
+        ("angular" in tokens or last in {"omega", "gyro", "wz"} or "rate" in tokens, "rad/s"),
+        ("linear" in tokens or last in {"v", "speed", "vx", "vy"}, "m/s"),
+        ("velocity" in tokens, "velocity"),
+        (bool({"effort", "torque", "tau"} & set(tokens)), "N·m"),
+        ("orientation" in tokens, "quaternion"),
+        (last in _ANGLES or (tokens[:1] == ["wheel"]), "rad"),
+        ("position" in tokens and "pose" not in tokens, "position"),
+        (last in {"x", "y", "z"}, "m"),
+        (last in {"curvature", "kappa"}, "1/m"),
+    )
+    return next((unit for hit, unit in rules if hit), f"? {field}")
+
+
+def raw_groups(topics: Mapping[str, pl.DataFrame]) -> dict[str, list[str]]:
+    """The raw series in groups of one topic and one unit (:func:`unit_of`): title
+    (``"/pose (m)"``) -> entity paths; one plot each, so that metres and rad/s never share an
+    axis."""
+    groups: dict[str, list[str]] = {}
+    for topic, name in _fields(topics):
+        unit = unit_of(name)
+        title = f"{topic} ({unit})" if not unit.startswith("? ") else f"{topic} {unit[2:]}"
+        groups.setdefault(title, []).append(_path(topic, name))
+    return groups
+
+
+def raw_views(topics: Mapping[str, pl.DataFrame], **view_args: Any) -> list[rrb.View]:
+    """One time-series view per group of :func:`raw_groups` (``view_args``: the robot's time
+    axis and range); a log without raw series: none."""
+    return [
+        rrb.TimeSeriesView(
+            name=f"raw {title}", origin="/raw", contents=[f"+ /{p}" for p in paths], **view_args
+        )
+        for title, paths in raw_groups(topics).items()
+    ]
 
 
 def log_raw_signals(

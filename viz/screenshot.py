@@ -27,7 +27,7 @@ from urllib.parse import quote
 import numpy as np
 from numpy.typing import NDArray
 
-from viz.style import COLORS
+from viz.style import COLORS, robot_of_application_id, robot_style
 
 if TYPE_CHECKING:
     from playwright.sync_api import Page
@@ -40,10 +40,37 @@ __all__ = [
     "color_pixel_counts",
     "find_chromium",
     "panel_problems",
+    "ready_colors_of",
     "screenshot_rrd",
 ]
 
 CHROMIUM = "/usr/bin/chromium"
+
+
+def ready_colors_of(rrd: str | Path) -> tuple[str, ...]:
+    """The colours that mean "drawn" for the robot whose recording ``rrd`` holds (read from its
+    recordings' application ids, ``viz.style.application_id``): its style module's
+    ``READY_COLORS`` (``viz/<robot>/style.py``).
+
+    Raises:
+        ViewerScreenshotError: the file holds no logcal robot's recording.
+    """
+    from rerun.chunk import RrdReader
+
+    try:
+        ids = [r.application_id for r in RrdReader(rrd).recordings()]
+    except (OSError, ValueError) as err:
+        raise ViewerScreenshotError(f"{rrd}: not a readable rerun recording ({err})") from err
+    robots = {r for i in ids if (r := robot_of_application_id(i)) is not None}
+    if len(robots) != 1:
+        raise ViewerScreenshotError(
+            f"{rrd}: holds no recording of one logcal robot (application ids: "
+            f"{', '.join(ids) or 'none'}); name the colours to wait for"
+        )
+    ready = getattr(robot_style(robots.pop()), "READY_COLORS", None)
+    if not ready:
+        raise ViewerScreenshotError(f"{rrd}: its robot's views declare no colours to wait for")
+    return tuple(ready)
 
 
 def panel_problems(
@@ -215,7 +242,7 @@ def screenshot_rrd(
     settle_s: float = 3.0,
     chromium: str | None = None,
     pids: list[int] | None = None,
-    ready_colors: Sequence[str],
+    ready_colors: Sequence[str] | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Path:
     """Serve ``rrd`` with rerun's web viewer, open it in headless Chromium, save a PNG.
@@ -231,8 +258,9 @@ def screenshot_rrd(
         pids: if given, the ids of the started processes are appended (the viewer, which
             leads its own process group, then the browser's processes), so a caller can check
             that they are gone.
-        ready_colors: names in ``viz.style.COLORS`` whose presence means "drawn" (a robot's
-            own, declared in its style module); the final
+        ready_colors: names in ``viz.style.COLORS`` whose presence means "drawn" (default: the
+            recorded robot's own, declared in its style module: :func:`ready_colors_of`); the
+            final
             capture must show each, none touching the window's edge (:func:`panel_problems`).
         progress: called with one line per step (viewer, browser, waiting, capture).
 
@@ -251,6 +279,7 @@ def screenshot_rrd(
     if browser is None:
         raise ViewerScreenshotError("no Chromium found (Debian: apt-get install chromium)")
     say = progress or (lambda _: None)
+    ready = tuple(ready_colors) if ready_colors is not None else ready_colors_of(rrd)
     deadline = time.monotonic() + timeout_s
     web_port, grpc_port = _free_port(), _free_port()
     viewer = None
@@ -302,7 +331,7 @@ def screenshot_rrd(
                     pids += browser_pids(profile)
                 page = context.pages[0] if context.pages else context.new_page()
                 page.goto(url, timeout=max(deadline - time.monotonic(), 1.0) * 1e3)
-                png = _capture_when_ready(page, deadline, min_pixels, settle_s, ready_colors, say)
+                png = _capture_when_ready(page, deadline, min_pixels, settle_s, ready, say)
                 say("captured")
             except PlaywrightError as err:
                 raise ViewerScreenshotError(f"the viewer page failed: {err.message}") from err

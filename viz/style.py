@@ -1,26 +1,67 @@
 """Colours and names shared by the rerun recording, the PNG report and the screenshot test.
 
-The shared palette holds only what every robot's views draw (a residual, the truth); each
-robot declares the colours of its own things in its own room (``viz/<robot>/style.py``) and
-adds them with :func:`register_colors`, so this module names no robot's signal.
+The shared palette holds only what every robot's views draw (a residual, the truth) and the
+Okabe-Ito palette every robot's colours are taken from; each robot declares the colours of its
+own things in its own room (``viz/<robot>/style.py``: its ``COLORS`` added with
+:func:`register_colors`, the ``READY_COLORS`` its screenshot waits for and the ``CANVASES``
+drawn together), so this module names no robot's signal. One timeline for every robot:
+seconds from the log's start (:data:`TIMELINE`, :func:`time_index`).
 """
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING
 
-__all__ = ["COLORS", "TIMELINE", "hex_color", "register_colors", "ui_points"]
+import numpy as np
+import rerun as rr
+from numpy.typing import NDArray
 
-#: Name of the rerun timeline: log time (absolute, ns) as ``datetime64[ns]``.
-TIMELINE = "log_time"
+if TYPE_CHECKING:
+    from calib.results import AnalysisResult
+
+__all__ = [
+    "COLORS",
+    "OKABE_ITO",
+    "TIMELINE",
+    "application_id",
+    "hex_color",
+    "register_colors",
+    "robot_of_application_id",
+    "robot_style",
+    "start_words",
+    "time_index",
+    "ui_points",
+]
+
+#: Name of the rerun timeline of every robot: seconds from the log's start (a duration), as in
+#: the text report and the PNG; the absolute start is stated once, in the recording's summary.
+TIMELINE = "time"
 
 RGB = tuple[int, int, int]
 
-#: RGB colours (0-255) of the plotted things by name; saturated so a screenshot test can find
-#: them. The shared ones here, each robot's added by :func:`register_colors`.
+#: The Okabe-Ito palette (Okabe & Ito 2008, "Color Universal Design"): eight colours told
+#: apart with every common colour-vision deficiency. Every plotted colour below is one of them,
+#: a tint of one (drawn apart on the same canvas), or a neutral grey.
+OKABE_ITO: dict[str, tuple[int, int, int]] = {
+    "black": (0, 0, 0),
+    "orange": (230, 159, 0),
+    "sky_blue": (86, 180, 233),
+    "bluish_green": (0, 158, 115),
+    "yellow": (240, 228, 66),
+    "blue": (0, 114, 178),
+    "vermillion": (213, 94, 0),
+    "reddish_purple": (204, 121, 167),
+}
+_OI = OKABE_ITO
+
+#: RGB colours (0-255) of the plotted things by name: the shared ones here (neutral greys), each
+#: robot's (from :data:`OKABE_ITO`) added by :func:`register_colors`.
 COLORS: dict[str, RGB] = {
-    "residual": (220, 190, 255),
-    "truth": (250, 250, 250),
+    "residual": (153, 153, 153),  # neutral grey: the baseline's residual
+    "truth": (250, 250, 250),  # neutral: on the viewer's dark background
 }
 
 
@@ -36,6 +77,22 @@ def register_colors(colors: Mapping[str, RGB]) -> None:
     COLORS.update(colors)
 
 
+def start_words(start_ns: int) -> str:
+    """The log's absolute start, once, for people: ``started 2024-05-01 15:07:12.250 UTC``
+    (a clock that starts near 0, as a simulation's: ``its clock starts at 3.000 s``)."""
+    if start_ns < 10**9 * 86400 * 365:  # before 1971: not a wall clock
+        return f"its clock starts at {start_ns / 1e9:.3f} s"
+    stamp = np.datetime64(int(start_ns), "ns").astype("datetime64[ms]")
+    return "started " + str(stamp).replace("T", " ") + " UTC"
+
+
+def time_index(t_ns: NDArray[np.int64], origin_ns: int) -> list[rr.TimeColumn]:
+    """The rerun time index of the stamps ``t_ns`` (absolute ns): seconds from ``origin_ns``
+    (the log's start) on :data:`TIMELINE`."""
+    rel = np.asarray(t_ns, dtype=np.int64) - np.int64(origin_ns)
+    return [rr.TimeColumn(TIMELINE, duration=rel.astype("timedelta64[ns]"))]
+
+
 def hex_color(name: str) -> str:
     """The colour ``name`` as ``#rrggbb`` (for matplotlib)."""
     r, g, b = COLORS[name]
@@ -46,3 +103,43 @@ def ui_points(points: float) -> float:
     """A radius in screen points: rerun reads a negative radius as UI points (the value
     ``rr.Radius.ui_points`` returns; spelled here as a float for the type checker)."""
     return -abs(points)
+
+
+def robot_style(robot: str) -> object | None:
+    """The style module of ``robot`` (``viz.<robot>.style``, imported), None when it has none."""
+    if not robot.isidentifier():
+        return None
+    try:
+        return importlib.import_module(f"viz.{robot}.style")
+    except ModuleNotFoundError:
+        return None
+
+
+def robot_of_application_id(app_id: str) -> str | None:
+    """The robot a recording's application id names (:func:`application_id`): the longest
+    ``logcal_<robot>`` prefix whose robot has a style module; None when none has."""
+    if not app_id.startswith("logcal_"):
+        return None
+    words = app_id[len("logcal_") :].split("_")
+    for n in range(len(words), 0, -1):
+        robot = "_".join(words[:n])
+        if robot_style(robot) is not None:
+            return robot
+    return None
+
+
+def application_id(result: AnalysisResult) -> str:
+    """The rerun application id of ``result``'s recording: ``logcal_<robot>_<log file stem>`` for
+    one run, ``logcal_<robot>_pooled_<n>_runs`` for a pooled answer (letters, digits, ``_`` and
+    ``-`` only: rerun renames any other id with a warning).
+
+    rerun keeps one blueprint per application id: the runs of a pooled ``.rrd`` must each have
+    their own id, or every run is shown through the last run's layout (its title, its path
+    panel's entity, so "No data" for any other run).
+    """
+    if result.runs:
+        name = f"logcal_{result.robot}_pooled_{len(result.runs)}_runs"
+    else:
+        path = str(result.source.get("path", "") or "")
+        name = f"logcal_{result.robot}_{Path(path).stem}" if path else f"logcal_{result.robot}"
+    return "".join(c if c.isascii() and (c.isalnum() or c in "_-") else "_" for c in name)

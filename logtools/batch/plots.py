@@ -10,21 +10,49 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from logtools.batch.fleet import ParameterSeries
 
-__all__ = ["series_png"]
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = ["log_labels", "series_figure", "series_png"]
+
+#: Okabe-Ito colours (as ``viz.style.OKABE_ITO``; ``logtools`` does not import ``viz``).
+_BLUE, _ORANGE, _VERMILLION = "#0072b2", "#e69f00", "#d55e00"
+_MAX_LABELS = 24
+"""More logs than this: every k-th log is named on the axis (the others keep a tick)."""
+
+
+def log_labels(logs: list[str]) -> list[str]:
+    """The x axis's label of each log: its file name without the suffix; with more than
+    ``_MAX_LABELS`` logs, every k-th named and the others blank."""
+    names = [Path(p).stem or str(p) for p in logs]
+    step = max(1, math.ceil(len(names) / _MAX_LABELS))
+    return [n if i % step == 0 else "" for i, n in enumerate(names)]
 
 
 def series_png(series: ParameterSeries, path: Path) -> None:
     """Draw ``series`` to the PNG ``path`` (written as given: the caller renames atomically)."""
+    import matplotlib.pyplot as plt
+
+    fig = series_figure(series)
+    try:
+        fig.savefig(path, format="png")
+    finally:
+        plt.close(fig)
+
+
+def series_figure(series: ParameterSeries) -> Figure:
+    """The figure of ``series``: per log (named on the x axis, in time order) its estimate with
+    its 95 % interval, the pooled band, the step change; the legend right of the axes."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.figure import Figure
 
-    fig: Figure = plt.figure(figsize=(7.5, 3.2), dpi=100)
+    fig: Figure = plt.figure(figsize=(9.0, 3.6), dpi=100)
     try:
         ax = fig.add_subplot(1, 1, 1)
         xs, ys, es, bad = [], [], [], []
@@ -37,18 +65,16 @@ def series_png(series: ParameterSeries, path: Path) -> None:
                 es.append(1.96 * s)
             else:
                 bad.append(i)
-        ax.errorbar(
-            xs, ys, yerr=es, fmt="o", ms=4, capsize=2, color="tab:blue", label="per log (95 %)"
-        )
+        ax.errorbar(xs, ys, yerr=es, fmt="o", ms=4, capsize=2, color=_BLUE, label="per log (95 %)")
         est = series.pooled.estimate
         if math.isfinite(est.value) and math.isfinite(est.std):
             lo, hi = est.ci95
-            ax.axhspan(lo, hi, color="tab:orange", alpha=0.25, label="pooled (95 %)")
-            ax.axhline(est.value, color="tab:orange", lw=1)
+            ax.axhspan(lo, hi, color=_ORANGE, alpha=0.3, label="pooled (95 %)")
+            ax.axhline(est.value, color=_ORANGE, lw=1)
         d = series.drift
         if d.change_point and d.change_after is not None:
             k = series.logs.index(d.change_after)
-            ax.axvline(k + 0.5, color="tab:red", ls="--", lw=1.2, label="step change")
+            ax.axvline(k + 0.5, color=_VERMILLION, ls="--", lw=1.2, label="step change")
         if bad:
             ax.plot(
                 bad,
@@ -58,10 +84,11 @@ def series_png(series: ParameterSeries, path: Path) -> None:
                 label="not determined",
                 clip_on=False,
             )
-        from matplotlib.ticker import MaxNLocator
-
-        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-        ax.set_xlabel("log, in time order (0 = first)")
+        ax.set_xticks(range(len(series.logs)), log_labels(series.logs))
+        ax.tick_params(axis="x", labelsize=7, labelrotation=30)
+        for label in ax.get_xticklabels():
+            label.set_horizontalalignment("right")
+        ax.set_xlabel("log, in time order")
         unit = f" ({series.unit})" if series.unit else ""
         ax.set_ylabel(f"{series.parameter}{unit}", parse_math=False)
         ax.set_title(
@@ -69,9 +96,10 @@ def series_png(series: ParameterSeries, path: Path) -> None:
             fontsize=10,
             parse_math=False,
         )
-        ax.legend(fontsize=7, loc="best")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
         ax.grid(alpha=0.3)
         fig.tight_layout()
-        fig.savefig(path, format="png")
-    finally:
+    except Exception:
         plt.close(fig)
+        raise
+    return fig

@@ -305,7 +305,7 @@ def test_rrd_of_pooled_runs_is_the_one_file_named(drive, tmp_path, capsys):
     )
     captured = capsys.readouterr()
     assert sorted(p.name for p in out_dir.iterdir()) == ["square.rrd"]
-    assert "2 runs, one recording each" in captured.err
+    assert "2 runs, one recording each and the pooled answer" in captured.err
     assert "No estimate:" not in captured.out  # pooled runs that each ran
     printed = subprocess.run(
         [sys.executable, "-m", "rerun", "rrd", "print", str(rrd)],
@@ -313,7 +313,8 @@ def test_rrd_of_pooled_runs_is_the_one_file_named(drive, tmp_path, capsys):
         text=True,
         check=False,
     )
-    assert printed.stdout.count("Recording,") == 2  # one recording per run, in one file
+    # one recording per run and one of the pooled answer, in one file
+    assert printed.stdout.count("Recording,") == 3
     assert main(["analyze", str(drive["session"]), "--png", str(out_dir / "x.png")]) == 2
     assert "one run" in capsys.readouterr().err
 

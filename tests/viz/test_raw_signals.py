@@ -72,3 +72,31 @@ def test_recording_holds_the_signals_as_read(robot: str, tmp_path: Path) -> None
         hits = [k for k in rows if k.replace("\\", "") == path]
         assert hits, (path, sorted(rows)[:10])
         assert rows[hits[0]] == frame.height
+
+
+def test_raw_series_are_grouped_one_axis_per_unit() -> None:
+    """Metres and rad/s never share a plot (x, y up to 70 m beside rad/s flattened them)."""
+    import polars as pl
+
+    from viz.raw import raw_groups
+
+    t = [0, 1]
+    topics = {
+        "/pose": pl.DataFrame({"t_ns": t, "x": [0.0, 70.0], "y": [0.0, 1.0], "yaw": [0.0, 0.1]}),
+        "/odom": pl.DataFrame(
+            {
+                "t_ns": t,
+                "twist.twist.linear.x": [1.0, 1.0],
+                "twist.twist.angular.z": [0.1, 0.2],
+                "pose.pose.position.x": [0.0, 1.0],
+            }
+        ),
+    }
+    groups = raw_groups(topics)
+    assert groups == {
+        "/odom (m/s)": ["raw/odom/twist.twist.linear.x"],
+        "/odom (rad/s)": ["raw/odom/twist.twist.angular.z"],
+        "/odom (m)": ["raw/odom/pose.pose.position.x"],
+        "/pose (m)": ["raw/pose/x", "raw/pose/y"],
+        "/pose (rad)": ["raw/pose/yaw"],
+    }

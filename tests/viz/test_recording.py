@@ -63,8 +63,11 @@ def test_entity_paths_and_blueprint(recorded):
 
 
 def test_row_counts_and_timeline(recorded, case):
+    """Every series is on one timeline, in ns from the log's start (as the text and the PNG);
+    the absolute start is stated once, in the summary."""
     ents, _ = recorded
-    t_ns = case.frame["t_ns"].to_numpy()
+    t_abs = case.frame["t_ns"].to_numpy()
+    t_ns = t_abs - t_abs[0]
     n = case.frame.height
     for path, comp in (
         ("/world/robot", POS),
@@ -80,15 +83,16 @@ def test_row_counts_and_timeline(recorded, case):
     assert len(ents["/segments/type"].times_ns) == len(case.result.segments)
     res = case.result.discovery.residuals
     t, vals = ents["/signals/residuals/psi_before"].rows(SCALARS)
-    np.testing.assert_array_equal(t, res["t_ns"])
+    np.testing.assert_array_equal(t, np.asarray(res["t_ns"]) - t_abs[0])
     np.testing.assert_allclose(np.concatenate(vals), res["psi_before"])
+    summary = ents["/summary"].static["TextDocument:text"][0]
+    assert "seconds from the log's start, started 2025-06-15 15:06:40.000 UTC" in summary
 
 
 def test_segment_labels_at_segment_starts(recorded, case):
     ents, _ = recorded
-    t0 = int(case.frame["t_ns"][0])
     segs = case.result.segments
-    starts = [t0 + round(s.start_s * 1e9) for s in segs]
+    starts = [round(s.start_s * 1e9) for s in segs]  # from the log's start
     t, text = ents["/segments/log"].rows("TextLog:text")
     np.testing.assert_array_equal(t, starts)
     for s, line in zip(segs, text, strict=True):
@@ -258,6 +262,16 @@ def test_recommended_transient_prediction_is_drawn_as_that_model(case, tmp_path)
     name = ents["/signals/psi/predicted_model"].static["SeriesLines:names"][0]
     assert "transient" in name
     assert "L1 = 1.250 m, L2 = 2.480 m" in name
+    est = case.result.estimate.parameters  # and the lengths the report gives, as it gives them
+    assert f"L1 = {est['L1'].value:.3f} m, L2 = {est['L2'].value:.3f} m)" in name
     assert case.result.estimate.method in name
     steady = ents["/signals/psi/predicted_estimate"].static["SeriesLines:names"][0]
     assert steady.startswith("ψ steady-state relation")
+
+
+def test_kappa_command_shows_around_the_measured_line(recorded):
+    """The command is drawn wider than the measured curvature over it (it was hidden under it)."""
+    ents, _ = recorded
+    cmd = ents["/signals/kappa/command"].static["SeriesLines:widths"][0]
+    meas = ents["/signals/kappa/measured"].static["SeriesLines:widths"][0]
+    assert cmd >= 3 * meas

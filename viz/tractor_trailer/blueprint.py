@@ -11,9 +11,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+import polars as pl
 import rerun.blueprint as rrb
 
 from calib.results import AnalysisResult
+from viz.raw import raw_views
 from viz.style import TIMELINE
 from viz.tractor_trailer.methods import CANVAS_WIDTH, canvas_height, forest_rows, segment_types
 from viz.tractor_trailer.world import FOLLOW, LABELS
@@ -110,7 +112,7 @@ def default_blueprint(
     y_ranges: dict[str, tuple[float, float]] | None = None,
     views: Mapping[str, np.ndarray] | None = None,
     *,
-    raw: bool = False,
+    raw: Mapping[str, pl.DataFrame] | None = None,
 ) -> rrb.Blueprint:
     """The overview, the close-up and the time series on top; error bars and texts below.
 
@@ -122,6 +124,7 @@ def default_blueprint(
             (kappa = omega / v near standstill) does not flatten a plot.
         views: the drawn arrays (``calib.tractor_trailer.views_data``): bounds of the world
             views.
+        raw: the log's topics as read: one plot per topic and unit (``viz.raw.raw_views``).
     """
     y_ranges = y_ranges or {}
     axis = _time_axis(t_range_ns)
@@ -137,7 +140,7 @@ def default_blueprint(
         for name, origin in (
             ("κ (1/m): command yellow, measured orange", "/signals/kappa"),
             ("ψ (rad): measured blue, recommended model green, steady state pink", "/signals/psi"),
-            ("ψ residual (rad): baseline violet, with effects green", "/signals/residuals"),
+            ("ψ residual (rad): baseline grey, with effects green", "/signals/residuals"),
         )
     ]
     right = rrb.Vertical(
@@ -147,20 +150,9 @@ def default_blueprint(
         *series,
         row_shares=[2, 3, 3, 3],
     )
-    raw_views = (
-        [
-            rrb.TimeSeriesView(
-                name="Raw signals as read (every topic at its own stamps)",
-                origin="/raw",
-                time_ranges=_whole_log(),
-                axis_x=axis,
-            )
-        ]
-        if raw
-        else []
-    )
+    raw_tabs = raw_views(raw or {}, time_ranges=_whole_log(), axis_x=axis)
     docs = rrb.Tabs(
-        *raw_views,
+        *raw_tabs,
         rrb.TextDocumentView(name="Summary", origin="/summary"),
         rrb.TextDocumentView(name="Methods table", origin="/methods/table"),
         rrb.TextLogView(name="Segment log", origin="/segments/log"),

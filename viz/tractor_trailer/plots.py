@@ -33,9 +33,17 @@ def _outside_legend(ax, below: bool = False) -> None:
     is labelled."""
     if not ax.get_legend_handles_labels()[0]:
         return
-    if below:
+    if below:  # 34 points under the axes: below its tick labels and its x label
+        from matplotlib.transforms import ScaledTranslation
+
+        under = ax.transAxes + ScaledTranslation(0, -34 / 72, ax.figure.dpi_scale_trans)
         ax.legend(
-            loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize=7, frameon=False, ncol=2
+            loc="upper center",
+            bbox_to_anchor=(0.5, 0.0),
+            bbox_transform=under,
+            fontsize=7,
+            frameon=False,
+            ncol=2,
         )
     else:
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
@@ -196,13 +204,27 @@ def _wrap(text: str, width: int = 38) -> str:
     return "\n".join(textwrap.wrap(text, width))
 
 
+_APART_STEP = 0.45
+"""Row spacing of the set-apart (grey, not to be read) rows, as a fraction of a read row's."""
+
+
+def row_positions(apart: list[bool]) -> NDArray[np.float64]:
+    """y of each error-bar row: read rows one unit apart, set-apart rows ``_APART_STEP`` apart
+    (they are many and not to be read: they must not take the panel from the read ones)."""
+    steps = [(_APART_STEP if a else 1.0) for a in apart]
+    ys = np.zeros(len(apart))
+    for i in range(1, len(apart)):
+        ys[i] = ys[i - 1] + (steps[i - 1] + steps[i]) / 2
+    return ys
+
+
 def _forest(ax, rows: list[ForestRow], result: AnalysisResult, param: str, *, zoom: bool) -> None:
     """value ± std per row; set-apart rows grey below a divider; truth and recommended
     value as vertical lines; the x range all rows' bulk, or zoomed on the recommended."""
     truth = result.truth.get(param)
     rec = recommended_values(result)
-    ys = np.arange(len(rows), dtype=float)
     apart = [r.apart is not None for r in rows]
+    ys = row_positions(apart)
     vals = np.array([r.value(param) for r in rows])
     sds = np.array([r.std(param) for r in rows])
     det = ~np.array(apart, dtype=bool)
@@ -228,8 +250,9 @@ def _forest(ax, rows: list[ForestRow], result: AnalysisResult, param: str, *, zo
         )
     ax.set_xlim(lo, hi)
     first_apart = next((i for i, a in enumerate(apart) if a), None)
+    bottom = float(ys[-1]) + (_APART_STEP if apart[-1] else 1.0) / 2 if len(ys) else 0.5
     if first_apart is not None:
-        ax.axhspan(first_apart - 0.5, len(rows) - 0.5, color="0.92", zorder=0)
+        ax.axhspan(float(ys[first_apart]) - _APART_STEP / 2, bottom, color="0.92", zorder=0)
     if not zoom:
         for y, v in zip(ys[det], vals[det], strict=True):
             if np.isfinite(v) and not lo <= v <= hi:
@@ -241,10 +264,11 @@ def _forest(ax, rows: list[ForestRow], result: AnalysisResult, param: str, *, zo
                     fontsize=6,
                 )
     labels = [r.label if r.apart is None else f"{r.label} ({r.apart})" for r in rows]
-    ax.set_yticks(ys, labels if not zoom else [""] * len(rows), fontsize=6)
+    ax.set_yticks(ys, labels if not zoom else [""] * len(rows), fontsize=8)
     for tick, a in zip(ax.get_yticklabels(), apart, strict=True):
         tick.set_color("0.45" if a else "k")
-    ax.set_ylim(len(rows) - 0.5, -0.5)
+        tick.set_fontsize(5.5 if a else 8)
+    ax.set_ylim(bottom, -0.5)
     ax.grid(axis="x", color="0.85", lw=0.5)
 
 

@@ -13,7 +13,8 @@ from calib.results import PM_MEANING, AnalysisResult
 from calib.tractor_trailer.views_data import VIEWS
 from viz._frame import column, has, robust_limits
 from viz.raw import log_raw_signals
-from viz.style import TIMELINE
+from viz.style import TIMELINE, start_words
+from viz.style import application_id as app_id_of
 from viz.tractor_trailer.blueprint import default_blueprint
 from viz.tractor_trailer.methods import log_methods
 from viz.tractor_trailer.signals import find_method, log_segments, log_signals
@@ -22,9 +23,12 @@ from viz.tractor_trailer.world import log_world
 __all__ = ["summary_markdown", "write_recording"]
 
 
-def summary_markdown(result: AnalysisResult) -> str:
-    """Markdown summary: robot, recommended estimate, truth, what ± means, warnings."""
+def summary_markdown(result: AnalysisResult, start_ns: int | None = None) -> str:
+    """Markdown summary: robot, the log's absolute start (``start_ns``, the timeline's zero),
+    recommended estimate, truth, what ± means, warnings."""
     parts = [f"# {result.robot}"]
+    if start_ns is not None:
+        parts.append(f"Time: seconds from the log's start, {start_words(start_ns)}.")
     if result.estimate is not None:
         parts.append("```\n" + result.estimate.report() + "\n```")
     if result.truth:
@@ -38,11 +42,12 @@ def summary_markdown(result: AnalysisResult) -> str:
 
 
 def _time_range(frame: pl.DataFrame) -> tuple[int, int] | None:
-    """(first, last) ``t_ns`` of the frame, or None when empty."""
+    """(0, last - first) ``t_ns`` of the frame: its span in ns from the log's start (the
+    timeline's zero), or None when empty."""
     if frame.height == 0 or "t_ns" not in frame.columns:
         return None
     t = frame["t_ns"].cast(pl.Int64).to_numpy()
-    return int(t.min()), int(t.max())
+    return 0, int(t.max() - t[0])
 
 
 def _y_ranges(
@@ -71,7 +76,7 @@ def write_recording(
     views: Mapping[str, np.ndarray] | None = None,
     *,
     method_for_psi: str | None = None,
-    application_id: str = "logcal",
+    application_id: str | None = None,
     raw: Mapping[str, pl.DataFrame] | None = None,
 ) -> Path:
     """Save the recording of ``frame`` (aligned log) and ``result`` to ``path``.
@@ -86,7 +91,8 @@ def write_recording(
             signals are drawn).
         method_for_psi: a method name (e.g. "OLS1(EM1)") whose psi prediction is also shown;
             ``views`` must then hold its ``psi_steady_method``.
-        application_id: rerun application id.
+        application_id: rerun application id (None: ``viz.style.application_id(result)``, one
+            per run, so that each run of a pooled ``.rrd`` keeps its own layout).
 
     Returns:
         The path written.
@@ -102,15 +108,16 @@ def write_recording(
             raise KeyError(f"no psi prediction of method {method_for_psi!r} in the views data")
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    rec = rr.RecordingStream(application_id)
+    rec = rr.RecordingStream(application_id or app_id_of(result))
     blueprint = default_blueprint(
-        result, _time_range(frame), _y_ranges(frame, drawn), drawn, raw=bool(raw)
+        result, _time_range(frame), _y_ranges(frame, drawn), drawn, raw=raw
     )
     rec.save(out, default_blueprint=blueprint)
+    start = int(frame["t_ns"][0]) if frame.height and "t_ns" in frame.columns else None
     try:
         rec.log(
             "summary",
-            rr.TextDocument(summary_markdown(result), media_type="text/markdown"),
+            rr.TextDocument(summary_markdown(result, start), media_type="text/markdown"),
             static=True,
         )
         log_world(rec, frame, drawn)
@@ -118,7 +125,7 @@ def write_recording(
         log_segments(rec, frame, result)
         log_methods(rec, result)
         if raw:
-            log_raw_signals(rec, raw, timeline=TIMELINE)
+            log_raw_signals(rec, raw, timeline=TIMELINE, origin_ns=start)
     finally:
         rec.flush()
         rec.disconnect()

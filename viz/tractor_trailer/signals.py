@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from calib.results import AnalysisResult
 from calib.tractor_trailer.views_data import find_method
 from viz._frame import column, has, times_ns
-from viz.style import COLORS, TIMELINE
+from viz.style import COLORS, time_index
 
 __all__ = ["find_method", "log_segments", "log_signals", "psi_curve_names", "send_series"]
 
@@ -28,22 +28,33 @@ def send_series(
     *,
     name: str,
     color: str,
+    origin_ns: int,
     width: float = 1.5,
 ) -> None:
-    """A named, coloured scalar series; non-finite samples are left out (gaps)."""
+    """A named, coloured scalar series on the timeline in seconds from ``origin_ns`` (the log's
+    start); non-finite samples are left out (gaps)."""
     ok = np.isfinite(values)
     if not ok.any():
         return
     rec.log(path, rr.SeriesLines(colors=[COLORS[color]], names=[name], widths=[width]), static=True)
     rec.send_columns(
         path,
-        indexes=[rr.TimeColumn(TIMELINE, timestamp=t_ns[ok].astype("datetime64[ns]"))],
+        indexes=time_index(t_ns[ok], origin_ns),
         columns=rr.Scalars.columns(scalars=values[ok]),
     )
 
 
 def _lengths_text(l1: float, l2: float) -> str:
     return f"L1 = {l1:.3f} m, L2 = {l2:.3f} m"
+
+
+def _reported_lengths(est: object) -> str | None:
+    """The recommended L1, L2 as the report writes them (``L1 = 1.253 m, L2 = 2.477 m``), None
+    when the estimate carries no such parameters."""
+    params = getattr(est, "parameters", {}) or {}
+    if "L1" not in params or "L2" not in params:
+        return None
+    return _lengths_text(float(params["L1"].value), float(params["L2"].value))
 
 
 def psi_curve_names(
@@ -56,9 +67,11 @@ def psi_curve_names(
     if "psi_model" in views and est is not None:
         l1, l2, off = (float(x) for x in views["psi_model_params"])
         tail = f", ψ offset {off:+.4f} rad" if off else ""
+        reported = _reported_lengths(est)
         names["psi_model"] = (
             f"ψ of {est.method} (recommended): transient kinematics simulated along the "
-            f"measured path, {_lengths_text(l1, l2)}{tail}"
+            f"measured path at the optimiser's {_lengths_text(l1, l2)}{tail}"
+            + (f" (estimate after its bias correction: {reported})" if reported else "")
         )
     if "psi_steady" in views and "lengths" in views:
         l1, l2 = (float(x) for x in views["lengths"])
@@ -92,6 +105,9 @@ def log_signals(
     measured minus the recommended model's prediction.
     """
     t = times_ns(frame)
+    if len(t) == 0:
+        return
+    t0 = int(t[0])
     if has(frame, "kappa_cmd"):
         send_series(
             rec,
@@ -100,14 +116,32 @@ def log_signals(
             column(frame, "kappa_cmd"),
             name="κ command",
             color="kappa_cmd",
+            origin_ns=t0,
+            width=4.0,  # wider than the measured line drawn over it: both stay visible
         )
     if "kappa" in views:
         send_series(
-            rec, "signals/kappa/measured", t, views["kappa"], name="κ measured", color="kappa"
+            rec,
+            "signals/kappa/measured",
+            t,
+            views["kappa"],
+            name="κ measured",
+            color="kappa",
+            origin_ns=t0,
+            width=1.0,
         )
     psi = column(frame, "psi") if has(frame, "psi") else None
     if psi is not None:
-        send_series(rec, "signals/psi/measured", t, psi, name="ψ measured", color="psi", width=3.0)
+        send_series(
+            rec,
+            "signals/psi/measured",
+            t,
+            psi,
+            name="ψ measured",
+            color="psi",
+            width=3.0,
+            origin_ns=t0,
+        )
     names = psi_curve_names(result, views, method_for_psi)
     if "psi_model" in names:
         send_series(
@@ -117,6 +151,7 @@ def log_signals(
             views["psi_model"],
             name=names["psi_model"],
             color="psi_estimate",
+            origin_ns=t0,
         )
     pred = views.get("psi_steady")
     if pred is not None and "psi_steady" in names:
@@ -127,6 +162,7 @@ def log_signals(
             pred,
             name=names["psi_steady"],
             color="psi_steady",
+            origin_ns=t0,
         )
     if "psi_steady_method" in names:
         send_series(
@@ -136,6 +172,7 @@ def log_signals(
             views["psi_steady_method"],
             name=names["psi_steady_method"],
             color="psi_method",
+            origin_ns=t0,
         )
     _log_residuals(rec, result, t, psi, views)
 
@@ -147,6 +184,7 @@ def _log_residuals(
     psi: NDArray[np.float64] | None,
     views: Mapping[str, np.ndarray],
 ) -> None:
+    t0 = int(t[0])
     res = getattr(result.discovery, "residuals", None)
     if res and "t_ns" in res:
         rt = np.asarray(res["t_ns"], dtype=np.int64)
@@ -166,6 +204,7 @@ def _log_residuals(
                     vals,
                     name=name,
                     color="residual" if before else "psi_estimate",
+                    origin_ns=t0,
                 )
         return
     if "psi_model_residual" in views:
@@ -176,6 +215,7 @@ def _log_residuals(
             views["psi_model_residual"],
             name="ψ measured − recommended model",
             color="residual",
+            origin_ns=t0,
         )
     elif psi is not None and "psi_steady" in views:
         send_series(
@@ -185,6 +225,7 @@ def _log_residuals(
             psi - views["psi_steady"],
             name="ψ measured − steady-state relation",
             color="residual",
+            origin_ns=t0,
         )
 
 
@@ -193,9 +234,8 @@ def log_segments(rec: rr.RecordingStream, frame: pl.DataFrame, result: AnalysisR
     ``segments/log`` text events with times and template parameters, at each segment start."""
     if not result.segments or frame.height == 0:
         return
-    t0 = int(times_ns(frame)[0])
-    starts = np.array([t0 + round(s.start_s * 1e9) for s in result.segments], dtype=np.int64)
-    index = [rr.TimeColumn(TIMELINE, timestamp=starts.astype("datetime64[ns]"))]
+    starts = np.array([round(s.start_s * 1e9) for s in result.segments], dtype=np.int64)
+    index = time_index(starts, 0)  # segment starts are seconds from the log's start already
     rec.send_columns(
         "segments/type",
         indexes=index,

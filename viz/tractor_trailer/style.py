@@ -1,30 +1,42 @@
 """The tractor-trailer's colours (its points, links, curvature, joint angle and link lengths),
-added to the shared palette on import; and the colours the screenshot test waits for."""
+from the Okabe-Ito palette, added to the shared palette on import; the colours drawn together
+on one canvas; and the colours the screenshot test waits for."""
 
 from __future__ import annotations
 
-from viz.style import RGB, register_colors
+from viz.style import OKABE_ITO, RGB, register_colors
 
-__all__ = ["READY_COLORS", "TRACTOR_TRAILER_COLORS"]
+__all__ = ["CANVASES", "READY_COLORS", "TRACTOR_TRAILER_COLORS"]
+
+_OI = OKABE_ITO
 
 TRACTOR_TRAILER_COLORS: dict[str, RGB] = {
-    "C1": (230, 25, 75),  # red: front wheel centre
-    "P": (255, 165, 0),  # orange: joint
-    "C2": (0, 130, 200),  # blue: rear wheel centre
-    "links": (240, 240, 240),
-    "O": (60, 180, 75),  # green: instantaneous centre
-    "Q": (145, 30, 180),  # purple
-    "triangle_OQC2": (70, 240, 240),
-    "triangle_QC1P": (240, 50, 230),
-    "radius": (60, 180, 75),
-    "kappa_cmd": (255, 225, 25),  # yellow
-    "kappa": (255, 110, 40),  # orange-red
-    "psi": (40, 80, 255),  # blue-violet
-    "psi_estimate": (0, 210, 140),
-    "psi_method": (200, 120, 255),
-    "psi_steady": (255, 120, 190),  # pink: the steady-state relation
-    "L1": (230, 25, 75),
-    "L2": (0, 130, 200),
+    "C1": _OI["vermillion"],  # front wheel centre
+    "P": _OI["orange"],  # joint
+    "C2": _OI["blue"],  # rear wheel centre
+    "links": (240, 240, 240),  # neutral: on the viewer's dark background
+    "O": _OI["bluish_green"],  # instantaneous centre
+    "Q": _OI["reddish_purple"],
+    "triangle_OQC2": (171, 218, 244),  # sky blue half-mixed with white (kappa has the full one)
+    "triangle_QC1P": (248, 242, 161),  # yellow half-mixed with white
+    "radius": _OI["bluish_green"],  # from O, in O's colour
+    "kappa_cmd": _OI["yellow"],
+    "kappa": _OI["sky_blue"],
+    "psi": _OI["blue"],
+    "psi_estimate": _OI["bluish_green"],
+    "psi_method": _OI["reddish_purple"],
+    "psi_steady": _OI["vermillion"],  # the steady-state relation
+    "L1": _OI["vermillion"],
+    "L2": _OI["blue"],
+}
+
+#: Colours drawn together on one canvas (a view or a figure's axes): pairwise distinct.
+CANVASES: dict[str, tuple[str, ...]] = {
+    "world": ("C1", "P", "C2", "links", "O", "Q", "triangle_OQC2", "triangle_QC1P"),
+    "curvature": ("kappa_cmd", "kappa"),
+    "joint angle": ("psi", "psi_estimate", "psi_method", "psi_steady"),
+    "residuals": ("residual", "psi_estimate"),
+    "lengths": ("L1", "L2"),
 }
 
 #: Colours that only appear once the viewer has drawn the data (not in its own UI): the world

@@ -32,10 +32,13 @@ def tractor_trailer_rrd(
 ) -> Path:
     """The tractor-trailer's rerun recording (world, ICR construction, signals, methods);
     ``options.method_for_psi`` names the method whose lengths drew the steady-state joint angle
-    too (the analysis computed it from the same options)."""
+    too (the analysis computed it from the same options). A pooled ``result`` (``runs`` set)
+    draws its summary and methods only: ``loaded`` is then one run of several."""
     from viz.tractor_trailer.recording import write_recording
 
     method = options.method_for_psi if options is not None else None
+    if result.runs:  # a pooled answer: its summary and methods, not one run's signals
+        return write_recording(out, loaded.frame.head(0), result, views={})
     return write_recording(out, loaded.frame, result, method_for_psi=method, raw=loaded.log.topics)
 
 

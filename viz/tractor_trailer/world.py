@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from rerun.encodings import Vec2DBatch
 
 from viz._frame import column, has, times_ns
-from viz.style import COLORS, TIMELINE, ui_points
+from viz.style import COLORS, time_index, ui_points
 
 __all__ = [
     "FOLLOW",
@@ -52,7 +52,8 @@ ICR_STRIPS = ("triangle_OQC2", "triangle_QC1P", "radius")
 
 
 def _time(t_ns: NDArray[np.int64]) -> list[rr.TimeColumn]:
-    return [rr.TimeColumn(TIMELINE, timestamp=t_ns.astype("datetime64[ns]"))]
+    """``t_ns`` are already relative to the log's start (``log_world`` subtracts it)."""
+    return time_index(t_ns, 0)
 
 
 def _strips_arrow(rows: list[NDArray[np.float64]]) -> pa.Array:
@@ -138,6 +139,7 @@ def log_world(
     # Rerun's 2D views draw y down: mirror the world once so that left turns look left.
     rec.log(WORLD, rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
     t = times_ns(frame)
+    t = t - t[0]  # seconds from the log's start on the timeline (viz.style.TIMELINE)
     if "P" not in views:
         _log_c1_only(rec, t, np.stack([column(frame, "x"), column(frame, "y")], axis=-1))
         return
