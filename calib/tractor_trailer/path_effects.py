@@ -62,6 +62,9 @@ __all__ = [
 FloatArray = np.ndarray
 PLAY_SMOOTH_S = 0.2
 """Time over which the modelled angle is smoothed to decide the backlash's holds (s)."""
+EVAL_CACHE = 4
+"""Evaluations of the model kept by :meth:`JointPathModel.evaluate` (a few: a fit's optimiser
+revisits only the points it accepted, and the held-out folds start where the full fit ended)."""
 
 
 @dataclass(frozen=True)
@@ -519,6 +522,10 @@ class JointPathModel:
         # per-piece time derivative helpers
         self._piece_lo = first
         self._piece_hi = np.r_[first[1:], self.t.size]
+        self._evaluations: dict[
+            tuple[tuple[int, ...], bytes],
+            tuple[tuple[EffectSpec, ...], tuple[FloatArray, ...]],
+        ] = {}
 
     # ------------------------------------------------------------------ model
     def _shifted(self, tau: FloatArray, cols: list[FloatArray]) -> list[FloatArray]:
@@ -584,7 +591,28 @@ class JointPathModel:
 
         The effects' hooks (:class:`PathEffectModel`) act in their ``order``: first every
         stamp shift (summed into one shift of the modelled angle), then each reading change
-        on the shifted angle."""
+        on the shifted angle.
+
+        The last ``EVAL_CACHE`` evaluations are kept (copies handed out), keyed by the exact
+        bytes of ``x`` and the identity of the effects: a fit's final evaluation at the point
+        its optimiser accepted last, and every held-out fold's start at the full fit's
+        solution, are the same integration of the path (the samples' weights do not enter
+        it), bit for bit."""
+        # the entry holds the effects themselves, so their ids stay theirs while it lives
+        key = (tuple(id(e) for e in effects), np.asarray(x, dtype=float).tobytes())
+        hit = self._evaluations.pop(key, None)
+        if hit is None:
+            hit = (tuple(effects), self._evaluate(np.asarray(x, dtype=float), tuple(effects)))
+        self._evaluations[key] = hit  # most recently used last
+        while len(self._evaluations) > EVAL_CACHE:
+            self._evaluations.pop(next(iter(self._evaluations)))
+        y, J, d0, true_u, sgn = hit[1]
+        return y.copy(), J.copy(), d0.copy(), true_u.copy(), sgn.copy()
+
+    def _evaluate(
+        self, x: FloatArray, effects: tuple[EffectSpec, ...]
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        """:meth:`evaluate` without its cache."""
         n_e = sum(len(e.params) for e in effects)
         q = 2 + n_e
         u, d0, d1, d2 = self._base._simulate_jacobian(float(x[0]), float(x[1]), x[q:])

@@ -51,7 +51,12 @@ from calib.tractor_trailer.estimators._result import (
 )
 from calib.tractor_trailer.estimators.drive_path import DrivePath, default_gap_s
 from calib.tractor_trailer.estimators.identifiability import IdentifiabilityVerdict, identifiability
-from calib.tractor_trailer.models.hitch_path import advance_psi, advance_psi_jacobian, rk4_substeps
+from calib.tractor_trailer.models.hitch_path import (
+    advance_psi,
+    advance_psi_jacobian,
+    rk4_substeps,
+    substep_inputs,
+)
 from calib.tractor_trailer.results import Family, MethodResult
 
 __all__ = ["PathTransientFit"]
@@ -160,6 +165,8 @@ class PathTransientFit:
         self.bounds_L2_m = bounds_L2_m
         self.chunk_nodes = chunk_nodes
         self._eval_caches: list[dict[bytes, tuple[np.ndarray, np.ndarray]]] = []
+        self._substeps: tuple[int, np.ndarray, np.ndarray] | None = None
+        """The layout's per-substep kernel inputs (``substep_inputs``) for the last n_sub."""
 
     # ------------------------------------------------------------------ layout
     def _prepare(
@@ -292,6 +299,7 @@ class PathTransientFit:
         a = np.clip((obs_t - path.t_s[j - 1]) / np.where(span > 0, span, 1.0), 0.0, 1.0)
         self._knot_var_factor = a * a + (1.0 - a) ** 2
         self._path_noise = (path.theta_noise_rad, path.s_noise_m)
+        self._substeps = None
         self._layout = _Layout(
             A,
             B,
@@ -316,7 +324,12 @@ class PathTransientFit:
         start[first] = psi0[lay.chunk_piece[first]]
         chain = np.where(first, -1, lay.prev_chunk)
         n_sub = rk4_substeps(lay.A, lay.B, np.array([L1]), np.array([L2]))
-        psi, d0, d1, d2 = advance_psi_jacobian(lay.A, lay.B, L1, L2, start, n_sub, chain=chain)
+        inputs = self._substeps
+        if inputs is None or inputs[0] != n_sub:
+            inputs = self._substeps = substep_inputs(lay.A, lay.B, n_sub)
+        psi, d0, d1, d2 = advance_psi_jacobian(
+            lay.A, lay.B, L1, L2, start, n_sub, chain=chain, inputs=inputs
+        )
         at = (lay.node_step, lay.node_chunk)
         return psi[at], d0[at], d1[at], d2[at]
 
