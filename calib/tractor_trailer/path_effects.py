@@ -62,6 +62,9 @@ __all__ = [
 FloatArray = np.ndarray
 PLAY_SMOOTH_S = 0.2
 """Time over which the modelled angle is smoothed to decide the backlash's holds (s)."""
+FILL_SPACING_S = 0.0
+"""Default ``fill_spacing_s`` of :class:`JointPathModel` (0: every path knot is integrated; the
+answers of the full grid)."""
 EVAL_CACHE = 4
 """Evaluations of the model kept by :meth:`JointPathModel.evaluate` (a few: a fit's optimiser
 revisits only the points it accepted, and the held-out folds start where the full fit ended)."""
@@ -483,7 +486,9 @@ class JointPathModel:
     Args:
         path, t_psi, psi, gaps: as :meth:`PathTransientFit.fit`.
         max_samples: joint-angle samples kept at most (evenly decimated beyond: the path is
-            still integrated in full).
+            still integrated through its knots between them).
+        fill_spacing_s: the path's knots between kept samples enter the integration at most
+            one per this many seconds (``PathTransientFit``'s ``fill_spacing_s``; 0: all).
     """
 
     def __init__(
@@ -496,6 +501,7 @@ class JointPathModel:
         max_samples: int = 12000,
         bounds_L1_m: tuple[float, float] = (-20.0, 50.0),
         bounds_L2_m: tuple[float, float] = (0.02, 50.0),
+        fill_spacing_s: float = FILL_SPACING_S,
     ) -> None:
         t = np.asarray(t_psi, dtype=float)
         p = np.asarray(psi, dtype=float)
@@ -505,7 +511,10 @@ class JointPathModel:
             keep = np.unique(np.round(np.linspace(0, t.size - 1, max_samples)).astype(np.int64))
             t, p = t[keep], p[keep]
         base = PathTransientFit(
-            resolution_check=False, bounds_L1_m=bounds_L1_m, bounds_L2_m=bounds_L2_m
+            resolution_check=False,
+            bounds_L1_m=bounds_L1_m,
+            bounds_L2_m=bounds_L2_m,
+            fill_spacing_s=fill_spacing_s,
         )
         base._prepare(path, t, p, list(gaps))
         self._base = base

@@ -133,6 +133,11 @@ class PathTransientFit:
             elsewhere and undone in the data).
         rate_noise_check: measure what an odometry path's integrated noise does to the
             estimate (fresh noise draws; off for quick fits whose intervals are not reported).
+        fill_spacing_s: path knots inside long joint-angle intervals become nodes at most one
+            per this many seconds (0: every knot). A coarser grid integrates the path as
+            constant-curvature arcs between the kept nodes: cheaper in proportion, and it moves
+            the fit by a small fraction of its standard error while the spacing stays below
+            the time the joint angle needs to move (measured in bench/bench_discovery_cost.py).
 
     Attributes (after ``fit``):
         L1_, L2_, psi_offset_: estimates (m, m, rad). cov_: covariance of (L1, L2[, offset]).
@@ -155,7 +160,9 @@ class PathTransientFit:
         resolution_check: bool = True,
         extra_covariance: np.ndarray | None = None,
         rate_noise_check: bool = True,
+        fill_spacing_s: float = 0.0,
     ) -> None:
+        self.fill_spacing_s = fill_spacing_s
         self.resolution_check = resolution_check
         self.rate_noise_check = rate_noise_check
         self.extra_covariance = extra_covariance
@@ -250,6 +257,12 @@ class PathTransientFit:
             jj = np.clip(j, 1, t.size - 1)
             ok &= (t[jj] - t[jj - 1] > _FILL_S) & (piece[jj] == piece[jj - 1])
             ok &= path.t_s > t[jj - 1]
+            if self.fill_spacing_s > 0 and ok.any():
+                # at most one fill node per fill_spacing_s of the global time grid
+                cell = np.floor(path.t_s / self.fill_spacing_s)
+                new_cell = np.ones(int(ok.sum()), bool)
+                new_cell[1:] = np.diff(cell[ok]) != 0
+                ok[np.flatnonzero(ok)[~new_cell]] = False
             node_t.append(path.t_s[ok])
             node_piece.append(piece[jj[ok]])
             is_obs.append(np.zeros(int(ok.sum()), bool))
