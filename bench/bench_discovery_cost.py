@@ -12,7 +12,11 @@ fastest run with discovery on, with the number of path integrations the joint pa
 (``rk4_hitch_sensitivities`` calls). Ratios, not timed assertions: the target of issue 32 is
 analyze with discovery <= 4 s CPU and <= 400 MB on this log.
 
-    python bench/bench_discovery_cost.py [--log /tmp/hour.mcap] [--repeat 3]
+    python bench/bench_discovery_cost.py [--log /tmp/hour.mcap] [--repeat 3] [--before DIR]
+
+``--before DIR``: also run a checkout of an earlier commit (``git archive REV | tar -x -C DIR``
+with the built extension modules copied in), alternating with this one, and print its rows and
+its ratio to this checkout's (before -> after in the same run).
 
 The log is written with ``logcal simulate tractor-trailer --duration 3600 --rate 100 --seed 1``
 when it does not exist.
@@ -72,9 +76,10 @@ def _measure(path: Path, discovery: bool) -> None:
     print(json.dumps(row))
 
 
-def _once(path: Path, discovery: bool) -> dict[str, Any]:
+def _once(path: Path, discovery: bool, root: Path = ROOT) -> dict[str, Any]:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cmd = [sys.executable, __file__, "--one", str(path)] + ([] if discovery else ["--no-disc"])
+    cmd = [sys.executable, __file__, "--one", str(path), "--root", str(root)]
+    cmd += [] if discovery else ["--no-disc"]
     out = subprocess.run(cmd, check=True, capture_output=True, text=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     row: dict[str, Any] = json.loads(out.stdout.strip().splitlines()[-1])
@@ -88,24 +93,42 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--one", type=Path, help=argparse.SUPPRESS)
     ap.add_argument("--no-disc", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--root", type=Path, default=ROOT, help=argparse.SUPPRESS)
+    ap.add_argument("--before", type=Path, help="an earlier checkout to run alongside")
     args = ap.parse_args()
     if args.one:
+        sys.path.insert(0, str(args.root))
         _measure(args.one, not args.no_disc)
         return
     if not args.log.exists():
         _write_log(args.log)
-    runs: dict[bool, list[dict[str, Any]]] = {True: [], False: []}
+    roots = {"this": ROOT} | ({"before": args.before.resolve()} if args.before else {})
+    every: dict[str, dict[bool, list[dict[str, Any]]]] = {k: {True: [], False: []} for k in roots}
     for r in range(args.repeat):
-        for discovery in (False, True):
-            row = _once(args.log, discovery)
-            runs[discovery].append(row)
+        for name, root in roots.items():
+            for discovery in (False, True):
+                row = _once(args.log, discovery, root)
+                every[name][discovery].append(row)
+                print(
+                    f"  run {r + 1} {name}, discovery {'on ' if discovery else 'off'}: "
+                    f"{row['cpu']:.2f} s CPU (analyze {row['analyze_cpu']:.2f} s), "
+                    f"{row['integrations']} path integrations, {row['peak_mb']:.0f} MB",
+                    flush=True,
+                )
+    if args.before:
+        for discovery in (True, False):
+            b = min(r["cpu"] for r in every["before"][discovery])
+            a = min(r["cpu"] for r in every["this"][discovery])
             print(
-                f"  run {r + 1}, discovery {'on ' if discovery else 'off'}: {row['cpu']:.2f} s "
-                f"CPU (analyze {row['analyze_cpu']:.2f} s), {row['integrations']} path "
-                "integrations",
-                flush=True,
+                f"discovery {'on ' if discovery else 'off'}: before {b:.2f} s -> this {a:.2f} s "
+                f"CPU (min), ratio {a / b:.2f}"
             )
-    print(f"\n{args.log}")
+    for name in roots:
+        _summary(f"{args.log} ({name}: {roots[name]})", every[name])
+
+
+def _summary(title: str, runs: dict[bool, list[dict[str, Any]]]) -> None:
+    print(f"\n{title}")
     print(f"{'discovery':>9s} {'CPU s min/med':>14s} {'peak RSS MB':>12s}")
     for discovery in (True, False):
         cpu = [r["cpu"] for r in runs[discovery]]
