@@ -260,16 +260,23 @@ class _Fitter:
         effects = tuple(x for e in specs for x in expand_described(e, self.floor))
         try:
             sol = self.model.fit(effects, self._start(effects))
+        except (CalibError, ValueError, FloatingPointError, np.linalg.LinAlgError):
+            self.cache[keys] = None
+            return None
+        for i, e in enumerate(effects):
+            q = e.params[0]
+            if min(sol.x[2 + i] - q.lower, q.upper - sol.x[2 + i]) < 1e-3 * (q.upper - q.lower):
+                # on a bound: not an explanation the fit resolved (its solution still starts
+                # the sets that extend it), and its held-out folds are not needed
+                self.x[tuple(e.key for e in effects)] = sol.x
+                self.cache[keys] = None
+                return None
+        try:
             held = heldout_residual(self.model, effects, sol.x)
         except (CalibError, ValueError, FloatingPointError, np.linalg.LinAlgError):
             self.cache[keys] = None
             return None
         self.x[tuple(e.key for e in effects)] = sol.x
-        for i, e in enumerate(effects):
-            q = e.params[0]
-            if min(sol.x[2 + i] - q.lower, q.upper - sol.x[2 + i]) < 1e-3 * (q.upper - q.lower):
-                self.cache[keys] = None  # on a bound: not an explanation the fit resolved
-                return None
         f2 = self.floor**2
         cov = sol.cov
         params = {

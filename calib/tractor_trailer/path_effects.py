@@ -62,6 +62,12 @@ __all__ = [
 FloatArray = np.ndarray
 PLAY_SMOOTH_S = 0.2
 """Time over which the modelled angle is smoothed to decide the backlash's holds (s)."""
+FILL_SPACING_S = 0.0
+"""Default ``fill_spacing_s`` of :class:`JointPathModel` (0: every path knot is integrated; the
+answers of the full grid)."""
+EVAL_CACHE = 4
+"""Evaluations of the model kept by :meth:`JointPathModel.evaluate` (a few: a fit's optimiser
+revisits only the points it accepted, and the held-out folds start where the full fit ended)."""
 
 
 @dataclass(frozen=True)
@@ -480,7 +486,9 @@ class JointPathModel:
     Args:
         path, t_psi, psi, gaps: as :meth:`PathTransientFit.fit`.
         max_samples: joint-angle samples kept at most (evenly decimated beyond: the path is
-            still integrated in full).
+            still integrated through its knots between them).
+        fill_spacing_s: the path's knots between kept samples enter the integration at most
+            one per this many seconds (``PathTransientFit``'s ``fill_spacing_s``; 0: all).
     """
 
     def __init__(
@@ -493,6 +501,7 @@ class JointPathModel:
         max_samples: int = 12000,
         bounds_L1_m: tuple[float, float] = (-20.0, 50.0),
         bounds_L2_m: tuple[float, float] = (0.02, 50.0),
+        fill_spacing_s: float = FILL_SPACING_S,
     ) -> None:
         t = np.asarray(t_psi, dtype=float)
         p = np.asarray(psi, dtype=float)
@@ -502,7 +511,10 @@ class JointPathModel:
             keep = np.unique(np.round(np.linspace(0, t.size - 1, max_samples)).astype(np.int64))
             t, p = t[keep], p[keep]
         base = PathTransientFit(
-            resolution_check=False, bounds_L1_m=bounds_L1_m, bounds_L2_m=bounds_L2_m
+            resolution_check=False,
+            bounds_L1_m=bounds_L1_m,
+            bounds_L2_m=bounds_L2_m,
+            fill_spacing_s=fill_spacing_s,
         )
         base._prepare(path, t, p, list(gaps))
         self._base = base
@@ -519,6 +531,10 @@ class JointPathModel:
         # per-piece time derivative helpers
         self._piece_lo = first
         self._piece_hi = np.r_[first[1:], self.t.size]
+        self._evaluations: dict[
+            tuple[tuple[int, ...], bytes],
+            tuple[tuple[EffectSpec, ...], tuple[FloatArray, ...]],
+        ] = {}
 
     # ------------------------------------------------------------------ model
     def _shifted(self, tau: FloatArray, cols: list[FloatArray]) -> list[FloatArray]:
@@ -584,7 +600,28 @@ class JointPathModel:
 
         The effects' hooks (:class:`PathEffectModel`) act in their ``order``: first every
         stamp shift (summed into one shift of the modelled angle), then each reading change
-        on the shifted angle."""
+        on the shifted angle.
+
+        The last ``EVAL_CACHE`` evaluations are kept (copies handed out), keyed by the exact
+        bytes of ``x`` and the identity of the effects: a fit's final evaluation at the point
+        its optimiser accepted last, and every held-out fold's start at the full fit's
+        solution, are the same integration of the path (the samples' weights do not enter
+        it), bit for bit."""
+        # the entry holds the effects themselves, so their ids stay theirs while it lives
+        key = (tuple(id(e) for e in effects), np.asarray(x, dtype=float).tobytes())
+        hit = self._evaluations.pop(key, None)
+        if hit is None:
+            hit = (tuple(effects), self._evaluate(np.asarray(x, dtype=float), tuple(effects)))
+        self._evaluations[key] = hit  # most recently used last
+        while len(self._evaluations) > EVAL_CACHE:
+            self._evaluations.pop(next(iter(self._evaluations)))
+        y, J, d0, true_u, sgn = hit[1]
+        return y.copy(), J.copy(), d0.copy(), true_u.copy(), sgn.copy()
+
+    def _evaluate(
+        self, x: FloatArray, effects: tuple[EffectSpec, ...]
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        """:meth:`evaluate` without its cache."""
         n_e = sum(len(e.params) for e in effects)
         q = 2 + n_e
         u, d0, d1, d2 = self._base._simulate_jacobian(float(x[0]), float(x[1]), x[q:])

@@ -178,3 +178,28 @@ def test_steering_geometry_recovers_the_wheelbase_and_offset() -> None:
     geo = fit_steering_geometry(truth["kappa"], kelo.fields["angle"] + 0.03)
     assert geo.wheelbase.value == pytest.approx(0.42, abs=0.01)
     assert geo.offset.value == pytest.approx(0.03, abs=0.003)
+
+
+def test_fill_spacing_thins_the_path_knots_between_sparse_samples() -> None:
+    """With the joint angle at 2 Hz and the path at 50 Hz, every path knot between samples is
+    an integration node; ``fill_spacing_s`` keeps at most one per cell of that many seconds,
+    and the model at the samples stays that of the full grid to well inside the noise."""
+    gen = generate(_clean_scenario(50.0))
+    path, t, psi = _arrays(gen, "pose")
+    t2, psi2 = t[::25], psi[::25]
+    full = PathTransientFit(resolution_check=False, rate_noise_check=False)
+    thin = PathTransientFit(resolution_check=False, rate_noise_check=False, fill_spacing_s=0.1)
+    for f in (full, thin):
+        f._prepare(path, t2, psi2, [])
+    n_obs = full._t.size
+    nodes_full = int(full._layout.chunk_end_step.sum()) + 1
+    nodes_thin = int(thin._layout.chunk_end_step.sum()) + 1
+    span = float(full._t[-1] - full._t[0])
+    assert nodes_full > n_obs + 0.9 * 24 * (n_obs - 1)  # 24 knots inside each 0.5 s interval
+    assert nodes_thin <= n_obs + span / 0.1 + 1
+    x = np.array([1.25, 2.48])
+    psi0 = np.array([float(psi2[0])])
+    y_full = full._simulate_jacobian(*x, psi0)[0]
+    y_thin = thin._simulate_jacobian(*x, psi0)[0]
+    assert y_full.shape == y_thin.shape == (n_obs,)
+    assert 0 < np.max(np.abs(y_full - y_thin)) < 1e-3

@@ -161,6 +161,29 @@ def test_joint_model_recovers_a_gain_and_its_inverse() -> None:
     assert np.sqrt(np.mean((back - psi[: back.size]) ** 2)) < 0.05
 
 
+def test_joint_model_cache_hands_out_the_uncached_evaluation() -> None:
+    """``JointPathModel.evaluate``'s cache returns, bit for bit, what integrating the path
+    again returns (for the same effects and point; another set of effects is another entry),
+    and what it hands out can be changed without changing the next answer."""
+    log = tractor_log(2)
+    path, t, psi = _inputs(log)
+    model = JointPathModel(path, t, psi)
+    fit = PathTransientFit().fit(path, t, psi)
+    off = (effect_by_key("sensor_offset(psi)"),)
+    x0 = np.concatenate([fit._x_raw[:2], fit.psi0_])
+    x1 = np.concatenate([fit._x_raw[:2], [0.01], fit.psi0_])
+    first = model.evaluate(x0, ())
+    for a in first:
+        a += 1.0  # the caller's copy
+    again = model.evaluate(x0, ())
+    shifted = model.evaluate(x1, off)
+    for got, want in zip(again, model._evaluate(x0, ()), strict=True):
+        np.testing.assert_array_equal(got, want)
+    for got, want in zip(shifted, model._evaluate(x1, off), strict=True):
+        np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(shifted[0], again[0] + 0.01)
+
+
 def test_pose_noise_is_not_taken_for_a_clock_offset() -> None:
     """A clean path (an actuator dead time only, which a measured path does not see) sampled at
     20 Hz with a noisy pose: shifting the modelled angle by a fraction of a sample must not

@@ -26,7 +26,13 @@ from numpy.typing import NDArray
 from calib.errors import SolverError
 from calib.tractor_trailer.models.hitch_rk4 import rk4_hitch, rk4_hitch_sensitivities
 
-__all__ = ["MAX_SUBSTEPS", "advance_psi", "advance_psi_jacobian", "rk4_substeps"]
+__all__ = [
+    "MAX_SUBSTEPS",
+    "advance_psi",
+    "advance_psi_jacobian",
+    "rk4_substeps",
+    "substep_inputs",
+]
 
 MAX_SUBSTEPS = 1000
 """Substeps per node step beyond which a path is not a robot's: a heading or distance step
@@ -83,6 +89,15 @@ def _substep_inputs(
     return n_sub, per_substep(A), per_substep(B), np.ones_like(L1), L1 / L2, 1.0 / L2
 
 
+def substep_inputs(
+    dtheta: np.ndarray, ds: np.ndarray, n_sub: int
+) -> tuple[int, FloatArray, FloatArray]:
+    """(n_sub, U, V): the kernel's per-substep inputs of ``advance_psi_jacobian`` for these
+    increments and ``n_sub`` substeps (its ``inputs``)."""
+    _, U, V, _, _, _ = _substep_inputs(dtheta, ds, np.ones(1), np.ones(1), n_sub)
+    return n_sub, U, V
+
+
 def advance_psi(
     dtheta: np.ndarray,
     ds: np.ndarray,
@@ -125,6 +140,7 @@ def advance_psi_jacobian(
     n_sub: int | None = None,
     *,
     chain: np.ndarray | None = None,
+    inputs: tuple[int, FloatArray, FloatArray] | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """``advance_psi`` for one parameter set with its exact derivatives.
 
@@ -136,13 +152,20 @@ def advance_psi_jacobian(
     Args:
         dtheta, ds, n_sub, chain: as ``advance_psi``.
         L1, L2: link lengths (m).
+        inputs: (n_sub, U, V) of :func:`substep_inputs` for these ``dtheta``, ``ds``: used
+            when ``n_sub`` is theirs (a fit integrating the same path many times builds the
+            kernel's per-substep inputs once instead of every time).
         psi0: joint angle at the first node of each chunk (rad), shape (c,).
 
     Returns:
         psi, d psi / d psi0 (of the chunk's chain's first chunk), d psi / d L1, d psi / d L2,
         each shape (k + 1, c).
     """
-    n_sub, U, V, p0, p1, p2 = _substep_inputs(dtheta, ds, np.array([L1]), np.array([L2]), n_sub)
+    if inputs is not None and n_sub is not None and inputs[0] == n_sub:
+        U, V = inputs[1], inputs[2]
+        p0, p1, p2 = np.ones(1), np.array([L1 / L2]), np.array([1.0 / L2])
+    else:
+        n_sub, U, V, p0, p1, p2 = _substep_inputs(dtheta, ds, np.array([L1]), np.array([L2]), n_sub)
     steps = U.shape[1]
     out = rk4_hitch_sensitivities(
         np.ones(steps), U, V, p0, p1, p2, np.asarray(psi0, dtype=float)[:, None],
