@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TypeVar
 
-from logtools.robots.options import RobotOptions
+from logtools.robot_options import RobotOptions
 
 __all__ = ["AnalysisConfig"]
 

@@ -25,8 +25,8 @@ from calib.results import AnalysisResult
 from logtools.analysis_config import AnalysisConfig
 from logtools.errors import LogcalInputError
 from logtools.load import LoadedLog, load_log
+from logtools.robot_options import RobotOptions
 from logtools.robots import plugin_for
-from logtools.robots.options import RobotOptions
 from logtools.signals import SignalSource
 
 if TYPE_CHECKING:
@@ -51,10 +51,10 @@ def options_from_settings(
 
     Raises:
         LogcalInputError: a key no robot declares (the message lists the known keys), or a value
-            that is not what its option expects (:func:`~logtools.robots.options.build_options`).
+            that is not what its option expects (:func:`~logtools.robot_options.build_options`).
     """
+    from logtools.robot_options import build_options, option_specs
     from logtools.robots import plugins
-    from logtools.robots.options import build_options, option_specs
 
     out: dict[str, RobotOptions] = {}
     known: set[str] = set()

@@ -17,6 +17,7 @@ from rich.text import Text
 from calib.results import PM_MEANING, AnalysisResult, Estimate
 from logtools.adequacy_report import adequacy_text
 from logtools.robots import plugin_for
+from logtools.runs import short_names
 from logtools.safe_text import printable, printable_lines
 
 __all__ = ["DETAILS", "print_analysis", "render_analysis"]
@@ -30,17 +31,6 @@ def _ci(e: Estimate) -> str:
     if not e.identifiable:
         return f"{e.value:.4g} *"
     return f"{e.value:.4g} [{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
-
-
-def short_names(paths: list[str]) -> list[str]:
-    """The shortest trailing part of each path (whole components) that tells the runs apart:
-    ``.../square/231220200029/231220200029_run-02.csv`` -> ``231220200029_run-02.csv``."""
-    parts = [p.replace("\\", "/").rstrip("/").split("/") for p in paths]
-    for k in range(1, max((len(p) for p in parts), default=1) + 1):
-        names = ["/".join(p[-k:]) for p in parts]
-        if len(set(names)) == len(names):
-            return names
-    return list(paths)
 
 
 def _cell(e: Estimate, one_line: bool = False) -> str:

@@ -17,7 +17,7 @@ from pathlib import Path
 from logtools.errors import LogcalInputError
 from logtools.readers.formats import log_suffixes, skipped
 
-__all__ = ["LOG_SUFFIXES", "expand_runs"]
+__all__ = ["LOG_SUFFIXES", "expand_runs", "short_names"]
 
 LOG_SUFFIXES = log_suffixes()
 """The built-in formats' suffixes at import (the archive walk's; ``log_suffixes()`` also counts
@@ -90,3 +90,14 @@ def expand_runs(paths: Sequence[Path]) -> list[Path]:
             )
         out += found
     return out
+
+
+def short_names(paths: list[str]) -> list[str]:
+    """The shortest trailing part of each path (whole components) that tells the runs apart:
+    ``.../square/231220200029/231220200029_run-02.csv`` -> ``231220200029_run-02.csv``."""
+    parts = [p.replace("\\", "/").rstrip("/").split("/") for p in paths]
+    for k in range(1, max((len(p) for p in parts), default=1) + 1):
+        names = ["/".join(p[-k:]) for p in parts]
+        if len(set(names)) == len(names):
+            return names
+    return list(paths)

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from calib.results import AnalysisResult
     from logtools.analyze import AnalysisConfig
     from logtools.load import LoadedLog
-    from logtools.robots.options import RobotOptions
+    from logtools.robot_options import RobotOptions
 
 __all__ = ["WrittenViews", "write_views"]
 

@@ -13,14 +13,14 @@ wins key by key::
                                 # and followed over time per robot_id; default: the log's
                                 # top-level folder ("(archive root)" for logs at the root)
     urdf = "arm.urdf"           # a robot option (here the manipulator's): any key a registered
-    cutoff_hz = 8.0             # plugin declares (logtools.robots.options.option_specs)
+    cutoff_hz = 8.0             # plugin declares (logtools.robot_options.option_specs)
     start = 5.0                 # analyse each log from 5 s to 60 s after its first sample
     end = 60.0                  # (as `logcal analyze --start/--end`; `batch --start/--end` wins)
 
 The accepted keys are :data:`BASE_KEYS`, :data:`SPAN_KEYS` plus the option keys of every
 registered robot plugin, read from the plugins' declarations (nothing robot-specific is written
 here). Each option value
-is checked by :func:`~logtools.robots.options.build_options` with ``source="settings"`` and the
+is checked by :func:`~logtools.robot_options.build_options` with ``source="settings"`` and the
 ``logcal.toml`` path as ``where``; a key several robots declare is checked against each.
 
 Every key is optional. A malformed file, an unknown key or a bad value makes every log below it
@@ -53,7 +53,7 @@ from logtools.batch.files import SETTINGS_MAX_BYTES, open_regular, read_regular
 from logtools.errors import LogcalInputError
 
 if TYPE_CHECKING:
-    from logtools.robots.options import OptionSpec, RobotOptions
+    from logtools.robot_options import OptionSpec, RobotOptions
 
 __all__ = [
     "ARCHIVE_ROOT_ID",
@@ -138,8 +138,8 @@ class _Declared:
 def _option_specs() -> dict[str, list[_Declared]]:
     """Settings key -> the option of every registered robot that declares it (registry
     order)."""
+    from logtools.robot_options import option_specs
     from logtools.robots import plugins
-    from logtools.robots.options import option_specs
 
     out: dict[str, list[_Declared]] = {}
     for plugin in plugins():
@@ -230,7 +230,7 @@ def _option_value(
 ) -> Any:
     """``value`` of the robot option ``key`` checked against every robot declaring it
     (``build_options``), a file it names resolved inside the archive; as plain data."""
-    from logtools.robots.options import build_options
+    from logtools.robot_options import build_options
 
     checked: Any = None
     for d in declared:
@@ -254,7 +254,7 @@ def _typed(
 ) -> dict[str, RobotOptions]:
     """By robot, its options instance from the checked ``options`` (each key to every robot
     declaring it, as :func:`~logtools.analyze.options_from_settings` does)."""
-    from logtools.robots.options import build_options
+    from logtools.robot_options import build_options
 
     values: dict[type[RobotOptions], dict[str, Any]] = {}
     names: dict[type[RobotOptions], str] = {}

@@ -1,6 +1,6 @@
 """Every registered robot's own options as CLI options of ``analyze``, ``view``, ``batch`` and
 ``info`` (those declared ``view=True``, ``batch=True``, ``info=True``), generated from the
-plugins' declarations (:mod:`logtools.robots.options`), and the warning when one given does not
+plugins' declarations (:mod:`logtools.robot_options`), and the warning when one given does not
 apply to the robot found.
 
 A command opts in with :func:`with_robot_options`: its function takes one parameter
@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import typer
 
 if TYPE_CHECKING:
+    from logtools.robot_options import OptionSpec, RobotOptions
     from logtools.robots.base import RobotPlugin
-    from logtools.robots.options import OptionSpec, RobotOptions
 
 __all__ = ["GivenOptions", "general_warnings", "with_robot_options"]
 
@@ -46,8 +46,8 @@ class _CliOption:
 
 def _cli_options(command: Command) -> list[_CliOption]:
     """The robots' options ``command`` offers, one per flag (robots may share one)."""
+    from logtools.robot_options import option_specs
     from logtools.robots import plugins
-    from logtools.robots.options import option_specs
 
     by_flag: dict[str, list[OptionSpec]] = {}
     for plugin in plugins():
@@ -104,8 +104,8 @@ class GivenOptions:
         Raises:
             LogcalInputError: a value that is not what its option expects (naming the flag).
         """
+        from logtools.robot_options import build_options
         from logtools.robots import plugin_for
-        from logtools.robots.options import build_options
 
         keyed: dict[str, dict[str, Any]] = {}
         for flag, value in self.values.items():

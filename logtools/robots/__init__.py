@@ -14,8 +14,8 @@ import importlib
 from importlib.metadata import entry_points
 
 from logtools.errors import LogcalInputError
+from logtools.robot_options import RobotOptions
 from logtools.robots.base import RobotPlugin, SignalDerivation, SignalSpec
-from logtools.robots.options import RobotOptions
 
 __all__ = [
     "RobotOptions",

@@ -5,7 +5,7 @@ several runs, its readable report and its rerun views.
 ``logcal analyze``, ``view``, ``info``, ``simulate``, ``reproduce``, the report, the JSON and the
 .rrd go through this interface only, so a new robot adds its own files plus one line in
 :mod:`logtools.robots` (``_PLUGIN_MODULES``, or ``register(...)``). Its options are a typed
-dataclass (:mod:`logtools.robots.options`) from which the CLI's options are generated.
+dataclass (:mod:`logtools.robot_options`) from which the CLI's options are generated.
 Modelled on evo's one entry point per trajectory kind and pysindy's pluggable feature libraries:
 the pipeline is generic, what differs between robots is declared in one object.
 
@@ -20,7 +20,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
-from logtools.robots.options import RobotOptions
+from logtools.robot_options import RobotOptions
 from logtools.signals import RobotKey, SignalSource, SignalSpec
 
 if TYPE_CHECKING:
@@ -202,7 +202,7 @@ class RobotPlugin:
         png: import path of a static PNG report image ``(out, loaded, result) -> Path``;
             None: none.
         options: the robot's own options, a frozen :class:`RobotOptions` dataclass whose fields
-            are declared with :func:`logtools.robots.options.option` (flag, help, whether
+            are declared with :func:`logtools.robot_options.option` (flag, help, whether
             ``view`` takes it); ``analyze``/``view`` offer them, settings files name them by
             field name, the analysis reads them with ``AnalysisConfig.options(cls)``.
         uses_settings: the general ``AnalysisConfig`` settings only this robot reads: giving

@@ -14,8 +14,8 @@ import pytest
 
 import logtools.robots as robots
 from logtools.batch.settings import SettingsError, settings_for
+from logtools.robot_options import RobotOptions, option, options_fields
 from logtools.robots import RobotPlugin, SignalSpec
-from logtools.robots.options import RobotOptions, option, options_fields
 
 
 @dataclass(frozen=True)

@@ -17,8 +17,8 @@ from logtools.batch.settings import SettingsError, settings_for
 from logtools.batch.worker import AnalysisOptions, analyse_job
 from logtools.cli.main import main
 from logtools.errors import LogcalInputError
+from logtools.robot_options import option, option_specs
 from logtools.robots import plugin_for
-from logtools.robots.options import option, option_specs
 from logtools.robots.tractor_trailer.options import TractorTrailerOptions
 
 

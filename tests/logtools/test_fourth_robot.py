@@ -31,8 +31,8 @@ from logtools.analyze import AnalysisConfig, options_from_settings
 from logtools.cli.main import main
 from logtools.errors import LogcalInputError
 from logtools.load import LoadedLog
+from logtools.robot_options import RobotOptions, build_options, option, option_specs
 from logtools.robots import RobotPlugin, SignalSpec
-from logtools.robots.options import RobotOptions, build_options, option, option_specs
 
 MODULE = __name__  # the plugin names its views and commands by import path, like any robot
 TRUE_WHEELBASE = 2.7

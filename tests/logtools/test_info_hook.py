@@ -10,10 +10,10 @@ from pathlib import Path
 import pytest
 
 from logtools.cli.main import main
+from logtools.robot_options import option_specs
 from logtools.robots import plugins
 from logtools.robots.manipulator.info import info_section
 from logtools.robots.manipulator.options import ManipulatorOptions
-from logtools.robots.options import option_specs
 
 SAMPLES = Path(__file__).resolve().parents[2] / "sample_logs"
 

@@ -13,9 +13,9 @@ import pytest
 from logtools.analyze import AnalysisConfig, options_from_settings
 from logtools.cli.main import main
 from logtools.errors import LogcalInputError
+from logtools.robot_options import RobotOptions, option_specs
 from logtools.robots import plugin_for, plugins
 from logtools.robots.manipulator.options import ManipulatorOptions
-from logtools.robots.options import RobotOptions, option_specs
 from logtools.robots.tractor_trailer.options import TractorTrailerOptions
 
 

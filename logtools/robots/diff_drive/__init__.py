@@ -17,8 +17,8 @@ from logtools.robots.base import RobotPlugin, SignalSpec, lazy
 from logtools.signals import SignalSource
 
 if TYPE_CHECKING:
+    from logtools.robot_options import RobotOptions
     from logtools.robots.base import Views
-    from logtools.robots.options import RobotOptions
     from viz.diff_drive.views import log_views
 
 __all__ = ["PLUGIN"]

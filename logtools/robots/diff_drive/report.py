@@ -106,7 +106,7 @@ def _dead_reckoning_lines(result: AnalysisResult) -> list[str]:
     dr = result.sections.get("dead_reckoning")
     if not dr:
         return []
-    from logtools.report import short_names
+    from logtools.runs import short_names
 
     rows = dr["runs"]
     names = short_names([str(r["run"]) for r in rows])

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import Enum
 
-from logtools.robots.options import RobotOptions, option
+from logtools.robot_options import RobotOptions, option
 
 __all__ = ["EffortSide", "ManipulatorOptions"]
 
