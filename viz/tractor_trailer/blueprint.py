@@ -138,8 +138,11 @@ def default_blueprint(
             plot_legend=rrb.PlotLegend(visible=False),
         )
         for name, origin in (
-            ("κ (1/m): command yellow, measured orange", "/signals/kappa"),
-            ("ψ (rad): measured blue, recommended model green, steady state pink", "/signals/psi"),
+            ("κ (1/m): command yellow, measured sky blue", "/signals/kappa"),
+            (
+                "ψ (rad): measured blue, model green, steady state orange, method purple",
+                "/signals/psi",
+            ),
             ("ψ residual (rad): baseline grey, with effects green", "/signals/residuals"),
         )
     ]

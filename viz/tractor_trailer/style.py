@@ -25,7 +25,8 @@ TRACTOR_TRAILER_COLORS: dict[str, RGB] = {
     "psi": _OI["blue"],
     "psi_estimate": _OI["bluish_green"],
     "psi_method": _OI["reddish_purple"],
-    "psi_steady": _OI["vermillion"],  # the steady-state relation
+    "psi_steady": _OI["orange"],  # the steady-state relation (not C1's vermillion: the viewer
+    # screenshot tells panels apart by colour)
     "L1": _OI["vermillion"],
     "L2": _OI["blue"],
 }
