@@ -97,9 +97,14 @@ def drive_discovery_report(
     estimate_after: CalibrationResult | None,
     baseline: str,
     slip: Estimate | None = None,
+    runs: Sequence[DriveRun] = (),
+    seed: int = 0,
 ) -> DiscoveryReport:
     """The findings in the shared shape: the named effects and the described one, the verdict
-    before and after, the parameters they moved, the confounds and what remains."""
+    before and after, the parameters they moved, the confounds and what remains. ``runs``: the
+    data as recorded, for each alternative's parameters as the same least squares calibrates
+    them under it (the fitter's own parameters hold the track at its nominal value unless an
+    effect frees it, so they are not comparable with the estimate's); none given: none shown."""
     if disc is None or disc.selection is None:
         notes = tuple(disc.notes) if disc is not None else ()
         return DiscoveryReport(
@@ -136,7 +141,11 @@ def drive_discovery_report(
         else {}
     )
     alternatives = tuple(
-        Alternative(c.alternative, dict(c.alternative_fit.parameters), c.note)
+        Alternative(
+            c.alternative, dict(_calibrated_under(runs, c.alternative_fit, seed) or {}), c.note
+        )
+        if runs
+        else Alternative(c.alternative, {}, c.note)
         for c in sel.confounds
     )
     return DiscoveryReport(

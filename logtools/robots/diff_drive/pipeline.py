@@ -269,6 +269,8 @@ def _calibrate_and_judge(
         result,
         LSQ_MODEL,
         slip=named.k if named is not None else None,
+        runs=recorded if discovery_on else (),
+        seed=seed,
     )
     return result, fit, adequacy, report if discovery_on else None, sections, warnings
 
