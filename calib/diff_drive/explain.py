@@ -5,6 +5,7 @@ findings in the shared discovery shape (:class:`calib.discovery.DiscoveryReport`
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
@@ -142,7 +143,7 @@ def drive_discovery_report(
     )
     alternatives = tuple(
         Alternative(
-            c.alternative, dict(_calibrated_under(runs, c.alternative_fit, seed) or {}), c.note
+            c.alternative, _implied(_calibrated_under(runs, c.alternative_fit, seed)), c.note
         )
         if runs
         else Alternative(c.alternative, {}, c.note)
@@ -163,6 +164,17 @@ def drive_discovery_report(
         tuple(disc.notes),
         disc.to_dict(),
     )
+
+
+IMPLIED = "the value this explanation implies (its own interval; not a calibrated answer)"
+
+
+def _implied(pars: Mapping[str, Estimate] | None) -> dict[str, Estimate]:
+    """An alternative's parameters as values it implies, never as determined (only the
+    recommended estimate, which spans the plausible explanations, is a calibrated answer)."""
+    return {
+        k: dataclasses.replace(e, identifiable=False, note=IMPLIED) for k, e in (pars or {}).items()
+    }
 
 
 def _calibrated_under(
