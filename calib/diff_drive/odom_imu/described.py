@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from calib.diff_drive.odom_imu.effects import GainOnly
 from calib.diff_drive.odom_imu.windows import Windows, integrate
 from calib.discovery import Entry, ResidualSpace, Role, Signal, Term, build_library
 from calib.discovery.residual_model import HookFactory
@@ -79,7 +80,7 @@ def space(
 
 
 @dataclass(frozen=True)
-class DescribedYaw:
+class DescribedYaw(GainOnly):
     """The hook of a described effect: each term's window integrals (on every window) times its
     coefficient, added to the gyro's yaw change; the gain is left alone."""
 
@@ -91,11 +92,6 @@ class DescribedYaw:
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
     ) -> tuple[float | Array, float | Array]:
         return 0.0, 0.0
-
-    def slip(
-        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
-    ) -> float | Array:
-        return 0.0
 
     def added_yaw(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]

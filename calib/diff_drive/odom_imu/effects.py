@@ -50,6 +50,7 @@ __all__ = [
     "TURN_SLIP",
     "Constant",
     "GainEffectModel",
+    "GainOnly",
     "Growth",
     "IcrSlip",
 ]
@@ -94,16 +95,9 @@ class GainEffectModel(Protocol):
         ...
 
 
-@dataclass(frozen=True)
-class Constant:
-    param: str
-    covers: tuple[str, ...] = ("1",)
-    form: str = "constant"
-
-    def gain(
-        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
-    ) -> tuple[float | Array, float | Array]:
-        return values[self.param], 0.0
+class GainOnly:
+    """Defaults of a :class:`GainEffectModel` that changes only the gain: no slip, no added
+    yaw (an effect overrides what it changes)."""
 
     def slip(
         self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
@@ -117,7 +111,19 @@ class Constant:
 
 
 @dataclass(frozen=True)
-class Growth:
+class Constant(GainOnly):
+    param: str
+    covers: tuple[str, ...] = ("1",)
+    form: str = "constant"
+
+    def gain(
+        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
+    ) -> tuple[float | Array, float | Array]:
+        return values[self.param], 0.0
+
+
+@dataclass(frozen=True)
+class Growth(GainOnly):
     param: str
     covariate: str
     """The :class:`Windows` field the gain grows with."""
@@ -134,19 +140,9 @@ class Growth:
         x: Array = getattr(w, self.covariate)[rows]
         return 0.0, values[self.param] * x
 
-    def slip(
-        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
-    ) -> float | Array:
-        return 0.0
-
-    def added_yaw(
-        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
-    ) -> float | Array:
-        return 0.0
-
 
 @dataclass(frozen=True)
-class IcrSlip:
+class IcrSlip(GainOnly):
     """The ICR model: the treads' ICRs G0 b apart in a slow turn (``rest``: G0 - 1, the constant
     part) and the share a |omega| + c |v| |omega| of the turn lost as they move outwards (module
     docstring)."""
@@ -168,11 +164,6 @@ class IcrSlip:
         rate, speed = w.rate[rows], w.speed[rows]
         out: Array = values[self.turn] * rate + values[self.joint] * speed * rate
         return out
-
-    def added_yaw(
-        self, values: Mapping[str, float], w: Windows, rows: NDArray[np.intp]
-    ) -> float | Array:
-        return 0.0
 
 
 TURN_SLIP: EffectSpec[GainEffectModel] = EffectSpec(
