@@ -49,7 +49,7 @@ import tempfile
 import time
 import traceback
 from collections import defaultdict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -474,6 +474,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         robots = [r for r in robots if any(KINDS[k].robot == r for k in kinds)]
     t0 = time.perf_counter()
     records = run_study(a.n, a.seed, robots, kinds, a.include_held_out, a.jobs, a.repeats)
+    return report_study(a, records, summarise, print_table, t0)
+
+
+def report_study(
+    a: argparse.Namespace,
+    records: list[dict[str, Any]],
+    summarise: Callable[[list[dict[str, Any]]], dict[str, Any]],
+    print_table: Callable[[dict[str, Any], float], None],
+    t0: float,
+) -> int:
+    """A study's end: its table, the logs that failed, and the records and summary written to
+    ``--json`` (shared by this study and ``explanation_study.py``)."""
     summary = summarise(records)
     print_table(summary, time.perf_counter() - t0)
     for r in records:

@@ -56,7 +56,13 @@ for _p in (ROOT / "tests", ROOT / "bench", ROOT):
     if str(_p) not in sys.path:
         sys.path.insert(0, str(_p))
 
-from adequacy_study import draw, generate_and_analyse, true_values, wilson  # noqa: E402
+from adequacy_study import (  # noqa: E402
+    draw,
+    generate_and_analyse,
+    report_study,
+    true_values,
+    wilson,
+)
 from indgen.kinds import (  # noqa: E402
     BASELINE_NAMES,
     HELD_OUT_KINDS,
@@ -494,18 +500,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         ap.error("no robot has one of the chosen kinds")
     t0 = time.perf_counter()
     records = run_study(a.n, a.seed, robots, kinds, a.include_held_out, a.jobs, a.repeats)
-    summary = summarise(records)
-    print_table(summary, time.perf_counter() - t0)
-    for r in records:
-        if r["error"]:
-            print(f"  log {r['i']} ({r['robot']}/{r['kind']}): {r['error']}")
-    if a.json:
-        Path(a.json).write_text(
-            json.dumps(
-                {"args": vars(a), "summary": summary, "records": records}, indent=1, default=str
-            )
-        )
-    return 0
+    return report_study(a, records, summarise, print_table, t0)
 
 
 if __name__ == "__main__":
