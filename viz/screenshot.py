@@ -39,6 +39,7 @@ __all__ = [
     "browser_pids",
     "color_pixel_counts",
     "find_chromium",
+    "flat_colors",
     "panel_problems",
     "ready_colors_of",
     "screenshot_rrd",
@@ -48,12 +49,15 @@ CHROMIUM = "/usr/bin/chromium"
 
 
 def ready_colors_of(rrd: str | Path) -> tuple[str, ...]:
-    """The colours that mean "drawn" for the robot whose recording ``rrd`` holds (read from its
-    recordings' application ids, ``viz.style.application_id``): its style module's
-    ``READY_COLORS`` (``viz/<robot>/style.py``).
+    """The colours that mean "drawn" for the recording ``rrd``: its robot's (read from the
+    recordings' application ids, ``viz.style.application_id``) ``READY_COLORS``
+    (``viz/<robot>/style.py``) that the recording draws flat (:func:`flat_colors`), so that
+    a view the log gives no data for (a diff drive without a calibrated path) or a colour
+    rerun shades (3-D points) is never waited for until the timeout.
 
     Raises:
-        ViewerScreenshotError: the file holds no logcal robot's recording.
+        ViewerScreenshotError: the file holds no logcal robot's recording, or draws none of
+            its robot's colours.
     """
     from rerun.chunk import RrdReader
 
@@ -67,10 +71,49 @@ def ready_colors_of(rrd: str | Path) -> tuple[str, ...]:
             f"{rrd}: holds no recording of one logcal robot (application ids: "
             f"{', '.join(ids) or 'none'}); name the colours to wait for"
         )
-    ready = getattr(robot_style(robots.pop()), "READY_COLORS", None)
-    if not ready:
+    robot = robots.pop()
+    declared = tuple(getattr(robot_style(robot), "READY_COLORS", None) or ())
+    if not declared:
         raise ViewerScreenshotError(f"{rrd}: its robot's views declare no colours to wait for")
-    return tuple(ready)
+    drawn = flat_colors(rrd)
+    ready = tuple(n for n in declared if tuple(COLORS[n]) in drawn)
+    if not ready:
+        raise ViewerScreenshotError(
+            f"{rrd}: draws none of the {robot}'s colours {', '.join(declared)}; "
+            "name the colours to wait for"
+        )
+    return ready
+
+
+#: Archetypes rerun draws shaded (3-D points: spheres): their exact colour may cover no pixel.
+SHADED_ARCHETYPES = frozenset({"Points3D"})
+
+
+def flat_colors(rrd: str | Path) -> set[tuple[int, int, int]]:
+    """RGB colours (0-255) the recordings of ``rrd`` log for an archetype drawn flat (lines,
+    2-D points, plot lines, ...; not :data:`SHADED_ARCHETYPES`)."""
+    from rerun.chunk import RrdReader
+
+    out: set[tuple[int, int, int]] = set()
+    for chunk in RrdReader(rrd).stream().to_chunks():
+        rb = chunk.to_record_batch()
+        for name in rb.schema.names:
+            if not name.endswith(":colors") or name.split(":")[0] in SHADED_ARCHETYPES:
+                continue
+            packed = _packed_colors(rb.column(name).to_pylist())
+            out |= {((p >> 24) & 255, (p >> 16) & 255, (p >> 8) & 255) for p in packed}
+    return out
+
+
+def _packed_colors(rows: list[object]) -> set[int]:
+    """The distinct packed RGBA colours (``0xRRGGBBAA``) of a colour column's rows."""
+    out: set[int] = set()
+    for row in rows:
+        if isinstance(row, list):
+            out |= {int(p) for p in row if p is not None}
+        elif isinstance(row, int):
+            out.add(row)
+    return out
 
 
 def panel_problems(

@@ -24,9 +24,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "COLORS",
+    "MIN_LINE_CONTRAST",
     "OKABE_ITO",
+    "THEME_BACKGROUNDS",
     "TIMELINE",
     "application_id",
+    "contrast_ratio",
     "hex_color",
     "register_colors",
     "robot_of_application_id",
@@ -34,6 +37,8 @@ __all__ = [
     "start_words",
     "time_index",
     "ui_points",
+    "y_up",
+    "y_up_bounds",
 ]
 
 #: Name of the rerun timeline of every robot: seconds from the log's start (a duration), as in
@@ -61,8 +66,17 @@ _OI = OKABE_ITO
 #: robot's (from :data:`OKABE_ITO`) added by :func:`register_colors`.
 COLORS: dict[str, RGB] = {
     "residual": (153, 153, 153),  # neutral grey: the baseline's residual
-    "truth": (250, 250, 250),  # neutral: on the viewer's dark background
+    # neutral mid grey: read on the viewer's light theme and on its dark one (contrast 4.2 to
+    # 4.5, :func:`contrast_ratio` against :data:`THEME_BACKGROUNDS`); white was invisible on
+    # the light theme (the one a browser gets by default)
+    "truth": (119, 119, 119),
 }
+
+#: The background of rerun's 2-D and plot views in its two themes (RGB, 0-255).
+THEME_BACKGROUNDS: dict[str, RGB] = {"light": (255, 255, 255), "dark": (18, 18, 18)}
+
+#: The lowest contrast (WCAG 2 ratio) a line drawn on either theme's background is given.
+MIN_LINE_CONTRAST = 3.0
 
 
 def register_colors(colors: Mapping[str, RGB]) -> None:
@@ -75,6 +89,36 @@ def register_colors(colors: Mapping[str, RGB]) -> None:
     if clash:
         raise ValueError(f"colours {', '.join(clash)} are registered with other values")
     COLORS.update(colors)
+
+
+def _relative_luminance(rgb: RGB) -> float:
+    """WCAG 2 relative luminance of an sRGB colour (0-255 channels)."""
+    lin = [
+        c / 255 / 12.92 if c / 255 <= 0.03928 else ((c / 255 + 0.055) / 1.055) ** 2.4 for c in rgb
+    ]
+    return 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
+
+
+def contrast_ratio(a: RGB, b: RGB) -> float:
+    """WCAG 2 contrast ratio of two colours: 1 (the same) to 21 (black on white)."""
+    la, lb = sorted((_relative_luminance(a), _relative_luminance(b)), reverse=True)
+    return (la + 0.05) / (lb + 0.05)
+
+
+def y_up(rec: rr.RecordingStream, path: str) -> None:
+    """Draw everything below ``path`` with y up: rerun's 2-D views use the image convention (y
+    down; not configurable in rerun-sdk 0.2x, its ``image_view_coordinates``), so a plane's
+    path would read mirrored (a left turn turning right). A static mirror transform at
+    ``path`` flips it once; text labels stay upright and name the plane's own coordinates."""
+    rec.log(path, rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
+
+
+def y_up_bounds(
+    x_range: tuple[float, float], y_range: tuple[float, float]
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The visual bounds (x range, y range) of a 2-D view showing the plane's ``x_range`` and
+    ``y_range`` under :func:`y_up`: the view's y is minus the plane's."""
+    return (x_range[0], x_range[1]), (-y_range[1], -y_range[0])
 
 
 def start_words(start_ns: int) -> str:

@@ -19,15 +19,23 @@ import rerun.blueprint as rrb
 from calib.results import PM_MEANING, AnalysisResult, CalibrationResult, Estimate
 from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals, raw_views
-from viz.style import COLORS, TIMELINE, application_id, hex_color, start_words
+from viz.style import (
+    COLORS,
+    TIMELINE,
+    application_id,
+    hex_color,
+    start_words,
+    y_up,
+    y_up_bounds,
+)
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-__all__ = ["grid_lines", "log_views", "report_figure", "write_png"]
+__all__ = ["grid_labels", "grid_lines", "log_views", "report_figure", "write_png"]
 
-_COLOURS = {  # the viewer's dark background
+_COLOURS = {  # the viewer's light or dark theme (viz.style.THEME_BACKGROUNDS)
     "truth": COLORS["truth"],
     "nominal": COLORS["dd_nominal"],
     "calibrated": COLORS["dd_calibrated"],
@@ -38,6 +46,9 @@ _PNG_COLOURS = {  # the report image's white background
     "calibrated": hex_color("dd_calibrated"),
 }
 _MM = 1e3
+_GRID = (190, 190, 190)  # light grey, thin: under the paths (the truth is a darker grey, wider)
+_GRID_TEXT = (110, 110, 110)
+_PATH_WIDTH = {"truth": -2.5}  # ui points; the dead-reckoned paths: rerun's default (1 point)
 
 
 def _path_name(name: str) -> str:
@@ -108,20 +119,39 @@ def grid_lines(paths: dict[str, Any]) -> tuple[float, list[float], list[float]]:
     return step, ticks(xs), ticks(ys)
 
 
+def grid_labels(gx: list[float], gy: list[float]) -> tuple[list[list[float]], list[str]]:
+    """Where the grid's coordinates are written, and what: ``x … m`` under each vertical line
+    (on the lowest horizontal one), ``y … m`` beside each horizontal line (on the leftmost
+    vertical one); the corner, where both meet, gets one label naming both."""
+    anchors = [[gx[0], gy[0]]] + [[x, gy[0]] for x in gx[1:]] + [[gx[0], y] for y in gy[1:]]
+    labels = [f"x {gx[0]:g} m, y {gy[0]:g} m"]
+    labels += [f"x {x:g} m" for x in gx[1:]] + [f"y {y:g} m" for y in gy[1:]]
+    return anchors, labels
+
+
 def _log_grid(rec: rr.RecordingStream, path: str, paths: dict[str, Any]) -> None:
-    """Grid lines (dim grey) with their coordinates in metres: the 2D view's scale."""
+    """Grid lines (thin light grey) with their coordinates in metres: the 2D view's scale."""
     _, gx, gy = grid_lines(paths)
     if not gx or not gy:
         return
     lines = [[[x, gy[0]], [x, gy[-1]]] for x in gx] + [[[gx[0], y], [gx[-1], y]] for y in gy]
-    rec.log(path, rr.LineStrips2D(lines, colors=[(90, 90, 90)], radii=[-0.5]), static=True)
-    labels = [f"x {x:g} m" for x in gx] + [f"y {y:g} m" for y in gy]
-    anchors = [[x, gy[0]] for x in gx] + [[gx[0], y] for y in gy]
+    rec.log(path, rr.LineStrips2D(lines, colors=[_GRID], radii=[-0.5]), static=True)
+    anchors, labels = grid_labels(gx, gy)
     rec.log(
         f"{path}/labels",
-        rr.Points2D(anchors, labels=labels, colors=[(150, 150, 150)], radii=[-1.0]),
+        rr.Points2D(anchors, labels=labels, colors=[_GRID_TEXT], radii=[-1.0]),
         static=True,
     )
+
+
+def _run_bounds(paths: dict[str, Any]) -> rrb.VisualBounds2D | None:
+    """The run's grid with a margin of one grid step for its labels, y up
+    (:func:`viz.style.y_up_bounds`)."""
+    step, gx, gy = grid_lines(paths)
+    if not gx or not gy:
+        return None
+    xr, yr = y_up_bounds((gx[0] - step, gx[-1] + step), (gy[0] - step, gy[-1] + step))
+    return rrb.VisualBounds2D(x_range=xr, y_range=yr)
 
 
 def log_views(
@@ -138,6 +168,7 @@ def log_views(
     rec.save(out)
     views: list[rrb.View] = []
     try:
+        y_up(rec, "world")  # rerun's 2D views draw y down: the paths must read with y up
         for run_name, paths in _trajectories(result).items():
             base = f"world/{_path_name(run_name)}"
             _log_grid(rec, f"{base}/grid", paths)
@@ -147,7 +178,13 @@ def log_views(
                 if not ok.any():
                     continue
                 colour = _COLOURS.get(label, (0, 0, 0))
-                rec.log(f"{base}/{label}", rr.LineStrips2D([xy[ok]], colors=[colour]), static=True)
+                rec.log(
+                    f"{base}/{label}",
+                    rr.LineStrips2D(
+                        [xy[ok]], colors=[colour], radii=[_PATH_WIDTH.get(label, -1.0)]
+                    ),
+                    static=True,
+                )
                 rec.log(  # where the path ends: where the drift shows
                     f"{base}/{label}_end",
                     rr.Points2D([xy[ok][-1]], colors=[colour], radii=[-4.0]),
@@ -155,9 +192,11 @@ def log_views(
                 )
             views.append(
                 rrb.Spatial2DView(
-                    name=f"run {Path(run_name).name}: white truth, vermillion nominal, "
-                    "blue calibrated (dead reckoning; dots: end points; grid lines labelled m)",
-                    origin=base,
+                    name=f"run {Path(run_name).name}: grey truth, vermillion nominal, "
+                    "blue calibrated (dead reckoning; dots: end points; grid in m, y up)",
+                    origin="/",  # the mirror at world/ applies (not above a view's origin)
+                    contents=[f"+ /{base}/**"],
+                    visual_bounds=_run_bounds(paths),
                 )
             )
         start = int(loaded.frame["t_ns"][0]) if loaded.frame.height and not result.runs else None

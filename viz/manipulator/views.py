@@ -14,12 +14,15 @@ import rerun.blueprint as rrb
 from calib.results import AnalysisResult
 from viz.loaded import LoadedLike
 from viz.raw import log_raw_signals, raw_views
-from viz.style import COLORS, TIMELINE, application_id, hex_color, start_words
+from viz.style import COLORS, TIMELINE, application_id, hex_color, start_words, ui_points
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["log_views", "parameter_lines", "report_figure", "write_png"]
+
+_LINK = ui_points(3.0)  # screen points: the arm reads at any camera distance
+_JOINT = ui_points(6.0)
 
 
 def log_views(
@@ -46,11 +49,23 @@ def log_views(
         if "points" in art:
             for t, pts in zip(art["t_s"], art["points"], strict=True):
                 rec.set_time(TIMELINE, duration=float(t))
-                rec.log("arm/links", rr.LineStrips3D([pts], colors=[COLORS["arm_links"]]))
-                rec.log("arm/joints", rr.Points3D(pts, radii=0.01, colors=[COLORS["arm_joints"]]))
+                rec.log(
+                    "arm/links",
+                    rr.LineStrips3D([pts], colors=[COLORS["arm_links"]], radii=[_LINK]),
+                )
+                rec.log(
+                    "arm/joints", rr.Points3D(pts, radii=[_JOINT], colors=[COLORS["arm_joints"]])
+                )
         names = art.get("joint_names", [])
         if "holdout_t_s" in art:
             meas, pred = art["holdout_measured"], art["holdout_predicted"]
+            for name in names:
+                for what, label in (("measured", "measured"), ("predicted", "predicted")):
+                    rec.log(
+                        f"torque/{name}/{what}",
+                        rr.SeriesLines(colors=[COLORS[f"arm_{what}"]], names=[label], widths=[1.5]),
+                        static=True,
+                    )
             for k, t in enumerate(art["holdout_t_s"]):
                 rec.set_time(TIMELINE, duration=float(t))
                 for j, name in enumerate(names):
@@ -71,7 +86,7 @@ def log_views(
         rec.flush()
     torque: list[rrb.View] = [
         rrb.TimeSeriesView(
-            name=f"{name}: measured vs predicted torque (N·m, held-out 40 %)",
+            name=f"{name}: torque (N·m, held-out 40 %), measured grey, predicted vermillion",
             origin=f"torque/{name}",
         )
         for name in names
@@ -97,6 +112,7 @@ def log_views(
             ),
             rrb.BlueprintPanel(state="collapsed"),
             rrb.SelectionPanel(state="collapsed"),
+            rrb.TimePanel(state="collapsed"),  # as every robot's: the views get the height
         )
     )
     rec.flush()
@@ -148,7 +164,7 @@ def report_figure(result: AnalysisResult) -> Figure:
         meas, pred = np.asarray(art["holdout_measured"]), np.asarray(art["holdout_predicted"])
         for j, name in enumerate(names):
             ax = axes[j]
-            ax.plot(t, meas[:, j], color="0.3", lw=0.8, label="measured")
+            ax.plot(t, meas[:, j], color=hex_color("arm_measured"), lw=0.8, label="measured")
             ax.plot(
                 t,
                 pred[:, j],

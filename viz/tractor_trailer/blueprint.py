@@ -16,7 +16,7 @@ import rerun.blueprint as rrb
 
 from calib.results import AnalysisResult
 from viz.raw import raw_views
-from viz.style import TIMELINE
+from viz.style import TIMELINE, y_up_bounds
 from viz.tractor_trailer.methods import CANVAS_WIDTH, canvas_height, forest_rows, segment_types
 from viz.tractor_trailer.world import FOLLOW, LABELS
 
@@ -70,7 +70,8 @@ def path_bounds(views: Mapping[str, np.ndarray]) -> rrb.VisualBounds2D | None:
         return None
     (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
     pad = 0.05 * max(x1 - x0, y1 - y0, 1.0)
-    return rrb.VisualBounds2D(x_range=(x0 - pad, x1 + pad), y_range=(-y1 - pad, -y0 + pad))
+    xr, yr = y_up_bounds((x0 - pad, x1 + pad), (y0 - pad, y1 + pad))
+    return rrb.VisualBounds2D(x_range=xr, y_range=yr)
 
 
 def follow_half_width(views: Mapping[str, np.ndarray]) -> float | None:

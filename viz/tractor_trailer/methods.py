@@ -403,7 +403,7 @@ def _log_canvas(
         )
     note = ["bars: value ± 1 std (spread over repeats; a single fit's standard error)"]
     if truth:
-        note.append("white line: truth")
+        note.append("grey line: truth")
     if recv and result.estimate is not None:
         note.append(f"green line: recommended ({result.estimate.method})")
     _text(rec, f"{base}/note", [(CANVAS_WIDTH / 2, bottom + 2.0 * _ROW)], ["; ".join(note)], TEXT)

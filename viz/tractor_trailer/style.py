@@ -14,7 +14,7 @@ TRACTOR_TRAILER_COLORS: dict[str, RGB] = {
     "C1": _OI["vermillion"],  # front wheel centre
     "P": _OI["orange"],  # joint
     "C2": _OI["blue"],  # rear wheel centre
-    "links": (240, 240, 240),  # neutral: on the viewer's dark background
+    "links": (100, 100, 100),  # neutral dark grey: read on the light and the dark theme
     "O": _OI["bluish_green"],  # instantaneous centre
     "Q": _OI["reddish_purple"],
     "triangle_OQC2": (171, 218, 244),  # sky blue half-mixed with white (kappa has the full one)

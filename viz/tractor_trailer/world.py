@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from rerun.encodings import Vec2DBatch
 
 from viz._frame import column, has, times_ns
-from viz.style import COLORS, time_index, ui_points
+from viz.style import COLORS, time_index, ui_points, y_up
 
 __all__ = [
     "FOLLOW",
@@ -136,8 +136,7 @@ def log_world(
     """
     if not has(frame, "t_ns", "x", "y"):
         return
-    # Rerun's 2D views draw y down: mirror the world once so that left turns look left.
-    rec.log(WORLD, rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
+    y_up(rec, WORLD)  # rerun's 2D views draw y down: left turns must look left
     t = times_ns(frame)
     t = t - t[0]  # seconds from the log's start on the timeline (viz.style.TIMELINE)
     if "P" not in views:
